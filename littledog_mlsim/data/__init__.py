@@ -1,0 +1,1 @@
+"""Bags, datasets, the state/feature extraction and normalisation."""

@@ -1,0 +1,1 @@
+"""Residual diagnosis: candidate effects, selection, report."""

@@ -1,0 +1,1 @@
+"""Open-loop trot gait generator and analytic leg inverse kinematics."""

@@ -1,0 +1,1 @@
+"""One-step regressors (LR, LWPR, GPR, SoR, LGPR) and their persistence."""

@@ -1,0 +1,1 @@
+"""LittleDog in pybullet: URDF, servo and sensor models, effect plug-ins."""

@@ -1,0 +1,1 @@
+"""Projection (BOUND, alpha-PROJ), sequential rollout and its metrics."""
