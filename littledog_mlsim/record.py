@@ -18,7 +18,8 @@ from typing import Sequence
 import numpy as np
 from tqdm import tqdm
 
-from .layout import MOVE_TYPES, bag_name
+from . import __version__
+from .layout import CONTROL_DT_NS, MOVE_TYPES, STEPS_PER_MOVE, bag_name
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    jobs: int | None = None, overwrite: bool = False,
                    progress: bool = True) -> RecordSummary:
     """Record ``moves_per_type`` moves of each type into the dataset directory ``out``."""
-    from .data.dataset import split_names, write_index
+    from .data.dataset import dataset_entries, write_index
     from .robot.effects import load_effects
     from .robot.sim import robot_config
 
@@ -124,11 +125,11 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                     results.append(f.result())
                     bar.update()
         bar.close()
-        train, _test = split_names(moves_per_type)
-        entries = [{"name": j.name, "move_type": j.move_type,
-                    "split": "train" if j.index in train else "test"} for j in plan]
+        entries = dataset_entries(moves_per_type, types)
         info = {"robot": robot, "seed": seed, "storage": storage,
-                "moves_per_type": moves_per_type, "types": list(types)}
+                "moves_per_type": moves_per_type, "types": list(types),
+                "steps_per_move": STEPS_PER_MOVE, "control_dt_ns": CONTROL_DT_NS,
+                "recorded_by": f"littledog_mlsim {__version__}"}
         write_index(tmp, entries, info)
         if out.exists():                     # overwrite: swap in only after success
             old = out.parent / f".{out.name}.old-{os.getpid()}"

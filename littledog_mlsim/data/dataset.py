@@ -1,0 +1,551 @@
+"""A dataset of moves, the paper's state/feature extraction (Eq. 2) and normalisation.
+
+Dataset directory
+-----------------
+A dataset is a directory of bags (``bags.write_bag``; one per move, named ``<TYPE>_<NN>``) plus
+``dataset.yaml``, the index. Schema (format version 1)::
+
+    format: littledog_mlsim.dataset     # fixed string
+    format_version: 1                   # int; readers refuse versions they do not know
+    info:                               # how it was recorded; plain YAML values, free-form.
+      robot: measured                   #   Usual keys: robot, seed, storage, moves_per_type,
+      seed: 0                           #   types, steps_per_move, control_dt_ns, created, ...
+      storage: mcap                     #   No key anywhere in `info` may contain "effect":
+      moves_per_type: 20                #   nothing in a dataset names the effects that were
+    counts:                             #   active (CONTRACT.md section 3). Written by
+      total: 220                        #   write_index from `bags`, checked by read_index.
+      train: 154
+      test: 66
+    bags:                               # one entry per bag, in the order load_moves returns them
+    - name: F_00                        #   bag directory name <TYPE>_<NN> (layout.bag_name)
+      move_type: F                      #   must equal <TYPE>
+      split: train                      #   train (TrainPool) or test (TestPool)
+
+Split rule (``split_names`` gives it as move numbers, ``dataset_entries`` as index entries): for
+each move type with n moves numbered 0..n-1 (bags ``<TYPE>_00``...), the first
+``n_train(n) = floor(0.7 n + 1/2)`` (0.7 n rounded half up, exactly, without floating-point
+error) are TrainPool and the rest TestPool: 14/6 of 20, 7/3 of 10, 4/1 of 5, 1/0 of 1.
+
+Bad bags (``load_moves``): by default the first bag that fails to load raises its ``BagError``
+(one line naming bag and topic). With ``on_error="skip"`` a bad bag is left out and a
+``SkippedBagWarning`` naming it and the reason is issued (``warnings.warn``; collect them with
+``warnings.catch_warnings(record=True)``); if nothing loads at all the call still raises.
+
+State, action, features (CONTRACT.md section 4)
+-----------------------------------------------
+From a recording with measurements k = 0..N (N + 1 of them) and commands u_0..u_{N-1}:
+
+- ``states_from_recording`` gives s_1..s_N, shape (N, 33) (s_0 has no previous pose): z_w;
+  d_b = R(t-1)^T (p_t - p_{t-1}) with R = Rz(yaw) Ry(pitch) Rx(roll) at t-1; roll, pitch at t;
+  droll/dpitch/dyaw = wrap(rpy_t - rpy_{t-1}) in (-pi, pi]; q_t; dq_t.
+- ``actions_from_recording`` gives u_0..u_{N-1}, shape (N, 12).
+- ``features_responses`` pairs (s_t, u_t) -> s_{t+1} for t = 1..N-1: N - 1 samples per move.
+- ``integrate_path`` inverts the body part: yaw += dyaw, p_w += R(roll, pitch, yaw at t-1) d_b.
+
+Angles are roll-pitch-yaw = ZYX Euler angles (R = Rz(yaw) Ry(pitch) Rx(roll)); quaternions are
+(x, y, z, w) as in geometry_msgs.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import warnings
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Iterable, Mapping, NamedTuple, Sequence
+
+import numpy as np
+import yaml
+
+from ..layout import (
+    MOVE_TYPES,
+    N_ACTION,
+    N_FEATURE,
+    N_STATE,
+    S,
+    bag_name,
+    wrap_angle,
+)
+from .bags import BagError, move_type_from_name, read_bag
+from .recording import MoveRecording
+
+__all__ = [
+    "INDEX_FILE", "INDEX_FORMAT", "INDEX_FORMAT_VERSION", "SPLITS", "TRAIN_FRACTION",
+    "BagEntry", "DatasetIndex", "DatasetError", "SkippedBagWarning",
+    "n_train", "split_names", "dataset_entries", "write_index", "read_index", "load_moves",
+    "quat_to_matrix", "quat_to_rpy", "rpy_to_quat", "rpy_to_matrix",
+    "states_from_recording", "actions_from_recording", "features_responses",
+    "InitialPose", "initial_pose", "integrate_path", "Normalizer",
+]
+
+INDEX_FILE = "dataset.yaml"
+INDEX_FORMAT = "littledog_mlsim.dataset"
+INDEX_FORMAT_VERSION = 1
+SPLITS: tuple[str, ...] = ("train", "test")
+TRAIN_FRACTION = 0.7
+
+
+class DatasetError(ValueError):
+    """A dataset directory or its ``dataset.yaml`` is unusable (one-line message naming it)."""
+
+
+class SkippedBagWarning(UserWarning):
+    """``load_moves(on_error="skip")`` left a bag out; the message names the bag and why."""
+
+
+# ---------------------------------------------------------------------------------------------
+# index and splits
+
+
+@dataclass(frozen=True)
+class BagEntry:
+    name: str        # bag directory name <TYPE>_<NN>
+    move_type: str   # one of layout.MOVE_TYPES, equal to the name's <TYPE>
+    split: str       # "train" (TrainPool) or "test" (TestPool)
+
+    def check(self) -> None:
+        """ValueError if the entry is not valid."""
+        try:
+            name_type = move_type_from_name(self.name)
+        except ValueError as exc:
+            raise ValueError(f"bag entry {self.name!r}: {exc}") from None
+        if self.move_type != name_type:
+            raise ValueError(f"bag entry {self.name!r}: move_type {self.move_type!r} does not "
+                             f"match the name")
+        if self.split not in SPLITS:
+            raise ValueError(f"bag entry {self.name!r}: split {self.split!r} not in {SPLITS}")
+
+
+@dataclass
+class DatasetIndex:
+    entries: list[BagEntry]
+    info: dict[str, Any] = field(default_factory=dict)
+    format_version: int = INDEX_FORMAT_VERSION
+
+    def names(self, split: str = "all", types: Iterable[str] | None = None) -> list[str]:
+        """Bag names of ``split`` (``train``/``test``/``all``) and ``types`` (None: all)."""
+        return [e.name for e in _select(self.entries, split, types)]
+
+
+def n_train(n_moves_per_type: int, train_fraction: float = TRAIN_FRACTION) -> int:
+    """Number of TrainPool moves of a type: ``train_fraction * n`` rounded half up (exact)."""
+    if n_moves_per_type < 0:
+        raise ValueError("n_moves_per_type must be >= 0")
+    if not 0.0 <= train_fraction <= 1.0:
+        raise ValueError("train_fraction must be in [0, 1]")
+    return math.floor(Fraction(repr(float(train_fraction))) * n_moves_per_type + Fraction(1, 2))
+
+
+def split_names(n_moves_per_type: int,
+                train_fraction: float = TRAIN_FRACTION) -> tuple[list[int], list[int]]:
+    """The split rule as move numbers: (train NNs, test NNs), the same for every move type.
+
+    Moves ``0..n_train-1`` are TrainPool, the rest TestPool; the bag of move ``i`` of type ``T``
+    is ``layout.bag_name(T, i)``. E.g. ``split_names(20) == ([0..13], [14..19])``. For complete
+    index entries (names, types, splits) use ``dataset_entries``.
+    """
+    k = n_train(n_moves_per_type, train_fraction)
+    return list(range(k)), list(range(k, n_moves_per_type))
+
+
+def dataset_entries(n_moves_per_type: int, types: Sequence[str] = MOVE_TYPES,
+                    train_fraction: float = TRAIN_FRACTION) -> list[BagEntry]:
+    """Index entries of a dataset of ``n_moves_per_type`` moves of each type, type-major."""
+    bad = [t for t in types if t not in MOVE_TYPES]
+    if bad:
+        raise ValueError(f"unknown move type(s) {bad}; known: {MOVE_TYPES}")
+    train, _ = split_names(n_moves_per_type, train_fraction)
+    return [BagEntry(bag_name(t, i), t, "train" if i in train else "test")
+            for t in types for i in range(n_moves_per_type)]
+
+
+def _effect_keys(obj: Any, where: str = "info") -> list[str]:
+    found: list[str] = []
+    if isinstance(obj, Mapping):
+        for k, v in obj.items():
+            if "effect" in str(k).lower():
+                found.append(f"{where}.{k}")
+            found += _effect_keys(v, f"{where}.{k}")
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            found += _effect_keys(v, f"{where}[{i}]")
+    return found
+
+
+def _plain(obj: Any) -> Any:
+    """NumPy scalars/arrays and tuples to plain YAML types (others are left to yaml to refuse)."""
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Mapping):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def _counts(entries: Sequence[BagEntry]) -> dict[str, int]:
+    return {"total": len(entries), **{s: sum(e.split == s for e in entries) for s in SPLITS}}
+
+
+def _check_entries(entries: Sequence[BagEntry]) -> None:
+    seen: set[str] = set()
+    for e in entries:
+        e.check()
+        if e.name in seen:
+            raise ValueError(f"bag {e.name!r} listed twice")
+        seen.add(e.name)
+
+
+def write_index(directory: str | os.PathLike, entries: Iterable[BagEntry | Mapping[str, str]],
+                info: Mapping[str, Any] | None = None) -> Path:
+    """Write ``directory/dataset.yaml`` atomically (temporary file, then rename); return its path.
+
+    ``entries``: BagEntry or mappings with keys name, move_type, split. ``info``: recording
+    information (plain YAML values). ValueError for invalid or duplicated entries, any ``info``
+    key mentioning effects, or values YAML cannot represent. Does not check that the bags exist
+    (``load_moves`` does). Replaces an existing index.
+    """
+    directory = Path(directory)
+    ents: list[BagEntry] = []
+    for e in entries:
+        if isinstance(e, BagEntry):
+            ents.append(e)
+            continue
+        if set(e) != {"name", "move_type", "split"}:
+            raise ValueError(f"bag entry {dict(e)!r}: keys must be name, move_type, split")
+        ents.append(BagEntry(str(e["name"]), str(e["move_type"]), str(e["split"])))
+    _check_entries(ents)
+    info = _plain(dict(info or {}))
+    leaked = _effect_keys(info)
+    if leaked:
+        raise ValueError(f"dataset info must not name effects (CONTRACT.md section 3): {leaked}")
+    doc = {
+        "format": INDEX_FORMAT,
+        "format_version": INDEX_FORMAT_VERSION,
+        "info": info,
+        "counts": _counts(ents),
+        "bags": [{"name": e.name, "move_type": e.move_type, "split": e.split} for e in ents],
+    }
+    try:
+        text = yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+    except yaml.YAMLError as exc:
+        raise ValueError(f"dataset info holds a value YAML cannot store: {exc}") from None
+    if not directory.is_dir():
+        raise FileNotFoundError(f"{directory} is not a directory")
+    target = directory / INDEX_FILE
+    fd, tmp = tempfile.mkstemp(prefix=f".{INDEX_FILE}.", suffix=".partial", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def read_index(directory: str | os.PathLike) -> DatasetIndex:
+    """Read and check ``directory/dataset.yaml``; DatasetError (one line naming it) if invalid."""
+    path = Path(directory) / INDEX_FILE
+
+    def fail(reason: str) -> DatasetError:
+        return DatasetError(f"{path}: {' '.join(reason.split())}")
+
+    if not path.is_file():
+        raise fail("no dataset index (not a dataset directory?)")
+    try:
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise fail(f"unreadable: {type(exc).__name__}: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("format") != INDEX_FORMAT:
+        raise fail(f"not a dataset index (format is not {INDEX_FORMAT!r})")
+    version = doc.get("format_version")
+    if version != INDEX_FORMAT_VERSION:
+        raise fail(f"unknown format_version {version!r}; this reader knows "
+                   f"{INDEX_FORMAT_VERSION}")
+    info = doc.get("info") or {}
+    if not isinstance(info, dict):
+        raise fail("info is not a mapping")
+    leaked = _effect_keys(info) + _effect_keys({k: v for k, v in doc.items() if k != "info"}, "")
+    if leaked:
+        raise fail(f"names effects, which a dataset must not (CONTRACT.md section 3): {leaked}")
+    bags = doc.get("bags")
+    if not isinstance(bags, list) or not bags:
+        raise fail("bags is missing or empty")
+    entries: list[BagEntry] = []
+    for i, b in enumerate(bags):
+        if not isinstance(b, dict) or set(b) != {"name", "move_type", "split"}:
+            raise fail(f"bags[{i}] must have exactly the keys name, move_type, split")
+        entries.append(BagEntry(str(b["name"]), str(b["move_type"]), str(b["split"])))
+    try:
+        _check_entries(entries)
+    except ValueError as exc:
+        raise fail(str(exc)) from None
+    counts = doc.get("counts")
+    if counts is not None and counts != _counts(entries):
+        raise fail(f"counts {counts} do not match the bags listed {_counts(entries)}")
+    return DatasetIndex(entries=entries, info=info, format_version=version)
+
+
+def _select(entries: Iterable[BagEntry], split: str, types: Iterable[str] | None) -> list[BagEntry]:
+    if split not in (*SPLITS, "all"):
+        raise ValueError(f"split must be one of {SPLITS + ('all',)}, got {split!r}")
+    if types is not None:
+        types = list(types)
+        bad = [t for t in types if t not in MOVE_TYPES]
+        if bad:
+            raise ValueError(f"unknown move type(s) {bad}; known: {MOVE_TYPES}")
+    return [e for e in entries
+            if (split == "all" or e.split == split) and (types is None or e.move_type in types)]
+
+
+def load_moves(directory: str | os.PathLike, split: str = "train",
+               types: Iterable[str] | None = None, on_error: str = "raise") -> list[MoveRecording]:
+    """Read the bags of ``split`` (``train``/``test``/``all``) and ``types`` in index order.
+
+    ``on_error="raise"`` (default): the first bad bag raises its ``BagError`` (naming bag and
+    topic). ``on_error="skip"``: bad bags are left out, each with a ``SkippedBagWarning``; a
+    DatasetError is still raised if no bag loads. DatasetError if the index is invalid or the
+    selection is empty.
+    """
+    if on_error not in ("raise", "skip"):
+        raise ValueError(f"on_error must be 'raise' or 'skip', got {on_error!r}")
+    directory = Path(directory)
+    index = read_index(directory)
+    selected = _select(index.entries, split, types)
+    if not selected:
+        raise DatasetError(f"{directory}: no bags with split {split!r} and types "
+                           f"{list(types) if types is not None else 'all'}")
+    moves: list[MoveRecording] = []
+    skipped: list[str] = []
+    for e in selected:
+        try:
+            moves.append(read_bag(directory / e.name, move_type=e.move_type))
+        except BagError as exc:
+            if on_error == "raise":
+                raise
+            skipped.append(e.name)
+            warnings.warn(SkippedBagWarning(f"skipped {exc}"), stacklevel=2)
+    if not moves:
+        raise DatasetError(f"{directory}: all {len(selected)} selected bags are bad "
+                           f"(skipped {', '.join(skipped)})")
+    return moves
+
+
+# ---------------------------------------------------------------------------------------------
+# rotations (vectorised over leading axes; ZYX roll-pitch-yaw; quaternions (x, y, z, w))
+
+
+def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
+    """(..., 4) quaternions (x, y, z, w), normalised here -> (..., 3, 3) rotation matrices."""
+    q = np.asarray(quat, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    x, y, z, w = np.moveaxis(q, -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
+
+
+def quat_to_rpy(quat: np.ndarray) -> np.ndarray:
+    """(..., 4) quaternions (x, y, z, w) -> (..., 3) roll, pitch, yaw (ZYX), yaw in (-pi, pi]."""
+    R = quat_to_matrix(quat)
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    pitch = np.arctan2(-R[..., 2, 0], np.hypot(R[..., 2, 1], R[..., 2, 2]))
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return np.stack([roll, pitch, wrap_angle(yaw)], -1)
+
+
+def rpy_to_quat(rpy: np.ndarray) -> np.ndarray:
+    """(..., 3) roll, pitch, yaw (ZYX) -> (..., 4) unit quaternions (x, y, z, w) with w >= 0."""
+    r, p, y = np.moveaxis(np.asarray(rpy, dtype=np.float64) / 2.0, -1, 0)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    q = np.stack([
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    ], -1)
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
+    """(..., 3) roll, pitch, yaw -> (..., 3, 3) R = Rz(yaw) Ry(pitch) Rx(roll) (body -> world)."""
+    r, p, y = np.moveaxis(np.asarray(rpy, dtype=np.float64), -1, 0)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
+        np.stack([-sp, cp * sr, cp * cr], -1),
+    ], -2)
+
+
+# ---------------------------------------------------------------------------------------------
+# state, action, features
+
+
+def states_from_recording(rec: MoveRecording) -> np.ndarray:
+    """s_1..s_N of a recording, (N, 33) in ``layout.STATE_NAMES`` order (CONTRACT.md section 4)."""
+    pos = np.asarray(rec.position, dtype=np.float64)
+    rpy = quat_to_rpy(rec.orientation)                         # (N+1, 3)
+    n = pos.shape[0] - 1
+    R_prev = rpy_to_matrix(rpy[:-1])                            # (N, 3, 3), body(t-1) -> world
+    states = np.empty((n, N_STATE), dtype=np.float64)
+    states[:, S.z_w] = pos[1:, 2]
+    states[:, S.d_b] = np.einsum("nji,nj->ni", R_prev, np.diff(pos, axis=0))  # R^T dp
+    states[:, S.roll_pitch] = rpy[1:, :2]
+    states[:, S.d_rpy] = wrap_angle(np.diff(rpy, axis=0))
+    states[:, S.q] = rec.q[1:]
+    states[:, S.dq] = rec.dq[1:]
+    return states
+
+
+def actions_from_recording(rec: MoveRecording) -> np.ndarray:
+    """u_0..u_{N-1}, (N, 12): the commanded joint angles for step t -> t+1."""
+    return np.asarray(rec.cmd, dtype=np.float64).reshape(-1, N_ACTION)
+
+
+def features_responses(recs: Sequence[MoveRecording]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Regression data of the paper: X = (s_t, u_t) (n, 45), Y = s_{t+1} (n, 33), t = 1..N-1.
+
+    ``move_index`` (n,) gives the position in ``recs`` of each sample's move (N - 1 samples per
+    move, in time order), for per-move splits and rollouts.
+    """
+    if len(recs) == 0:
+        raise ValueError("features_responses needs at least one recording")
+    Xs, Ys, idx = [], [], []
+    for i, rec in enumerate(recs):
+        s = states_from_recording(rec)          # row j is s_{j+1}
+        u = actions_from_recording(rec)         # row j is u_j
+        if s.shape[0] < 2:
+            raise ValueError(f"{rec.name}: needs at least 2 steps for one feature/response pair")
+        Xs.append(np.hstack([s[:-1], u[1:]]))   # (s_t, u_t), t = 1..N-1
+        Ys.append(s[1:])                        # s_{t+1}
+        idx.append(np.full(s.shape[0] - 1, i, dtype=np.int64))
+    X, Y = np.vstack(Xs), np.vstack(Ys)
+    assert X.shape[1] == N_FEATURE and Y.shape[1] == N_STATE
+    return X, Y, np.concatenate(idx)
+
+
+class InitialPose(NamedTuple):
+    """Initial condition of ``integrate_path``; ``integrate_path(states, *pose)`` works."""
+
+    x0: float | np.ndarray
+    y0: float | np.ndarray
+    yaw0: float | np.ndarray
+    roll_pitch0: np.ndarray       # (2,) or (B, 2)
+
+
+def initial_pose(rec: MoveRecording, t: int = 0) -> InitialPose:
+    """Measured pose at measurement ``t``: the initial condition for integrating s_{t+1}, ...
+
+    ``integrate_path(states_from_recording(rec)[t:], *initial_pose(rec, t))`` reproduces
+    x, y, yaw of measurements t+1..N.
+    """
+    rpy = quat_to_rpy(np.asarray(rec.orientation)[t])
+    p = np.asarray(rec.position, dtype=np.float64)[t]
+    return InitialPose(float(p[0]), float(p[1]), float(rpy[2]), rpy[:2].copy())
+
+
+def integrate_path(states: np.ndarray, x0, y0, yaw0, roll_pitch0) -> np.ndarray:
+    """Recover x_w, y_w, yaw from a state sequence (CONTRACT.md section 4).
+
+    ``states``: (T, 33) or batched (B, T, 33): s_1..s_T, recorded or predicted. The initial
+    condition is the pose at t = 0: ``x0, y0, yaw0`` (scalars or (B,)) and ``roll_pitch0`` =
+    (roll, pitch) at t = 0 ((2,) or (B, 2)), needed because step t rotates d_b by
+    R(roll, pitch, yaw at t-1) and s_0 is not part of ``states``; the later steps take roll and
+    pitch from the previous state. ``initial_pose(rec, t)`` supplies all four.
+
+    Returns (T, 3) or (B, T, 3): x_w, y_w, yaw at t = 1..T, yaw wrapped to (-pi, pi].
+    """
+    s = np.asarray(states, dtype=np.float64)
+    if s.ndim not in (2, 3) or s.shape[-1] != N_STATE:
+        raise ValueError(f"states must be (T, {N_STATE}) or (B, T, {N_STATE}), got {s.shape}")
+    batch = s.shape[:-2]
+    x0 = np.broadcast_to(np.asarray(x0, dtype=np.float64), batch)
+    y0 = np.broadcast_to(np.asarray(y0, dtype=np.float64), batch)
+    yaw0 = np.broadcast_to(np.asarray(yaw0, dtype=np.float64), batch)
+    rp0 = np.broadcast_to(np.asarray(roll_pitch0, dtype=np.float64), batch + (2,))
+
+    yaw = yaw0[..., None] + np.cumsum(s[..., S.dyaw], axis=-1)                 # at t = 1..T
+    yaw_prev = np.concatenate([yaw0[..., None], yaw[..., :-1]], axis=-1)       # at t-1
+    rp_prev = np.concatenate([rp0[..., None, :], s[..., :-1, S.roll_pitch]], axis=-2)
+    R = rpy_to_matrix(np.concatenate([rp_prev, yaw_prev[..., None]], axis=-1))  # (..., T, 3, 3)
+    dp = np.einsum("...ij,...j->...i", R[..., :2, :], s[..., S.d_b])          # world dx, dy
+    xy = np.stack([x0, y0], -1)[..., None, :] + np.cumsum(dp, axis=-2)
+    return np.concatenate([xy, wrap_angle(yaw)[..., None]], axis=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# normalisation
+
+
+class Normalizer:
+    """Per-column unit-variance normalisation fitted on the TrainPool (z = (x - mean) / std).
+
+    Columns whose std is below ``min_std`` (constant columns) get std 1, so they are only
+    centred. ``inverse_transform_std`` scales predicted standard deviations back.
+    """
+
+    def __init__(self, min_std: float = 1e-12) -> None:
+        self.min_std = min_std
+
+    def fit(self, X: np.ndarray) -> "Normalizer":
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 2 or X.shape[0] == 0:
+            raise ValueError(f"Normalizer.fit needs a non-empty (n, d) array, got {X.shape}")
+        if not np.all(np.isfinite(X)):
+            raise ValueError("Normalizer.fit: X holds NaN or inf")
+        self.mean_ = X.mean(axis=0)
+        std = X.std(axis=0)
+        self.std_ = np.where(std < self.min_std, 1.0, std)
+        return self
+
+    def _check(self, X: np.ndarray) -> np.ndarray:
+        if not hasattr(self, "mean_"):
+            raise RuntimeError("Normalizer is not fitted")
+        X = np.asarray(X, dtype=np.float64)
+        if X.shape[-1] != self.mean_.shape[0]:
+            raise ValueError(f"expected {self.mean_.shape[0]} columns, got {X.shape[-1]}")
+        return X
+
+    def transform(self, X: np.ndarray) -> np.ndarray:
+        return (self._check(X) - self.mean_) / self.std_
+
+    def inverse_transform(self, Z: np.ndarray) -> np.ndarray:
+        return self._check(Z) * self.std_ + self.mean_
+
+    def inverse_transform_std(self, std_z: np.ndarray) -> np.ndarray:
+        """Standard deviations in normalised units -> original units."""
+        return self._check(std_z) * self.std_
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable state (floats survive a JSON round trip exactly)."""
+        if not hasattr(self, "mean_"):
+            raise RuntimeError("Normalizer is not fitted")
+        return {"min_std": float(self.min_std), "mean": self.mean_.tolist(),
+                "std": self.std_.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Normalizer":
+        try:
+            mean = np.asarray(d["mean"], dtype=np.float64)
+            std = np.asarray(d["std"], dtype=np.float64)
+            norm = cls(min_std=float(d.get("min_std", 1e-12)))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"invalid Normalizer state: {exc!r}") from None
+        if mean.ndim != 1 or mean.shape != std.shape:
+            raise ValueError("invalid Normalizer state: mean and std must be equal-length lists")
+        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(std)) and np.all(std > 0)):
+            raise ValueError("invalid Normalizer state: non-finite mean or non-positive std")
+        norm.mean_, norm.std_ = mean, std
+        return norm

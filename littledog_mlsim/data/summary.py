@@ -1,0 +1,96 @@
+"""What a dataset holds: bags per move type and split, samples, and how each move type moved.
+
+Used by ``littledog-mlsim info`` (and ``make run``) to print what was recorded.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..layout import MOVE_TYPES
+from .dataset import load_moves, quat_to_rpy, read_index
+from .recording import MoveRecording
+
+
+@dataclass
+class TypeSummary:
+    move_type: str
+    n_train: int = 0
+    n_test: int = 0
+    n_samples: int = 0
+    forward_m: list[float] = field(default_factory=list)   # displacement in the start heading frame
+    left_m: list[float] = field(default_factory=list)
+    yaw_change_rad: list[float] = field(default_factory=list)
+    max_abs_roll_pitch: float = 0.0
+    min_height_m: float = np.inf
+
+
+@dataclass
+class DatasetSummary:
+    path: str
+    info: dict
+    types: dict[str, TypeSummary]
+    bags_checked: bool
+
+    @property
+    def n_bags(self) -> int:
+        return sum(t.n_train + t.n_test for t in self.types.values())
+
+    @property
+    def n_samples(self) -> int:
+        return sum(t.n_samples for t in self.types.values())
+
+
+def move_motion(rec: MoveRecording) -> tuple[float, float, float]:
+    """(forward, left, yaw change) of a move, in the frame of its starting heading [m, m, rad]."""
+    rpy = quat_to_rpy(rec.orientation)
+    yaw = np.unwrap(rpy[:, 2])
+    d = rec.position[-1, :2] - rec.position[0, :2]
+    c, s = np.cos(yaw[0]), np.sin(yaw[0])
+    return float(c * d[0] + s * d[1]), float(-s * d[0] + c * d[1]), float(yaw[-1] - yaw[0])
+
+
+def summarise_dataset(path: str | os.PathLike, check_bags: bool = True) -> DatasetSummary:
+    """Read dataset.yaml and (with ``check_bags``) every bag, which also validates them."""
+    index = read_index(path)
+    types: dict[str, TypeSummary] = {}
+    for e in index.entries:
+        ts = types.setdefault(e.move_type, TypeSummary(e.move_type))
+        if e.split == "train":
+            ts.n_train += 1
+        else:
+            ts.n_test += 1
+    if check_bags:
+        for rec in load_moves(path, split="all"):
+            ts = types[rec.move_type]
+            ts.n_samples += max(rec.n_steps - 1, 0)
+            fwd, left, dyaw = move_motion(rec)
+            ts.forward_m.append(fwd)
+            ts.left_m.append(left)
+            ts.yaw_change_rad.append(dyaw)
+            rpy = quat_to_rpy(rec.orientation)
+            ts.max_abs_roll_pitch = max(ts.max_abs_roll_pitch, float(np.abs(rpy[:, :2]).max()))
+            ts.min_height_m = min(ts.min_height_m, float(rec.position[:, 2].min()))
+    order = [t for t in MOVE_TYPES if t in types]
+    return DatasetSummary(str(path), dict(index.info), {t: types[t] for t in order}, check_bags)
+
+
+def format_summary(s: DatasetSummary) -> str:
+    info = ", ".join(f"{k}={v}" for k, v in s.info.items() if k != "types")
+    n_train = sum(t.n_train for t in s.types.values())
+    lines = [f"dataset {s.path}: {s.n_bags} bags ({n_train} TrainPool / {s.n_bags - n_train} TestPool)"
+             + (f", {s.n_samples} samples (features 45 -> responses 33)" if s.bags_checked else ""),
+             f"  recorded with {info}"]
+    if not s.bags_checked:
+        lines += [f"  {t}: {v.n_train} train / {v.n_test} test" for t, v in s.types.items()]
+        return "\n".join(lines)
+    lines.append("  per type: mean [min, max] over its moves, in the frame of each move's start heading")
+    lines.append("  type  train test samples  forward [m]           left [m]              yaw change [rad]      max|roll,pitch|  min z [m]")
+    for t, v in s.types.items():
+        def rng(x: list[float]) -> str:
+            return f"{np.mean(x):+.3f} [{np.min(x):+.2f},{np.max(x):+.2f}]".ljust(21)
+        lines.append(f"  {t:<4}  {v.n_train:>5} {v.n_test:>4} {v.n_samples:>7}  {rng(v.forward_m)} "
+                     f"{rng(v.left_m)} {rng(v.yaw_change_rad)} {v.max_abs_roll_pitch:>15.3f}  {v.min_height_m:9.3f}")
+    return "\n".join(lines)
