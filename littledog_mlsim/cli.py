@@ -20,9 +20,11 @@ class CliError(Exception):
 def _types(text: str) -> list[str]:
     types = [t.strip().upper() for t in text.split(",") if t.strip()]
     bad = [t for t in types if t not in MOVE_TYPES]
-    if bad or not types:
+    if not types:
+        raise argparse.ArgumentTypeError("no move types given")
+    if bad:
         raise argparse.ArgumentTypeError(
-            f"unknown move type(s) {','.join(bad) or text!r}; choose from {','.join(MOVE_TYPES)}")
+            f"unknown move type(s) {','.join(bad)}; choose from {','.join(MOVE_TYPES)}")
     return types
 
 
@@ -34,7 +36,7 @@ def cmd_record(a: argparse.Namespace) -> int:
                        overwrite=a.overwrite, progress=not a.quiet)
     print(f"recorded {s.n_bags} bags ({s.n_steps} steps, {s.n_steps * 0.01:.0f} s of robot time) "
           f"into {s.out} in {s.wall_s:.1f} s wall with {s.jobs} process(es); "
-          f"{s.realtime_factor_per_core:.1f}x real time per core")
+          f"{s.realtime_factor_per_core:.1f}x real time per core (CPU time)")
     return 0
 
 
@@ -84,9 +86,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"littledog-mlsim {args.verb}: interrupted", file=sys.stderr)
         return 130
     except (CliError, ValueError, OSError, KeyError) as e:
-        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
-        print(f"littledog-mlsim {args.verb}: error: {msg}", file=sys.stderr)
+        print(f"littledog-mlsim {args.verb}: error: {_one_line(e)}", file=sys.stderr)
         return 2
+    except Exception as e:  # e.g. a user's effect plug-in failing inside a worker
+        print(f"littledog-mlsim {args.verb}: error: {type(e).__name__}: {_one_line(e)}", file=sys.stderr)
+        return 1
+
+
+def _one_line(e: BaseException) -> str:
+    text = str(e).strip()
+    return text.splitlines()[0] if text else type(e).__name__
 
 
 if __name__ == "__main__":

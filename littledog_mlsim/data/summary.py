@@ -25,6 +25,7 @@ class TypeSummary:
     yaw_change_rad: list[float] = field(default_factory=list)
     max_abs_roll_pitch: float = 0.0
     min_height_m: float = np.inf
+    problems: list[str] = field(default_factory=list)   # "<bag>: <why>" for moves that fail move_problems
 
 
 @dataclass
@@ -52,6 +53,54 @@ def move_motion(rec: MoveRecording) -> tuple[float, float, float]:
     return float(c * d[0] + s * d[1]), float(-s * d[0] + c * d[1]), float(yaw[-1] - yaw[0])
 
 
+# Where each move type must go (CONTRACT.md section 3): sign of forward, left and yaw motion.
+_FORWARD = {"F": 1, "FL": 1, "FR": 1, "DL": 1, "DR": 1, "B": -1, "BL": -1, "BR": -1}
+_LEFT = {"L": 1, "DL": 1, "R": -1, "DR": -1}
+_TURN = {"FL": 1, "BL": 1, "FR": -1, "BR": -1}
+UPRIGHT_LIMIT_RAD = 0.3
+MIN_BODY_HEIGHT_M = 0.10   # body origin; the shell's underside is 25 mm below it (robot/littledog.urdf)
+
+
+def move_problems(rec: MoveRecording) -> list[str]:
+    """Why a move is not a good trot of its type (empty when it is).
+
+    Upright: |roll|, |pitch| < 0.3 rad and the body origin above 0.10 m throughout. Direction, in
+    the start heading frame: F/FL/FR/DL/DR forward and B/BL/BR backward by more than 4 cm; L/DL
+    left and R/DR right by more than 4 cm; straight moves (F, B) sideways less than half their
+    forward motion and sideways moves (L, R) forward less than half their sideways motion;
+    FL/BL turn left (yaw up) and FR/BR right by more than 0.3 rad; F/B turn less than 0.4 rad,
+    sideways and diagonal moves less than 1.2 rad (the soft-servo robot drifts in yaw when it
+    steps sideways); S stays within 5 cm and 0.3 rad.
+    """
+    out: list[str] = []
+    t = rec.move_type
+    rpy = quat_to_rpy(rec.orientation)
+    tilt = float(np.abs(rpy[:, :2]).max())
+    if tilt >= UPRIGHT_LIMIT_RAD:
+        out.append(f"tilted {tilt:.2f} rad (limit {UPRIGHT_LIMIT_RAD})")
+    if rec.position[:, 2].min() <= MIN_BODY_HEIGHT_M:
+        out.append(f"body down to {rec.position[:, 2].min():.3f} m")
+    fwd, left, dyaw = move_motion(rec)
+    fs, ls, ts = _FORWARD.get(t, 0), _LEFT.get(t, 0), _TURN.get(t, 0)
+    if t == "S":
+        if np.hypot(fwd, left) >= 0.05 or abs(dyaw) >= 0.3:
+            out.append(f"standing move went {np.hypot(fwd, left):.3f} m, {dyaw:+.2f} rad")
+        return out
+    if fs and fs * fwd <= 0.04:
+        out.append(f"forward motion {fwd:+.3f} m has the wrong sign or is too small")
+    if ls and ls * left <= 0.04:
+        out.append(f"sideways motion {left:+.3f} m has the wrong sign or is too small")
+    if fs and not ls and not ts and abs(left) >= 0.5 * abs(fwd):
+        out.append(f"straight move drifted sideways {left:+.3f} m")
+    if ls and not fs and abs(fwd) >= 0.5 * abs(left):
+        out.append(f"sideways move drifted forward {fwd:+.3f} m")
+    if ts and ts * dyaw <= 0.3:
+        out.append(f"yaw change {dyaw:+.2f} rad has the wrong sign or is too small")
+    elif not ts and abs(dyaw) >= (1.2 if ls else 0.4):
+        out.append(f"yaw drifted {dyaw:+.2f} rad")
+    return out
+
+
 def summarise_dataset(path: str | os.PathLike, check_bags: bool = True) -> DatasetSummary:
     """Read dataset.yaml and (with ``check_bags``) every bag, which also validates them."""
     index = read_index(path)
@@ -73,6 +122,7 @@ def summarise_dataset(path: str | os.PathLike, check_bags: bool = True) -> Datas
             rpy = quat_to_rpy(rec.orientation)
             ts.max_abs_roll_pitch = max(ts.max_abs_roll_pitch, float(np.abs(rpy[:, :2]).max()))
             ts.min_height_m = min(ts.min_height_m, float(rec.position[:, 2].min()))
+            ts.problems += [f"{rec.name}: {p}" for p in move_problems(rec)]
     order = [t for t in MOVE_TYPES if t in types]
     return DatasetSummary(str(path), dict(index.info), {t: types[t] for t in order}, check_bags)
 
@@ -93,4 +143,9 @@ def format_summary(s: DatasetSummary) -> str:
             return f"{np.mean(x):+.3f} [{np.min(x):+.2f},{np.max(x):+.2f}]".ljust(21)
         lines.append(f"  {t:<4}  {v.n_train:>5} {v.n_test:>4} {v.n_samples:>7}  {rng(v.forward_m)} "
                      f"{rng(v.left_m)} {rng(v.yaw_change_rad)} {v.max_abs_roll_pitch:>15.3f}  {v.min_height_m:9.3f}")
+    problems = [p for v in s.types.values() for p in v.problems]
+    if problems:
+        lines.append(f"  {len(problems)} problem(s): " + "; ".join(problems))
+    else:
+        lines.append("  every move stayed upright and went where its type says")
     return "\n".join(lines)

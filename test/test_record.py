@@ -1,0 +1,131 @@
+"""Recording datasets end to end: the record/info verbs, bags read by plain rosbags, atomicity.
+
+Moves are checked on what was written to disk (read back from the bags), not on the simulator's
+in-memory output.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from rosbags.highlevel import AnyReader
+
+from littledog_mlsim.cli import main
+from littledog_mlsim.data.dataset import load_moves, read_index
+from littledog_mlsim.data.summary import move_problems, summarise_dataset
+from littledog_mlsim.layout import MOVE_TYPES, STEPS_PER_MOVE, TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM
+from littledog_mlsim.record import MoveJob, record_dataset
+
+CONTRACT_TYPES = {TOPIC_CMD: "sensor_msgs/msg/JointState",
+                  TOPIC_JOINT_STATES: "sensor_msgs/msg/JointState",
+                  TOPIC_ODOM: "nav_msgs/msg/Odometry"}
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory) -> Path:
+    """Two moves of every type on the measured robot through the CLI, as a user would."""
+    out = tmp_path_factory.mktemp("rec") / "ds"
+    proc = subprocess.run([sys.executable, "-m", "littledog_mlsim.cli", "record", "--out", str(out),
+                           "--moves-per-type", "2", "--quiet"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "recorded 22 bags" in proc.stdout
+    return out
+
+
+def test_cli_records_22_bags_that_rosbags_reads(dataset: Path):
+    bags = sorted(p for p in dataset.iterdir() if p.is_dir())
+    assert len(bags) == 22
+    assert {b.name for b in bags} == {f"{t}_{i:02d}" for t in MOVE_TYPES for i in range(2)}
+    for bag in bags:
+        with AnyReader([bag]) as reader:
+            types = {c.topic: c.msgtype for c in reader.connections}
+            assert {t: types.get(t) for t in CONTRACT_TYPES} == CONTRACT_TYPES
+            counts = {c.topic: c.msgcount for c in reader.connections}
+            assert counts[TOPIC_JOINT_STATES] == counts[TOPIC_ODOM] == STEPS_PER_MOVE + 1
+            assert counts[TOPIC_CMD] == STEPS_PER_MOVE
+    assert not list(dataset.parent.glob(".*partial*"))
+
+
+def test_dataset_yaml_split_and_no_effects(dataset: Path):
+    index = read_index(dataset)
+    splits = {(e.move_type, e.split) for e in index.entries}
+    assert splits == {(t, s) for t in MOVE_TYPES for s in ("train", "test")}
+    assert "effect" not in (dataset / "dataset.yaml").read_text().lower()
+
+
+def test_every_recorded_move_is_upright_and_goes_where_named(dataset: Path):
+    moves = load_moves(dataset, split="all")
+    assert len(moves) == 22
+    for rec in moves:
+        assert move_problems(rec) == [], rec.name
+    summary = summarise_dataset(dataset)
+    assert summary.n_samples == 22 * (STEPS_PER_MOVE - 1)
+
+
+def test_moves_of_a_type_differ_and_seeds_are_stable():
+    a, b = MoveJob("F", 0, 0).seeds(), MoveJob("F", 1, 0).seeds()
+    assert a != b and MoveJob("F", 0, 0).seeds() == a and MoveJob("F", 0, 1).seeds() != a
+
+
+def test_same_seed_same_bags_and_sqlite3(tmp_path: Path, dataset: Path):
+    record_dataset(tmp_path / "sq", moves_per_type=1, types=["FL"], storage="sqlite3", jobs=1,
+                   progress=False)
+    assert list((tmp_path / "sq" / "FL_00").glob("*.db3"))
+    again = load_moves(tmp_path / "sq", split="all")[0]
+    first = [m for m in load_moves(dataset, split="all") if m.name == "FL_00"][0]
+    np.testing.assert_array_equal(again.q, first.q)        # same seed -> same move, any storage
+    np.testing.assert_array_equal(again.position, first.position)
+
+
+def test_refuses_to_overwrite_and_overwrites_on_request(tmp_path: Path, capsys):
+    out = tmp_path / "ds"
+    out.mkdir()
+    (out / "keep.txt").write_text("precious")
+    assert main(["record", "--out", str(out), "--moves-per-type", "1", "--types", "S", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "already exists" in err and len(err.strip().splitlines()) == 1
+    assert (out / "keep.txt").read_text() == "precious"
+    assert main(["record", "--out", str(out), "--moves-per-type", "1", "--types", "S", "--quiet",
+                 "--overwrite", "--jobs", "1"]) == 0
+    assert not (out / "keep.txt").exists() and (out / "S_00").is_dir()
+
+
+def test_failed_run_leaves_nothing_behind(tmp_path: Path, capsys):
+    """An effect that raises in the middle of a move: no partial bag, no dataset, one-line error."""
+    (tmp_path / "bad.py").write_text(
+        "class Boom:\n"
+        "    def command(self, u, t):\n"
+        "        if t > 1.0:\n"
+        "            raise RuntimeError('actuator exploded')\n"
+        "        return u\n")
+    (tmp_path / "fx.yaml").write_text(yaml.safe_dump([{"class": "bad.py:Boom", "params": {}}]))
+    out = tmp_path / "ds"
+    with pytest.raises(RuntimeError, match="actuator exploded"):
+        record_dataset(out, moves_per_type=1, types=["F", "S"], effects_file=str(tmp_path / "fx.yaml"),
+                       jobs=2, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.py", "fx.yaml"]
+
+
+def test_bad_move_type_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["record", "--out", "X", "--types", "F,Q"])
+    assert exc.value.code == 2
+    assert "unknown move type(s) Q" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["record", "--out", "X", "--moves-per-type", "0"], "at least 1"),
+    (["record", "--out", "X", "--effects", "missing.yaml"], "missing.yaml"),
+    (["info", "--data", "/nonexistent/ds"], "/nonexistent/ds"),
+])
+def test_bad_input_gives_one_line_and_writes_nothing(tmp_path: Path, argv, fragment, capsys,
+                                                    monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert fragment in err and len(err.splitlines()) == 1, err
+    assert list(tmp_path.iterdir()) == []

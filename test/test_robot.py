@@ -1,0 +1,352 @@
+"""The pybullet LittleDog (littledog_mlsim.robot): URDF, servo/sensor models, moves, effects.
+
+Independent references: LITTLEDOG.md's masses, pybullet's own bookkeeping of the loaded model,
+scipy's rotations for the twist, closed-form filter responses, and the recorded pose itself for
+where each move type goes.
+"""
+from __future__ import annotations
+
+import dataclasses
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pybullet as p
+import pytest
+from scipy.spatial.transform import Rotation
+
+from littledog_mlsim.data.summary import move_motion, move_problems
+from littledog_mlsim.gait.trot import sample_trot_params, trot_commands
+from littledog_mlsim.layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_LOWER, JOINT_NAMES,
+                                    JOINT_UPPER, MOVE_TYPES, STEPS_PER_MOVE)
+from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE, URDF_PATH,
+                                          RobotConfig, per_joint, robot_config)
+from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, JointFriction, Payload,
+                                           load_effects, resolve_joints)
+from littledog_mlsim.robot.sensors import JointEncoders
+from littledog_mlsim.robot.servo import PDTorqueServo
+from littledog_mlsim.robot.sim import InitialState, LittleDogSim, get_sim, simulate_move
+
+# Body collision box of the URDF (centre offset and half extents in base_link).
+BOX_CENTRE = np.array([0.0, 0.0, 0.045])
+BOX_HALF = np.array([0.165, 0.055, 0.07])
+SEEDS = (0, 1)
+
+
+def quiet(name: str = "measured") -> RobotConfig:
+    """The named robot without motion-capture noise."""
+    return dataclasses.replace(robot_config(name), sensor_noise=False)
+
+
+def commands(move_type: str, seed: int = 0) -> np.ndarray:
+    return trot_commands(sample_trot_params(move_type, np.random.default_rng(seed)))
+
+
+def displacement_and_yaw(rec) -> tuple[np.ndarray, float]:
+    """(x, y) displacement over the move in the initial heading frame, and the yaw change."""
+    rot = Rotation.from_quat(rec.orientation)
+    yaw = np.unwrap(rot.as_euler("ZYX")[:, 0])
+    c, s = np.cos(yaw[0]), np.sin(yaw[0])
+    dx, dy = (rec.position[-1, :2] - rec.position[0, :2])
+    return np.array([c * dx + s * dy, -s * dx + c * dy]), float(yaw[-1] - yaw[0])
+
+
+@pytest.fixture(scope="module")
+def trot_recordings():
+    """Every move type on the measured robot (with sensor noise), two seeds each."""
+    return {(mt, seed): simulate_move(commands(mt, seed), robot="measured", seed=seed,
+                                      move_type=mt, name=f"{mt}_{seed:02d}")
+            for mt in MOVE_TYPES for seed in SEEDS}
+
+
+# ----------------------------------------------------------------------------- model
+def test_urdf_joints_masses_and_limits():
+    c = p.connect(p.DIRECT)
+    try:
+        body = p.loadURDF(str(URDF_PATH), flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c)
+        info = [p.getJointInfo(body, j, physicsClientId=c) for j in range(p.getNumJoints(body, physicsClientId=c))]
+        revolute = [i for i in info if i[2] == p.JOINT_REVOLUTE]
+        assert [i[1].decode() for i in revolute] == list(JOINT_NAMES)
+        np.testing.assert_allclose([i[8] for i in revolute], JOINT_LOWER)
+        np.testing.assert_allclose([i[9] for i in revolute], JOINT_UPPER)
+        axes = np.array([i[13] for i in revolute]).reshape(4, 3, 3)
+        np.testing.assert_allclose(axes[:, 0], [[1, 0, 0]] * 4)       # hip roll about x
+        np.testing.assert_allclose(axes[:, 1:], [[[0, 1, 0]] * 2] * 4)  # pitch and knee about y
+        masses = [p.getDynamicsInfo(body, j, physicsClientId=c)[0] for j in range(-1, len(info))]
+        assert sum(masses) == pytest.approx(2.746, abs=1e-3)         # LITTLEDOG.md URDF total
+        upper = p.getDynamicsInfo(body, 1, physicsClientId=c)
+        np.testing.assert_allclose(upper[2], [8.2e-5, 8.9e-5, 1.5e-5])  # from file, not shapes
+        np.testing.assert_allclose(upper[3], [0, 0, -0.0166])
+    finally:
+        p.disconnect(c)
+
+
+def test_measured_and_nominal_mass_models():
+    measured, nominal = get_sim(quiet("measured")), get_sim(quiet("nominal"))
+    assert nominal.total_mass() == pytest.approx(2.746, abs=1e-3)
+    assert measured.total_mass() == pytest.approx(3.0, abs=1e-3)      # guide: 2.24 + 4 x 0.19
+    c, body = measured.client, measured.robot
+    assert p.getDynamicsInfo(body, -1, physicsClientId=c)[0] == pytest.approx(2.24)
+    # knee: lower-leg inertia scaled by 0.19/0.2366 plus the armature about y
+    knee = measured.joint_indices[2]
+    iyy = p.getDynamicsInfo(body, knee, physicsClientId=c)[2][1]
+    assert iyy == pytest.approx(3.5e-5 * 0.19 / 0.2366 + MEASURED_ARMATURE[2], rel=1e-6)
+    assert MEASURED_ARMATURE[2] == pytest.approx(1e-7 * 126**2)
+
+
+def test_config_validation_and_names():
+    with pytest.raises(ValueError, match="unknown robot"):
+        robot_config("real")
+    with pytest.raises(ValueError, match="divide"):
+        dataclasses.replace(robot_config("measured"), physics_dt=0.003)
+    assert robot_config("measured").substeps == 5
+
+
+# ----------------------------------------------------------------------------- servo and sensors
+def test_pd_servo_law_and_limits():
+    servo = PDTorqueServo(robot_config("measured"))
+    q = np.zeros(12)
+    q_des = np.tile([0.1, -0.05, 0.02], 4)
+    dq = np.tile([1.0, 0.0, -1.0], 4)
+    expected = np.tile([7.5 * 0.1 - 0.32, 7.5 * -0.05, 6.7 * 0.02 + 0.32], 4)
+    np.testing.assert_allclose(servo.torque(q_des, q, dq), expected)
+    big = servo.torque(np.full(12, 1.0), q, np.zeros(12))
+    np.testing.assert_allclose(big, np.tile([1.7, 1.7, 0.61], 4))
+
+
+def test_encoders_quantise_and_filter():
+    dt = 0.002
+    enc = JointEncoders(per_joint(ENCODER_RESOLUTION), 50.0, dt)
+    enc.reset(np.zeros(12), np.zeros(12))
+    rate = 2.0
+    t = dt * np.arange(1, 201)
+    out = []
+    for tk in t:
+        enc.update(np.full(12, rate * tk), np.full(12, rate))
+        counts = enc.position / per_joint(ENCODER_RESOLUTION)
+        np.testing.assert_allclose(counts, np.round(counts), atol=1e-6)   # whole counts
+        out.append(enc.rate[0])
+    # a ramp seen through a first-order 50 Hz low-pass sampled at 500 Hz: 1 - (1 - alpha)^k
+    alpha = 1 - np.exp(-2 * np.pi * 50 * dt)
+    k = np.arange(1, 201)
+    expected = rate * (1 - (1 - alpha) ** k)
+    np.testing.assert_allclose(out, expected, atol=3.65e-5 / dt * 1.01)   # +- one count per sample
+
+
+# ----------------------------------------------------------------------------- moves
+@pytest.mark.parametrize("move_type", MOVE_TYPES)
+def test_every_move_type_stays_upright_and_goes_where_named(trot_recordings, move_type):
+    for seed in SEEDS:
+        rec = trot_recordings[(move_type, seed)]
+        rec.validate()
+        assert rec.n_steps == STEPS_PER_MOVE
+        rot = Rotation.from_quat(rec.orientation)
+        roll, pitch = rot.as_euler("ZYX")[:, 2], rot.as_euler("ZYX")[:, 1]
+        assert np.abs(roll).max() < 0.3 and np.abs(pitch).max() < 0.3
+        corners = np.array([[sx, sy, -1.0] for sx in (-1, 1) for sy in (-1, 1)]) * BOX_HALF + BOX_CENTRE
+        lowest = (rec.position[:, None, :] + np.einsum("nij,kj->nki", rot.as_matrix(), corners))[..., 2]
+        assert lowest.min() > 0.08                   # body underside stays well above the floor
+        (dx, dy), dyaw = displacement_and_yaw(rec)          # scipy, independent of the package
+        np.testing.assert_allclose(move_motion(rec), (dx, dy, dyaw), atol=1e-9)
+        assert move_problems(rec) == [], f"{move_type} seed {seed}: dx={dx:.3f} dy={dy:.3f} dyaw={dyaw:.2f}"
+
+
+def test_recording_timing_and_command(trot_recordings):
+    rec = trot_recordings[("F", 0)]
+    assert rec.name == "F_00" and rec.move_type == "F"
+    np.testing.assert_array_equal(np.diff(rec.stamps_ns), CONTROL_DT_NS)
+    np.testing.assert_array_equal(rec.cmd, commands("F", 0))
+    counts = rec.q / per_joint(ENCODER_RESOLUTION)
+    np.testing.assert_allclose(counts, np.round(counts), atol=1e-6)      # encoder quantisation
+    shifted = simulate_move(commands("F", 0)[:10], seed=0, start_ns=5 * CONTROL_DT_NS)
+    assert shifted.stamps_ns[0] == 5 * CONTROL_DT_NS
+
+
+def test_deterministic_for_a_seed_whatever_ran_before():
+    cmd = commands("FL", 3)
+    a = simulate_move(cmd, seed=7)
+    simulate_move(commands("B", 1), seed=2, effects=[Payload(0.3, [0.05, 0.0, 0.0])])
+    b = simulate_move(cmd, seed=7)
+    with LittleDogSim("measured") as fresh:                   # a new world in a new client
+        c_obs = [fresh.reset(seed=7)] + [fresh.step(u) for u in cmd]
+    for field in ("q", "dq", "position", "orientation", "linear_velocity", "angular_velocity"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+        np.testing.assert_array_equal(getattr(a, field), np.array([o[field] for o in c_obs]), err_msg=field)
+    d = simulate_move(cmd, seed=8)
+    np.testing.assert_array_equal(a.q, d.q)                    # same physics ...
+    assert np.abs(a.position - d.position).max() > 1e-5       # ... other noise
+
+
+def test_sensor_noise_on_and_off():
+    cmd = commands("DL", 2)
+    noisy = simulate_move(cmd, robot="measured", seed=4)
+    clean = simulate_move(cmd, robot=quiet(), seed=4)
+    np.testing.assert_array_equal(noisy.q, clean.q)          # noise does not touch the physics
+    pos_err = noisy.position - clean.position
+    assert pos_err.std() == pytest.approx(3e-4, rel=0.15)    # 0.3 mm per axis
+    rot_err = (Rotation.from_quat(clean.orientation).inv() * Rotation.from_quat(noisy.orientation)).as_rotvec()
+    assert rot_err.std() == pytest.approx(1e-3, rel=0.15)    # 1 mrad per axis
+    # noise-free twist = finite difference of the recorded pose, in base_link (scipy as reference)
+    r = Rotation.from_quat(clean.orientation)
+    v = r[1:].inv().apply(np.diff(clean.position, axis=0) / CONTROL_DT)
+    w = (r[:-1].inv() * r[1:]).as_rotvec() / CONTROL_DT
+    np.testing.assert_allclose(clean.linear_velocity[1:], v, atol=1e-9)
+    np.testing.assert_allclose(clean.angular_velocity[1:], w, atol=1e-9)
+    assert np.abs(clean.linear_velocity[0]).max() < 1e-3     # standing still at the start
+
+
+def test_nominal_differs_from_measured():
+    cmd = commands("F", 5)
+    m = simulate_move(cmd, robot=quiet("measured"))
+    n = simulate_move(cmd, robot="nominal")
+    assert n.position[:, 2].mean() - m.position[:, 2].mean() > 0.003   # lighter, stiffer: higher
+    rms_m = np.sqrt(np.mean((m.q[1:] - m.cmd) ** 2))
+    rms_n = np.sqrt(np.mean((n.q[1:] - n.cmd) ** 2))
+    assert rms_n < 0.5 * rms_m                                          # idealised servo tracks
+    (dx_n, _), _ = displacement_and_yaw(n)
+    assert dx_n > 0.05
+    roll_pitch = Rotation.from_quat(n.orientation).as_euler("ZYX")[:, 1:]
+    assert np.abs(roll_pitch).max() < 0.3
+
+
+def test_initial_state_starts_there():
+    cmd = commands("R", 6)
+    ref = simulate_move(cmd, robot=quiet())
+    k = 150
+    start = InitialState.from_recording(ref, k)
+    rec = simulate_move(cmd[k:], robot=quiet(), initial=start, move_type="R")
+    np.testing.assert_allclose(rec.position[0], ref.position[k], atol=1e-12)
+    np.testing.assert_allclose(rec.q[0], ref.q[k], atol=2.5e-5)
+    # continuing with the same commands follows the original closely at first
+    assert np.abs(rec.position[:20] - ref.position[k:k + 20]).max() < 0.01
+    assert np.abs(Rotation.from_quat(rec.orientation).as_euler("ZYX")[:, 1:]).max() < 0.3
+    with pytest.raises(ValueError, match="q"):
+        dataclasses.replace(start, q=np.zeros(11)).validated()
+
+
+def test_simulate_move_rejects_bad_input():
+    with pytest.raises(ValueError, match="shape"):
+        simulate_move(np.zeros((10, 11)))
+    with pytest.raises(ValueError, match="NaN"):
+        simulate_move(np.full((3, 12), np.nan))
+    with pytest.raises(ValueError, match="move type"):
+        simulate_move(np.tile(HOME_POSE, (3, 1)), move_type="X")
+
+
+# ----------------------------------------------------------------------------- effects
+def test_joint_groups():
+    assert list(resolve_joints("knees")) == [2, 5, 8, 11]
+    assert list(resolve_joints(["front_left", "back_right_knee"])) == [0, 1, 2, 11]
+    assert list(resolve_joints("hips")) == [0, 1, 3, 4, 6, 7, 9, 10]
+    assert list(resolve_joints("left")) == [0, 1, 2, 6, 7, 8]
+    with pytest.raises(ValueError, match="elbows"):
+        resolve_joints("elbows")
+
+
+def test_command_delay_delays_joint_traces():
+    steps = 4
+    cmd = commands("F", 8)
+    base = simulate_move(cmd, robot=quiet())
+    delayed = simulate_move(cmd, robot=quiet(), effects=[CommandDelay(steps)])
+    np.testing.assert_array_equal(delayed.cmd, cmd)           # recorded as sent
+    def mismatch(lag):
+        return np.sqrt(np.mean((delayed.q[lag:lag + 300] - base.q[:300]) ** 2))
+    errs = [mismatch(lag) for lag in range(0, 9)]
+    assert int(np.argmin(errs)) == steps
+    assert errs[steps] < 0.1 * errs[0]
+    # knees only: the hips follow the undelayed commands' phase
+    knees = simulate_move(cmd, robot=quiet(), effects=[CommandDelay(steps, joints="knees")])
+    hip = [np.sqrt(np.mean((knees.q[lag:lag + 300, 1] - base.q[:300, 1]) ** 2)) for lag in range(9)]
+    assert int(np.argmin(hip)) < steps
+
+
+def test_physical_effects_push_the_right_way():
+    cmd = commands("S", 9)
+    base = simulate_move(cmd, robot=quiet())
+    wind = simulate_move(cmd, robot=quiet(), effects=[ConstantWind([0.0, 2.0])])
+    assert wind.position[-1, 1] - base.position[-1, 1] > 0.01           # pushed towards +y
+    heavy = simulate_move(cmd, robot=quiet(), effects=[Payload(0.5, [0.0, 0.0, 0.03])])
+    assert base.position[:, 2].mean() - heavy.position[:, 2].mean() > 5e-4  # sags
+    sticky = simulate_move(cmd, robot=quiet(), effects=[JointFriction(coulomb=0.15, joints="knees")])
+    err = lambda r: np.sqrt(np.mean((r.q[1:, 2::3] - r.cmd[:, 2::3]) ** 2))
+    assert err(sticky) > err(base) * 1.05
+    np.testing.assert_allclose(JointFriction(coulomb=0.2, viscous=0.1, smoothing=0.05).torque(
+        np.array([-1.0, 0.0, 1.0] * 4)), np.array([0.2 * np.tanh(20) + 0.1, 0.0, -0.2 * np.tanh(20) - 0.1] * 4))
+
+
+PLUGIN = textwrap.dedent('''
+    import numpy as np
+
+    class Lift:
+        """Reports the body 'height' metres higher and remembers what it saw."""
+        def __init__(self, height):
+            self.height = height
+            self.seen = {}
+            self.commands = 0
+
+        def reset(self, sim):
+            self.seen = {"client": sim.client, "robot": sim.robot, "joints": list(sim.joint_indices),
+                         "physics_dt": sim.physics_dt, "control_dt": sim.control_dt,
+                         "rng": sim.rng}
+
+        def command(self, u, t):
+            self.commands += 1
+            return u
+
+        def measure(self, obs, t):
+            obs["position"] = obs["position"] + np.array([0.0, 0.0, self.height])
+            return obs
+''')
+
+
+def test_effects_from_yaml_with_a_class_in_a_file(tmp_path: Path):
+    (tmp_path / "plugins").mkdir()
+    (tmp_path / "plugins" / "my_effects.py").write_text(PLUGIN)
+    cfg = tmp_path / "effects.yaml"
+    cfg.write_text(textwrap.dedent('''
+        - class: plugins/my_effects.py:Lift
+          params: {height: 1.0}
+        - class: littledog_mlsim.robot.effects:CommandDelay
+          params: {steps: 0, joints: knees}
+    '''))
+    effects = load_effects(cfg)
+    assert [type(e).__name__ for e in effects] == ["Lift", "CommandDelay"]
+    cmd = commands("L", 10)[:50]
+    base = simulate_move(cmd, robot=quiet())
+    rec = simulate_move(cmd, robot=quiet(), effects=effects)
+    np.testing.assert_allclose(rec.position[:, 2] - base.position[:, 2], 1.0, atol=1e-12)
+    np.testing.assert_array_equal(rec.q, base.q)
+    lift = effects[0]
+    assert lift.commands == 50
+    assert len(lift.seen["joints"]) == 12 and lift.seen["physics_dt"] == pytest.approx(0.002)
+    assert lift.seen["control_dt"] == pytest.approx(CONTROL_DT)
+    assert isinstance(lift.seen["rng"], np.random.Generator)
+    assert load_effects(_write(tmp_path / "empty.yaml", "")) == []
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("- class: no_such_module_xyz:Thing\n", "no_such_module_xyz"),
+    ("- class: littledog_mlsim.robot.effects:NoSuchEffect\n", "NoSuchEffect"),
+    ("- class: missing/file.py:Thing\n", "not found"),
+    ("- class: littledog_mlsim.robot.effects:CommandDelay\n  params: {steps: -1}\n", "steps"),
+    ("- class: littledog_mlsim.robot.effects:CommandDelay\n  params: {stepz: 2}\n", "stepz"),
+    ("- class: littledog_mlsim.robot.effects:JointFriction\n  params: {joints: elbows}\n", "elbows"),
+    ("- params: {steps: 2}\n", "'class'"),
+    ("- class: CommandDelay\n", "ClassName"),
+    ("class: x:Y\n", "list"),
+    ("- [unclosed\n", "cannot read"),
+    ("- class: collections:OrderedDict\n", "implements none"),
+])
+def test_bad_effect_yaml_gives_one_clear_line(tmp_path: Path, text, fragment):
+    path = _write(tmp_path / "bad.yaml", text)
+    with pytest.raises(ValueError) as err:
+        load_effects(path)
+    msg = str(err.value)
+    assert "\n" not in msg and str(path) in msg and fragment in msg
+    if text.startswith("- class"):
+        assert "effect #1" in msg
