@@ -39,3 +39,51 @@ class Regressor:
                    meta: dict[str, Any]) -> "Regressor":
         """Rebuild a fitted estimator from ``get_params()`` and ``get_state()`` output."""
         raise NotImplementedError
+
+
+def check_fit_inputs(X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validate training data; returns float64 ``X`` (n, d) and ``Y`` (n, p) (1-D ``Y`` -> p = 1).
+
+    Raises ValueError (one line) on wrong dimensions, mismatched row counts, no rows, or NaN/inf.
+    """
+    X = np.asarray(X, dtype=np.float64)
+    Y = np.asarray(Y, dtype=np.float64)
+    if Y.ndim == 1:
+        Y = Y[:, None]
+    if X.ndim != 2 or Y.ndim != 2:
+        raise ValueError(f"X must be (n, d) and Y (n, p); got X{X.shape}, Y{Y.shape}")
+    if X.shape[0] != Y.shape[0]:
+        raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
+    if X.shape[0] == 0:
+        raise ValueError("no training rows")
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
+        raise ValueError("training data holds NaN or inf")
+    return X, Y
+
+
+def check_predict_inputs(X: np.ndarray, n_features: int) -> np.ndarray:
+    """Validate query features; returns float64 ``X`` (n, n_features) (a 1-D row becomes (1, d))."""
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim == 1:
+        X = X[None, :]
+    if X.ndim != 2 or X.shape[1] != n_features:
+        raise ValueError(f"X must be (n, {n_features}); got {X.shape}")
+    return X
+
+
+def expect_array(arrays: dict[str, np.ndarray], name: str,
+                 shape: tuple[int | None, ...]) -> np.ndarray:
+    """Fetch ``arrays[name]`` for ``from_state`` and check its shape (None = any length).
+
+    Raises ValueError naming the array if it is missing, has the wrong shape or is not numeric.
+    """
+    if name not in arrays:
+        raise ValueError(f"missing array {name!r}")
+    a = np.asarray(arrays[name])
+    ok = a.ndim == len(shape) and all(s is None or s == t for s, t in zip(shape, a.shape))
+    if not ok:
+        want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"array {name!r} has shape {a.shape}, expected {want}")
+    if a.dtype.kind not in "biuf":
+        raise ValueError(f"array {name!r} has dtype {a.dtype}, expected a number type")
+    return a
