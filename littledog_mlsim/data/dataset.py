@@ -68,6 +68,7 @@ from ..layout import (
     bag_name,
     wrap_angle,
 )
+from ..rotations import quat_to_matrix, quat_to_rpy, rpy_to_matrix, rpy_to_quat
 from .bags import BagError, move_type_from_name, read_bag
 from .recording import MoveRecording
 
@@ -338,55 +339,6 @@ def load_moves(directory: str | os.PathLike, split: str = "train",
         raise DatasetError(f"{directory}: all {len(selected)} selected bags are bad "
                            f"(skipped {', '.join(skipped)})")
     return moves
-
-
-# ---------------------------------------------------------------------------------------------
-# rotations (vectorised over leading axes; ZYX roll-pitch-yaw; quaternions (x, y, z, w))
-
-
-def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
-    """(..., 4) quaternions (x, y, z, w), normalised here -> (..., 3, 3) rotation matrices."""
-    q = np.asarray(quat, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
-
-
-def quat_to_rpy(quat: np.ndarray) -> np.ndarray:
-    """(..., 4) quaternions (x, y, z, w) -> (..., 3) roll, pitch, yaw (ZYX), yaw in (-pi, pi]."""
-    R = quat_to_matrix(quat)
-    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
-    pitch = np.arctan2(-R[..., 2, 0], np.hypot(R[..., 2, 1], R[..., 2, 2]))
-    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
-    return np.stack([roll, pitch, wrap_angle(yaw)], -1)
-
-
-def rpy_to_quat(rpy: np.ndarray) -> np.ndarray:
-    """(..., 3) roll, pitch, yaw (ZYX) -> (..., 4) unit quaternions (x, y, z, w) with w >= 0."""
-    r, p, y = np.moveaxis(np.asarray(rpy, dtype=np.float64) / 2.0, -1, 0)
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    q = np.stack([
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-        cr * cp * cy + sr * sp * sy,
-    ], -1)
-    return np.where(q[..., 3:4] < 0, -q, q)
-
-
-def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
-    """(..., 3) roll, pitch, yaw -> (..., 3, 3) R = Rz(yaw) Ry(pitch) Rx(roll) (body -> world)."""
-    r, p, y = np.moveaxis(np.asarray(rpy, dtype=np.float64), -1, 0)
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.stack([
-        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
-        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
-        np.stack([-sp, cp * sr, cp * cr], -1),
-    ], -2)
 
 
 # ---------------------------------------------------------------------------------------------

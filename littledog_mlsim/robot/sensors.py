@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rotations import (quat_conjugate, quat_from_rotvec1, quat_multiply, quat_multiply1, quat_to_matrix,
+from ..rotations import (quat_conjugate, quat_from_rotvec1, quat_multiply, quat_multiply1, quat_to_matrix,
                         rotate_inverse1, rotvec_from_quat, rotvec_from_quat1)
 
 

@@ -24,7 +24,7 @@ from ..data.recording import MoveRecording
 from ..layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_LOWER, JOINT_NAMES, JOINT_UPPER,
                       LEGS, MOVE_TYPES, N_JOINTS)
 from .config import URDF_PATH, RobotConfig, as_config, per_joint, robot_config
-from .rotations import quat_from_rotvec, quat_multiply, quat_to_matrix
+from ..rotations import quat_from_rotvec, quat_multiply, quat_to_matrix
 from .sensors import JointEncoders, MotionCapture, twist_from_poses
 from .servo import make_servo
 

@@ -1,13 +1,17 @@
-"""Small vectorised quaternion helpers, quaternions stored (x, y, z, w) like pybullet and ROS.
+"""Vectorised rotation helpers shared by the robot and the data code.
 
-All functions broadcast over leading dimensions: quaternions (..., 4), vectors (..., 3),
-matrices (..., 3, 3). Quaternions are assumed unit length.
+Quaternions are (x, y, z, w) like pybullet and ROS; roll-pitch-yaw are ZYX Euler angles
+(R = Rz(yaw) Ry(pitch) Rx(roll), body -> world). Functions broadcast over leading dimensions:
+quaternions (..., 4), vectors (..., 3), matrices (..., 3, 3). The ``...1`` variants take one pose
+as plain Python floats for the 100 Hz measurement loop (about 20x faster on one pose).
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from .layout import wrap_angle
 
 
 def quat_conjugate(q: np.ndarray) -> np.ndarray:
@@ -30,23 +34,6 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ], axis=-1)
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) from quaternions (..., 4)."""
-    q = np.asarray(q, dtype=float)
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    r = np.empty(q.shape[:-1] + (3, 3))
-    r[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    r[..., 0, 1] = 2 * (x * y - z * w)
-    r[..., 0, 2] = 2 * (x * z + y * w)
-    r[..., 1, 0] = 2 * (x * y + z * w)
-    r[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    r[..., 1, 2] = 2 * (y * z - x * w)
-    r[..., 2, 0] = 2 * (x * z - y * w)
-    r[..., 2, 1] = 2 * (y * z + x * w)
-    r[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    return r
-
-
 def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
     """Quaternions (..., 4) from rotation vectors (axis * angle) (..., 3)."""
     v = np.asarray(v, dtype=float)
@@ -67,13 +54,49 @@ def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
     return q[..., :3] * k
 
 
-def rpy_from_quat(q: np.ndarray) -> np.ndarray:
-    """Roll, pitch, yaw (ZYX convention) [rad], (..., 3), from quaternions (..., 4)."""
-    r = quat_to_matrix(q)
-    roll = np.arctan2(r[..., 2, 1], r[..., 2, 2])
-    pitch = np.arcsin(np.clip(-r[..., 2, 0], -1.0, 1.0))
-    yaw = np.arctan2(r[..., 1, 0], r[..., 0, 0])
-    return np.stack([roll, pitch, yaw], axis=-1)
+def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
+    """(..., 4) quaternions (x, y, z, w), normalised here -> (..., 3, 3) rotation matrices."""
+    q = np.asarray(quat, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    x, y, z, w = np.moveaxis(q, -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
+
+
+def quat_to_rpy(quat: np.ndarray) -> np.ndarray:
+    """(..., 4) quaternions (x, y, z, w) -> (..., 3) roll, pitch, yaw (ZYX), yaw in (-pi, pi]."""
+    R = quat_to_matrix(quat)
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    pitch = np.arctan2(-R[..., 2, 0], np.hypot(R[..., 2, 1], R[..., 2, 2]))
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return np.stack([roll, pitch, wrap_angle(yaw)], -1)
+
+
+def rpy_to_quat(rpy: np.ndarray) -> np.ndarray:
+    """(..., 3) roll, pitch, yaw (ZYX) -> (..., 4) unit quaternions (x, y, z, w) with w >= 0."""
+    r, p, y = np.moveaxis(np.asarray(rpy, dtype=np.float64) / 2.0, -1, 0)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    q = np.stack([
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    ], -1)
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
+    """(..., 3) roll, pitch, yaw -> (..., 3, 3) R = Rz(yaw) Ry(pitch) Rx(roll) (body -> world)."""
+    r, p, y = np.moveaxis(np.asarray(rpy, dtype=np.float64), -1, 0)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
+        np.stack([-sp, cp * sr, cp * cr], -1),
+    ], -2)
 
 
 # Single-pose versions in plain Python floats for the 100 Hz measurement loop (about 20x faster
