@@ -13,13 +13,13 @@ import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
-from scipy.spatial.transform import Rotation
 
 from littledog_mlsim.data import bags as bags_mod
 from littledog_mlsim.data.bags import BagError, read_bag, write_bag
 from littledog_mlsim.data.recording import MoveRecording
+from synthetic import make_recording
 from littledog_mlsim.layout import (
-    CONTROL_DT_NS, HOME_POSE, JOINT_NAMES, TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM,
+    CONTROL_DT_NS, JOINT_NAMES, TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM,
 )
 
 TS = get_typestore(Stores.ROS2_JAZZY)
@@ -30,25 +30,7 @@ FIELDS = ("stamps_ns", "cmd", "q", "dq", "position", "orientation", "linear_velo
 def synthetic_recording(name: str = "FL_03", n: int = 400, t0_ns: int = 1_234_000_000_000,
                         seed: int = 0) -> MoveRecording:
     """A smooth move whose yaw crosses +pi, with non-zero roll and pitch."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(n + 1) * 0.01
-    yaw = 2.9 + 0.6 * t + 0.05 * np.sin(3 * t)
-    roll = 0.08 * np.sin(2 * np.pi * 1.3 * t + 0.3)
-    pitch = 0.06 * np.cos(2 * np.pi * 0.9 * t)
-    quat = Rotation.from_euler("ZYX", np.column_stack([yaw, pitch, roll])).as_quat()
-    phase = rng.uniform(0, 2 * np.pi, 12)
-    q = HOME_POSE + 0.2 * np.sin(2 * np.pi * 2.5 * t[:, None] + phase)
-    dq = 0.2 * 2 * np.pi * 2.5 * np.cos(2 * np.pi * 2.5 * t[:, None] + phase)
-    pos = np.column_stack([0.3 + 0.2 * t + 0.01 * np.sin(5 * t), -0.1 + 0.05 * t ** 2,
-                           0.146 + 0.005 * np.sin(7 * t)])
-    return MoveRecording(
-        name=name, move_type=name.split("_")[0],
-        stamps_ns=t0_ns + np.arange(n + 1, dtype=np.int64) * CONTROL_DT_NS,
-        cmd=q[1:] + 0.01 * rng.standard_normal((n, 12)), q=q, dq=dq,
-        position=pos, orientation=quat,
-        linear_velocity=rng.standard_normal((n + 1, 3)) * 0.1,
-        angular_velocity=rng.standard_normal((n + 1, 3)) * 0.2,
-    )
+    return make_recording(name, n=n, seed=seed, t0_ns=t0_ns)
 
 
 def assert_same(a: MoveRecording, b: MoveRecording) -> None:

@@ -21,6 +21,11 @@ Every failure to read a model raises :class:`ModelError` (a ValueError) with a o
 unknown format version or method, truncated/corrupt files (the npz is checked against its
 SHA-256), missing arrays or wrong shapes, or a feature set the caller cannot supply.
 
+Callers may store their own arrays next to the estimator's (``save_model(..., extra_arrays=)``,
+e.g. the TrainPool states a rollout projects onto); they live in the same ``arrays.npz`` under the
+prefix ``extra.``, are covered by the same checksum and shape checks, and come back from
+:func:`read_model`.
+
 Methods: :data:`METHODS` maps method names to estimator classes. ``lr``, ``gpr`` and ``sor``
 are registered here; other estimators call :func:`register` (usable as a class decorator) in
 their module. A method named ``X`` that is not registered yet is looked up by importing
@@ -55,6 +60,7 @@ FORMAT = "littledog_mlsim-model"
 FORMAT_VERSION = 1
 ARRAYS_FILE = "arrays.npz"
 META_FILE = "model.json"
+EXTRA_PREFIX = "extra."  # npz names of caller arrays (save_model's extra_arrays)
 
 METHODS: dict[str, type[Regressor]] = {}
 _METHOD_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
@@ -181,12 +187,16 @@ def _replace_dir(tmp: Path, path: Path) -> None:
 
 
 def save_model(path: str | os.PathLike, model: Regressor,
-               extra_meta: Mapping[str, Any] | None = None) -> Path:
+               extra_meta: Mapping[str, Any] | None = None,
+               extra_arrays: Mapping[str, np.ndarray] | None = None) -> Path:
     """Write a fitted ``model`` to the directory ``path`` atomically; returns the path.
 
     ``extra_meta``: JSON-serialisable caller metadata stored as ``meta``; NumPy arrays/scalars
     are converted to lists/numbers. Suggested keys: ``feature_names`` (checked by
     :func:`load_model`), ``normalisation``, ``data_fingerprint`` (:func:`fingerprint_arrays`).
+    ``extra_arrays``: caller arrays (numeric, or 0-d unicode strings such as a projection's
+    ``kind``) stored in the same npz under the prefix :data:`EXTRA_PREFIX` and covered by the
+    same checksum; :func:`read_model` returns them (without the prefix).
     Raises ModelError if the method is not registered, ``path`` exists but is not a model, the
     model is not fitted, or the state cannot be serialised; nothing at ``path`` changes then.
     """
@@ -206,6 +216,14 @@ def save_model(path: str | os.PathLike, model: Regressor,
     for k, v in arrays.items():
         if v.dtype.kind not in "biuf":
             raise ModelError(f"cannot save array {k!r}: dtype {v.dtype} is not numeric")
+        if k.startswith(EXTRA_PREFIX):
+            raise ModelError(f"cannot save array {k!r}: the prefix {EXTRA_PREFIX!r} is reserved")
+    for k, v in (extra_arrays or {}).items():
+        v = np.asarray(v)
+        if not (v.dtype.kind in "biuf" or (v.dtype.kind == "U" and v.shape == ())):
+            raise ModelError(f"cannot save extra array {k!r}: dtype {v.dtype} is neither "
+                             f"numeric nor a 0-d string")
+        arrays[EXTRA_PREFIX + str(k)] = v
 
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = _make_sibling_dir(path, "tmp")
@@ -278,6 +296,13 @@ def load_model(path: str | os.PathLike, *, feature_names: Sequence[str] | None =
     ``feature_names`` they must match exactly, otherwise the count must equal the estimator's
     ``n_features_in``. Raises ModelError (one line) on any problem.
     """
+    model, meta, _ = read_model(path, feature_names=feature_names)
+    return model, meta
+
+
+def read_model(path: str | os.PathLike, *, feature_names: Sequence[str] | None = None
+               ) -> tuple[Regressor, dict[str, Any], dict[str, np.ndarray]]:
+    """:func:`load_model` plus the caller arrays saved as ``extra_arrays`` (names unprefixed)."""
     path = Path(path)
     doc = read_model_json(path)
     cls = get_method(doc["method"])
@@ -302,6 +327,8 @@ def load_model(path: str | os.PathLike, *, feature_names: Sequence[str] | None =
         if list(a.shape) != spec.get("shape") or a.dtype.str != spec.get("dtype"):
             raise ModelError(f"{npz_path}: array {name!r} is {a.dtype.str}{list(a.shape)}, "
                              f"model.json says {spec.get('dtype')}{spec.get('shape')}")
+    extra = {k[len(EXTRA_PREFIX):]: arrays.pop(k) for k in list(arrays)
+             if k.startswith(EXTRA_PREFIX)}
     try:
         model = cls.from_state(doc["params"], arrays, doc["state"])
     except (ValueError, KeyError, TypeError) as e:
@@ -320,4 +347,4 @@ def load_model(path: str | os.PathLike, *, feature_names: Sequence[str] | None =
         n_in = doc["state"].get("n_features_in")
         if saved is None and n_in is not None and n_in != len(names):
             raise ModelError(f"{path}: model takes {n_in} features, caller supplies {len(names)}")
-    return model, meta
+    return model, meta, extra
