@@ -14,6 +14,7 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/effects", glob("config/effects/*.yaml")),
         (f"share/{PACKAGE}/urdf", glob(f"{PACKAGE}/robot/*.urdf")),
     ],
     python_requires=">=3.10",

@@ -129,3 +129,16 @@ def test_bad_input_gives_one_line_and_writes_nothing(tmp_path: Path, argv, fragm
     err = capsys.readouterr().err.strip()
     assert fragment in err and len(err.splitlines()) == 1, err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("effects", sorted((Path(__file__).parents[1] / "config" / "effects").glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_shipped_effect_files_change_the_data_but_leave_no_trace(tmp_path: Path, dataset: Path, effects):
+    out = tmp_path / "fx"
+    record_dataset(out, moves_per_type=1, types=["F"], effects_file=str(effects), jobs=1, progress=False)
+    with_fx = load_moves(out, split="all")[0]
+    clean = [m for m in load_moves(dataset, split="all") if m.name == "F_00"][0]
+    np.testing.assert_array_equal(with_fx.cmd, clean.cmd)            # same commands sent
+    assert np.abs(with_fx.q - clean.q).max() > 1e-3                 # the robot answered differently
+    text = (out / "dataset.yaml").read_text().lower()
+    assert "effect" not in text and effects.stem not in text
