@@ -32,6 +32,7 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     a = ap.parse_args()
     cores = os.cpu_count() or 1
+    load_before = os.getloadavg()[0]
     rows = {}
     for jobs in sorted({1, cores}):
         per_core, wall, rt_total = [], [], []
@@ -50,11 +51,14 @@ def main() -> int:
     command = "make bench  # = .venv/bin/python benchmarks/record_speed.py " + " ".join(sys.argv[1:])
     result = {"command": command, "cores": cores, "python": platform.python_version(),
               "moves_per_type": a.moves_per_type, "repeats": a.repeats,
-              "date": time.strftime("%Y-%m-%d"), "jobs": rows, "target_per_core": 15.0}
+              "date": time.strftime("%Y-%m-%d"), "jobs": rows,
+              "load_average_1min_before": load_before, "load_average_1min_after": os.getloadavg()[0], "target_per_core": 15.0}
     (HERE / "record_speed.json").write_text(json.dumps(result, indent=2) + "\n")
     lines = ["# Recording speed", "", f"Command: `{command}`", "",
              f"Machine: {cores} cores (shared), Python {platform.python_version()}, {result['date']}. "
-             f"{a.moves_per_type} moves per type x 11 types, {a.repeats} repeats, medians.", "",
+             f"{a.moves_per_type} moves per type x 11 types, {a.repeats} repeats, medians. "
+             f"1-min load average {load_before:.1f} before, {result['load_average_1min_after']:.1f} after "
+             "(other work was running: wall times are inflated, CPU-time figures less so).", "",
              "| worker processes | bags | robot time [s] | wall [s] | x real time per core | x real time total |",
              "|---|---|---|---|---|---|"]
     for jobs, r in rows.items():
