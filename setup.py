@@ -27,6 +27,11 @@ setup(
     entry_points={
         "console_scripts": [
             "littledog-mlsim = littledog_mlsim.cli:main",
+            "sim_node = littledog_mlsim.nodes.sim_node:main",
+            "trainer_node = littledog_mlsim.nodes.trainer_node:main",
+            "pybullet_node = littledog_mlsim.nodes.pybullet_node:main",
+            "bag_player = littledog_mlsim.nodes.bag_player:main",
+            "bag_recorder = littledog_mlsim.nodes.bag_recorder:main",
         ],
     },
 )

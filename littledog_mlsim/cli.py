@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -47,6 +48,64 @@ def cmd_info(a: argparse.Namespace) -> int:
     return 0
 
 
+def _option(text: str) -> tuple[str, object]:
+    """``KEY=VALUE`` -> (key, value), the value parsed as JSON when it is valid JSON."""
+    import json
+
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key.strip(), json.loads(value)
+    except json.JSONDecodeError:
+        return key.strip(), value
+
+
+# train flag -> (constructor argument, methods that take it)
+_TRAIN_FLAGS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "clusters": ("n_clusters", ("lgpr",)),
+    "cluster_size": ("cluster_size", ("lgpr",)),
+    "hyperparameters": ("hyperparameters", ("lgpr",)),
+    "init": ("init", ("lgpr",)),
+    "blend": ("blend", ("lgpr",)),
+    "n_blend": ("n_blend", ("lgpr",)),
+    "dask_scheduler": ("dask_scheduler", ("lgpr",)),
+    "support_points": ("n_support", ("sor",)),
+    "support": ("support", ("sor",)),
+    "jobs": ("n_jobs", ("lgpr", "gpr")),
+}
+
+
+def cmd_train(a: argparse.Namespace) -> int:
+    from .models.persistence import META_FILE
+    from .models.train import train_from_dataset
+
+    options: dict[str, object] = dict(a.option or [])
+    for flag, (arg, methods) in _TRAIN_FLAGS.items():
+        value = getattr(a, flag)
+        if value is None or value is False:
+            continue
+        if a.method not in methods:
+            raise CliError(f"--{flag.replace('_', '-')} applies to {'/'.join(methods)}, "
+                           f"not {a.method}")
+        options[arg] = value
+    if a.out.exists() and not (a.out.is_dir() and (a.out / META_FILE).is_file()):
+        raise CliError(f"refusing to replace {a.out}: it exists and is not a model directory")
+    if not a.data.is_dir():
+        raise CliError(f"{a.data}: no such dataset directory")
+    t0 = time.perf_counter()
+    model = train_from_dataset(a.data, a.method, options=options, max_train_samples=a.n_train,
+                               seed=a.seed, progress=not a.quiet, target=a.target)
+    model.save(a.out)
+    extra = ""
+    if a.method == "lgpr":
+        extra = f", {model.estimator.n_clusters_} clusters"
+    print(f"trained {a.method} (target {model.target}) on {model.info['n_train']} of "
+          f"{model.info['n_train_pool']} TrainPool samples{extra} in "
+          f"{time.perf_counter() - t0:.1f} s; wrote {a.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="littledog-mlsim",
                                 description="Learned rigid-body simulator of the LittleDog quadruped.")
@@ -66,6 +125,37 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--overwrite", action="store_true", help="replace an existing dataset directory")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_record)
+
+    t = sub.add_parser("train", help="fit a one-step model on a dataset's TrainPool",
+                       description="Fit a one-step model (lr, lwpr, gpr, sor or lgpr) on the TrainPool "
+                                   "of a dataset and write it atomically to MODEL.")
+    t.add_argument("--data", required=True, type=Path, help="dataset directory")
+    t.add_argument("--method", required=True, choices=["lr", "lwpr", "gpr", "sor", "lgpr"], help="regressor")
+    t.add_argument("--out", required=True, type=Path, metavar="MODEL", help="model directory to write")
+    t.add_argument("--n-train", type=int, default=None, metavar="N",
+                   help="use a random subset of N TrainPool samples (default: all; gpr 2000, sor 10000)")
+    t.add_argument("--target", choices=["delta", "next"], default="delta",
+                   help="learn s_{t+1} - s_t (delta, default) or s_{t+1} (next)")
+    t.add_argument("--seed", type=int, default=0, help="seed of the subset and the regressor")
+    t.add_argument("--clusters", type=int, default=None, metavar="K", help="lgpr: number of k-means clusters")
+    t.add_argument("--cluster-size", type=int, default=None, metavar="M",
+                   help="lgpr: points per cluster when --clusters is not given (default 1000)")
+    t.add_argument("--hyperparameters", choices=["shared", "per_output"], default=None,
+                   help="lgpr: one kernel per cluster for all outputs (default) or one per output")
+    t.add_argument("--init", choices=["warm", "cold"], default=None,
+                   help="lgpr: start each cluster from a global GP (default) or the median heuristic")
+    t.add_argument("--blend", action="store_true", help="lgpr: blend the nearest local models")
+    t.add_argument("--n-blend", type=int, default=None, help="lgpr: local models in a blend (default 2)")
+    t.add_argument("--support-points", type=int, default=None, metavar="M", help="sor: support points")
+    t.add_argument("--support", choices=["cv", "random"], default=None, help="sor: support point selection")
+    t.add_argument("--jobs", type=int, default=None, metavar="J",
+                   help="lgpr: worker processes for the cluster fits; gpr: threads over outputs")
+    t.add_argument("--dask-scheduler", default=None, metavar="ADDRESS",
+                   help="lgpr: fit the clusters on this Dask cluster (tcp://host:port)")
+    t.add_argument("--option", type=_option, action="append", metavar="KEY=VALUE",
+                   help="any other constructor argument of the regressor (VALUE parsed as JSON); repeatable")
+    t.add_argument("--quiet", action="store_true", help="no progress lines")
+    t.set_defaults(func=cmd_train)
 
     for name in ("info", "dataset"):
         i = sub.add_parser(name, help="summarise a recorded dataset" + (" (alias of info)" if name == "dataset" else ""),

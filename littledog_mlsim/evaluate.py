@@ -1,0 +1,120 @@
+"""Score a one-step model on a dataset's TestPool: the ``evaluate`` and ``rollout`` verbs.
+
+- ``one_step_nmse``: nMSE per state element of s_{t+1} predicted from the measured (s_t, u_t)
+  over all TestPool samples (the paper's Table I metric; variance of the TestPool response).
+- ``rollout_results``: every TestPool move rolled out from its measured s_1 with its recorded
+  commands and a projection (none / bound / alpha), scored by ``rollout.metrics.rollout_metrics``
+  (cumulative (x, y) error, per-element non-cumulative errors, nMSE at horizons).
+- ``evaluate``: both, for each of ``projections``, into ``metrics.json``.
+
+Outputs are written atomically (temporary file, then rename).
+"""
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from .data.dataset import features_responses, load_moves
+from .data.recording import MoveRecording
+from .models.onestep import OneStepModel
+from .rollout.metrics import nmse, rollout_metrics
+from .rollout.simulate import prepare_test_moves, rollout_moves
+
+PROJECTIONS = ("none", "bound", "alpha")
+
+
+def projection_label(kind: str, alpha: float) -> str:
+    return f"alpha_{alpha:g}" if kind == "alpha" else kind
+
+
+def write_json(path: str | os.PathLike, obj: Any) -> Path:
+    """Write JSON atomically (no NaN: non-finite numbers must already be None)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(json.dumps(obj, indent=1, allow_nan=False) + "\n")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def one_step_nmse(model: OneStepModel, recs: Sequence[MoveRecording]) -> dict[str, Any]:
+    """One-step nMSE per state name on the recordings' samples, plus the mean and timing."""
+    X, Y, _ = features_responses(recs)
+    t0 = time.perf_counter()
+    pred = model.predict(X)
+    dt = time.perf_counter() - t0
+    per = nmse(Y, pred)
+    finite = [v for v in per.values() if v is not None and np.isfinite(v)]
+    return {"nmse": per, "nmse_mean": float(np.mean(finite)) if finite else None,
+            "n_samples": int(X.shape[0]), "predict_seconds_per_sample": dt / max(X.shape[0], 1)}
+
+
+def rollout_results(model: OneStepModel, recs: Sequence[MoveRecording], kind: str = "alpha",
+                    alpha: float = 0.5) -> dict[str, Any]:
+    """Roll every recording out with the model and projection; the contract's rollout.json."""
+    moves = prepare_test_moves(recs)
+    projection = model.projection(kind, alpha=alpha)
+    t0 = time.perf_counter()
+    predicted = rollout_moves(model, moves, projection)
+    wall = time.perf_counter() - t0
+    out = rollout_metrics(moves, predicted, projection=projection)
+    robot_time = sum(m.n_steps for m in moves) * 0.01
+    out.update(projection=kind, alpha=alpha if kind == "alpha" else None, method=model.method,
+               rollout_wall_s=wall, realtime_factor=robot_time / wall if wall > 0 else None)
+    return out
+
+
+def _load(model_path: str | os.PathLike, data: str | os.PathLike, split: str
+          ) -> tuple[OneStepModel, list[MoveRecording]]:
+    model = OneStepModel.load(model_path)
+    recs = load_moves(data, split=split)
+    return model, recs
+
+
+def rollout_verb(model_path: str | os.PathLike, data: str | os.PathLike, out: str | os.PathLike,
+                 kind: str = "alpha", alpha: float = 0.5, split: str = "test") -> dict[str, Any]:
+    """``littledog-mlsim rollout``: writes ``OUT/rollout.json``; returns the results."""
+    if kind not in PROJECTIONS:
+        raise ValueError(f"--projection must be one of {', '.join(PROJECTIONS)}, got {kind!r}")
+    if not 0.0 <= alpha <= 1.0:
+        raise ValueError(f"--alpha must be in [0, 1], got {alpha}")
+    model, recs = _load(model_path, data, split)
+    res = rollout_results(model, recs, kind, alpha)
+    res.update(model=str(model_path), data=str(data), split=split)
+    write_json(Path(out) / "rollout.json", res)
+    return res
+
+
+def evaluate(model_path: str | os.PathLike, data: str | os.PathLike, out: str | os.PathLike,
+             projections: Sequence[str] = PROJECTIONS, alpha: float = 0.5,
+             split: str = "test") -> dict[str, Any]:
+    """``littledog-mlsim evaluate``: one-step nMSE and rollout errors into ``OUT/metrics.json``.
+
+    ``metrics.json`` = {model, method, data, split, nmse {state: value}, nmse_mean, n_samples,
+    predict_seconds_per_sample, rollout {label: {final_xy_error_m, final_xy_error_m_median,
+    final_xy_error_m_p90, nmse_at_horizon, element_error_sum_mean, n_nan_moves, rollout_wall_s,
+    realtime_factor}}}; the full per-projection results go to ``OUT/rollout_<label>.json``.
+    """
+    model, recs = _load(model_path, data, split)
+    res: dict[str, Any] = {"model": str(model_path), "method": model.method, "data": str(data),
+                           "split": split}
+    res.update(one_step_nmse(model, recs))
+    res["rollout"] = {}
+    keep = ("final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m_p90",
+            "nmse_at_horizon", "element_error_sum_mean", "n_nan_moves", "rollout_wall_s",
+            "realtime_factor")
+    for kind in projections:
+        full = rollout_results(model, recs, kind, alpha)
+        label = projection_label(kind, alpha)
+        write_json(Path(out) / f"rollout_{label}.json", full)
+        res["rollout"][label] = {k: full.get(k) for k in keep}
+    write_json(Path(out) / "metrics.json", res)
+    return res

@@ -1,0 +1,717 @@
+"""Local Gaussian process regression (LGPR), the paper's Section V, with an optional blend.
+
+The TrainPool (features already normalised to unit variance, as the paper does) is split by
+k-means into k clusters of about m = n / k points; a full GP (:mod:`.gp`: ARD squared-exponential
+kernel, hyperparameters re-optimised by L-BFGS-B on the log marginal likelihood) is fitted on each
+cluster, and a query is predicted by the local GP whose cluster centre is nearest in Euclidean
+distance (= the normalised Euclidean distance of the raw features). Cost O(k m^3) = O(n m^2) to
+fit, O(m d) per query; the block-diagonal view of the paper.
+
+Clustering (:func:`balanced_clusters`)
+--------------------------------------
+scikit-learn ``KMeans`` (Lloyd, k-means++ init, seeded, ``n_init=1``) on the training inputs.
+k-means on trot data is lopsided (on a recorded 61k-sample TrainPool with k = 61 the largest
+cluster held 3.4 n/k points: standing and slow moves pile up), and a GP's cost is cubic in its
+size, so the partition is balanced afterwards:
+
+- a cluster larger than ``max_cluster_factor * n/k`` is split by k-means into
+  ``ceil(size / (n/k))`` parts; a part that is still too large (k-means fails on near-duplicate
+  points) is cut into equal-count chunks along its first principal axis;
+- a cluster smaller than ``min_cluster_factor * n/k`` is dissolved, its points moving to the
+  nearest remaining centre (so the final count ``n_clusters_`` can differ from the request);
+- centres are the means of the final clusters, and prediction uses the nearest centre. Training
+  points keep their (balanced) cluster even where another centre is nearer (the partition is
+  not re-assigned after balancing, which would undo it).
+
+Per-cluster GP (:func:`fit_local_gp`, a module-level function so that joblib/Dask workers can
+import it)
+--------------------------------------------------------------------------------------------
+Targets are standardised per cluster (the cluster's mean is the local prior mean). The
+hyperparameters are fitted on at most ``n_hyperparameter_points`` points of the cluster (a seeded
+random subset) with at most ``max_iter`` L-BFGS-B iterations; the weights alpha then use all of
+the cluster's points. ``hyperparameters``:
+
+- ``"shared"`` (default): one ARD kernel for all p outputs of a cluster (the LML is summed over
+  the outputs), so one Cholesky per cluster serves every output, in fitting and for the variance.
+- ``"per_output"``: the paper's one GP per state element, p kernels per cluster; p times the fit
+  work, and ``return_std`` needs p Cholesky factors per cluster (m^2 8 bytes each).
+
+``init``:
+
+- ``"warm"`` (default): a global GP is fitted first on ``n_global_points`` random points of the
+  whole pool (same ``hyperparameters`` mode); each cluster starts from the same GP in raw units:
+  the same length scales, and sf2, sn2 rescaled by (global y std / cluster y std)^2 (geometric
+  mean over outputs when shared), clipped to the cluster's bounds.
+- ``"cold"``: :func:`.gp.default_init` on the cluster's subset (median heuristic).
+
+The choice of defaults is measured in ``benchmarks/lgpr_ablation.md``.
+
+If the Cholesky of a cluster's full kernel matrix fails (hyperparameters from a subset, near-
+duplicate points) the jitter grows by 100x, at most three times; the jitter used is stored per
+cluster.
+
+Blend (the paper's future work: overlapping local models)
+---------------------------------------------------------
+With ``blend=True`` a query combines the ``n_blend`` local models whose centres are nearest.
+Model r (distances d_0 <= d_1 <= ... to the sorted centres) gets the weight
+
+    w_r  proportional to  g_r / v_r,     g_r = d_{n_blend}^2 - d_r^2
+
+(``g_r = 1`` when k <= n_blend): its predictive precision 1/v_r (per output; ``blend_weights =
+"precision"`` uses v_r in output units, ``"relative"`` v_r divided by the model's prior variance
+sf2 + sn2, i.e. how well the model knows x irrespective of its cluster's output scale) tapered
+by g_r, which reaches 0 exactly where centre r stops being among the n_blend nearest. Both
+factors are continuous in x, so the blended mean is continuous across cluster boundaries, where
+the nearest-centre rule jumps. The mean is sum_r w_r mu_r and the variance that of the mixture,
+sum_r w_r (v_r + mu_r^2) - mean^2. ``n_blend = 1`` is the nearest-centre rule.
+
+Prediction cost and memory
+--------------------------
+Stored: centres (k, d), each cluster's training inputs and weights alpha (n d + n p floats in
+total), log hyperparameters (k, p, d + 2), per-cluster output mean/std. One query, nearest rule:
+one (k, d) distance pass and one (m, d) cross-kernel pass for all outputs (:func:`.gp.gp_predict`),
+no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the clusters it touches;
+they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
+each) but built by the first call that needs them, for all clusters at once (as many as fit in
+``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
+inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (4.3 s for the 70-cluster
+model of the whole TrainPool in the ablation). Shared hyperparameters: one m x m factor per cluster (k m^2 8 bytes, 0.5 GB for 61k
+points in 1k-point clusters); per-output: p of them per cluster, so only a few clusters fit in
+the cache.
+
+Parallel fitting
+----------------
+The per-cluster fits (and the per-output global fits of the warm start) run through joblib:
+``n_jobs`` local processes (loky), or, with ``dask_scheduler="tcp://host:port"``, the workers of
+that Dask cluster (``distributed.Client`` + joblib's ``dask`` backend; the workers need this
+package importable). Every task's result depends only on its data and its seed (derived from
+``random_state`` and the cluster number), and BLAS runs on one thread inside each task, so
+``n_jobs=1``, ``n_jobs=2`` and a Dask cluster give the same model.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections import OrderedDict
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
+from .gp import (
+    DEFAULT_INIT_NOISE_RATIO, DEFAULT_JITTER, DEFAULT_LENGTH_SCALE_BOUNDS,
+    DEFAULT_NOISE_VARIANCE_BOUNDS, DEFAULT_SIGNAL_VARIANCE_BOUNDS, GPR, _unique_kernels,
+    fit_gp_hyperparameters, gp_cholesky, gp_posterior, gp_predict, unpack_log_params,
+)
+from .persistence import register
+
+HYPERPARAMETER_MODES = ("shared", "per_output")
+INIT_MODES = ("warm", "cold")
+BLEND_WEIGHTS = ("precision", "relative")
+DASK_CONNECT_TIMEOUT = "30s"
+_JITTER_TRIES = 4
+_JITTER_GROWTH = 100.0
+
+
+# ----------------------------------------------------------------------------- clustering
+
+def _kmeans(X: np.ndarray, k: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded k-means (Lloyd, k-means++, one init) -> (labels (n,), centres (k, d))."""
+    from sklearn.cluster import KMeans
+    km = KMeans(n_clusters=k, n_init=1, random_state=seed).fit(X)
+    return km.labels_.astype(np.int64), km.cluster_centers_
+
+
+def _chunks_along_principal_axis(X: np.ndarray, n_parts: int) -> np.ndarray:
+    """Labels (n,) cutting X (n, d) into ``n_parts`` equal-count chunks along its first PC."""
+    Z = X - X.mean(axis=0)
+    _, _, vt = np.linalg.svd(Z, full_matrices=False)
+    order = np.argsort(Z @ vt[0], kind="stable")
+    labels = np.empty(X.shape[0], dtype=np.int64)
+    for part, rows in enumerate(np.array_split(order, n_parts)):
+        labels[rows] = part
+    return labels
+
+
+def balanced_clusters(X: np.ndarray, n_clusters: int, *, max_cluster_factor: float = 1.5,
+                      min_cluster_factor: float = 0.25, random_state: int = 0
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """k-means partition of X (n, d) with oversized clusters split and tiny ones dissolved.
+
+    Returns (labels (n,) int64 in 0..k'-1, centres (k', d) = the cluster means), clusters
+    numbered by their first member's row. See the module docstring for the rules. Seeded and
+    deterministic; BLAS/OpenMP limited to one thread meanwhile.
+    """
+    X = np.asarray(X, dtype=np.float64)
+    n = X.shape[0]
+    k = int(n_clusters)
+    if not 1 <= k <= n:
+        raise ValueError(f"n_clusters must be in [1, n={n}]; got {n_clusters}")
+    if max_cluster_factor < 1.0:
+        raise ValueError(f"max_cluster_factor must be >= 1; got {max_cluster_factor}")
+    if k == 1:
+        return np.zeros(n, dtype=np.int64), X.mean(axis=0, keepdims=True)
+    target = n / k
+    max_size = max(1, int(math.floor(max_cluster_factor * target)))
+    min_size = int(math.ceil(min_cluster_factor * target))
+    with threadpool_limits(limits=1):
+        labels, _ = _kmeans(X, k, random_state)
+        groups = [np.flatnonzero(labels == c) for c in range(k)]
+        final: list[np.ndarray] = []
+        while groups:
+            g = groups.pop()
+            if g.size <= max_size:
+                final.append(g)
+                continue
+            parts = int(math.ceil(g.size / target))
+            sub, _ = _kmeans(X[g], parts, random_state)
+            pieces = [g[sub == j] for j in range(parts)]
+            for piece in pieces:
+                if piece.size > max_size:  # k-means could not split it evenly: equal chunks
+                    cut = _chunks_along_principal_axis(X[piece], int(math.ceil(piece.size
+                                                                             / target)))
+                    final.extend(piece[cut == j] for j in range(cut.max() + 1))
+                elif piece.size:
+                    final.append(piece)
+    # dissolve tiny clusters into the nearest remaining centre (smallest first)
+    final.sort(key=lambda g: (g.size, g[0]))
+    while len(final) > 1 and final[0].size < min_size:
+        small = final.pop(0)
+        centres = np.stack([X[g].mean(axis=0) for g in final])
+        near = _nearest_rows(X[small], centres)
+        for j in np.unique(near):
+            final[j] = np.sort(np.concatenate([final[j], small[near == j]]))
+        final.sort(key=lambda g: (g.size, g[0]))
+    final.sort(key=lambda g: g[0])
+    labels = np.empty(n, dtype=np.int64)
+    for c, g in enumerate(final):
+        labels[g] = c
+    centres = np.stack([X[g].mean(axis=0) for g in final])
+    return labels, centres
+
+
+def _sqdist_to_centres(X: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Exact squared distances (n, k) (direct differences: no cancellation)."""
+    diff = X[:, None, :] - centres[None, :, :]
+    return np.einsum("nkd,nkd->nk", diff, diff)
+
+
+def _nearest_rows(X: np.ndarray, centres: np.ndarray, block: int = 2048) -> np.ndarray:
+    """Index (n,) of the nearest centre of each row (first of equal minima)."""
+    out = np.empty(X.shape[0], dtype=np.int64)
+    for a in range(0, X.shape[0], block):
+        out[a:a + block] = np.argmin(_sqdist_to_centres(X[a:a + block], centres), axis=1)
+    return out
+
+
+# ----------------------------------------------------------------------------- worker tasks
+
+def _standardise(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    mean = Y.mean(axis=0)
+    sd = Y.std(axis=0)
+    sd = np.where(sd > 0, sd, 1.0)
+    return (Y - mean) / sd, mean, sd
+
+
+def _gp_options(X: np.ndarray, Yn: np.ndarray, shared: bool, init: np.ndarray | None,
+                options: dict[str, Any]) -> dict[str, Any]:
+    """fit_gp_hyperparameters keyword arguments, as :class:`.gp.GPR` builds them."""
+    gp = GPR(shared_hyperparameters=shared, max_iter=options["max_iter"],
+             jitter=options["jitter"], init_noise_ratio=options["init_noise_ratio"],
+             length_scale_bounds=options["length_scale_bounds"],
+             signal_variance_bounds=options["signal_variance_bounds"],
+             noise_variance_bounds=options["noise_variance_bounds"], random_state=0)
+    opts = gp.hyperparameter_options(X, Yn)
+    if init is not None:
+        opts["init"] = np.clip(init, opts["bounds"][..., 0], opts["bounds"][..., 1])
+    return opts
+
+
+def fit_hyperparameters_task(X: np.ndarray, Y: np.ndarray, shared: bool,
+                             options: dict[str, Any]) -> dict[str, Any]:
+    """Worker task: standardise Y (n, p) and fit GP hyperparameters from the median heuristic.
+
+    Returns {"log_params" (p, d + 2) for standardised Y, "y_std" (p,), "seconds"}. Used for the
+    global GP of the warm start (one task, or one per output when not shared).
+    """
+    t0 = time.perf_counter()
+    with threadpool_limits(limits=1):
+        Yn, _, sd = _standardise(np.asarray(Y, dtype=np.float64))
+        res = fit_gp_hyperparameters(X, Yn, **_gp_options(X, Yn, shared, None, options))
+    return {"log_params": res.log_params, "y_std": sd, "seconds": time.perf_counter() - t0}
+
+
+def warm_init(global_log_params: np.ndarray, global_y_std: np.ndarray, y_std: np.ndarray,
+              shared: bool) -> np.ndarray:
+    """Start point (p, d + 2) of a cluster from the global GP: the same GP in raw output units.
+
+    Length scales are kept; sf2 and sn2 are multiplied by (global_y_std / y_std)^2 (the cluster
+    standardises its outputs by ``y_std``); shared: by the geometric mean of that ratio.
+    """
+    lp = np.array(global_log_params, dtype=np.float64)
+    log_ratio = 2.0 * (np.log(global_y_std) - np.log(y_std))  # (p,)
+    if shared:
+        log_ratio = np.full_like(log_ratio, log_ratio.mean())
+    lp[:, 0] += log_ratio
+    lp[:, -1] += log_ratio
+    return lp
+
+
+def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any] | None,
+                 options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Worker task: one cluster's GP. X (m, d), Y (m, p) raw cluster targets.
+
+    ``init``: None (cold, median heuristic) or {"log_params" (p, d + 2), "y_std" (p,)} of the
+    global GP (warm). Hyperparameters are fitted on at most ``options["n_hyperparameter_points"]``
+    rows (seeded by ``seed``), alpha on all rows. Returns a dict of arrays: log_params (p, d + 2),
+    alpha (m, p), lml (p,), y_mean, y_std (p,), n_iter (p,), jitter, seconds.
+    """
+    t0 = time.perf_counter()
+    X = np.asarray(X, dtype=np.float64)
+    with threadpool_limits(limits=1):
+        Yn, y_mean, y_std = _standardise(np.asarray(Y, dtype=np.float64))
+        m = X.shape[0]
+        nh = min(m, int(options["n_hyperparameter_points"]))
+        rows = (np.arange(m) if nh == m else
+                np.sort(np.random.default_rng(seed).choice(m, size=nh, replace=False)))
+        start = (None if init is None else
+                 warm_init(init["log_params"], init["y_std"], y_std, shared))
+        opts = _gp_options(X[rows], Yn[rows], shared, start, options)
+        res = fit_gp_hyperparameters(X[rows], Yn[rows], **opts)
+        jitter = float(options["jitter"])
+        for attempt in range(_JITTER_TRIES):
+            try:
+                alpha, lml = gp_posterior(X, Yn, res.log_params, jitter)
+                break
+            except np.linalg.LinAlgError:
+                if attempt == _JITTER_TRIES - 1:
+                    raise ValueError(f"LGPR: a cluster's kernel matrix ({m} points) is not "
+                                     f"positive definite even with jitter {jitter:g}") from None
+                jitter *= _JITTER_GROWTH
+    return {"log_params": res.log_params, "alpha": alpha, "lml": lml, "y_mean": y_mean,
+            "y_std": y_std, "n_iter": res.n_iter, "jitter": jitter,
+            "seconds": time.perf_counter() - t0}
+
+
+def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
+              dask_scheduler: str | None = None,
+              on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+    """Run ``func(*args)`` for every tuple, in order, through joblib; results in input order.
+
+    ``n_jobs`` local loky processes (1: in this process), or the workers of the Dask cluster at
+    ``dask_scheduler`` (joblib's ``dask`` backend through a ``distributed.Client``).
+    ``on_result(i, result)`` is called as results arrive (in order), e.g. for progress.
+    """
+    from joblib import Parallel, delayed
+
+    tasks = [delayed(func)(*a) for a in arg_tuples]
+    results: list[Any] = []
+
+    def collect(it: Iterable[Any]) -> None:
+        for i, r in enumerate(it):
+            results.append(r)
+            if on_result is not None:
+                on_result(i, r)
+
+    if dask_scheduler:
+        try:
+            from distributed import Client
+        except ImportError as e:  # pragma: no cover - distributed is a dependency
+            raise ValueError(f"dask_scheduler needs the 'distributed' package: {e}") from e
+        from joblib import parallel_config
+        try:
+            client = Client(dask_scheduler, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
+        except (OSError, ValueError, TypeError) as e:
+            raise ValueError(f"cannot connect to the Dask scheduler {dask_scheduler}: "
+                             f"{str(e).splitlines()[0] if str(e) else type(e).__name__}"
+                             ) from e
+        try:
+            with parallel_config(backend="dask", client=client, wait_for_workers_timeout=60):
+                collect(Parallel(n_jobs=-1, return_as="generator")(tasks))
+        finally:
+            client.close()
+        return results
+    if n_jobs == 1 or len(tasks) <= 1:
+        collect(t[0](*t[1], **t[2]) for t in tasks)
+        return results
+    collect(Parallel(n_jobs=n_jobs, return_as="generator")(tasks))
+    return results
+
+
+# ----------------------------------------------------------------------------- estimator
+
+@register
+class LGPR(Regressor):
+    """Local GP regression: k-means clusters, one full GP each, nearest-centre prediction.
+
+    Parameters (constructor = hyperparameters, scikit-learn style):
+
+    - ``n_clusters`` k, or None: ``round(n / cluster_size)`` (at least 1). The final count
+      ``n_clusters_`` can differ after balancing (see :func:`balanced_clusters`).
+    - ``cluster_size`` target points per cluster when ``n_clusters`` is None (paper: ~1000).
+    - ``max_cluster_factor``, ``min_cluster_factor``: balance limits relative to n/k.
+    - ``hyperparameters`` "shared" or "per_output"; ``init`` "warm" or "cold" (module doc).
+    - ``n_hyperparameter_points`` rows of a cluster the hyperparameters are fitted on;
+      ``n_global_points`` rows of the warm start's global GP; ``max_iter`` L-BFGS-B iterations.
+    - ``jitter``, ``init_noise_ratio``, ``*_bounds``: as :class:`.gp.GPR` (bounds relative to the
+      cluster's data).
+    - ``blend``, ``n_blend``, ``blend_weights``: the blend of the nearest local models.
+    - ``n_jobs``, ``dask_scheduler``: where the fits run; ``variance_cache_mb`` the Cholesky cache
+      budget; ``random_state`` seeds k-means and the subsets; ``verbose`` prints progress to
+      stderr.
+
+    Fitted attributes: ``centers_`` (k, d); ``offsets_`` (k + 1,): cluster c's rows of
+    ``X_train_`` (n, d) and ``alpha_`` (n, p) are ``offsets_[c]:offsets_[c+1]``; ``train_index_``
+    (n,) the row of ``fit``'s X each stored row came from; ``log_params_`` (k, p, d + 2);
+    ``y_mean_``, ``y_std_``, ``lml_``, ``n_iter_`` (k, p); ``jitter_`` (k,); ``fit_seconds_`` (k,)
+    per-cluster wall time in its worker; ``global_log_params_`` (p, d + 2) or None (warm start).
+    """
+
+    method = "lgpr"
+
+    def __init__(self, n_clusters: int | None = None, cluster_size: int = 1000,
+                 max_cluster_factor: float = 1.5, min_cluster_factor: float = 0.25,
+                 hyperparameters: str = "shared", init: str = "warm",
+                 n_hyperparameter_points: int = 500, n_global_points: int = 1000,
+                 max_iter: int = 30, jitter: float = DEFAULT_JITTER,
+                 init_noise_ratio: float = DEFAULT_INIT_NOISE_RATIO,
+                 length_scale_bounds: tuple[float, float] = DEFAULT_LENGTH_SCALE_BOUNDS,
+                 signal_variance_bounds: tuple[float, float] = DEFAULT_SIGNAL_VARIANCE_BOUNDS,
+                 noise_variance_bounds: tuple[float, float] = DEFAULT_NOISE_VARIANCE_BOUNDS,
+                 blend: bool = False, n_blend: int = 2, blend_weights: str = "precision",
+                 n_jobs: int = 1, dask_scheduler: str | None = None,
+                 variance_cache_mb: float = 2048.0, random_state: int = 0,
+                 verbose: bool = False) -> None:
+        self.n_clusters = n_clusters
+        self.cluster_size = cluster_size
+        self.max_cluster_factor = max_cluster_factor
+        self.min_cluster_factor = min_cluster_factor
+        self.hyperparameters = hyperparameters
+        self.init = init
+        self.n_hyperparameter_points = n_hyperparameter_points
+        self.n_global_points = n_global_points
+        self.max_iter = max_iter
+        self.jitter = jitter
+        self.init_noise_ratio = init_noise_ratio
+        self.length_scale_bounds = length_scale_bounds
+        self.signal_variance_bounds = signal_variance_bounds
+        self.noise_variance_bounds = noise_variance_bounds
+        self.blend = blend
+        self.n_blend = n_blend
+        self.blend_weights = blend_weights
+        self.n_jobs = n_jobs
+        self.dask_scheduler = dask_scheduler
+        self.variance_cache_mb = variance_cache_mb
+        self.random_state = random_state
+        self.verbose = verbose
+
+    _PARAM_NAMES = ("n_clusters", "cluster_size", "max_cluster_factor", "min_cluster_factor",
+                    "hyperparameters", "init", "n_hyperparameter_points", "n_global_points",
+                    "max_iter", "jitter", "init_noise_ratio", "length_scale_bounds",
+                    "signal_variance_bounds", "noise_variance_bounds", "blend", "n_blend",
+                    "blend_weights", "n_jobs", "dask_scheduler", "variance_cache_mb",
+                    "random_state", "verbose")
+
+    def get_params(self) -> dict[str, Any]:
+        out = {k: getattr(self, k) for k in self._PARAM_NAMES}
+        for k in ("length_scale_bounds", "signal_variance_bounds", "noise_variance_bounds"):
+            out[k] = [float(v) for v in out[k]]
+        return out
+
+    # -- fitting
+
+    def _check_params(self) -> None:
+        if self.hyperparameters not in HYPERPARAMETER_MODES:
+            raise ValueError(f"hyperparameters must be one of {HYPERPARAMETER_MODES}; "
+                             f"got {self.hyperparameters!r}")
+        if self.init not in INIT_MODES:
+            raise ValueError(f"init must be one of {INIT_MODES}; got {self.init!r}")
+        if self.blend_weights not in BLEND_WEIGHTS:
+            raise ValueError(f"blend_weights must be one of {BLEND_WEIGHTS}; "
+                             f"got {self.blend_weights!r}")
+        if int(self.n_blend) < 1:
+            raise ValueError(f"n_blend must be >= 1; got {self.n_blend}")
+        if self.n_clusters is None and int(self.cluster_size) < 1:
+            raise ValueError(f"cluster_size must be >= 1; got {self.cluster_size}")
+        if int(self.n_hyperparameter_points) < 2 or int(self.n_global_points) < 2:
+            raise ValueError("n_hyperparameter_points and n_global_points must be >= 2")
+
+    def _task_options(self) -> dict[str, Any]:
+        return {"max_iter": int(self.max_iter), "jitter": float(self.jitter),
+                "init_noise_ratio": float(self.init_noise_ratio),
+                "length_scale_bounds": tuple(map(float, self.length_scale_bounds)),
+                "signal_variance_bounds": tuple(map(float, self.signal_variance_bounds)),
+                "noise_variance_bounds": tuple(map(float, self.noise_variance_bounds)),
+                "n_hyperparameter_points": int(self.n_hyperparameter_points)}
+
+    def _log(self, text: str) -> None:
+        if self.verbose:
+            print(f"lgpr: {text}", file=sys.stderr, flush=True)
+
+    def _global_init(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator
+                     ) -> dict[str, np.ndarray]:
+        n, p = Y.shape
+        ng = min(n, int(self.n_global_points))
+        rows = np.sort(rng.choice(n, size=ng, replace=False))
+        shared = self.hyperparameters == "shared"
+        opts = self._task_options()
+        if shared:
+            args = [(X[rows], Y[rows], True, opts)]
+        else:
+            args = [(X[rows], Y[rows, j:j + 1], False, opts) for j in range(p)]
+        t0 = time.perf_counter()
+        res = run_tasks(fit_hyperparameters_task, args, n_jobs=self.n_jobs,
+                        dask_scheduler=self.dask_scheduler)
+        self._log(f"global GP for the warm start on {ng} points: "
+                  f"{time.perf_counter() - t0:.1f} s")
+        lp = np.vstack([r["log_params"] for r in res])
+        sd = np.concatenate([r["y_std"] for r in res])
+        if shared:
+            lp = np.broadcast_to(lp[:1], (p, lp.shape[1])).copy()
+        return {"log_params": lp, "y_std": sd}
+
+    def fit(self, X: np.ndarray, Y: np.ndarray) -> "LGPR":
+        """X (n, d) normalised features, Y (n, p) or (n,) -> self."""
+        self._check_params()
+        X, Y = check_fit_inputs(X, Y)
+        n, d = X.shape
+        p = Y.shape[1]
+        k_req = (int(self.n_clusters) if self.n_clusters is not None
+                 else max(1, int(round(n / int(self.cluster_size)))))
+        seed = int(self.random_state) if self.random_state is not None else 0
+        rng = np.random.default_rng(seed)
+        t0 = time.perf_counter()
+        labels, centres = balanced_clusters(X, k_req, max_cluster_factor=self.max_cluster_factor,
+                                            min_cluster_factor=self.min_cluster_factor,
+                                            random_state=seed)
+        k = centres.shape[0]
+        sizes = np.bincount(labels, minlength=k)
+        self._log(f"{k} clusters (asked {k_req}) of {sizes.min()}..{sizes.max()} points "
+                  f"(median {int(np.median(sizes))}) in {time.perf_counter() - t0:.1f} s")
+        init = self._global_init(X, Y, rng) if self.init == "warm" else None
+        self.global_log_params_ = None if init is None else init["log_params"]
+        order = np.argsort(labels, kind="stable")
+        offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        opts = self._task_options()
+        shared = self.hyperparameters == "shared"
+        seeds = np.random.SeedSequence(seed).spawn(k)
+        args = [(X[order[offsets[c]:offsets[c + 1]]], Y[order[offsets[c]:offsets[c + 1]]],
+                 shared, init, opts, int(seeds[c].generate_state(1)[0])) for c in range(k)]
+        t1 = time.perf_counter()
+
+        def progress(i: int, r: dict[str, Any]) -> None:
+            self._log(f"cluster {i + 1}/{k} fitted ({sizes[i]} points, {r['seconds']:.1f} s; "
+                      f"{time.perf_counter() - t1:.0f} s elapsed)")
+
+        res = run_tasks(fit_local_gp, args, n_jobs=self.n_jobs,
+                        dask_scheduler=self.dask_scheduler, on_result=progress)
+        self.centers_ = centres
+        self.offsets_ = offsets
+        self.train_index_ = order.astype(np.int64)
+        self.X_train_ = X[order]
+        self.alpha_ = np.vstack([r["alpha"] for r in res])
+        self.log_params_ = np.stack([r["log_params"] for r in res])
+        self.y_mean_ = np.stack([r["y_mean"] for r in res])
+        self.y_std_ = np.stack([r["y_std"] for r in res])
+        self.lml_ = np.stack([r["lml"] for r in res])
+        self.n_iter_ = np.stack([np.asarray(r["n_iter"], dtype=np.int64) for r in res])
+        self.jitter_ = np.array([r["jitter"] for r in res], dtype=np.float64)
+        self.fit_seconds_ = np.array([r["seconds"] for r in res])
+        self.n_features_in_, self.n_outputs_ = d, p
+        self._prepare_prediction()
+        return self
+
+    # -- prediction
+
+    def _prepare_prediction(self) -> None:
+        """Per-cluster views and constants of the hot path (no copies)."""
+        k = self.centers_.shape[0]
+        o = self.offsets_
+        self._X = [self.X_train_[o[c]:o[c + 1]] for c in range(k)]
+        self._alpha = [self.alpha_[o[c]:o[c + 1]] for c in range(k)]
+        self._kernels = [_unique_kernels(self.log_params_[c]) for c in range(k)]
+        sf2, _, sn2 = unpack_log_params(self.log_params_)
+        self._prior_var = sf2 + sn2  # (k, p) in standardised units
+        self._chol: OrderedDict[int, list[np.ndarray]] = OrderedDict()
+        self._chol_bytes = 0
+        self._variance_prepared = False
+
+    @property
+    def n_clusters_(self) -> int:
+        return int(self.centers_.shape[0])
+
+    def nearest_cluster(self, X: np.ndarray) -> np.ndarray:
+        """Index (n,) of the centre nearest to each row of X (n, d) (first of equal minima)."""
+        X = check_predict_inputs(X, self.n_features_in_)
+        return _nearest_rows(X, self.centers_)
+
+    def _factors(self, c: int) -> list[np.ndarray]:
+        """Cholesky factors of cluster c (one per distinct kernel), LRU-cached."""
+        f = self._chol.get(c)
+        if f is not None:
+            self._chol.move_to_end(c)
+            return f
+        kernels, _ = self._kernels[c]
+        f = [gp_cholesky(self._X[c], th, float(self.jitter_[c])) for th in kernels]
+        size = sum(a.nbytes for a in f)
+        budget = float(self.variance_cache_mb) * 1e6
+        while self._chol and self._chol_bytes + size > budget:
+            _, old = self._chol.popitem(last=False)
+            self._chol_bytes -= sum(a.nbytes for a in old)
+        if size <= budget:
+            self._chol[c] = f
+            self._chol_bytes += size
+        return f
+
+    def prepare_variance(self) -> int:
+        """Build the Cholesky factors for ``return_std`` ahead of time (as many clusters as fit
+        in ``variance_cache_mb``); returns the number of clusters cached."""
+        budget = float(self.variance_cache_mb) * 1e6
+        for c in range(self.n_clusters_):
+            m = self._X[c].shape[0]
+            need = self._kernels[c][0].shape[0] * m * m * 8
+            if c not in self._chol and self._chol_bytes + need > budget:
+                break  # full: later clusters would only evict earlier ones
+            self._factors(c)
+        self._variance_prepared = True
+        return len(self._chol)
+
+    def _local(self, c: int, Xq: np.ndarray, want_var: bool
+               ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Cluster c's GP at Xq (nq, d): mean (nq, p) in output units, variance or None."""
+        if want_var and not self._variance_prepared:
+            self.prepare_variance()  # all at once: no factorisation later inside a 10 ms step
+        chol = self._factors(c) if want_var else None
+        mean, var = gp_predict(Xq, self._X[c], self._alpha[c], self.log_params_[c], chol)
+        mean *= self.y_std_[c]
+        mean += self.y_mean_[c]
+        if var is not None:
+            var *= self.y_std_[c] ** 2
+        return mean, var
+
+    def _by_cluster(self, X: np.ndarray, labels: np.ndarray, want_var: bool
+                    ) -> tuple[np.ndarray, np.ndarray | None]:
+        ns, p = X.shape[0], self.n_outputs_
+        if ns == 1:
+            return self._local(int(labels[0]), X, want_var)
+        mean = np.empty((ns, p))
+        var = np.empty((ns, p)) if want_var else None
+        order = np.argsort(labels, kind="stable")
+        bounds = np.flatnonzero(np.diff(labels[order])) + 1
+        for rows in np.split(order, bounds):
+            mu, v = self._local(int(labels[rows[0]]), X[rows], want_var)
+            mean[rows] = mu
+            if var is not None:
+                var[rows] = v
+        return mean, var
+
+    def _blend_weights(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ranks (ns, r) cluster indices, taper g (ns, r)) of the r = min(n_blend, k) nearest."""
+        k = self.n_clusters_
+        r = min(int(self.n_blend), k)
+        D2 = _sqdist_to_centres(X, self.centers_)  # (ns, k)
+        take = min(r + 1, k)
+        if take < k:
+            part = np.argpartition(D2, take - 1, axis=1)[:, :take]
+        else:
+            part = np.broadcast_to(np.arange(k), (X.shape[0], k))
+        d_part = np.take_along_axis(D2, part, axis=1)
+        srt = np.lexsort((part, d_part), axis=1)  # by distance, then centre index
+        ranks = np.take_along_axis(part, srt, axis=1)
+        d_sorted = np.take_along_axis(d_part, srt, axis=1)
+        if k > r:
+            g = d_sorted[:, r:r + 1] - d_sorted[:, :r]
+            dead = ~(g.sum(axis=1) > 0)  # all r + 1 equidistant: nearest only
+            g[dead] = 0.0
+            g[dead, 0] = 1.0
+        else:
+            g = np.ones((X.shape[0], r))
+        return ranks[:, :r], g
+
+    def predict(self, X: np.ndarray, return_std: bool = False):
+        """X (ns, d) -> mean (ns, p); with return_std also the noisy-observation std (ns, p)."""
+        X = check_predict_inputs(X, self.n_features_in_)
+        if not self.blend or int(self.n_blend) == 1 or self.n_clusters_ == 1:
+            labels = _nearest_rows(X, self.centers_)
+            mean, var = self._by_cluster(X, labels, return_std)
+            if not return_std:
+                return mean
+            return mean, np.sqrt(var)
+        ranks, g = self._blend_weights(X)
+        r = ranks.shape[1]
+        mus, vs = [], []
+        for j in range(r):
+            mu, v = self._by_cluster(X, ranks[:, j], True)
+            mus.append(mu)
+            vs.append(np.maximum(v, np.finfo(np.float64).tiny))
+        if self.blend_weights == "relative":  # variance relative to the model's prior variance
+            scale = [self._prior_var[ranks[:, j]] * self.y_std_[ranks[:, j]] ** 2
+                     for j in range(r)]
+            prec = [s / v for s, v in zip(scale, vs)]
+        else:
+            prec = [1.0 / v for v in vs]
+        w = np.stack([g[:, j:j + 1] * prec[j] for j in range(r)])  # (r, ns, p)
+        w /= w.sum(axis=0)
+        mu = np.stack(mus)
+        mean = np.einsum("rnp,rnp->np", w, mu)
+        if not return_std:
+            return mean
+        second = np.einsum("rnp,rnp->np", w, np.stack(vs) + mu * mu)
+        return mean, np.sqrt(np.maximum(second - mean * mean, 0.0))
+
+    # -- persistence
+
+    def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        arrays = {"centers": self.centers_, "offsets": self.offsets_,
+                  "train_index": self.train_index_, "X_train": self.X_train_,
+                  "alpha": self.alpha_, "log_params": self.log_params_, "y_mean": self.y_mean_,
+                  "y_std": self.y_std_, "lml": self.lml_, "n_iter": self.n_iter_,
+                  "jitter": self.jitter_, "fit_seconds": self.fit_seconds_}
+        if self.global_log_params_ is not None:
+            arrays["global_log_params"] = self.global_log_params_
+        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
+                "n_clusters": int(self.n_clusters_), "n_train": int(self.X_train_.shape[0]),
+                "has_global": self.global_log_params_ is not None}
+        return arrays, meta
+
+    @classmethod
+    def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
+                   meta: dict[str, Any]) -> "LGPR":
+        m = cls(**params)
+        m._check_params()
+        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        k, n = int(meta["n_clusters"]), int(meta["n_train"])
+        f64 = np.float64
+        m.centers_ = expect_array(arrays, "centers", (k, d)).astype(f64)
+        m.offsets_ = expect_array(arrays, "offsets", (k + 1,)).astype(np.int64)
+        if (m.offsets_[0] != 0 or m.offsets_[-1] != n or np.any(np.diff(m.offsets_) < 1)):
+            raise ValueError("array 'offsets' is not an increasing partition of the rows")
+        m.train_index_ = expect_array(arrays, "train_index", (n,)).astype(np.int64)
+        m.X_train_ = expect_array(arrays, "X_train", (n, d)).astype(f64)
+        m.alpha_ = expect_array(arrays, "alpha", (n, p)).astype(f64)
+        m.log_params_ = expect_array(arrays, "log_params", (k, p, d + 2)).astype(f64)
+        m.y_mean_ = expect_array(arrays, "y_mean", (k, p)).astype(f64)
+        m.y_std_ = expect_array(arrays, "y_std", (k, p)).astype(f64)
+        m.lml_ = expect_array(arrays, "lml", (k, p)).astype(f64)
+        m.n_iter_ = expect_array(arrays, "n_iter", (k, p)).astype(np.int64)
+        m.jitter_ = expect_array(arrays, "jitter", (k,)).astype(f64)
+        m.fit_seconds_ = expect_array(arrays, "fit_seconds", (k,)).astype(f64)
+        m.global_log_params_ = (expect_array(arrays, "global_log_params", (p, d + 2)).astype(f64)
+                                if meta.get("has_global") else None)
+        m.n_features_in_, m.n_outputs_ = d, p
+        m._prepare_prediction()
+        return m
+
+
+def estimator_bytes(model: LGPR) -> dict[str, int]:
+    """Memory of a fitted LGPR's arrays: {"stored": file arrays, "variance_cache": factors}."""
+    arrays, _ = model.get_state()
+    return {"stored": int(sum(a.nbytes for a in arrays.values())),
+            "variance_cache": int(model._chol_bytes)}
+
+
+__all__ = ["LGPR", "HYPERPARAMETER_MODES", "INIT_MODES", "BLEND_WEIGHTS", "balanced_clusters",
+           "fit_local_gp", "fit_hyperparameters_task", "warm_init", "run_tasks",
+           "estimator_bytes"]

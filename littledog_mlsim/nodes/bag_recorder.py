@@ -1,0 +1,194 @@
+"""bag_recorder: record a simulator's live topics into one contract bag (CONTRACT.md section 3).
+
+    bag_recorder --ros-args -p out:=/tmp/run/F_00 [-p max_steps:=400] [-p storage:=mcap]
+
+Subscribes to ``/littledog/joint_states`` and ``/littledog/odom`` and to the command topic
+``cmd_topic`` (default ``/sim_node/cmd_applied``: the command the simulator actually applied
+for the step starting at its stamp, so commands and measurements are on one clock; use
+``/pybullet_node/cmd_applied`` for the pybullet robot), all transient-local, so the last 10
+messages before it joined (e.g. measurement 0) are recorded too. On SIGINT/SIGTERM, or once
+``max_steps`` steps are recorded, it writes the bag with the core's ``write_bag`` (atomic;
+``out`` must not exist; its directory name ``<TYPE>_<NN>`` is the bag's name) and exits.
+
+What goes in: the first contiguous run of the 100 Hz clock starting at the first stamp that has
+a joint state, an odometry message and an applied command; it ends at the first stamp where any
+of them is missing (a reset, a pause that dropped nothing is fine, a lost message), with the
+last measurement's command left out (N commands, N + 1 measurements). Exit status 0 when the
+bag is written, 1 when there is nothing to write (fewer than 2 measurements) or writing fails,
+2 for a bad parameter.
+"""
+from __future__ import annotations
+
+import signal
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import rclpy
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import JointState
+
+from ..layout import CONTROL_DT_NS, TOPIC_JOINT_STATES, TOPIC_ODOM
+from . import messages as m
+from .simulator import SIM_QOS, Param, StartupError
+
+NODE_NAME = "bag_recorder"
+
+PARAMS: tuple[Param, ...] = (
+    Param("out", "", "bag directory to create, named <TYPE>_<NN> (required, must not exist)"),
+    Param("cmd_topic", "/sim_node/cmd_applied", "JointState topic of the applied commands, "
+          "stamped at the start of their step"),
+    Param("max_steps", 0, "stop after this many steps (0: record until SIGINT/SIGTERM)", ">= 0"),
+    Param("storage", "mcap", "rosbag2 storage plugin", "mcap | sqlite3"),
+)
+
+
+class RecordError(Exception):
+    """Nothing usable was recorded or writing failed (one FATAL line, exit status 1)."""
+
+
+class BagRecorder(Node):
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        for p in PARAMS:
+            try:
+                self.declare_parameter(p.name, p.default, ParameterDescriptor(
+                    description=p.description, read_only=True,
+                    additional_constraints=p.constraints))
+            except Exception as e:
+                raise StartupError(f"parameter {p.name}: {' '.join(str(e).split())}") from None
+        out = self.get_parameter("out").value
+        if not out:
+            raise StartupError("set the parameter out (bag directory to create)")
+        self.out = Path(out)
+        if self.out.exists():
+            raise StartupError(f"{self.out} exists already, not overwriting")
+        from ..data.bags import STORAGES, move_type_from_name
+        try:
+            self.move_type = move_type_from_name(self.out.name)
+        except ValueError as e:
+            raise StartupError(str(e)) from None
+        self.storage = self.get_parameter("storage").value
+        if self.storage not in STORAGES:
+            raise StartupError(f"storage must be one of {', '.join(STORAGES)}")
+        self.max_steps = self.get_parameter("max_steps").value
+        if self.max_steps < 0:
+            raise StartupError("max_steps must be >= 0")
+        self.js: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.odom: dict[int, dict[str, np.ndarray]] = {}
+        self.cmd: dict[int, np.ndarray] = {}
+        self.create_subscription(JointState, TOPIC_JOINT_STATES, self._on_js, SIM_QOS)
+        self.create_subscription(Odometry, TOPIC_ODOM, self._on_odom, SIM_QOS)
+        self.create_subscription(JointState, self.get_parameter("cmd_topic").value,
+                                 self._on_cmd, SIM_QOS)
+        self.done = False
+
+    def _on_js(self, msg: JointState) -> None:
+        try:
+            self.js[m.stamp_ns(msg.header.stamp)] = m.joint_state_arrays(msg)
+        except ValueError as e:
+            self.get_logger().warning(f"ignored a joint state: {e}", throttle_duration_sec=2.0)
+        self._check_done()
+
+    def _on_odom(self, msg: Odometry) -> None:
+        self.odom[m.stamp_ns(msg.header.stamp)] = m.odometry_arrays(msg)
+        self._check_done()
+
+    def _on_cmd(self, msg: JointState) -> None:
+        try:
+            self.cmd[m.stamp_ns(msg.header.stamp)] = m.joint_state_arrays(msg)[0]
+        except ValueError as e:
+            self.get_logger().warning(f"ignored a command: {e}", throttle_duration_sec=2.0)
+        self._check_done()
+
+    def _stamps(self) -> list[int]:
+        """The contiguous run of measurement stamps (module doc)."""
+        def complete(t: int) -> bool:
+            return t in self.js and t in self.odom
+
+        starts = sorted(t for t in self.cmd if complete(t))
+        if not starts:
+            return []
+        run = [starts[0]]
+        while run[-1] in self.cmd and complete(run[-1] + CONTROL_DT_NS):
+            run.append(run[-1] + CONTROL_DT_NS)
+            if self.max_steps and len(run) == self.max_steps + 1:
+                break
+        return run if len(run) >= 2 else []
+
+    def _check_done(self) -> None:
+        if self.max_steps and not self.done and len(self.cmd) >= self.max_steps:
+            if len(self._stamps()) >= self.max_steps + 1:
+                self.done = True
+
+    def write(self) -> int:
+        """Write the bag; returns the number of steps written."""
+        from ..data.bags import write_bag
+        from ..data.recording import MoveRecording
+
+        stamps = self._stamps()
+        if len(stamps) < 2:
+            raise RecordError(f"nothing to write: {len(self.js)} joint states, {len(self.odom)} "
+                              f"odometry messages, {len(self.cmd)} commands, no 2 consecutive "
+                              f"steps with all three")
+        o = [self.odom[t] for t in stamps]
+        rec = MoveRecording(
+            name=self.out.name, move_type=self.move_type,
+            stamps_ns=np.asarray(stamps, dtype=np.int64),
+            cmd=np.array([self.cmd[t] for t in stamps[:-1]]),
+            q=np.array([self.js[t][0] for t in stamps]),
+            dq=np.array([self.js[t][1] for t in stamps]),
+            position=np.array([x["position"] for x in o]),
+            orientation=np.array([x["orientation"] for x in o]),
+            linear_velocity=np.array([x["linear_velocity"] for x in o]),
+            angular_velocity=np.array([x["angular_velocity"] for x in o]))
+        try:
+            write_bag(self.out, rec, storage=self.storage)
+        except (ValueError, OSError) as e:
+            raise RecordError(f"cannot write {self.out}: {' '.join(str(e).split())}") from None
+        return len(stamps) - 1
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except Exception as e:
+        print(f"{NODE_NAME}: error: {' '.join(str(e).split())}", file=sys.stderr)
+        return 2
+    signal.signal(signal.SIGTERM, _interrupt)
+    logger = rclpy.logging.get_logger(NODE_NAME)
+    node = None
+    status = 0
+    try:
+        node = BagRecorder()
+        logger.info(f"recording into {node.out}")
+        try:
+            while not node.done:
+                rclpy.spin_once(node, timeout_sec=0.1)
+        except KeyboardInterrupt:
+            pass
+        n = node.write()
+        logger.info(f"wrote {node.out} ({n} steps)")
+    except StartupError as e:
+        logger.fatal(" ".join(str(e).split()))
+        status = 2
+    except RecordError as e:
+        logger.fatal(str(e))
+        status = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,202 @@
+"""The learned simulator as a stepping object: state, integrated pose and covariance (no rclpy).
+
+``sim_node`` is a ROS shell around :class:`LearnedSimulator`; everything numeric is a call into
+the core (``rollout.simulate.step``, ``data.dataset.integrate_path``,
+``robot.sensors.twist_from_poses``, ``rotations``) so that the node's output is exactly the
+core's rollout.
+
+One step (``step(u)``): s_{t+1} = projection(model(s_t, u_t)) (``rollout.simulate.step``, the
+same call ``rollout`` makes for each of its steps), then the pose by ``integrate_path`` applied
+to the one new state from the previous (x, y, yaw) and (roll, pitch) = s_t[roll, pitch]:
+yaw += dyaw, (x, y) += R(roll_t, pitch_t, yaw_t)[:2] d_b; z = z_w; roll, pitch from s_{t+1}. The
+twist in base_link is the finite difference of the last two poses (``twist_from_poses``), the
+definition the pybullet robot and the recorded odometry use.
+
+Covariance (when the model gives a predictive std, i.e. ``predict(X, return_std=True)``; LR
+gives its homoscedastic residual std, GPs their predictive std), an approximation stated here:
+
+- the std is the model's one-step predictive std of s_{t+1} at the fed-back (predicted,
+  projected) s_t; it is not propagated through the dynamics (no Jacobians), per-step errors are
+  taken as independent, and the projection is taken not to change the variance;
+- pose x, y: the per-step covariances of the body displacement, rotated into odom, summed over
+  the steps since the (re)start: Sigma_xy += A diag(var dx_b, var dy_b, var dz_b) A^T with
+  A = R(roll_t, pitch_t, yaw_t)[:2]; yaw: var_yaw += var dyaw. Cross terms between yaw and
+  position errors (a heading error swinging later displacements) are ignored, so the x, y
+  variance is a lower bound on long rollouts;
+- pose z, roll, pitch: they are state elements, so their variance is this step's predictive
+  variance of z_w, roll, pitch (not summed);
+- twist (base_link): diag(var dx_b, var dy_b, var dz_b) / dt^2 and
+  diag(var droll, var dpitch, var dyaw) / dt^2 (Euler-angle rates standing in for body rates);
+- the pose covariance rows/columns are (x, y, z, rot x, rot y, rot z) as the message defines;
+  roll/pitch/yaw variances go on the diagonal of the rotation block, no cross terms.
+
+Without a std (``use_variance=False`` or a model that has none) both covariances are None
+("unknown", -1 in [0] on the wire).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..data.dataset import integrate_path
+from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S
+from ..robot.sensors import twist_from_poses
+from ..rollout.projection import AlphaProjection, Projection
+from ..rollout.simulate import step as model_step
+from ..rotations import rpy_to_matrix, rpy_to_quat
+
+__all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance"]
+
+
+def home_state() -> np.ndarray:
+    """The ideal standing state (33,): HOME_BODY_HEIGHT, level, at rest, joints at HOME_POSE."""
+    s = np.zeros(N_STATE)
+    s[S.z_w] = HOME_BODY_HEIGHT
+    s[S.q] = HOME_POSE
+    return s
+
+
+def standing_train_state(train_states: np.ndarray, projection: Projection | None = None
+                         ) -> np.ndarray:
+    """The TrainPool state nearest to ``home_state()`` (alpha-PROJ's normalised distance).
+
+    Uses ``projection``'s nearest-neighbour search if it is an alpha projection over the same
+    states, otherwise builds one.
+    """
+    if not isinstance(projection, AlphaProjection):
+        projection = AlphaProjection(train_states)
+    i = int(projection.nearest(home_state()[None])[0])
+    return projection.train_states[i].copy()
+
+
+def model_has_variance(model: Any) -> bool:
+    """True if ``model.predict(X, return_std=True)`` works (one trial prediction)."""
+    try:
+        x = np.zeros((1, N_STATE + N_ACTION))
+        x[0, S.q] = HOME_POSE
+        x[0, N_STATE:] = HOME_POSE
+        model.predict(x, return_std=True)
+        return True
+    except (ValueError, TypeError, NotImplementedError):
+        return False
+
+
+def _as_vector(a, n: int, what: str) -> np.ndarray:
+    v = np.asarray(a, dtype=np.float64).reshape(-1)
+    if v.shape != (n,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{what} must be {n} finite numbers, got {v.size}")
+    return v
+
+
+class LearnedSimulator:
+    """One learned LittleDog: ``reset()``, ``step(u)``, then read the attributes below.
+
+    Args:
+        model: ``predict(X (n, 45)) -> (n, 33)`` raw (``OneStepModel``).
+        projection: applied to every prediction (``OneStepModel.projection(...)``).
+        initial_state: s_0 (33,).
+        initial_pose: (x, y, yaw) of the body in odom at t = 0.
+        use_variance: fill the covariances from ``predict(..., return_std=True)``.
+
+    Attributes after ``reset``/``step``: ``state`` (33,), ``q``, ``dq`` (12,); ``position``
+    (3,), ``orientation`` (4,) xyzw, ``linear_velocity``, ``angular_velocity`` (3,) in
+    base_link; ``pose_covariance``, ``twist_covariance`` (36,) or None; ``steps`` since the
+    last reset.
+    """
+
+    def __init__(self, model: Any, projection: Projection, initial_state: np.ndarray,
+                 initial_pose=(0.0, 0.0, 0.0), use_variance: bool = True) -> None:
+        self.model = model
+        self.projection = projection
+        self.initial_state = _as_vector(initial_state, N_STATE, "initial_state")
+        self.initial_pose = _as_vector(initial_pose, 3, "initial_pose (x, y, yaw)")
+        self.use_variance = bool(use_variance)
+        self.dt = CONTROL_DT
+        self.reset()
+
+    # -- state
+
+    def reset(self) -> None:
+        """Back to the initial state and pose; the accumulated covariance restarts at zero."""
+        s = self.initial_state.copy()
+        x, y, yaw = self.initial_pose
+        self.state = s
+        self._xy_yaw = np.array([x, y, yaw])
+        self._sigma_xy = np.zeros((2, 2))
+        self._var_yaw = 0.0
+        self.steps = 0
+        # The pose one step earlier, from s_0's own deltas, so the first twist is a finite
+        # difference like all later ones.
+        rpy_prev = np.array([s[S.roll], s[S.pitch], yaw]) - s[S.d_rpy]
+        prev_pos = np.array([x, y, s[S.z_w]]) - rpy_to_matrix(rpy_prev) @ s[S.d_b]
+        self._prev_pose = (prev_pos, rpy_to_quat(rpy_prev))
+        self._set_outputs(std=None)
+
+    def step(self, u: np.ndarray) -> bool:
+        """Advance 10 ms with desired joint angles u (12,). False (nothing changed) if the
+        prediction is not finite (a diverged model)."""
+        u = np.asarray(u, dtype=np.float64)
+        if self.use_variance:
+            nxt, std = model_step(self.model, self.state, u, self.projection, return_std=True)
+        else:
+            nxt, std = model_step(self.model, self.state, u, self.projection), None
+        if not np.all(np.isfinite(nxt)) or (std is not None and not np.all(np.isfinite(std))):
+            return False
+        prev_state, prev_xy_yaw = self.state, self._xy_yaw
+        xy_yaw = integrate_path(nxt[None], prev_xy_yaw[0], prev_xy_yaw[1], prev_xy_yaw[2],
+                                prev_state[S.roll_pitch])[0]
+        if not np.all(np.isfinite(xy_yaw)):
+            return False
+        self._prev_pose = (self.position, self.orientation)
+        if std is not None:
+            var = std * std
+            A = rpy_to_matrix(np.array([prev_state[S.roll], prev_state[S.pitch],
+                                        prev_xy_yaw[2]]))[:2]
+            self._sigma_xy = self._sigma_xy + (A * var[S.d_b]) @ A.T
+            self._var_yaw += var[S.dyaw]
+        self.state, self._xy_yaw = nxt, xy_yaw
+        self.steps += 1
+        self._set_outputs(std)
+        return True
+
+    # -- outputs
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint angles (12,) of the current state."""
+        return self.state[S.q]
+
+    @property
+    def dq(self) -> np.ndarray:
+        """Joint rates (12,) of the current state."""
+        return self.state[S.dq]
+
+    def _set_outputs(self, std: np.ndarray | None) -> None:
+        s = self.state
+        x, y, yaw = self._xy_yaw
+        self.position = np.array([x, y, s[S.z_w]])
+        self.orientation = rpy_to_quat(np.array([s[S.roll], s[S.pitch], yaw]))
+        self.linear_velocity, self.angular_velocity = twist_from_poses(
+            self._prev_pose[0], self._prev_pose[1], self.position, self.orientation, self.dt)
+        if not self.use_variance:
+            self.pose_covariance = self.twist_covariance = None
+            return
+        var = np.zeros(N_STATE) if std is None else std * std
+        pose = np.zeros((6, 6))
+        pose[:2, :2] = self._sigma_xy
+        pose[2, 2] = var[S.z_w]
+        pose[3, 3], pose[4, 4] = var[S.roll], var[S.pitch]
+        pose[5, 5] = self._var_yaw
+        twist = np.zeros((6, 6))
+        twist[np.arange(3), np.arange(3)] = var[S.d_b] / self.dt**2
+        twist[np.arange(3, 6), np.arange(3, 6)] = var[S.d_rpy] / self.dt**2
+        self.pose_covariance, self.twist_covariance = pose.reshape(36), twist.reshape(36)
+
+    def outputs_finite(self) -> bool:
+        """True if every value the node would publish is finite."""
+        parts = [self.state, self.position, self.orientation, self.linear_velocity,
+                 self.angular_velocity]
+        if self.pose_covariance is not None:
+            parts += [self.pose_covariance, self.twist_covariance]
+        return all(np.all(np.isfinite(p)) for p in parts)

@@ -1,0 +1,116 @@
+"""sim_node: the learned LittleDog simulator behind the contract topics (CONTRACT.md sections 2, 6).
+
+    sim_node --ros-args -p model_path:=/path/to/model [-p step_mode:=lockstep] ...
+
+Loads a one-step model (``OneStepModel.load``; a missing, corrupt or incompatible model is one
+FATAL log line and exit status 2), starts from the initial state and advances one 10 ms step
+per timer tick or per command (``step_mode``), each step ``LearnedSimulator.step``: the
+model's prediction passed through the projection (default alpha-PROJ, alpha 0.5), the pose
+integrated from the predicted states as ``integrate_path`` does, covariances from the model's
+predictive std (see ``nodes/learned_sim.py`` for the approximation). Topics, services, command
+rule, timeout and counters: ``nodes/simulator.py``.
+
+Initial state (``initial_state`` unset, the default): the TrainPool state stored in the model
+that is nearest, in alpha-PROJ's normalised distance, to the ideal standing state (body at
+HOME_BODY_HEIGHT, level, at rest, joints at HOME_POSE): a real standing state from the data
+the model was trained on. ``initial_state`` (33 values, ``layout.STATE_NAMES`` order) replaces
+it; ``initial_pose`` = (x, y, yaw) places it in odom.
+
+Parameters: ``config/sim.yaml`` (every one is listed there with its default) and
+``nodes/simulator.py`` (those shared with pybullet_node).
+"""
+from __future__ import annotations
+
+import sys
+from typing import Sequence
+
+import numpy as np
+from rclpy.parameter import Parameter
+
+from ..layout import N_STATE
+from ..models.persistence import ModelError
+from .learned_sim import LearnedSimulator, model_has_variance, standing_train_state
+from .simulator import Param, SimulatorNode, StartupError, run_node
+
+NODE_NAME = "sim_node"
+PROJECTIONS = ("none", "bound", "alpha")
+
+
+class SimNode(SimulatorNode):
+    CONFIG_FILE = "sim.yaml"
+    PARAMS = (
+        Param("model_path", "", "model directory written by trainer_node or "
+              "`littledog-mlsim train` (required)"),
+        Param("projection", "alpha", "projection applied to every predicted state",
+              "none | bound | alpha"),
+        Param("alpha", 0.5, "alpha of alpha-PROJ: s := (1 - alpha) s + alpha q, q the nearest "
+              "TrainPool state", "0 <= alpha <= 1"),
+        Param("nn_method", "brute", "alpha-PROJ nearest-neighbour search (exact either way)",
+              "brute | kdtree"),
+        Param("initial_state", Parameter.Type.DOUBLE_ARRAY, "initial state s_0, 33 values in "
+              "layout.STATE_NAMES order (unset: the model's TrainPool state nearest the home "
+              "stance)", "33 finite values"),
+        Param("initial_pose", [0.0, 0.0, 0.0], "initial x [m], y [m], yaw [rad] of the body "
+              "in odom", "3 finite values"),
+        Param("publish_covariance", True, "fill the odometry covariances from the model's "
+              "predictive std (false, or a model without one: -1 in [0], unknown)"),
+    )
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        sim = self.backend
+        self.get_logger().info(
+            f"{self.model.method} model {self.param('model_path')} "
+            f"({self.model.info.get('n_train', '?')} training samples), projection "
+            f"{sim.projection.describe()}, step_mode {self.step_mode}, covariance "
+            f"{'from the model' if sim.use_variance else 'unknown'}"
+            + (f", defaults from {self.config_path}" if self.config_path else ""))
+
+    def make_backend(self) -> LearnedSimulator:
+        from ..models.onestep import OneStepModel
+
+        path = self.param("model_path")
+        if not path:
+            raise StartupError("no model: set the parameter model_path")
+        try:
+            model = OneStepModel.load(path)
+        except ModelError as e:
+            raise StartupError(f"cannot load model: {e}") from None
+        except OSError as e:
+            raise StartupError(f"cannot load model {path}: {e}") from None
+        kind = self.param("projection")
+        if kind not in PROJECTIONS:
+            raise StartupError(f"parameter projection must be one of {', '.join(PROJECTIONS)}, "
+                               f"got {kind!r}")
+        try:
+            projection = model.projection(kind, alpha=self.param("alpha"),
+                                          nn_method=self.param("nn_method"))
+        except ValueError as e:
+            raise StartupError(f"projection {kind}: {e}") from None
+        s0 = self.param("initial_state")
+        if s0 is None:
+            if model.train_states is None:
+                raise StartupError(f"{path} holds no TrainPool states: set initial_state")
+            s0 = standing_train_state(model.train_states, projection)
+        s0 = np.asarray(s0, dtype=np.float64)
+        if s0.shape != (N_STATE,) or not np.all(np.isfinite(s0)):
+            raise StartupError(f"initial_state must be {N_STATE} finite values, got {s0.size}")
+        pose = np.asarray(self.param("initial_pose"), dtype=np.float64)
+        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+            raise StartupError("initial_pose must be 3 finite values: x, y, yaw")
+        use_var = bool(self.param("publish_covariance"))
+        if use_var and not model_has_variance(model):
+            use_var = False
+        prepare = getattr(model, "prepare", None)
+        if prepare is not None:   # one-time work (variance factors) out of the 10 ms loop
+            prepare(return_std=use_var)
+        self.model = model
+        return LearnedSimulator(model, projection, s0, pose, use_var)
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    return run_node(SimNode, NODE_NAME, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

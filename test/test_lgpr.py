@@ -1,0 +1,190 @@
+"""LGPR (paper Section V): checked against the full GP, a naive nearest-centre loop, and itself
+across process pools and a real Dask cluster; the blend's continuity at a cluster boundary."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from littledog_mlsim.models import lgpr
+from littledog_mlsim.models.gp import GPR
+from littledog_mlsim.models.lgpr import LGPR, balanced_clusters
+from littledog_mlsim.models.persistence import load_model, save_model
+
+
+def smooth_data(n: int, d: int = 4, seed: int = 0, noise: float = 0.02):
+    rng = np.random.default_rng(seed)
+    X = rng.standard_normal((n, d))
+    Y = np.column_stack([np.sin(1.5 * X[:, 0]) + 0.5 * X[:, 1] ** 2,
+                         np.cos(X[:, 2]) * X[:, 1],
+                         0.3 * X[:, 3]])
+    return X, Y + noise * rng.standard_normal(Y.shape)
+
+
+@pytest.mark.parametrize("mode", ["shared", "per_output"])
+def test_one_cluster_is_the_full_gp(mode):
+    X, Y = smooth_data(120)
+    Xt, _ = smooth_data(40, seed=1)
+    lg = LGPR(n_clusters=1, hyperparameters=mode, init="cold", max_iter=40).fit(X, Y)
+    gp = GPR(shared_hyperparameters=(mode == "shared"), max_iter=40).fit(X, Y)
+    np.testing.assert_array_equal(lg.log_params_[0], gp.log_params_)
+    m1, s1 = lg.predict(Xt, return_std=True)
+    m2, s2 = gp.predict(Xt, return_std=True)
+    np.testing.assert_allclose(m1, m2, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(s1, s2, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(lg.predict(Xt[:1]), m2[:1], rtol=1e-10, atol=1e-12)
+
+
+def test_nearest_centre_and_prediction_match_a_naive_loop():
+    X, Y = smooth_data(400, seed=2)
+    Q, _ = smooth_data(60, seed=3)
+    lg = LGPR(n_clusters=5, max_iter=15, n_hyperparameter_points=60).fit(X, Y)
+    k = lg.n_clusters_
+    sizes = np.diff(lg.offsets_)
+    assert sizes.sum() == 400 and sizes.max() <= 1.5 * 400 / 5
+    np.testing.assert_array_equal(np.sort(lg.train_index_), np.arange(400))
+    for c in range(k):  # centres are the means of the clusters' training points
+        rows = lg.train_index_[lg.offsets_[c]:lg.offsets_[c + 1]]
+        np.testing.assert_allclose(lg.centers_[c], X[rows].mean(axis=0), rtol=1e-12)
+    want = np.array([min(range(k), key=lambda c: np.linalg.norm(q - lg.centers_[c]))
+                     for q in Q])
+    np.testing.assert_array_equal(lg.nearest_cluster(Q), want)
+    mean, std = lg.predict(Q, return_std=True)
+    for i, q in enumerate(Q):  # the cluster's own full GP with the same hyperparameters
+        c = want[i]
+        rows = lg.train_index_[lg.offsets_[c]:lg.offsets_[c + 1]]
+        gp = GPR(optimize=False, init_log_params=lg.log_params_[c].tolist(),
+                 jitter=float(lg.jitter_[c])).fit(X[rows], Y[rows])
+        m, s = gp.predict(q[None], return_std=True)
+        np.testing.assert_allclose(mean[i], m[0], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(std[i], s[0], rtol=1e-7, atol=1e-12)
+        np.testing.assert_allclose(lg.predict(q), m, rtol=1e-9, atol=1e-12)
+
+
+def test_balanced_clusters_split_and_dissolve():
+    rng = np.random.default_rng(4)
+    # one dense blob (k-means keeps most of it in one cluster), a few far points
+    X = np.vstack([1e-3 * rng.standard_normal((300, 2)), 5 + rng.standard_normal((60, 2)),
+                   [[40.0, 40.0]]])
+    labels, centres = balanced_clusters(X, 4, max_cluster_factor=1.5, min_cluster_factor=0.25)
+    sizes = np.bincount(labels)
+    assert sizes.max() <= 1.5 * X.shape[0] / 4
+    assert sizes.min() >= 0.25 * X.shape[0] / 4  # the lone far point was dissolved
+    for c in range(centres.shape[0]):
+        np.testing.assert_allclose(centres[c], X[labels == c].mean(axis=0))
+
+
+def boundary_data():
+    """A function on three separate intervals (2nd input constant), the middle one lifted by 1:
+    the local GPs disagree across the gaps, where the nearest-centre rule switches model."""
+    x = np.concatenate([np.linspace(-3, -1.4, 40), np.linspace(-0.6, 0.6, 40),
+                        np.linspace(1.4, 3, 40)])
+    X = np.column_stack([x, np.zeros_like(x)])
+    lift = (np.abs(x) < 1.0).astype(float)
+    Y = np.column_stack([np.sin(2 * x) + lift, np.cos(x) - 0.5 * lift])
+    return X, Y
+
+
+def test_blend_is_continuous_where_nearest_jumps():
+    X, Y = boundary_data()
+    near = LGPR(n_clusters=3, max_iter=30, init="cold").fit(X, Y)
+    assert near.n_clusters_ == 3
+    blend = LGPR(n_clusters=3, max_iter=30, init="cold", blend=True, n_blend=2).fit(X, Y)
+    np.testing.assert_array_equal(blend.alpha_, near.alpha_)  # same local models
+
+    def max_step(model, lo, hi, n):
+        q = np.linspace(lo, hi, n)
+        return np.abs(np.diff(model.predict(np.column_stack([q, np.zeros_like(q)])),
+                              axis=0)).max()
+
+    # the nearest rule jumps by ~1 (the lift) wherever it switches model; refining the grid
+    # does not shrink the jump. The blend's largest step shrinks with the grid (continuous).
+    coarse, fine = max_step(near, -3, 3, 601), max_step(near, -3, 3, 60001)
+    assert coarse > 0.5 and fine > 0.5
+    for weights in ("precision", "relative"):
+        blend.blend_weights = weights
+        coarse, fine = max_step(blend, -3, 3, 601), max_step(blend, -3, 3, 60001)
+        assert coarse < 0.1 and fine < 0.2 * coarse  # shrinks with the grid: no jump
+        q = np.linspace(-3, 3, 601)
+        _, std = blend.predict(np.column_stack([q, np.zeros_like(q)]), return_std=True)
+        assert np.all(np.isfinite(std)) and np.all(std > 0)
+    # inside a cluster, far from the boundaries, the blend is close to the nearest model
+    q = np.linspace(-0.3, 0.3, 61)
+    Q = np.column_stack([q, np.zeros_like(q)])
+    np.testing.assert_allclose(blend.predict(Q), near.predict(Q), atol=1e-3)
+    blend.n_blend = 1  # one model: the nearest-centre rule exactly
+    q = np.linspace(-3, 3, 601)
+    Q = np.column_stack([q, np.zeros_like(q)])
+    np.testing.assert_array_equal(blend.predict(Q), near.predict(Q))
+
+
+def _same_model(a: LGPR, b: LGPR) -> None:
+    sa, _ = a.get_state()
+    sb, _ = b.get_state()
+    for name in sa:
+        if name != "fit_seconds":
+            np.testing.assert_array_equal(sa[name], sb[name], err_msg=name)
+
+
+@pytest.fixture(scope="module")
+def parallel_data():
+    return smooth_data(300, seed=5)
+
+
+@pytest.fixture(scope="module")
+def serial_model(parallel_data):
+    return LGPR(n_clusters=3, max_iter=15, n_global_points=80, n_jobs=1).fit(*parallel_data)
+
+
+def test_joblib_processes_give_the_same_model(parallel_data, serial_model):
+    two = LGPR(n_clusters=3, max_iter=15, n_global_points=80, n_jobs=2).fit(*parallel_data)
+    _same_model(serial_model, two)
+
+
+def test_dask_cluster_gives_the_same_model(parallel_data, serial_model):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=2,
+                                  threads_per_worker=1, processes=True) as cluster:
+        remote = LGPR(n_clusters=3, max_iter=15, n_global_points=80,
+                      dask_scheduler=cluster.scheduler_address).fit(*parallel_data)
+    assert remote.dask_scheduler.startswith("tcp://127.0.0.1:")
+    _same_model(serial_model, remote)
+
+
+def test_dask_scheduler_unreachable_is_one_line(parallel_data, monkeypatch):
+    monkeypatch.setattr(lgpr, "DASK_CONNECT_TIMEOUT", "2s")
+    with pytest.raises(ValueError, match="Dask scheduler") as e:
+        LGPR(n_clusters=2, max_iter=2, dask_scheduler="tcp://127.0.0.1:9",
+             init="cold").fit(*parallel_data)
+    assert "\n" not in str(e.value)
+
+
+def test_save_load_round_trip(tmp_path, serial_model, parallel_data):
+    Q, _ = smooth_data(30, seed=6)
+    save_model(tmp_path / "m", serial_model)
+    loaded, _ = load_model(tmp_path / "m")
+    _same_model(serial_model, loaded)
+    for blend in (False, True):
+        serial_model.blend = loaded.blend = blend
+        m1, s1 = serial_model.predict(Q, return_std=True)
+        m2, s2 = loaded.predict(Q, return_std=True)
+        np.testing.assert_array_equal(m1, m2)
+        np.testing.assert_array_equal(s1, s2)
+    serial_model.blend = False
+
+
+def test_variance_cache_budget(serial_model):
+    Q, _ = smooth_data(20, seed=7)
+    _, want = serial_model.predict(Q, return_std=True)
+    tiny = LGPR(**{**serial_model.get_params(), "variance_cache_mb": 0.0})
+    arrays, meta = serial_model.get_state()
+    tiny = LGPR.from_state(tiny.get_params(), arrays, meta)
+    assert tiny.prepare_variance() == 0
+    np.testing.assert_array_equal(tiny.predict(Q, return_std=True)[1], want)
+    assert serial_model.prepare_variance() == serial_model.n_clusters_
+
+
+@pytest.mark.parametrize("kw", [{"hyperparameters": "both"}, {"init": "hot"},
+                                {"n_blend": 0}, {"blend_weights": "x"}])
+def test_bad_parameters(kw, parallel_data):
+    with pytest.raises(ValueError):
+        LGPR(n_clusters=2, **kw).fit(*parallel_data)

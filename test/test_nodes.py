@@ -1,0 +1,861 @@
+"""The ROS nodes over real DDS: each node in its own process, this test process as controller.
+
+The module records a small dataset (F, S, L; 2 moves each) and fits an LR model with the core,
+then checks the nodes against the core: a TestPool move replayed through sim_node in lockstep
+gives exactly the core's rollout; the timer mode holds 100 Hz; every kind of bad command is
+counted and survived; trainer_node writes a model sim_node loads and fails cleanly on a corrupt
+bag; a missing/corrupt/incompatible model is one line and a non-zero exit; pybullet_node
+replays exactly like ``simulate_move``; bag_player and bag_recorder close the loop.
+
+One ROS domain for the module (``ROS_DOMAIN_ID`` derived from the pid), localhost discovery;
+simulators run one at a time (class-scoped fixtures) since they share the contract topics.
+Every wait is on an event with a timeout; the only fixed-length windows are measurement windows.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+DOMAIN_ID = str(1 + os.getpid() % 100)
+os.environ["ROS_DOMAIN_ID"] = DOMAIN_ID          # before rclpy.init (read from the environment)
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import rclpy  # noqa: E402  (after the environment above)
+from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from rosgraph_msgs.msg import Clock as ClockMsg  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_srvs.srv import SetBool, Trigger  # noqa: E402
+
+from littledog_mlsim.data.bags import read_bag  # noqa: E402
+from littledog_mlsim.data.dataset import (  # noqa: E402
+    features_responses,
+    integrate_path,
+    load_moves,
+    states_from_recording,
+)
+from littledog_mlsim.layout import (  # noqa: E402
+    CONTROL_DT_NS,
+    HOME_POSE,
+    JOINT_NAMES,
+    JOINT_UPPER,
+    S,
+)
+from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
+from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
+from littledog_mlsim.nodes import messages as m  # noqa: E402
+from littledog_mlsim.nodes.learned_sim import standing_train_state  # noqa: E402
+from littledog_mlsim.nodes.simulator import QOS  # noqa: E402
+from littledog_mlsim.robot.sensors import twist_from_poses  # noqa: E402
+from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
+from littledog_mlsim.rotations import quat_to_rpy  # noqa: E402
+
+BIN = Path(sys.executable).parent
+TIMEOUT = 15.0          # s, any wait for an event (discovery of a late joiner takes ~2.5 s)
+ENV = dict(os.environ, PYTHONUNBUFFERED="1")
+
+
+# ---------------------------------------------------------------------------------------------
+# processes
+
+
+class Proc:
+    """A node in its own process; output goes to files (no pipe to fill up)."""
+
+    def __init__(self, exe: str, params: dict | None, tmp: Path, *extra: str) -> None:
+        self.name = exe
+        self.out = tmp / f"{exe}.{time.monotonic_ns()}.out"
+        self.err = self.out.with_suffix(".err")
+        args = [str(BIN / exe), "--ros-args"]
+        for k, v in (params or {}).items():
+            args += ["-p", f"{k}:={_param(v)}"]
+        args += list(extra)
+        with open(self.out, "w") as o, open(self.err, "w") as e:
+            self.p = subprocess.Popen(args, stdout=o, stderr=e, env=ENV)
+
+    def alive(self) -> bool:
+        return self.p.poll() is None
+
+    def stderr(self) -> str:
+        return self.err.read_text()
+
+    def wait(self, timeout: float = 120.0) -> int:
+        return self.p.wait(timeout)
+
+    def stop(self) -> int:
+        if self.alive():
+            self.p.send_signal(signal.SIGINT)
+        try:
+            return self.p.wait(TIMEOUT)
+        except subprocess.TimeoutExpired:
+            self.p.kill()
+            self.p.wait()
+            raise AssertionError(f"{self.name} did not stop on SIGINT") from None
+
+
+def _param(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ",".join(_param(x) for x in v) + "]"
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    return str(v)
+
+
+def run(exe: str, params: dict, tmp: Path, timeout: float = 120.0) -> tuple[int, str]:
+    p = Proc(exe, params, tmp)
+    try:
+        rc = p.wait(timeout)
+    except subprocess.TimeoutExpired:
+        p.stop()
+        raise
+    return rc, p.stderr()
+
+
+def error_lines(text: str) -> list[str]:
+    return [ln for ln in text.splitlines() if ln.strip() and "[INFO]" not in ln]
+
+
+# ---------------------------------------------------------------------------------------------
+# the controller side: one rclpy context, an executor in a background thread
+
+
+class Ros:
+    def __init__(self) -> None:
+        rclpy.init()
+        self.executor = SingleThreadedExecutor()
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # shutdown
+            pass
+
+    def node(self, name: str) -> Node:
+        n = Node(name)
+        self.executor.add_node(n)
+        return n
+
+    def close(self, node: Node) -> None:
+        self.executor.remove_node(node)
+        node.destroy_node()
+
+    def shutdown(self) -> None:
+        rclpy.try_shutdown()
+        self.thread.join(5)
+
+
+def wait_until(pred, timeout: float = TIMEOUT, what: str = "") -> None:
+    end = time.monotonic() + timeout
+    while not pred():
+        if time.monotonic() > end:
+            raise AssertionError(f"timed out after {timeout} s waiting for {what or pred}")
+        time.sleep(0.005)
+
+
+class Probe:
+    """Subscribes to a simulator's topics and records what arrives (with receive times)."""
+
+    def __init__(self, ros: Ros, sim: str = "sim_node", name: str = "probe",
+                 light: bool = False) -> None:
+        self.ros = ros
+        self.node = ros.node(f"{name}_{time.monotonic_ns()}")
+        self.cond = threading.Condition()
+        # (source timestamp [system ns, the sim's publish time], stamp, q, dq)
+        self.js: list[tuple[int, int, np.ndarray, np.ndarray]] = []
+        self.odom: list[tuple[int, dict]] = []
+        self.state: dict[int, np.ndarray] = {}
+        self.applied: dict[int, np.ndarray] = {}
+        self.clock: list[int] = []
+        self.stats: list[dict[str, str]] = []
+        n = self.node
+        # light: fewer subscriptions, for a test process that must keep up with 100 Hz
+        self.subs = [
+            n.create_subscription(JointState, "/littledog/joint_states", self._js, QOS),
+            n.create_subscription(Odometry, "/littledog/odom", self._odom, QOS),
+            n.create_subscription(JointState, f"/{sim}/cmd_applied", self._applied, QOS),
+            n.create_subscription(DiagnosticStatus, f"/{sim}/stats", self._stats, QOS),
+        ]
+        if not light:
+            self.subs += [
+                n.create_subscription(JointState, f"/{sim}/state", self._state, QOS),
+                n.create_subscription(ClockMsg, "/clock", self._clock, QOS)]
+        # depth 100: a burst of 20 bad commands must not overwrite itself in the writer's history
+        self.cmd = n.create_publisher(JointState, "/littledog/cmd", QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE))
+        self.reset_client = n.create_client(Trigger, f"/{sim}/reset")
+        self.pause_client = n.create_client(SetBool, f"/{sim}/pause")
+
+    def _add(self, fn) -> None:
+        with self.cond:
+            fn()
+            self.cond.notify_all()
+
+    def _js(self, msg, info):
+        q, dq = m.joint_state_arrays(msg)
+        src = int(info["source_timestamp"])
+        self._add(lambda: self.js.append((src, m.stamp_ns(msg.header.stamp), q, dq)))
+
+    def _odom(self, msg):
+        self._add(lambda: self.odom.append((m.stamp_ns(msg.header.stamp), m.odometry_arrays(msg))))
+
+    def _state(self, msg):
+        self._add(lambda: self.state.__setitem__(m.stamp_ns(msg.header.stamp), m.state_array(msg)))
+
+    def _applied(self, msg):
+        self._add(lambda: self.applied.__setitem__(m.stamp_ns(msg.header.stamp),
+                                                   m.joint_state_arrays(msg)[0]))
+
+    def _clock(self, msg):
+        self._add(lambda: self.clock.append(m.stamp_ns(msg.clock)))
+
+    def _stats(self, msg):
+        self._add(lambda: self.stats.append(m.status_values(msg)))
+
+    def wait(self, pred, timeout: float = TIMEOUT, what: str = "") -> None:
+        with self.cond:
+            if not self.cond.wait_for(pred, timeout):
+                raise AssertionError(f"timed out after {timeout} s waiting for {what or pred}")
+
+    def connect(self, proc: Proc | None = None) -> None:
+        """Wait until the simulator's endpoints are matched both ways."""
+        def ready() -> bool:
+            if proc is not None and not proc.alive():
+                raise AssertionError(f"{proc.name} exited: {proc.stderr()}")
+            return (self.cmd.get_subscription_count() >= 1
+                    and all(s.get_publisher_count() >= 1 for s in self.subs)
+                    and self.reset_client.service_is_ready()
+                    and self.pause_client.service_is_ready())
+        wait_until(ready, what="discovery of the simulator")
+
+    def counter(self, key: str) -> int:
+        with self.cond:
+            return int(self.stats[-1][key]) if self.stats else 0
+
+    def wait_counter(self, key: str, at_least: int) -> dict[str, str]:
+        self.wait(lambda: bool(self.stats) and int(self.stats[-1][key]) >= at_least,
+                  what=f"stats {key} >= {at_least}")
+        with self.cond:
+            return dict(self.stats[-1])
+
+    def send(self, u: np.ndarray, names=JOINT_NAMES) -> None:
+        msg = JointState()
+        msg.name = list(names)
+        msg.position = [float(x) for x in u]
+        self.cmd.publish(msg)
+
+    def call(self, client, request):
+        fut = client.call_async(request)
+        wait_until(fut.done, what=f"service {client.srv_name}")
+        return fut.result()
+
+    def close(self) -> None:
+        self.ros.close(self.node)
+
+
+# ---------------------------------------------------------------------------------------------
+# fixtures
+
+
+@pytest.fixture(scope="module")
+def ros():
+    r = Ros()
+    yield r
+    r.shutdown()
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("nodes")
+
+
+@pytest.fixture(scope="module")
+def dataset(work) -> Path:
+    out = work / "data"
+    subprocess.run([str(BIN / "littledog-mlsim"), "record", "--out", str(out),
+                    "--moves-per-type", "2", "--types", "F,S,L", "--quiet"],
+                   check=True, env=ENV, capture_output=True, timeout=300)
+    return out
+
+
+@pytest.fixture(scope="module")
+def model_path(work, dataset) -> Path:
+    X, Y, _ = features_responses(load_moves(dataset, split="train"))
+    path = work / "lr_model"
+    OneStepModel.fit(LinearRegression(), X, Y).save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def model(model_path) -> OneStepModel:
+    return OneStepModel.load(model_path)
+
+
+@pytest.fixture(scope="module")
+def test_move(dataset):
+    return prepare_test_move(load_moves(dataset, split="test", types=["F"])[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# sim_node, lockstep: the core's rollout exactly
+
+
+@pytest.fixture(scope="class")
+def lockstep_sim(ros, work, model_path, test_move):
+    # initial state and pose through a params file, the projection through -p.
+    params = work / "lockstep.yaml"
+    s0 = [float(x) for x in test_move.s0]
+    pose = [float(test_move.pose0.x0), float(test_move.pose0.y0), float(test_move.pose0.yaw0)]
+    params.write_text(json.dumps({"sim_node": {"ros__parameters": {
+        "model_path": str(model_path), "step_mode": "lockstep", "initial_state": s0,
+        "initial_pose": pose, "stats_period": 0.2}}}))
+    proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5}, work,
+                "--params-file", str(params))
+    probe = Probe(ros)
+    probe.connect(proc)
+    yield proc, probe
+    probe.close()
+    assert proc.stop() == 0
+
+
+class TestLockstep:
+    def test_replay_equals_core_rollout(self, lockstep_sim, model, test_move):
+        proc, probe = lockstep_sim
+        ref = rollout(model, test_move.s0, test_move.actions, model.projection("alpha", 0.5))
+        k0 = probe.counter("steps") if probe.stats else 0
+        assert k0 == 0
+        rng = np.random.default_rng(0)
+        for k, u in enumerate(test_move.actions):
+            perm = rng.permutation(12)   # names in any order, matched by name
+            probe.send(u[perm], names=[JOINT_NAMES[i] for i in perm])
+            t = (k + 1) * CONTROL_DT_NS
+            probe.wait(lambda t=t: t in probe.state and any(j[1] == t for j in probe.js[-3:])
+                       and any(o[0] == t for o in probe.odom[-3:]), what=f"state {k + 1}")
+        T = len(test_move.actions)
+        stamps = [(k + 1) * CONTROL_DT_NS for k in range(T)]
+        states = np.array([probe.state[t] for t in stamps])
+        np.testing.assert_allclose(states, ref, rtol=0, atol=1e-12)
+        js = {j[1]: j for j in probe.js}
+        np.testing.assert_array_equal(np.array([js[t][2] for t in stamps]), states[:, S.q])
+        np.testing.assert_array_equal(np.array([js[t][3] for t in stamps]), states[:, S.dq])
+        # odometry: the pose integrate_path gives for the rollout; z and roll/pitch are states
+        odom = dict(probe.odom)
+        pos = np.array([odom[t]["position"] for t in stamps])
+        rpy = quat_to_rpy(np.array([odom[t]["orientation"] for t in stamps]))
+        path = integrate_path(ref, *test_move.pose0)
+        np.testing.assert_allclose(pos[:, :2], path[:, :2], atol=1e-9)
+        np.testing.assert_allclose(pos[:, 2], ref[:, S.z_w], atol=1e-12)
+        np.testing.assert_allclose(rpy[:, :2], ref[:, S.roll_pitch], atol=1e-9)
+        np.testing.assert_allclose(np.unwrap(rpy[:, 2]), np.unwrap(path[:, 2]), atol=1e-9)
+        # twist in base_link: the finite difference of the published poses
+        quat = np.array([odom[t]["orientation"] for t in stamps])
+        lin = np.array([odom[t]["linear_velocity"] for t in stamps])
+        ang = np.array([odom[t]["angular_velocity"] for t in stamps])
+        v, w = twist_from_poses(pos[:-1], quat[:-1], pos[1:], quat[1:], 0.01)
+        np.testing.assert_allclose(lin[1:], v, atol=1e-9)
+        np.testing.assert_allclose(ang[1:], w, atol=1e-9)
+        # covariances from LR's residual std, summed along the rollout for x, y, yaw
+        cov = odom[stamps[-1]]["pose_covariance"].reshape(6, 6)
+        assert cov[0, 0] > 0 and cov[1, 1] > 0 and cov[5, 5] > 0
+        assert cov[0, 0] > odom[stamps[0]]["pose_covariance"][0]    # summed along the rollout
+        # /clock: every step's time, never backwards
+        clock = np.array(probe.clock)
+        assert np.all(np.diff(clock) > 0) and set(stamps) <= set(clock.tolist())
+        # the applied commands are the ones sent, stamped at the start of their step
+        np.testing.assert_array_equal(
+            np.array([probe.applied[t - CONTROL_DT_NS] for t in stamps]), test_move.actions)
+        st = probe.wait_counter("steps", T)
+        assert int(st["steps"]) == T and int(st["cmd_accepted"]) == T
+
+    def test_reset_and_pause(self, lockstep_sim, model, test_move):
+        proc, probe = lockstep_sim
+        k = int(probe.wait_counter("steps", 1)["steps"])
+        t_before = max(probe.state)
+        assert probe.call(probe.reset_client, Trigger.Request()).success
+        t_reset = t_before + CONTROL_DT_NS            # time moves on by one step on reset
+        probe.wait(lambda: t_reset in probe.state, what="the reset state")
+        np.testing.assert_array_equal(probe.state[t_reset], test_move.s0)
+        # after the reset, the same command gives the same first step as the rollout
+        probe.send(test_move.actions[0])
+        probe.wait(lambda: t_reset + CONTROL_DT_NS in probe.state, what="a step after reset")
+        ref = rollout(model, test_move.s0, test_move.actions[:1], model.projection("alpha", 0.5))
+        np.testing.assert_allclose(probe.state[t_reset + CONTROL_DT_NS], ref[0], atol=1e-12)
+        # paused: a lockstep command is dropped and counted, no state is published
+        assert probe.call(probe.pause_client, SetBool.Request(data=True)).success
+        n_states = len(probe.state)
+        probe.send(test_move.actions[1])
+        probe.wait_counter("cmd_dropped_paused", 1)
+        assert len(probe.state) == n_states
+        assert probe.call(probe.pause_client, SetBool.Request(data=False)).success
+        probe.send(test_move.actions[1])
+        probe.wait(lambda: t_reset + 2 * CONTROL_DT_NS in probe.state, what="a step after pause")
+        st = probe.wait_counter("steps", k + 2)
+        assert int(st["resets"]) == 1 and proc.alive()
+
+
+# ---------------------------------------------------------------------------------------------
+# sim_node, timer mode: rate, bad commands, timeout
+
+
+def rate_over(probe: Probe, seconds: float) -> tuple[float, list]:
+    """Steps per second the simulator published over the next ``seconds`` of wall time.
+
+    Measured with the simulator's own numbers, so that a test process which lags behind or
+    loses a sample (keep-last 10 on a CPU-starved machine) does not bias it: the DDS source
+    timestamps (the node's publish times) of the received joint states in the window, and
+    their stamps (one 10 ms step each): rate = steps between the first and last / time
+    between them. Also returns the messages received in the window.
+    """
+    t0 = time.time_ns()
+    t1 = t0 + int(seconds * 1e9)
+    probe.wait(lambda: bool(probe.js) and probe.js[-1][0] >= t1, timeout=seconds + TIMEOUT,
+               what=f"{seconds} s of joint states")
+    with probe.cond:
+        window = [j for j in probe.js if t0 <= j[0] < t1]
+    steps = (window[-1][1] - window[0][1]) / CONTROL_DT_NS
+    return steps / ((window[-1][0] - window[0][0]) / 1e9), window
+
+
+def received_fraction(window: list) -> float:
+    """Messages received / steps published in ``window`` (1.0: none lost on the way)."""
+    return len(window) / ((window[-1][1] - window[0][1]) / CONTROL_DT_NS + 1)
+
+
+def starvation(probe: Probe) -> str:
+    """Context for a missed rate: the node's own view and the machine's load (2 shared cores:
+    with a load average far above 2 the node may simply not get the CPU it needs)."""
+    with probe.cond:
+        st = probe.stats[-1] if probe.stats else {}
+    keys = ("rate_hz", "steps_skipped", "step_ms_p50", "step_ms_p99", "step_ms_max")
+    return (f"node: {', '.join(f'{k}={st.get(k)}' for k in keys)}; load average "
+            f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+class Streamer:
+    """A 100 Hz controller in its own thread (a move's commands, looped)."""
+
+    def __init__(self, probe: Probe, commands: np.ndarray) -> None:
+        self.probe, self.commands = probe, commands
+        self.stop_ev = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        k, t = 0, time.monotonic()
+        while not self.stop_ev.wait(max(0.0, t - time.monotonic())):
+            self.probe.send(self.commands[k % len(self.commands)])
+            k += 1
+            t += 0.01
+
+    def stop(self) -> None:
+        self.stop_ev.set()
+        self.thread.join(5)
+
+
+BAD_COMMANDS = {
+    # case: (names, positions, counter)
+    "unknown_name": (list(JOINT_NAMES[:11]) + ["tail"], HOME_POSE, "cmd_rejected_names"),
+    "missing_name": (list(JOINT_NAMES[:11]), HOME_POSE[:11], "cmd_rejected_names"),
+    "duplicated_name": (list(JOINT_NAMES[:11]) + [JOINT_NAMES[0]], HOME_POSE,
+                        "cmd_rejected_names"),
+    "short_position": (list(JOINT_NAMES), HOME_POSE[:11], "cmd_rejected_length"),
+    "long_position": (list(JOINT_NAMES), np.r_[HOME_POSE, 0.0], "cmd_rejected_length"),
+    "nan": (list(JOINT_NAMES), np.r_[np.nan, HOME_POSE[1:]], "cmd_rejected_nonfinite"),
+    "inf": (list(JOINT_NAMES), np.r_[HOME_POSE[:5], -np.inf, HOME_POSE[6:]],
+            "cmd_rejected_nonfinite"),
+    "outside_limits": (list(JOINT_NAMES), np.r_[HOME_POSE[:2], 7.0, HOME_POSE[3:]],
+                       "cmd_clipped"),
+}
+
+
+@pytest.fixture(scope="class")
+def timer_sim(ros, work, model_path, dataset):
+    proc = Proc("sim_node", {"model_path": model_path, "step_mode": "timer",
+                             "cmd_timeout": 0.3, "cmd_timeout_action": "stand",
+                             "stats_period": 0.25, "log_throttle": 0.5}, work)
+    probe = Probe(ros, light=True)
+    probe.connect(proc)
+    commands = load_moves(dataset, split="train", types=["F"])[0].cmd
+    yield proc, probe, commands
+    probe.close()
+    assert proc.stop() == 0
+
+
+class TestTimerMode:
+    def test_rate_100hz_over_10s(self, timer_sim):
+        proc, probe, commands = timer_sim
+        streamer = Streamer(probe, commands)
+        try:
+            probe.wait_counter("cmd_accepted", 10)
+            rate, window = rate_over(probe, 10.0)
+        finally:
+            streamer.stop()
+        assert abs(rate - 100.0) <= 1.0, f"published {rate:.2f} Hz; {starvation(probe)}"
+        assert received_fraction(window) > 0.95, starvation(probe)
+        assert proc.alive()
+
+    @pytest.mark.parametrize("case", list(BAD_COMMANDS))
+    def test_bad_command(self, timer_sim, case):
+        proc, probe, commands = timer_sim
+        names, positions, counter = BAD_COMMANDS[case]
+        before = probe.counter(counter)
+        log_start = len(proc.stderr())
+        streamer = Streamer(probe, commands)        # a good controller keeps running
+        n_bad = 20
+        try:
+            probe.wait_counter("cmd_accepted", probe.counter("cmd_accepted") + 5)
+            t0 = time.time_ns()
+            for _ in range(n_bad):
+                probe.send(positions, names=names)
+            st = probe.wait_counter(counter, before + n_bad)
+            rate, window = rate_over(probe, 3.0)
+        finally:
+            streamer.stop()
+        assert int(st[counter]) == before + n_bad
+        assert proc.alive()
+        # 3 s window: a catch-up burst after a CPU stall can add up to ~3 % (see sim docs)
+        assert abs(rate - 100.0) <= 4.0, \
+            f"{rate:.2f} Hz while receiving bad commands; {starvation(probe)}"
+        with probe.cond:
+            recent = [j for j in probe.js if j[0] >= t0 - 100_000_000]
+            odom = list(probe.odom[-len(recent):])
+        assert all(np.all(np.isfinite(j[2])) and np.all(np.isfinite(j[3])) for j in recent)
+        assert all(np.all(np.isfinite(np.r_[o["position"], o["orientation"], o["linear_velocity"],
+                                            o["angular_velocity"], o["pose_covariance"]]))
+                   for _, o in odom)
+        if case == "outside_limits":   # clipped, not rejected: the applied command is clipped
+            probe.send(positions, names=names)      # alone, so no newer command supersedes it
+            probe.wait(lambda: any(a[2] == JOINT_UPPER[2] for a in probe.applied.values()),
+                       what="the clipped command applied")
+        # logged, throttled: the burst of 20 gives one or two warning lines (log_throttle 0.5 s)
+        key = "clipped a command" if case == "outside_limits" else f"({counter.split('_')[-1]})"
+        lines = [ln for ln in proc.stderr()[log_start:].splitlines() if key in ln]
+        assert 1 <= len(lines) <= 2, lines
+
+    def test_flood_1khz(self, timer_sim):
+        proc, probe, commands = timer_sim
+        before = probe.counter("cmd_superseded")
+        stop = threading.Event()
+
+        def flood():
+            t, k = time.monotonic(), 0
+            while not stop.wait(max(0.0, t - time.monotonic())):
+                probe.send(commands[k % len(commands)])
+                k += 1
+                t += 0.001
+        th = threading.Thread(target=flood, daemon=True)
+        th.start()
+        try:
+            probe.wait_counter("cmd_superseded", before + 100)
+            rate, window = rate_over(probe, 3.0)
+            st = probe.wait_counter("cmd_superseded", before + 1000)
+        finally:
+            stop.set()
+            th.join(5)
+        assert proc.alive()
+        assert abs(rate - 100.0) <= 4.0, \
+            f"{rate:.2f} Hz under a 1 kHz command flood; {starvation(probe)}"
+        assert all(np.all(np.isfinite(j[2])) for j in window)
+        assert int(st["cmd_superseded"]) >= before + 1000
+        assert int(st["cmd_accepted"]) >= int(st["cmd_superseded"])
+
+    def test_timeout_commands_stand_once(self, timer_sim):
+        proc, probe, commands = timer_sim
+        streamer = Streamer(probe, commands[100:])      # mid-trot commands, far from HOME_POSE
+        before = probe.counter("cmd_timeouts")
+        try:
+            probe.wait_counter("cmd_accepted", probe.counter("cmd_accepted") + 10)
+        finally:
+            streamer.stop()
+        st = probe.wait_counter("cmd_timeouts", before + 1)
+        assert int(st["cmd_timeouts"]) == before + 1
+        with probe.cond:
+            last_t = max(probe.applied)
+        probe.wait(lambda: max(probe.applied) >= last_t + 10 * CONTROL_DT_NS, what="more steps")
+        with probe.cond:
+            np.testing.assert_array_equal(probe.applied[max(probe.applied)], HOME_POSE)
+        text = proc.stderr()
+        assert text.count("no valid command for 0.3 s: commanding stand_command") == before + 1
+        probe.send(commands[0])
+        wait_until(lambda: "commands resumed" in proc.stderr(), what="'commands resumed'")
+        assert proc.alive()
+
+
+# ---------------------------------------------------------------------------------------------
+# bad models, trainer_node
+
+
+def _one_fatal_line(text: str) -> str:
+    lines = error_lines(text)
+    assert len(lines) == 1, f"expected one error line, got:\n{text}"
+    assert "Traceback" not in text
+    return lines[0]
+
+
+@pytest.mark.parametrize("case", ["missing", "no_param", "truncated", "incompatible"])
+def test_sim_node_refuses_bad_model(work, model_path, case):
+    bad = work / f"bad_{case}"
+    if case == "missing":
+        path = bad
+    elif case == "no_param":
+        path = ""
+    else:
+        shutil.rmtree(bad, ignore_errors=True)
+        shutil.copytree(model_path, bad)
+        path = bad
+        if case == "truncated":
+            data = (bad / "arrays.npz").read_bytes()
+            (bad / "arrays.npz").write_bytes(data[: len(data) // 2])
+        else:   # a model over other features (e.g. a feature set this build cannot supply)
+            doc = json.loads((bad / "model.json").read_text())
+            doc["meta"]["feature_names"] = ["x_w"] + doc["meta"]["feature_names"][1:]
+            (bad / "model.json").write_text(json.dumps(doc))
+    params = {"model_path": path} if path != "" else {}
+    rc, err = run("sim_node", params, work, timeout=60)
+    assert rc != 0
+    line = _one_fatal_line(err)
+    assert "FATAL" in line and ("model" in line)
+
+
+def test_trainer_model_loads_in_sim_node(ros, work, dataset):
+    out = work / "trained"
+    rc, err = run("trainer_node", {"data": dataset, "out": out, "method": "lr"}, work)
+    assert rc == 0, err
+    assert "wrote lr model" in err
+    model = OneStepModel.load(out)
+    assert model.method == "lr" and model.info["n_moves"] == 3
+    # sim_node starts from the model's TrainPool state nearest the home stance
+    proc = Proc("sim_node", {"model_path": out, "step_mode": "lockstep", "stats_period": 0.2},
+                work)
+    probe = Probe(ros)
+    try:
+        probe.connect(proc)
+        probe.send(HOME_POSE)
+        probe.wait(lambda: CONTROL_DT_NS in probe.state, what="the first step")
+        s0 = standing_train_state(model.train_states, model.projection("alpha", 0.5))
+        ref = rollout(model, s0, HOME_POSE[None], model.projection("alpha", 0.5))
+        np.testing.assert_allclose(probe.state[CONTROL_DT_NS], ref[0], atol=1e-12)
+    finally:
+        probe.close()
+        assert proc.stop() == 0
+
+
+def test_trainer_corrupt_bag_leaves_model_untouched(work, dataset, model_path):
+    data = work / "corrupt_data"
+    shutil.rmtree(data, ignore_errors=True)
+    shutil.copytree(dataset, data)
+    mcap = next((data / "F_00").glob("*.mcap"))
+    raw = mcap.read_bytes()
+    mcap.write_bytes(raw[: len(raw) // 2])
+    out = work / "existing_model"
+    shutil.rmtree(out, ignore_errors=True)
+    shutil.copytree(model_path, out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    rc, err = run("trainer_node", {"data": data, "out": out}, work)
+    assert rc == 1
+    line = _one_fatal_line(err)
+    assert "F_00" in line and "no model written" in line
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in work.iterdir() if p.name.startswith(".existing_model")) == []
+
+
+# ---------------------------------------------------------------------------------------------
+# pybullet_node, bag_player, bag_recorder
+
+
+def test_pybullet_node_replays_like_simulate_move(ros, work, dataset):
+    from littledog_mlsim.robot.sim import simulate_move
+
+    commands = load_moves(dataset, split="train", types=["L"])[0].cmd[:60]
+    proc = Proc("pybullet_node", {"step_mode": "lockstep", "seed": 7, "robot": "measured"}, work)
+    probe = Probe(ros, sim="pybullet_node")
+    try:
+        probe.connect(proc)
+        for k, u in enumerate(commands):
+            probe.send(u)
+            t = (k + 1) * CONTROL_DT_NS
+            probe.wait(lambda t=t: t in probe.state and any(o[0] == t for o in probe.odom[-3:]),
+                       what=f"pybullet step {k + 1}")
+    finally:
+        probe.close()
+        assert proc.stop() == 0
+    rec = simulate_move(commands, robot="measured", seed=7)
+    stamps = [(k + 1) * CONTROL_DT_NS for k in range(len(commands))]
+    js, odom = {j[1]: j for j in probe.js}, dict(probe.odom)
+    np.testing.assert_array_equal(np.array([js[t][2] for t in stamps]), rec.q[1:])
+    np.testing.assert_array_equal(np.array([js[t][3] for t in stamps]), rec.dq[1:])
+    for key in ("position", "orientation", "linear_velocity", "angular_velocity"):
+        np.testing.assert_array_equal(np.array([odom[t][key] for t in stamps]),
+                                      getattr(rec, key)[1:])
+    np.testing.assert_allclose(np.array([probe.state[t] for t in stamps]),
+                               states_from_recording(rec), atol=1e-12)
+    assert odom[stamps[0]]["pose_covariance"][0] == -1.0
+
+
+def test_bag_player_timing_and_content(ros, work, dataset):
+    bag = dataset / "F_00"
+    node = ros.node("player_listener")
+    got, cond = [], threading.Condition()
+
+    def on_cmd(msg, info):   # the player's publish time: its DDS source timestamp
+        with cond:
+            got.append((info["source_timestamp"] / 1e9, m.stamp_ns(msg.header.stamp),
+                        m.joint_state_arrays(msg)[0]))
+            cond.notify_all()
+    node.create_subscription(JointState, "/littledog/cmd", on_cmd, QOS)
+    try:
+        rc, err = run("bag_player", {"bag": bag, "rate": 2.0, "wait_for_subscribers": 1}, work)
+        assert rc == 0, err
+        with cond:
+            assert cond.wait_for(lambda: len(got) >= 400, TIMEOUT), f"{len(got)} commands"
+    finally:
+        ros.close(node)
+    rec = read_bag(bag)
+    np.testing.assert_array_equal(np.array([g[2] for g in got]), rec.cmd)
+    assert [g[1] for g in got] == rec.stamps_ns[:-1].tolist()
+    span = got[-1][0] - got[0][0]                   # 399 intervals of 10 ms at rate 2
+    assert abs(span - 399 * 0.005) < 0.05, f"played in {span:.3f} s"
+    gaps = np.diff([g[0] for g in got])
+    assert abs(np.median(gaps) - 0.005) < 0.0005
+    rc, err = run("bag_player", {"bag": work / "no_such_bag"}, work)
+    assert rc == 1 and "no_such_bag" in _one_fatal_line(err)
+
+
+def test_player_sim_recorder_loop(ros, work, dataset, model_path, model):
+    """bag_player (paced) -> sim_node (lockstep) -> bag_recorder -> a contract bag that holds
+    the core's rollout from the node's initial state."""
+    src = read_bag(dataset / "S_00")
+    out = work / "recorded" / "S_00"
+    out.parent.mkdir(exist_ok=True)
+    rec_proc = Proc("bag_recorder", {"out": out, "max_steps": 400}, work)
+    sim = Proc("sim_node", {"model_path": model_path, "step_mode": "lockstep"}, work)
+    graph = ros.node("graph")
+    try:
+        # the recorder's subscriptions and the simulator's publishers are in the graph
+        wait_until(lambda: graph.count_subscribers("/sim_node/cmd_applied") >= 1
+                   and graph.count_publishers("/sim_node/cmd_applied") >= 1
+                   and graph.count_subscribers("/littledog/odom") >= 1, what="recorder and sim")
+        rc, err = run("bag_player", {"bag": dataset / "S_00", "pace_topic":
+                                     "/littledog/joint_states", "wait_for_subscribers": 1}, work)
+        assert rc == 0, err
+        assert rec_proc.wait(TIMEOUT) == 0, rec_proc.stderr()
+    finally:
+        ros.close(graph)
+        rec_proc.stop()
+        assert sim.stop() == 0
+    rec = read_bag(out)
+    np.testing.assert_array_equal(rec.cmd, src.cmd)
+    s0 = standing_train_state(model.train_states, model.projection("alpha", 0.5))
+    ref = rollout(model, s0, src.cmd, model.projection("alpha", 0.5))
+    np.testing.assert_array_equal(rec.q, np.vstack([s0[S.q], ref[:, S.q]]))
+    np.testing.assert_array_equal(rec.dq, np.vstack([s0[S.dq], ref[:, S.dq]]))
+    # the odometry is the pose integrate_path gives (initial_pose 0, 0, 0); z, roll, pitch are
+    # state elements. (The learned model predicts d_b, droll, ... separately from z_w, roll,
+    # ..., so they are not recomputable from the pose.)
+    path = integrate_path(ref, 0.0, 0.0, 0.0, s0[S.roll_pitch])
+    np.testing.assert_allclose(rec.position[1:, :2], path[:, :2], atol=1e-9)
+    np.testing.assert_allclose(rec.position[:, 2], np.r_[s0[S.z_w], ref[:, S.z_w]], atol=1e-12)
+    rpy = quat_to_rpy(rec.orientation[1:])
+    np.testing.assert_allclose(rpy[:, :2], ref[:, S.roll_pitch], atol=1e-9)
+    np.testing.assert_allclose(np.unwrap(rpy[:, 2]), np.unwrap(path[:, 2]), atol=1e-9)
+
+
+def test_diverging_model_never_publishes_nan(ros, work, dataset):
+    """A model whose predictions overflow: each step is discarded, the node resets to the
+    initial state, counts it and publishes nothing non-finite."""
+    X, Y, _ = features_responses(load_moves(dataset, split="train"))
+    model = OneStepModel.fit(LinearRegression(), X, Y)
+    model.estimator.coef_ = np.full_like(model.estimator.coef_, np.inf)  # inf/NaN predictions
+    path = work / "diverging_model"
+    model.save(path)
+    s0 = standing_train_state(model.train_states, model.projection("alpha", 0.5))
+    proc = Proc("sim_node", {"model_path": path, "step_mode": "lockstep",
+                             "stats_period": 0.2}, work)
+    probe = Probe(ros)
+    try:
+        probe.connect(proc)
+        for k in range(3):
+            probe.send(HOME_POSE)
+            probe.wait(lambda k=k: (k + 1) * CONTROL_DT_NS in probe.state, what="a step")
+        st = probe.wait_counter("diverged", 3)
+        assert int(st["diverged"]) == 3 and proc.alive()
+        for k in range(1, 4):
+            np.testing.assert_array_equal(probe.state[k * CONTROL_DT_NS], s0)
+        with probe.cond:
+            assert all(np.all(np.isfinite(np.r_[j[2], j[3]])) for j in probe.js)
+            assert all(np.all(np.isfinite(np.r_[o["position"], o["pose_covariance"],
+                                                o["twist_covariance"]])) for _, o in probe.odom)
+        assert "non-finite state" in proc.stderr()
+    finally:
+        probe.close()
+        assert proc.stop() == 0
+
+
+def test_parameters_declared_documented_and_in_config():
+    """Every parameter of the nodes is declared with a description, and each config YAML lists
+    exactly the declared parameters (those without a default only as a comment)."""
+    import yaml
+
+    from littledog_mlsim.nodes.pybullet_node import PybulletNode
+    from littledog_mlsim.nodes.sim_node import SimNode
+    from littledog_mlsim.nodes.simulator import COMMON_PARAMS
+    from littledog_mlsim.nodes.trainer_node import PARAMS as TRAINER_PARAMS
+
+    config = Path(__file__).resolve().parents[1] / "config"
+    for file, node, params in (("sim.yaml", "sim_node", SimNode.PARAMS + COMMON_PARAMS),
+                               ("pybullet.yaml", "pybullet_node",
+                                PybulletNode.PARAMS + COMMON_PARAMS),
+                               ("trainer.yaml", "trainer_node", TRAINER_PARAMS)):
+        text = (config / file).read_text()
+        listed = yaml.safe_load(text)[node]["ros__parameters"]
+        for p in params:
+            assert len(p.description) > 20, p.name
+            if isinstance(p.default, rclpy.parameter.Parameter.Type):
+                assert p.name not in listed and f"# {p.name}:" in text, (file, p.name)
+            else:
+                assert p.name in listed, (file, p.name)
+        assert set(listed) <= {p.name for p in params}, file
+
+
+def test_parameter_descriptions_over_ros(ros, work, model_path):
+    """The descriptions are what `ros2 param describe` shows (the parameter services)."""
+    from rcl_interfaces.srv import DescribeParameters, GetParameters
+
+    proc = Proc("sim_node", {"model_path": model_path, "step_mode": "lockstep",
+                             "alpha": 0.25}, work)
+    node = ros.node("describer")
+    try:
+        desc = node.create_client(DescribeParameters, "/sim_node/describe_parameters")
+        get = node.create_client(GetParameters, "/sim_node/get_parameters")
+        wait_until(lambda: desc.service_is_ready() and get.service_is_ready() or
+                   not proc.alive(), what="sim_node's parameter services")
+        names = ["model_path", "alpha", "step_mode", "cmd_timeout", "projection"]
+        fut = desc.call_async(DescribeParameters.Request(names=names))
+        wait_until(fut.done, what="describe_parameters")
+        for d in fut.result().descriptors:
+            assert d.description and d.read_only, d.name
+        fut = get.call_async(GetParameters.Request(names=["alpha", "cmd_timeout"]))
+        wait_until(fut.done, what="get_parameters")
+        alpha, timeout = fut.result().values
+        assert alpha.double_value == 0.25          # -p override
+        assert timeout.double_value == 0.5         # config/sim.yaml default
+    finally:
+        ros.close(node)
+        assert proc.stop() == 0
