@@ -106,6 +106,44 @@ def cmd_train(a: argparse.Namespace) -> int:
     return 0
 
 
+def _alpha(text: str) -> float:
+    a = float(text)
+    if not 0.0 <= a <= 1.0:
+        raise argparse.ArgumentTypeError(f"alpha must be in [0, 1], got {text}")
+    return a
+
+
+def cmd_evaluate(a: argparse.Namespace) -> int:
+    from .evaluate import evaluate
+
+    r = evaluate(a.model, a.data, a.out, projections=a.projections, alpha=a.alpha)
+    print(f"{r['method']}: mean one-step nMSE {r['nmse_mean']:.4f} over {r['n_samples']} TestPool samples")
+    for label, v in r["rollout"].items():
+        print(f"  rollout {label:<10} final (x,y) error {v['final_xy_error_m']} m "
+              f"({v['realtime_factor']:.0f}x real time)")
+    print(f"wrote {Path(a.out) / 'metrics.json'}")
+    return 0
+
+
+def cmd_rollout(a: argparse.Namespace) -> int:
+    from .evaluate import rollout_verb
+
+    r = rollout_verb(a.model, a.data, a.out, kind=a.projection, alpha=a.alpha)
+    print(f"{r['method']} + {a.projection}: mean final (x,y) error {r['final_xy_error_m']} m over "
+          f"{len(r['per_move'])} TestPool moves; wrote {Path(a.out) / 'rollout.json'}")
+    return 0
+
+
+def cmd_reproduce(a: argparse.Namespace) -> int:
+    from .reproduce import reproduce
+
+    s = reproduce(a.data, a.out, scale=a.scale, methods=a.methods, seed=a.seed, fig4=not a.no_fig4,
+                  rollouts=not a.no_rollouts, jobs=a.jobs, progress=True)
+    print(f"wrote Table I, Fig. 4{'' if a.no_rollouts else ' and Figs 5-7'} into {a.out} "
+          f"in {s['wall_s']:.0f} s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="littledog-mlsim",
                                 description="Learned rigid-body simulator of the LittleDog quadruped.")
@@ -156,6 +194,41 @@ def build_parser() -> argparse.ArgumentParser:
                    help="any other constructor argument of the regressor (VALUE parsed as JSON); repeatable")
     t.add_argument("--quiet", action="store_true", help="no progress lines")
     t.set_defaults(func=cmd_train)
+
+    e = sub.add_parser("evaluate", help="one-step nMSE and rollout errors of a model on the TestPool",
+                       description="Score a model on a dataset's TestPool: metrics.json with nmse "
+                                   "(state name -> one-step nMSE) and the rollout errors.")
+    e.add_argument("--model", required=True, type=Path, help="model directory")
+    e.add_argument("--data", required=True, type=Path, help="dataset directory")
+    e.add_argument("--out", required=True, type=Path, help="output directory")
+    e.add_argument("--projections", type=lambda t: [x for x in t.split(",") if x],
+                   default=["none", "bound", "alpha"], help="comma-separated: none,bound,alpha")
+    e.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    e.set_defaults(func=cmd_evaluate)
+
+    o = sub.add_parser("rollout", help="roll a model out over every TestPool move",
+                       description="Roll every TestPool move out from its measured initial state "
+                                   "with its recorded commands: rollout.json.")
+    o.add_argument("--model", required=True, type=Path, help="model directory")
+    o.add_argument("--data", required=True, type=Path, help="dataset directory")
+    o.add_argument("--projection", choices=["none", "bound", "alpha"], default="alpha")
+    o.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    o.add_argument("--out", required=True, type=Path, help="output directory")
+    o.set_defaults(func=cmd_rollout)
+
+    rp = sub.add_parser("reproduce", help="the paper's Table I and Figs 4-7 on a dataset",
+                       description="Train every method, write table1.csv/md, fig4.png and the "
+                                   "rollout figures (Figs 5-7, animation).")
+    rp.add_argument("--data", required=True, type=Path, help="dataset directory")
+    rp.add_argument("--out", required=True, type=Path, help="output directory")
+    rp.add_argument("--scale", choices=["small", "paper"], default="small")
+    rp.add_argument("--methods", type=lambda t: [x for x in t.split(",") if x],
+                   default=["lr", "lwpr", "gpr", "sor", "lgpr"], help="comma-separated subset")
+    rp.add_argument("--seed", type=int, default=0)
+    rp.add_argument("--jobs", type=int, default=2, help="processes for the Fig. 4 fits")
+    rp.add_argument("--no-fig4", action="store_true", help="skip Fig. 4")
+    rp.add_argument("--no-rollouts", action="store_true", help="skip Figs 5-7 and the animation")
+    rp.set_defaults(func=cmd_reproduce)
 
     for name in ("info", "dataset"):
         i = sub.add_parser(name, help="summarise a recorded dataset" + (" (alias of info)" if name == "dataset" else ""),
