@@ -45,8 +45,8 @@ class SimNode(SimulatorNode):
               "none | bound | alpha"),
         Param("alpha", 0.5, "alpha of alpha-PROJ: s := (1 - alpha) s + alpha q, q the nearest "
               "TrainPool state", "0 <= alpha <= 1"),
-        Param("nn_method", "brute", "alpha-PROJ nearest-neighbour search (exact either way)",
-              "brute | kdtree"),
+        Param("nn_method", "auto", "alpha-PROJ nearest-neighbour search (rollout.projection."
+              "NearestNeighbour; exact either way)", "auto | pca | brute | kdtree"),
         Param("initial_state", Parameter.Type.DOUBLE_ARRAY, "initial state s_0, 33 values in "
               "layout.STATE_NAMES order (unset: the model's TrainPool state nearest the home "
               "stance)", "33 finite values"),
@@ -78,6 +78,11 @@ class SimNode(SimulatorNode):
             raise StartupError(f"cannot load model: {e}") from None
         except OSError as e:
             raise StartupError(f"cannot load model {path}: {e}") from None
+        from ..rollout.projection import NearestNeighbour
+
+        if self.param("nn_method") not in NearestNeighbour.METHODS:
+            raise StartupError(f"parameter nn_method must be one of "
+                               f"{', '.join(NearestNeighbour.METHODS)}")
         kind = self.param("projection")
         if kind not in PROJECTIONS:
             raise StartupError(f"parameter projection must be one of {', '.join(PROJECTIONS)}, "

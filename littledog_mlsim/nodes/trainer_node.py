@@ -2,15 +2,20 @@
 
     trainer_node --ros-args -p data:=bags/default -p out:=/tmp/model -p method:=lr
     trainer_node --ros-args --params-file config/trainer.yaml -p method:=lgpr \
-        -p method_params:="{cluster_size: 500, n_jobs: 2}"
+        -p 'method_params:="{cluster_size: 500, n_jobs: 2}"'
 
-Reads the dataset's bags of ``split`` (and ``types``) with ``load_moves``, forms the paper's
-features and responses (``features_responses``), fits ``OneStepModel.fit(<method>(**params))``
-and saves it with ``OneStepModel.save``, logging each stage (and every ``heartbeat`` seconds
-while fitting). The save is atomic (``models.persistence``): an existing model at ``out`` is
-replaced only by a complete new one; any failure (a bad bag, a bad parameter, a failing fit,
-an interrupt) leaves it untouched. Exit status: 0 when the model is written, 1 when training
-failed (one FATAL line), 2 for a bad parameter, 130 when interrupted.
+A ROS shell around the core's ``models.train.train_from_dataset`` (the same training as
+``littledog-mlsim train``): the TrainPool bags of ``data``, the paper's features and responses,
+``method`` with the constructor arguments ``method_params`` (a YAML mapping in a string: quote it
+inside ``-p``), at most ``max_samples`` samples (0: the method's default cap, e.g. 2000 for
+gpr), then ``OneStepModel.save``. The core's progress lines (and a regressor's ``verbose``
+output) are forwarded to the ROS log, plus a "still fitting" line every ``heartbeat`` s.
+
+The save is atomic (``models.persistence``): an existing model at ``out`` is replaced only by a
+complete new one; any failure (a bad bag, a bad parameter, a failing fit, SIGINT/SIGTERM)
+leaves it untouched. Exit status: 0 when the model is written, 1 when training failed (one
+FATAL line naming the cause, e.g. the bag and topic), 2 for a bad parameter, 130 when
+interrupted.
 
 One-shot: no ``~/train`` service; the node exits when the model is written. Parameters:
 ``config/trainer.yaml``.
@@ -29,7 +34,6 @@ import yaml
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
 from .simulator import Param, StartupError, load_config_defaults
@@ -37,22 +41,19 @@ from .simulator import Param, StartupError, load_config_defaults
 NODE_NAME = "trainer_node"
 
 PARAMS: tuple[Param, ...] = (
-    Param("data", "", "dataset directory (bags + dataset.yaml) to train on (required)"),
+    Param("data", "", "dataset directory (bags + dataset.yaml) whose TrainPool is trained on "
+          "(required)"),
     Param("out", "", "model directory to write (replaced atomically if it holds a model)"),
-    Param("method", "lr", "regression method of the one-step model (models.persistence "
-          "registry)", "lr | lwpr | gpr | sor | lgpr"),
+    Param("method", "lr", "regression method of the one-step model",
+          "lr | lwpr | gpr | sor | lgpr"),
     Param("method_params", "{}", "the method's hyperparameters as a YAML mapping, e.g. "
-          "\"{cluster_size: 500, n_jobs: 2}\" (constructor arguments of the estimator)"),
+          "\"{cluster_size: 500, n_jobs: 2}\" (constructor arguments of the estimator; may "
+          "also set target)"),
     Param("target", "delta", "response the regressor learns: delta = s_{t+1} - s_t, next = "
           "s_{t+1}", "delta | next"),
-    Param("split", "train", "bags to train on: the TrainPool (train), the TestPool (test) or "
-          "both (all)", "train | test | all"),
-    Param("types", Parameter.Type.STRING_ARRAY, "move types to train on (unset: all)"),
-    Param("on_bad_bag", "fail", "fail: a bag that does not load fails the training; skip: it is "
-          "left out with a warning", "fail | skip"),
     Param("max_samples", 0, "train on at most this many samples, a seeded random subset "
-          "(0: all)", ">= 0"),
-    Param("seed", 0, "seed of the random max_samples subset of the samples"),
+          "(0: the method's default cap, models.train.DEFAULT_MAX_TRAIN)", ">= 0"),
+    Param("seed", 0, "seeds the max_samples subset and the regressor's random_state"),
     Param("heartbeat", 30.0, "seconds between 'still fitting' log lines (0: none)", ">= 0"),
 )
 
@@ -87,17 +88,15 @@ class TrainerNode(Node):
 
     def settings(self) -> dict[str, Any]:
         """Parameters checked; StartupError (exit 2) on a bad one."""
-        from ..models.onestep import TARGETS
-        from ..models.persistence import ModelError, get_method
+        from ..models.train import METHOD_NAMES, make_estimator
 
         s = {p.name: self.param(p.name) for p in PARAMS}
         if not s["data"] or not s["out"]:
             raise StartupError("set the parameters data (dataset directory) and out (model "
                                "directory)")
-        try:
-            s["estimator_class"] = get_method(s["method"])
-        except ModelError as e:
-            raise StartupError(str(e)) from None
+        if s["method"] not in METHOD_NAMES:
+            raise StartupError(f"method must be one of {', '.join(METHOD_NAMES)}, got "
+                               f"{s['method']!r}")
         try:
             params = yaml.safe_load(s["method_params"]) or {}
         except yaml.YAMLError as e:
@@ -105,76 +104,66 @@ class TrainerNode(Node):
         if not isinstance(params, dict):
             raise StartupError("method_params must be a YAML mapping, e.g. \"{max_iter: 50}\"")
         s["method_params"] = params
-        if s["target"] not in TARGETS:
-            raise StartupError(f"target must be one of {', '.join(TARGETS)}")
-        if s["split"] not in ("train", "test", "all"):
-            raise StartupError("split must be train, test or all")
-        if s["on_bad_bag"] not in ("fail", "skip"):
-            raise StartupError("on_bad_bag must be fail or skip")
+        try:   # fail on a bad option before reading any bag
+            make_estimator(s["method"], {k: v for k, v in params.items() if k != "target"})
+        except (TypeError, ValueError) as e:
+            raise StartupError(_one_line(e)) from None
         if s["max_samples"] < 0 or s["heartbeat"] < 0:
             raise StartupError("max_samples and heartbeat must be >= 0")
         return s
 
     def train(self) -> None:
-        """Load, fit, save; TrainingError on any failure (nothing written then)."""
-        import warnings
+        """Fit with the core and save; TrainingError on any failure (nothing written then)."""
+        import contextlib
 
-        from ..data.dataset import features_responses, load_moves
-        from ..models.onestep import OneStepModel
+        from ..models.train import train_from_dataset
 
         s = self.settings()
         log = self.get_logger()
-        try:
-            estimator = s["estimator_class"](**s["method_params"])
-        except (TypeError, ValueError) as e:
-            raise StartupError(f"{s['method']}(**method_params): {e}") from None
-
-        t0 = time.perf_counter()
-        log.info(f"loading the {s['split']} bags of {s['data']}"
-                 + (f" (types {','.join(s['types'])})" if s["types"] else ""))
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                moves = load_moves(s["data"], split=s["split"], types=s["types"],
-                                   on_error="raise" if s["on_bad_bag"] == "fail" else "skip")
-            for w in caught:
-                log.warning(str(w.message))
-            X, Y, _ = features_responses(moves)
-        except (ValueError, OSError) as e:   # DatasetError, BagError are ValueErrors
-            raise TrainingError(_one_line(e)) from None
-        n_all = X.shape[0]
-        if s["max_samples"] and n_all > s["max_samples"]:
-            rows = np.sort(np.random.default_rng(s["seed"]).choice(
-                n_all, size=s["max_samples"], replace=False))
-            X, Y = X[rows], Y[rows]
-        log.info(f"{len(moves)} moves, {X.shape[0]} samples"
-                 + (f" (of {n_all})" if X.shape[0] < n_all else "")
-                 + f" loaded in {time.perf_counter() - t0:.1f} s; fitting {s['method']} "
-                 f"{s['method_params'] or ''}".rstrip())
-
         done = threading.Event()
-        t1 = time.perf_counter()
+        t0 = time.perf_counter()
         if s["heartbeat"] > 0:
             def beat() -> None:
                 while not done.wait(s["heartbeat"]):
-                    log.info(f"still fitting {s['method']} ({time.perf_counter() - t1:.0f} s)")
+                    log.info(f"still working on {s['method']} "
+                             f"({time.perf_counter() - t0:.0f} s)")
             threading.Thread(target=beat, daemon=True).start()
         try:
-            model = OneStepModel.fit(
-                estimator, X, Y, target=s["target"],
-                info={"trained_by": NODE_NAME, "data": str(s["data"]), "split": s["split"],
-                      "types": list(s["types"] or []), "n_moves": len(moves)})
-        except (ValueError, np.linalg.LinAlgError, MemoryError) as e:
-            raise TrainingError(f"fitting {s['method']} failed: {_one_line(e)}") from None
+            with contextlib.redirect_stderr(_LogLines(log.info)):
+                model = train_from_dataset(
+                    s["data"], s["method"], options=s["method_params"],
+                    max_train_samples=s["max_samples"] or None, seed=s["seed"],
+                    progress=True, target=s["target"])
+        except (ValueError, OSError, np.linalg.LinAlgError, MemoryError) as e:
+            # DatasetError, BagError (naming bag and topic), ModelError are ValueErrors
+            raise TrainingError(_one_line(e)) from None
         finally:
             done.set()
-        log.info(f"fitted in {time.perf_counter() - t1:.1f} s; writing {s['out']}")
+        log.info(f"writing {s['out']}")
         try:
             model.save(s["out"])
-        except (ValueError, OSError) as e:   # ModelError is a ValueError
+        except (ValueError, OSError) as e:
             raise TrainingError(f"cannot write the model: {_one_line(e)}") from None
         log.info(f"wrote {s['method']} model to {s['out']} "
                  f"({time.perf_counter() - t0:.1f} s in all)")
+
+
+class _LogLines:
+    """A text stream that sends each complete line to a logger (the core prints progress)."""
+
+    def __init__(self, log: Any) -> None:
+        self.log, self.buf = log, ""
+
+    def write(self, text: str) -> int:
+        self.buf += text
+        *lines, self.buf = self.buf.split("\n")
+        for line in lines:
+            if line.strip():
+                self.log(line.rstrip())
+        return len(text)
+
+    def flush(self) -> None:
+        pass
 
 
 def _one_line(e: BaseException) -> str:
