@@ -448,6 +448,7 @@ def save_robot_config(config: RobotConfig, path: str | os.PathLike,
            "config": config_to_dict(config), **(dict(extra) if extra else {})}
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; a config is a shared, readable file
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(json.dumps(doc, indent=2, allow_nan=False) + "\n")
         os.replace(tmp, path)
