@@ -33,6 +33,12 @@ test: $(STAMP)
 dataset: $(STAMP)
 	$(VENV)/bin/littledog-mlsim record --out $(DATA)
 
+# Paper-scale Table I, Fig. 4, Figs 5-7 and the animation (long: run by hand, not in CI).
+reproduce: $(STAMP)
+	test -f $(DATA)/dataset.yaml || $(VENV)/bin/littledog-mlsim record --out $(DATA)
+	$(VENV)/bin/littledog-mlsim reproduce --data $(DATA) --out benchmarks/reproduce_paper --scale paper \
+		--physics-config benchmarks/nominal_tuned.json
+
 bench: $(STAMP)
 	$(PY) benchmarks/record_speed.py
 

@@ -113,9 +113,9 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
         curves[label], sums[label], preds[label] = xy_error_curves(moves, pred), element_sums(moves, pred), pred
         say(f"{label}: final (x,y) error {res.get('final_xy_error_m')} m, {wall:.1f} s")
     if physics_config is not None:
-        from .baseline import physics_rollout
+        from .baseline import physics_rollouts
         t0 = time.perf_counter()
-        pred = [physics_rollout(r, physics_config) for r in recs]
+        pred = physics_rollouts(recs, physics_config, jobs=2)
         res = rollout_metrics(moves, pred)
         summary["projections"][PHYSICS] = {
             k: res.get(k) for k in ("final_xy_error_m", "final_xy_error_m_median",

@@ -255,7 +255,8 @@ def plot_fig4(points: list[dict[str, Any]], out: Path) -> None:
 
 def reproduce(data: str | os.PathLike, out: str | os.PathLike, scale: str = "small",
               methods: Sequence[str] = METHODS, seed: int = 0, fig4: bool = True,
-              rollouts: bool = True, jobs: int = 2, progress: bool = True) -> dict[str, Any]:
+              rollouts: bool = True, jobs: int = 2, physics_config: str | os.PathLike | None = None,
+              progress: bool = True) -> dict[str, Any]:
     """Run Table I and Fig. 4 (and the rollout figures) into ``out``; returns a summary dict."""
     if scale not in SCALES:
         raise ValueError(f"--scale must be one of {', '.join(SCALES)}, got {scale!r}")
@@ -307,8 +308,13 @@ def reproduce(data: str | os.PathLike, out: str | os.PathLike, scale: str = "sma
                    "fig4": points}
         if rollouts:
             from .figures import rollout_figures
-            say("rollout figures")
-            summary["rollouts"] = rollout_figures(data, out, out / "models", progress=progress)
+            physics = None
+            if physics_config is not None:
+                from .baseline import load_robot_config
+                physics = load_robot_config(physics_config)
+            say("rollout figures" + (f" (physics baseline {physics_config})" if physics else ""))
+            summary["rollouts"] = rollout_figures(data, out, out / "models", physics_config=physics,
+                                                  progress=progress)
         summary["wall_s"] = time.perf_counter() - t_start
         (out / "reproduce.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
         say(f"done in {summary['wall_s']:.0f} s")
