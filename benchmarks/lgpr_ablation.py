@@ -6,6 +6,10 @@ Usage (repo root; BLAS is pinned to one thread here):
     .venv/bin/python benchmarks/lgpr_ablation.py --data DATASET [--n-train 5000] [--clusters 5]
         [--jobs 2] [--full] [--md benchmarks/lgpr_ablation.md] [--json out.json]
         [--only NAME,NAME]
+    .venv/bin/python benchmarks/lgpr_ablation.py --md-from A.json [B.json ...] --md OUT.md
+    .venv/bin/python benchmarks/lgpr_ablation.py --time-cmd CMD ...      # wall time, peak RSS
+    .venv/bin/python benchmarks/lgpr_ablation.py --data DATASET --paced-latency MODEL [--std]
+        [--blend] [--queries 1500]                                     # 100 Hz single queries
 
 Part A fits every variant on the same random TrainPool subset (``--n-train`` points in
 ``--clusters`` clusters, so about 1000 points per local GP as in the paper) and scores it on the
@@ -57,10 +61,12 @@ GROUPS = {
 
 
 class PeakRSS:
-    """Peak summed RSS of this process and all its descendants, sampled in a thread."""
+    """Peak summed RSS of this process (unless ``include_self`` is False) and all its
+    descendants, sampled in a thread."""
 
-    def __init__(self, interval: float = 0.1) -> None:
+    def __init__(self, interval: float = 0.1, include_self: bool = True) -> None:
         self.interval = interval
+        self.include_self = include_self
         self.peak = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
@@ -68,7 +74,7 @@ class PeakRSS:
     def _sample(self) -> int:
         me = psutil.Process()
         total = 0
-        for p in [me] + me.children(recursive=True):
+        for p in ([me] if self.include_self else []) + me.children(recursive=True):
             try:
                 total += p.memory_info().rss
             except psutil.Error:
@@ -131,6 +137,7 @@ def score(name: str, model: OneStepModel, Xt: np.ndarray, Yt: np.ndarray,
         "fit_s": fit_s, "peak_rss_mb": None if peak is None else peak / 1e6,
         "iters_median": float(np.median(est.n_iter_)),
         "cluster_fit_s_median": float(np.median(est.fit_seconds_)),
+        "fit_cpu_s": float(est.fit_cpu_seconds_.sum() + est.global_cpu_seconds_),
         "nmse": dict(zip(STATE_NAMES, e.tolist())),
         "nmse_mean": float(e.mean()), "nmse_median": float(np.median(e)),
         "nmse_groups": {g: float(e[i].mean()) for g, i in GROUPS.items()},
@@ -154,6 +161,30 @@ def score(name: str, model: OneStepModel, Xt: np.ndarray, Yt: np.ndarray,
           f"droll {e[6]:.4f}; fit {fit_s if fit_s is None else round(fit_s, 1)} s; "
           f"latency {row['latency_ms'][0]:.3f}/{row['latency_ms'][1]:.3f} ms", flush=True)
     return row
+
+
+def paced_latency(path: Path, n: int, return_std: bool, blend: bool, X: np.ndarray) -> str:
+    """One-row predictions of a saved model every 10 ms (a 100 Hz node), wall and CPU time."""
+    model = OneStepModel.load(path)
+    if blend:
+        model.estimator.blend, model.estimator.n_blend = True, 2
+    model.prepare(return_std=return_std or blend)
+    rows = np.random.default_rng(2).choice(X.shape[0], n)
+    wall, cpu = np.empty(n), np.empty(n)
+    for j, i in enumerate(rows):
+        x = X[i].copy()
+        c0 = time.thread_time_ns()
+        t0 = time.perf_counter_ns()
+        model.predict(x, return_std=return_std)
+        wall[j] = time.perf_counter_ns() - t0
+        cpu[j] = time.thread_time_ns() - c0
+        time.sleep(max(0.0, 0.01 - (time.perf_counter_ns() - t0) / 1e9))
+    w, c = wall[20:] / 1e6, cpu[20:] / 1e6
+    return (f"{'mean + std' if return_std else 'mean'}{', blend of 2' if blend else ''}: wall "
+            f"median {np.median(w):.3f} p99 {np.percentile(w, 99):.3f} max {w.max():.2f} ms; "
+            f"CPU median {np.median(c):.3f} p99 {np.percentile(c, 99):.3f} ms; {w.size} queries; "
+            f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, nice {os.nice(0)}, "
+            f"load average {os.getloadavg()[0]:.1f}")
 
 
 def fit_variant(name: str, kw: dict, X: np.ndarray, Y: np.ndarray, Xt: np.ndarray,
@@ -200,6 +231,12 @@ def blend_rows(base: OneStepModel, name: str, Xt: np.ndarray, Yt: np.ndarray) ->
     return rows
 
 
+def lat_text(lat) -> str:
+    if lat is None:
+        return "-"
+    return f"{lat[0]:.3f} / {lat[1]:.3f} ({lat[2]:.3f} / {lat[3]:.3f})"
+
+
 def fmt(v, nd=4):
     return "-" if v is None else f"{v:.{nd}f}"
 
@@ -209,18 +246,22 @@ def markdown(res: dict) -> str:
          f"Machine: {res['machine']}. BLAS pinned to one thread; {res['jobs']} joblib worker "
          f"process(es) for the cluster fits. Dataset: {res['data']} ({res['data_note']}); "
          f"TrainPool {res['n_pool']} pairs, TestPool {res['n_test']} pairs (all used for nMSE). "
-         f"Timings are wall-clock on a shared machine (other jobs were running; 1-minute load "
-         f"average {res.get('loadavg_start', ['?'])[0]} at the start and "
-         f"{res.get('loadavg_end', ['?'])[0]} at the end of a run, on 2 cores) and noisy.", ""]
+         "Timings are wall-clock on a shared machine where other jobs were running (1-minute "
+         "load average on the 2 cores: " + "; ".join(
+             f"{ld[0]:.1f} at the start, {ld[1]:.1f} at the end of run {i + 1}"
+             for i, ld in enumerate(res.get("loadavgs", []))) + "), so they are noisy; "
+         "\"fit CPU\" (CPU time of the cluster fits and the warm-start GP, summed over the "
+         "worker processes; without k-means and bookkeeping) is the load-independent cost.", ""]
 
     def table(rows: list[dict], title: str) -> None:
         L.extend([f"## {title}", "",
-                  "| variant | target | k (sizes min/med/max) | fit [s] | peak RSS [MB] | "
+                  "| variant | target | k (sizes min/med/max) | fit wall [s] | fit CPU [s] | "
+                  "peak RSS [MB] | "
                   "iters (median) | nMSE mean | nMSE median | z,roll,pitch | d_b | d_rpy | q | "
                   "dq | droll | 1-query ms median / p99 (CPU: median / p99) | "
                   "with std, same | "
                   "batch us/state | model MB (+ var. cache) |",
-                  "|" + "---|" * 18])
+                  "|" + "---|" * 19])
         for r in rows:
             g = r["nmse_groups"]
             sizes = "/".join(map(str, r["cluster_sizes"]))
@@ -228,11 +269,11 @@ def markdown(res: dict) -> str:
             lat_s = r.get("latency_std_ms")
             L.append(
                 f"| {r['name']} | {r['target']} | {r['k']} ({sizes}) | {fmt(r['fit_s'], 1)} | "
+                f"{fmt(r['fit_cpu_s'] if r['fit_s'] is not None else None, 1)} | "
                 f"{fmt(r['peak_rss_mb'], 0)} | {r['iters_median']:.0f} | {r['nmse_mean']:.4f} | "
                 f"{r['nmse_median']:.4f} | {g['z,roll,pitch']:.4f} | {g['d_b']:.4f} | "
                 f"{g['d_rpy']:.4f} | {g['q']:.5f} | {g['dq']:.4f} | {r['nmse']['droll']:.4f} | "
-                f"{lat[0]:.3f} / {lat[1]:.3f} ({lat[2]:.3f} / {lat[3]:.3f}) | "
-                f"{'-' if lat_s is None else f'{lat_s[0]:.3f} / {lat_s[1]:.3f} ({lat_s[2]:.3f} / {lat_s[3]:.3f})'} | "
+                f"{lat_text(lat)} | {lat_text(lat_s)} | "
                 f"{r['batch_us_per_state']:.0f} | {r['stored_mb']:.0f} (+{r['variance_cache_mb']:.0f}) |")
         L.append("")
 
@@ -271,11 +312,34 @@ def main(argv=None) -> int:
     ap.add_argument("--full", action="store_true", help="part B: the whole TrainPool")
     ap.add_argument("--md", type=Path, default=None)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--time-cmd", nargs=argparse.REMAINDER, default=None, metavar="CMD",
+                    help="only run CMD; report its wall time and the peak RSS of its process tree")
+    ap.add_argument("--paced-latency", type=Path, default=None, metavar="MODEL",
+                    help="only time one-row predictions of MODEL every 10 ms (needs --data)")
+    ap.add_argument("--queries", type=int, default=1500)
+    ap.add_argument("--std", action="store_true", help="--paced-latency with return_std")
+    ap.add_argument("--blend", action="store_true", help="--paced-latency with a blend of 2")
     a = ap.parse_args(argv)
+    if a.time_cmd:
+        import subprocess
+        with PeakRSS(include_self=False) as mem:
+            t0 = time.perf_counter()
+            rc = subprocess.call(a.time_cmd)
+            wall = time.perf_counter() - t0
+        print(f"exit {rc}; wall {wall:.1f} s; peak RSS of the process tree "
+              f"{mem.peak / 1e6:.0f} MB; load average {os.getloadavg()[0]:.1f}")
+        return rc
+    if a.paced_latency:
+        if a.data is None:
+            ap.error("--paced-latency needs --data (TestPool rows are the queries)")
+        Xt, _, _ = features_responses(load_moves(a.data, "test"))
+        print(paced_latency(a.paced_latency, a.queries, a.std, a.blend, Xt))
+        return 0
     if a.md_from:
         docs = [json.loads(p.read_text()) for p in a.md_from]
         res = dict(docs[0])
         res["command"] = "\n    ".join(d["command"] for d in docs)
+        res["loadavgs"] = [ld for d in docs for ld in d.get("loadavgs", [])]
         res["part_a"] = [r for d in docs for r in d["part_a"]]
         res["part_b"] = [r for d in docs for r in d["part_b"]]
         for d in docs:
@@ -330,7 +394,7 @@ def main(argv=None) -> int:
             finally:
                 shutil.rmtree(tmp, ignore_errors=True)
             res["part_b"].extend(blend_rows(back, "default, whole TrainPool", Xt, Yt)[:2])
-    res["loadavg_end"] = os.getloadavg()
+    res["loadavgs"] = [[res.pop("loadavg_start")[0], os.getloadavg()[0]]]
     if a.json:
         a.json.write_text(json.dumps(res, indent=1))
     if a.md:

@@ -13,6 +13,7 @@ from littledog_mlsim.data.bags import write_bag
 from littledog_mlsim.data.dataset import (dataset_entries, features_responses, load_moves,
                                           write_index)
 from littledog_mlsim.layout import FEATURE_NAMES, N_FEATURE, N_STATE
+from littledog_mlsim.models.features import CommandLag, FeatureSet
 from littledog_mlsim.models.gp import GPR
 from littledog_mlsim.models.lgpr import LGPR
 from littledog_mlsim.models.lr import LinearRegression
@@ -154,6 +155,11 @@ def test_train_from_dataset(tiny_dataset):
                              max_train_samples=50, progress=False)
     assert sub.info["n_train"] == 50 and sub.target == "delta"
     assert sub.data_fingerprint == m.data_fingerprint
+    fs = FeatureSet((CommandLag(lag=1),))  # an augmented feature set goes through as well
+    aug = train_from_dataset(tiny_dataset, "lr", options={}, progress=False, feature_set=fs)
+    Xa, _, _ = fs.features_responses(load_moves(tiny_dataset, "train"))
+    assert aug.feature_names == fs.names and Xa.shape[1] > X.shape[1]
+    assert aug.predict(Xa).shape == Y.shape
     with pytest.raises(ValueError, match="no option"):
         train_from_dataset(tiny_dataset, "lr", options={"n_clusters": 3}, progress=False)
     with pytest.raises(ValueError, match="unknown method"):

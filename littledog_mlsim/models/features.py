@@ -213,13 +213,14 @@ class CommandLag(Augmentation):
 @register_augmentation
 @dataclass(frozen=True)
 class CommandIncrement(Augmentation):
-    """u_{t-lag} - u_{t-lag-1}: the command's change ``lag`` steps ago (rate-dependent servo
-    behaviour, feed-forward of the commanded velocity)."""
+    """u_{t-lag} - u_{t-lag-1}: the command's change ``lag`` steps ago (a late or rate-dependent
+    servo). Screened in the command-delay family: next to u_t, the increment at lag 0 spans the
+    same as u_{t-1}."""
 
     lag: int = 0
     joints: str = "all"
     name: ClassVar[str] = "command_increment"
-    family: ClassVar[str] = "command increment"
+    family: ClassVar[str] = "command delay"
 
     def __post_init__(self) -> None:
         if int(self.lag) != self.lag or self.lag < 0:
@@ -292,27 +293,37 @@ class TrackingSaturation(Augmentation):
 @register_augmentation
 @dataclass(frozen=True)
 class JointRateSign(Augmentation):
-    """tanh(dq_t / smoothing) per joint: the sign of the joint rate, the shape of Coulomb
-    friction (a joint torque -c sign(dq)). Viscous friction -b dq is linear in dq, which the
-    paper's features hold already."""
+    """Coulomb friction terms per selected joint: tanh(dq_t / smoothing), the sign of the joint
+    rate now, and tanh((u_t - q_t) / error_smoothing), the sign of the servo's push, which is
+    the direction the joint moves during the step when it starts or reverses (the soft,
+    heavily damped servo makes the rate follow the push within a few ms). Coulomb friction
+    -c sign(dq) over the step is a mix of the two; viscous friction -b dq is linear in dq, which
+    the paper's features hold already."""
 
     smoothing: float = 0.05
     joints: str = "all"
+    error_smoothing: float = 0.02
     name: ClassVar[str] = "joint_rate_sign"
     family: ClassVar[str] = "Coulomb friction"
 
     def __post_init__(self) -> None:
-        if not self.smoothing > 0:
-            raise FeatureSetError(f"joint_rate_sign: smoothing must be > 0, got "
-                                  f"{self.smoothing!r}")
+        if not (self.smoothing > 0 and self.error_smoothing > 0):
+            raise FeatureSetError(f"joint_rate_sign: smoothing and error_smoothing must be > 0, "
+                                  f"got {self.smoothing!r}, {self.error_smoothing!r}")
         _group(JOINT_GROUPS, self.joints, "joint_rate_sign")
 
     def columns(self) -> tuple[str, ...]:
-        return tuple(f"sign(dq_{JOINT_NAMES[j]})" for j in JOINT_GROUPS[self.joints])
+        idx = JOINT_GROUPS[self.joints]
+        return (tuple(f"sign(dq_{JOINT_NAMES[j]})" for j in idx)
+                + tuple(f"sign(u-q)_{JOINT_NAMES[j]}" for j in idx))
 
     def compute(self, w: Window) -> np.ndarray:
-        dq = w.s(0)[..., S.dq][..., list(JOINT_GROUPS[self.joints])]
-        return np.tanh(dq / self.smoothing)
+        idx = list(JOINT_GROUPS[self.joints])
+        s, u = w.s(0), w.u(0)
+        dq = s[..., S.dq][..., idx]
+        e = u[..., idx] - s[..., S.q][..., idx]
+        return np.concatenate([np.tanh(dq / self.smoothing),
+                               np.tanh(e / self.error_smoothing)], axis=-1)
 
 
 @register_augmentation
@@ -639,7 +650,7 @@ class FeatureSet:
     def _window_batch(self, S_: np.ndarray, U: np.ndarray, pose: np.ndarray | None
                       ) -> Window:
         """Window over (B, T, .) arrays: lags shifted along time, the first row repeated."""
-        return _LagWindow(S_, U, pose, self.max_lag)
+        return _lag_window(S_, U, pose, self.max_lag)
 
     def _extra_batch(self, S_: np.ndarray, U: np.ndarray, pose: np.ndarray | None) -> np.ndarray:
         """Extra columns (B, T, n_extra) for moves of equal length, from the first sample on."""
@@ -743,7 +754,7 @@ def batch_columns(recs: Sequence[MoveRecording], augmentations: Sequence[Augment
         S_ = np.stack([arrays[i][0] for i in idx])
         U = np.stack([arrays[i][1] for i in idx])
         pose = np.stack([arrays[i][2] for i in idx]) if needs_pose else None
-        w = _LagWindow(S_, U, pose, max_lag)
+        w = _lag_window(S_, U, pose, max_lag)
         for k, a in enumerate(augmentations):
             E = _compute_batch(a, w)
             for j, i in enumerate(idx):
@@ -751,7 +762,7 @@ def batch_columns(recs: Sequence[MoveRecording], augmentations: Sequence[Augment
     return [np.vstack(cols) for cols in per_aug]
 
 
-def _LagWindow(S_: np.ndarray, U: np.ndarray, pose: np.ndarray | None, max_lag: int) -> Window:
+def _lag_window(S_: np.ndarray, U: np.ndarray, pose: np.ndarray | None, max_lag: int) -> Window:
     T = S_.shape[1]
     states, actions = [S_], [U]
     for k in range(1, max_lag + 1):

@@ -32,7 +32,10 @@ random subset) with at most ``max_iter`` L-BFGS-B iterations; the weights alpha 
 the cluster's points. ``hyperparameters``:
 
 - ``"shared"`` (default): one ARD kernel for all p outputs of a cluster (the LML is summed over
-  the outputs), so one Cholesky per cluster serves every output, in fitting and for the variance.
+  the outputs; outputs are standardised per cluster, so they share length scales and the
+  signal/noise ratio), so one Cholesky per cluster serves every output, in fitting and for the
+  variance. The shared noise level makes the std conservative for low-noise outputs (on the
+  TestPool the median over outputs of mean(z^2), z = error / std, was 0.35-0.47, not 1).
 - ``"per_output"``: the paper's one GP per state element, p kernels per cluster; p times the fit
   work, and ``return_std`` needs p Cholesky factors per cluster (m^2 8 bytes each).
 
@@ -44,7 +47,24 @@ the cluster's points. ``hyperparameters``:
   mean over outputs when shared), clipped to the cluster's bounds.
 - ``"cold"``: :func:`.gp.default_init` on the cluster's subset (median heuristic).
 
-The choice of defaults is measured in ``benchmarks/lgpr_ablation.md``.
+Defaults, measured in ``benchmarks/lgpr_ablation.md`` (recorded pybullet dataset, 5000 TrainPool
+points in 5 clusters, nMSE on the whole TestPool):
+
+- ``hyperparameters="shared"``: per-output kernels (same 300-point subsets) were worse (mean
+  nMSE 0.065 vs 0.048, joint angles 6x worse: 45 ARD length scales per output overfit a few
+  hundred points, while shared ones pool the evidence of 33 outputs), cost 20x the fit CPU time
+  (39 vs 2 s), and made a single-query ``return_std`` 30x slower in CPU time (12 vs 0.4 ms;
+  33 factors per cluster, 1.3 GB of them at 5k points).
+- ``max_iter=30``: the same nMSE as 100 iterations (to 4 digits, warm or cold start) for half
+  the fit CPU time (cold: 3.8 vs 8.1 s). ``n_hyperparameter_points=500``: 300, 500 and 1000
+  points gave mean nMSE 0.0475, 0.0476, 0.0482 (median 0.0074, 0.0068, 0.0065) for 2.0, 10
+  and 20 s of fit CPU time (warm start included).
+- ``init="warm"``: at 30+ iterations warm and cold starts reach the same nMSE; warm makes the
+  result insensitive to the iteration cap (10 iterations: 0.0480 warm vs 0.0535 cold) for a fixed
+  cost (a 1000-point global GP, about 6 s of CPU).
+- nearest-centre prediction (``blend=False``): the blend of the 2 nearest models lowers the mean
+  nMSE by 5 % on the whole TrainPool (0.0426 vs 0.0450; 1.7 % on the 5k subset) and is
+  continuous, but costs about 1.3 ms per single query (two variance solves) against 0.1-0.4 ms.
 
 If the Cholesky of a cluster's full kernel matrix fails (hyperparameters from a subset, near-
 duplicate points) the jitter grows by 100x, at most three times; the jitter used is stored per
@@ -74,10 +94,10 @@ no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the cl
 they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
 each) but built by the first call that needs them, for all clusters at once (as many as fit in
 ``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
-inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (4.3 s for the 70-cluster
-model of the whole TrainPool in the ablation). Shared hyperparameters: one m x m factor per cluster (k m^2 8 bytes, 0.5 GB for 61k
-points in 1k-point clusters); per-output: p of them per cluster, so only a few clusters fit in
-the cache.
+inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (3.9 s for the 70-cluster
+model of the whole TrainPool in the ablation). Shared hyperparameters: one m x m factor per
+cluster (k m^2 8 bytes: 465 MB for that model); per-output: p of them per cluster, so only a
+few clusters fit in the cache.
 
 Parallel fitting
 ----------------
@@ -86,7 +106,8 @@ The per-cluster fits (and the per-output global fits of the warm start) run thro
 that Dask cluster (``distributed.Client`` + joblib's ``dask`` backend; the workers need this
 package importable). Every task's result depends only on its data and its seed (derived from
 ``random_state`` and the cluster number), and BLAS runs on one thread inside each task, so
-``n_jobs=1``, ``n_jobs=2`` and a Dask cluster give the same model.
+``n_jobs=1``, ``n_jobs=2`` and a Dask cluster give the same model (bit for bit when the workers
+use the same NumPy/BLAS build, as ``test/test_lgpr.py`` checks on one machine).
 """
 from __future__ import annotations
 
@@ -233,14 +254,15 @@ def fit_hyperparameters_task(X: np.ndarray, Y: np.ndarray, shared: bool,
                              options: dict[str, Any]) -> dict[str, Any]:
     """Worker task: standardise Y (n, p) and fit GP hyperparameters from the median heuristic.
 
-    Returns {"log_params" (p, d + 2) for standardised Y, "y_std" (p,), "seconds"}. Used for the
-    global GP of the warm start (one task, or one per output when not shared).
+    Returns {"log_params" (p, d + 2) for standardised Y, "y_std" (p,), "seconds", "cpu_seconds"}.
+    Used for the global GP of the warm start (one task, or one per output when not shared).
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     with threadpool_limits(limits=1):
         Yn, _, sd = _standardise(np.asarray(Y, dtype=np.float64))
         res = fit_gp_hyperparameters(X, Yn, **_gp_options(X, Yn, shared, None, options))
-    return {"log_params": res.log_params, "y_std": sd, "seconds": time.perf_counter() - t0}
+    return {"log_params": res.log_params, "y_std": sd, "seconds": time.perf_counter() - t0,
+            "cpu_seconds": time.process_time() - c0}
 
 
 def warm_init(global_log_params: np.ndarray, global_y_std: np.ndarray, y_std: np.ndarray,
@@ -266,9 +288,10 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
     ``init``: None (cold, median heuristic) or {"log_params" (p, d + 2), "y_std" (p,)} of the
     global GP (warm). Hyperparameters are fitted on at most ``options["n_hyperparameter_points"]``
     rows (seeded by ``seed``), alpha on all rows. Returns a dict of arrays: log_params (p, d + 2),
-    alpha (m, p), lml (p,), y_mean, y_std (p,), n_iter (p,), jitter, seconds.
+    alpha (m, p), lml (p,), y_mean, y_std (p,), n_iter (p,), jitter, seconds (wall), cpu_seconds
+    (this worker process's CPU time: comparable between runs on a busy machine).
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     X = np.asarray(X, dtype=np.float64)
     with threadpool_limits(limits=1):
         Yn, y_mean, y_std = _standardise(np.asarray(Y, dtype=np.float64))
@@ -292,7 +315,7 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
                 jitter *= _JITTER_GROWTH
     return {"log_params": res.log_params, "alpha": alpha, "lml": lml, "y_mean": y_mean,
             "y_std": y_std, "n_iter": res.n_iter, "jitter": jitter,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
 
 
 def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
@@ -366,7 +389,8 @@ class LGPR(Regressor):
     ``X_train_`` (n, d) and ``alpha_`` (n, p) are ``offsets_[c]:offsets_[c+1]``; ``train_index_``
     (n,) the row of ``fit``'s X each stored row came from; ``log_params_`` (k, p, d + 2);
     ``y_mean_``, ``y_std_``, ``lml_``, ``n_iter_`` (k, p); ``jitter_`` (k,); ``fit_seconds_`` (k,)
-    per-cluster wall time in its worker; ``global_log_params_`` (p, d + 2) or None (warm start).
+    per-cluster wall time in its worker, ``fit_cpu_seconds_`` (k,) its CPU time,
+    ``global_cpu_seconds_`` the warm start's; ``global_log_params_`` (p, d + 2) or None (cold).
     """
 
     method = "lgpr"
@@ -468,6 +492,7 @@ class LGPR(Regressor):
                   f"{time.perf_counter() - t0:.1f} s")
         lp = np.vstack([r["log_params"] for r in res])
         sd = np.concatenate([r["y_std"] for r in res])
+        self.global_cpu_seconds_ = float(sum(r["cpu_seconds"] for r in res))
         if shared:
             lp = np.broadcast_to(lp[:1], (p, lp.shape[1])).copy()
         return {"log_params": lp, "y_std": sd}
@@ -490,6 +515,7 @@ class LGPR(Regressor):
         sizes = np.bincount(labels, minlength=k)
         self._log(f"{k} clusters (asked {k_req}) of {sizes.min()}..{sizes.max()} points "
                   f"(median {int(np.median(sizes))}) in {time.perf_counter() - t0:.1f} s")
+        self.global_cpu_seconds_ = 0.0
         init = self._global_init(X, Y, rng) if self.init == "warm" else None
         self.global_log_params_ = None if init is None else init["log_params"]
         order = np.argsort(labels, kind="stable")
@@ -519,6 +545,7 @@ class LGPR(Regressor):
         self.n_iter_ = np.stack([np.asarray(r["n_iter"], dtype=np.int64) for r in res])
         self.jitter_ = np.array([r["jitter"] for r in res], dtype=np.float64)
         self.fit_seconds_ = np.array([r["seconds"] for r in res])
+        self.fit_cpu_seconds_ = np.array([r["cpu_seconds"] for r in res])
         self.n_features_in_, self.n_outputs_ = d, p
         self._prepare_prediction()
         return self
@@ -668,12 +695,14 @@ class LGPR(Regressor):
                   "train_index": self.train_index_, "X_train": self.X_train_,
                   "alpha": self.alpha_, "log_params": self.log_params_, "y_mean": self.y_mean_,
                   "y_std": self.y_std_, "lml": self.lml_, "n_iter": self.n_iter_,
-                  "jitter": self.jitter_, "fit_seconds": self.fit_seconds_}
+                  "jitter": self.jitter_, "fit_seconds": self.fit_seconds_,
+                  "fit_cpu_seconds": self.fit_cpu_seconds_}
         if self.global_log_params_ is not None:
             arrays["global_log_params"] = self.global_log_params_
         meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
                 "n_clusters": int(self.n_clusters_), "n_train": int(self.X_train_.shape[0]),
-                "has_global": self.global_log_params_ is not None}
+                "has_global": self.global_log_params_ is not None,
+                "global_cpu_seconds": float(self.global_cpu_seconds_)}
         return arrays, meta
 
     @classmethod
@@ -698,6 +727,8 @@ class LGPR(Regressor):
         m.n_iter_ = expect_array(arrays, "n_iter", (k, p)).astype(np.int64)
         m.jitter_ = expect_array(arrays, "jitter", (k,)).astype(f64)
         m.fit_seconds_ = expect_array(arrays, "fit_seconds", (k,)).astype(f64)
+        m.fit_cpu_seconds_ = expect_array(arrays, "fit_cpu_seconds", (k,)).astype(f64)
+        m.global_cpu_seconds_ = float(meta.get("global_cpu_seconds", 0.0))
         m.global_log_params_ = (expect_array(arrays, "global_log_params", (p, d + 2)).astype(f64)
                                 if meta.get("has_global") else None)
         m.n_features_in_, m.n_outputs_ = d, p

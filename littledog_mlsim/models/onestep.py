@@ -13,11 +13,21 @@ representation chosen by ``target``:
 - ``"delta"`` (default): r = s_{t+1} - s_t, normalised to unit variance per element; the
   prediction is s_t + r. The state changes little in 10 ms, so the regressor only models the
   change (the GP prior mean, zero, is then "the state stays", not "the state is the TrainPool
-  mean"); ``benchmarks/lgpr_ablation.md`` measures it against ``"next"``.
+  mean"). Measured with LGPR (``benchmarks/lgpr_ablation.md``, 5000 points): better than
+  ``"next"`` on 27 of 33 elements (joint angles 0.00037 vs 0.00064 mean nMSE, joint rates 0.0120
+  vs 0.0132, roll, pitch, dpitch, dyaw) and in the median (0.0068 vs 0.0071); ``"next"`` is
+  2-5 % better on z_w, dx_b, dy_b, dz_b and droll, which are nearly uncorrelated from one step
+  to the next, and so in the mean over elements (0.0465 vs 0.0476), which those noisy
+  elements dominate.
 - ``"next"``: the paper's literal response r = s_{t+1}, normalised to unit variance.
 
 The standard deviation is that of s_{t+1} given x_t (s_t is known, so the same for both
 targets).
+
+Features: by default the paper's 45 (``layout.FEATURE_NAMES``); a model may be fitted on a
+:class:`.features.FeatureSet`, the 45 followed by named augmentations (lagged commands, ...),
+which it records (``feature_set``; ``feature_names`` are its column names) so that users can
+compute the same columns; ``predict`` then takes (n, ``feature_set.n_features``).
 
 The model also carries what the rollout needs to project predicted states back to the data
 (Section VI): the TrainPool states, stored as an alpha-PROJ projection (``rollout.projection``'s
@@ -40,8 +50,9 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..data.dataset import Normalizer
-from ..layout import FEATURE_NAMES, N_FEATURE, N_STATE, STATE_NAMES
+from ..layout import N_STATE, STATE_NAMES
 from .base import Regressor
+from .features import FeatureSet, FeatureSetError
 from .persistence import ModelError, fingerprint_arrays, read_model, save_model
 
 TARGETS: tuple[str, ...] = ("delta", "next")
@@ -49,10 +60,11 @@ ONESTEP_FORMAT_VERSION = 1
 PROJECTION_PREFIX = "projection."
 
 
-def _check_xy(X: np.ndarray, Y: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+def _check_xy(X: np.ndarray, Y: np.ndarray | None, n_features: int
+              ) -> tuple[np.ndarray, np.ndarray | None]:
     X = np.asarray(X, dtype=np.float64)
-    if X.ndim != 2 or X.shape[1] != N_FEATURE:
-        raise ValueError(f"features must be (n, {N_FEATURE}); got {X.shape}")
+    if X.ndim != 2 or X.shape[1] != n_features:
+        raise ValueError(f"features must be (n, {n_features}); got {X.shape}")
     if Y is not None:
         Y = np.asarray(Y, dtype=np.float64)
         if Y.shape != (X.shape[0], N_STATE):
@@ -66,18 +78,20 @@ class OneStepModel:
     Build with :meth:`fit` (or :meth:`load`); ``estimator`` is then fitted on normalised
     features and normalised targets. Attributes: ``estimator``, ``feature_normalizer``,
     ``response_normalizer``, ``target``, ``train_states`` (n, 33) TrainPool states or None,
-    ``data_fingerprint``, ``info`` (dict), ``feature_names``, ``state_names``.
+    ``data_fingerprint``, ``info`` (dict), ``feature_set``, ``feature_names`` (its columns),
+    ``state_names``.
     """
 
-    feature_names: tuple[str, ...] = FEATURE_NAMES
     state_names: tuple[str, ...] = STATE_NAMES
 
     def __init__(self, estimator: Regressor, feature_normalizer: Normalizer,
                  response_normalizer: Normalizer, target: str = "delta", *,
                  train_states: np.ndarray | None = None, data_fingerprint: str = "",
-                 info: Mapping[str, Any] | None = None) -> None:
+                 info: Mapping[str, Any] | None = None,
+                 feature_set: FeatureSet | None = None) -> None:
         if target not in TARGETS:
             raise ValueError(f"target must be one of {TARGETS}; got {target!r}")
+        self.feature_set = FeatureSet() if feature_set is None else feature_set
         self.estimator = estimator
         self.feature_normalizer = feature_normalizer
         self.response_normalizer = response_normalizer
@@ -92,16 +106,20 @@ class OneStepModel:
     @classmethod
     def fit(cls, estimator: Regressor, X: np.ndarray, Y: np.ndarray, *, target: str = "delta",
             train_states: np.ndarray | None = None, data_fingerprint: str | None = None,
-            info: Mapping[str, Any] | None = None) -> "OneStepModel":
+            info: Mapping[str, Any] | None = None,
+            feature_set: FeatureSet | None = None) -> "OneStepModel":
         """Fit ``estimator`` on raw features X (n, 45) and next states Y (n, 33).
 
-        The normalisers are fitted on X and on the targets (see module doc). ``train_states``:
-        TrainPool states for the projection (default: Y). ``data_fingerprint`` default: the
-        fingerprint of (X, Y). ``info`` gets ``fit_seconds``, ``n_train`` and ``method`` added.
+        With a ``feature_set``, X is (n, ``feature_set.n_features``) as its
+        ``features_responses`` gives it. The normalisers are fitted on X and on the targets (see
+        module doc). ``train_states``: TrainPool states for the projection (default: Y).
+        ``data_fingerprint`` default: the fingerprint of (X, Y). ``info`` gets ``fit_seconds``,
+        ``n_train`` and ``method`` added.
         """
         if target not in TARGETS:
             raise ValueError(f"target must be one of {TARGETS}; got {target!r}")
-        X, Y = _check_xy(X, Y)
+        fs = FeatureSet() if feature_set is None else feature_set
+        X, Y = _check_xy(X, Y, fs.n_features)
         fn = Normalizer().fit(X)
         R = Y - X[:, :N_STATE] if target == "delta" else Y
         rn = Normalizer().fit(R)
@@ -114,16 +132,22 @@ class OneStepModel:
                    train_states=Y if train_states is None else train_states,
                    data_fingerprint=(fingerprint_arrays(X, Y) if data_fingerprint is None
                                      else data_fingerprint),
-                   info=info)
+                   info=info, feature_set=fs)
 
     @property
     def method(self) -> str:
         return self.estimator.method
 
+    @property
+    def feature_names(self) -> tuple[str, ...]:
+        return self.feature_set.names
+
     # -- prediction
 
     def predict(self, X: np.ndarray, return_std: bool = False):
         """Raw features X (n, 45) (or one row (45,)) -> raw s_{t+1} (n, 33) (or (33,)).
+
+        (n, ``feature_set.n_features``) for a model with an augmented feature set.
 
         ``return_std=True`` also returns the predictive std of s_{t+1}, same shape (estimators
         without a variance raise ValueError).
@@ -132,9 +156,9 @@ class OneStepModel:
         single = X.ndim == 1
         if single:
             X = X[None, :]
-        if X.ndim != 2 or X.shape[1] != N_FEATURE:
-            raise ValueError(f"features must be (n, {N_FEATURE}) or ({N_FEATURE},); "
-                             f"got {X.shape}")
+        nf = self.feature_normalizer.mean_.shape[0]
+        if X.ndim != 2 or X.shape[1] != nf:
+            raise ValueError(f"features must be (n, {nf}) or ({nf},); got {X.shape}")
         fn, rn = self.feature_normalizer, self.response_normalizer
         Xn = (X - fn.mean_) / fn.std_
         if return_std:
@@ -159,8 +183,9 @@ class OneStepModel:
             prep = getattr(self.estimator, "prepare_variance", None)
             if prep is not None:
                 prep()
-        x = (self.feature_normalizer.mean_ if self.train_states is None
-             else np.concatenate([self.train_states[0], self.feature_normalizer.mean_[N_STATE:]]))
+        x = self.feature_normalizer.mean_.copy()
+        if self.train_states is not None:
+            x[:N_STATE] = self.train_states[0]
         self.predict(x, return_std=return_std)
 
     # -- projection data
@@ -177,6 +202,7 @@ class OneStepModel:
     def _meta(self) -> dict[str, Any]:
         return {
             "feature_names": list(self.feature_names),
+            "feature_set": self.feature_set.to_dict(),
             "state_names": list(self.state_names),
             "normalisation": {"features": self.feature_normalizer.to_dict(),
                               "responses": self.response_normalizer.to_dict()},
@@ -197,9 +223,11 @@ class OneStepModel:
 
     @classmethod
     def load(cls, path: str | os.PathLike,
-             feature_names: Sequence[str] | None = FEATURE_NAMES) -> "OneStepModel":
-        """Read a model written by :meth:`save`; ModelError (one line) on any problem, including
-        a feature set other than ``feature_names`` (None: do not check)."""
+             feature_names: Sequence[str] | None = None) -> "OneStepModel":
+        """Read a model written by :meth:`save`; ModelError (one line) on any problem: unknown
+        format, corrupt or truncated files, features this build cannot compute (an unknown
+        augmentation), or, if ``feature_names`` is given (the columns the caller can supply,
+        e.g. ``layout.FEATURE_NAMES``), a model whose features differ from them."""
         estimator, meta, extra = read_model(path, feature_names=feature_names)
         block = meta.get("onestep")
         if not isinstance(block, dict):
@@ -211,10 +239,17 @@ class OneStepModel:
         if list(meta.get("state_names", [])) != list(STATE_NAMES):
             raise ModelError(f"{path}: the model's state names differ from this build's")
         try:
+            feature_set = FeatureSet.from_dict(meta.get("feature_set"))
+        except FeatureSetError as e:
+            raise ModelError(f"{path}: this build cannot compute the model's features: "
+                             f"{str(e).splitlines()[0]}") from e
+        if list(meta.get("feature_names", feature_set.names)) != list(feature_set.names):
+            raise ModelError(f"{path}: the model's feature names do not match its feature set")
+        try:
             norm = meta["normalisation"]
             fn = Normalizer.from_dict(norm["features"])
             rn = Normalizer.from_dict(norm["responses"])
-            if fn.mean_.shape != (N_FEATURE,) or rn.mean_.shape != (N_STATE,):
+            if fn.mean_.shape != (feature_set.n_features,) or rn.mean_.shape != (N_STATE,):
                 raise ValueError("normaliser sizes do not match the layout")
             target = block["target"]
             train_states = None
@@ -224,7 +259,7 @@ class OneStepModel:
                                                       ).train_states
             return cls(estimator, fn, rn, target, train_states=train_states,
                        data_fingerprint=str(meta.get("data_fingerprint", "")),
-                       info=meta.get("info") or {})
+                       info=meta.get("info") or {}, feature_set=feature_set)
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             msg = str(e).splitlines()[0] if str(e) else type(e).__name__
             raise ModelError(f"{path}: bad one-step metadata: {msg}") from e

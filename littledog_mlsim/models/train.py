@@ -25,6 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..data.dataset import features_responses, load_moves, read_index
+from .features import FeatureSet
 from .onestep import TARGETS, OneStepModel
 from .persistence import fingerprint_arrays, get_method
 
@@ -61,15 +62,17 @@ def make_estimator(method: str, options: Mapping[str, Any] | None = None, *, see
 def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
                        options: Mapping[str, Any] | None = None,
                        max_train_samples: int | None = None, seed: int = 0,
-                       progress: bool = True, target: str = "delta") -> OneStepModel:
+                       progress: bool = True, target: str = "delta",
+                       feature_set: FeatureSet | None = None) -> OneStepModel:
     """Fit ``method`` (lr, lwpr, gpr, sor, lgpr) on the TrainPool of ``data_dir``.
 
     ``options``: the regressor's constructor arguments (may also hold ``"target"``, which then
     overrides ``target``: ``"delta"`` or ``"next"``, see :mod:`.onestep`). ``max_train_samples``:
     use a random subset of at most this many samples (default: ``DEFAULT_MAX_TRAIN`` for the
     method, else all). ``seed`` seeds the subset and the regressor. ``progress`` prints progress
-    lines to stderr. Returns the fitted model (not saved). ValueError (one line) on bad input,
-    DatasetError/BagError for an unusable dataset.
+    lines to stderr. ``feature_set``: the inputs (default: the paper's 45 features). Returns the
+    fitted model (not saved). ValueError (one line) on bad input, DatasetError/BagError for an
+    unusable dataset.
     """
     opts = dict(options or {})
     target = opts.pop("target", target)
@@ -87,7 +90,10 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
     index = read_index(data_dir)
     say(f"loading the TrainPool of {data_dir} ({len(index.names('train'))} bags)")
     moves = load_moves(data_dir, "train")
-    X, Y, _ = features_responses(moves)
+    if feature_set is None or feature_set.is_base:
+        X, Y, _ = features_responses(moves)
+    else:
+        X, Y, _ = feature_set.features_responses(moves)
     n_pool = X.shape[0]
     cap = max_train_samples if max_train_samples is not None else DEFAULT_MAX_TRAIN.get(method)
     rows = np.arange(n_pool)
@@ -100,10 +106,12 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
         "seed": int(seed), "data_dir": os.fspath(data_dir), "n_train_pool": int(n_pool),
         "n_moves": len(moves), "max_train_samples": None if cap is None else int(cap),
         "dataset_info": json.loads(json.dumps(index.info, default=str)),
+        "feature_set": (feature_set or FeatureSet()).describe(),
     }
     t1 = time.perf_counter()
     model = OneStepModel.fit(estimator, X[rows], Y[rows], target=target, train_states=Y,
-                             data_fingerprint=fingerprint_arrays(X, Y), info=info)
+                             data_fingerprint=fingerprint_arrays(X, Y), info=info,
+                             feature_set=feature_set)
     say(f"fitted {method} in {time.perf_counter() - t1:.1f} s")
     return model
 
