@@ -1,21 +1,39 @@
-"""Nearest TrainPool state for alpha-PROJ: vectorised brute force (GEMM) vs cKDTree, medians.
+"""Nearest TrainPool state for alpha-PROJ: brute force (old default) vs the PCA-bound search.
 
 Usage (from the repo root, in the venv):
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/projection_nn.py [--data DIR] [--repeats 300]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/projection_nn.py --data bags/default
 
-TrainPool states: the TrainPool of ``--data`` (a recorded dataset), or, without it, the TrainPool
-of the default dataset (20 moves per type, 14 of them TrainPool, seed 0) simulated in memory with
-the project's pybullet LittleDog (no bags written). Queries, in the normalised space of
-``AlphaProjection``: (1) what alpha-PROJ sees in a rollout, one-step predictions of a linear
-regression (fitted on the TrainPool) for the TestPool features; (2) the TestPool states themselves
-(a perfect model's predictions); (3) TrainPool states plus Gaussian noise of ``--noise`` TrainPool
-std per element (close to the data: the k-d tree's good case); (4) i.i.d. Gaussian points and
-queries in 33-D (its worst case).
+TrainPool/TestPool: those of ``--data`` (a recorded dataset), or, without it, the default dataset
+(20 moves per type, 14 of them TrainPool, seed 0) simulated in memory with the project's
+pybullet LittleDog (no bags written). The one-step model: a linear regression
+(``OneStepModel.fit(LinearRegression(), ...)`` on the TrainPool, target ``delta``), or
+``--model DIR`` (a saved ``OneStepModel``).
 
-Times one query (the 100 Hz node) and a batch of ``--batch`` (a TestPool rollout step) for each
-method, each call with different queries, medians (and p90); checks that both methods return
-points at identical distances. Writes ``benchmarks/projection_nn.json`` and ``.md``.
+Queries, in the normalised space of ``AlphaProjection`` (each element divided by its TrainPool
+std):
+
+1. what alpha-PROJ sees in a rollout: the model's predictions at every step of the alpha = 0.5
+   rollout of all TestPool moves together (one batch of 66 per step);
+2. the TestPool states plus Gaussian noise of 0.3, 0.8 and 1.5 normalised std;
+3. the model's one-step predictions on the TestPool, and the TestPool states themselves;
+4. i.i.d. N(0, I) points and queries in 33-D (no dominant axes: ``auto`` picks brute force; and
+   with ``method="pca"`` forced, the bounds' worst case).
+
+For each: one query (the 100 Hz node; ``--repeats`` different queries) and a batch of 66 (a
+TestPool rollout step; ``--repeats / 10`` different batches), brute force vs ``method="auto"``
+(the new default, here the PCA-bound search), wall time per call, median and p90 over 3 rounds;
+in each round each method runs all the queries in a row, the order alternating between rounds,
+so that load from other jobs on the shared cores hits both alike. And whether both return the
+same indices (they must: both are exact, with the naive loop's tie rule).
+
+Then the whole alpha-PROJ rollout (alpha = 0.5) of the model over all TestPool moves, per method
+(``--rollouts`` runs, alternating; median wall and CPU time, and x real time = simulated seconds
+/ wall seconds), plus the rollout without projection (the model's own share).
+
+All of it ``--runs`` times (default 3); the report gives the medians over the runs, the JSON also
+each run. Writes ``benchmarks/projection_nn.json`` and ``.md`` (``--out`` to write them
+elsewhere).
 """
 from __future__ import annotations
 
@@ -31,11 +49,15 @@ import numpy as np
 import scipy
 
 from littledog_mlsim.data.dataset import features_responses, load_moves, n_train
-from littledog_mlsim.layout import MOVE_TYPES, N_STATE
+from littledog_mlsim.layout import CONTROL_DT, MOVE_TYPES, N_STATE
 from littledog_mlsim.models.lr import LinearRegression
-from littledog_mlsim.rollout.projection import AlphaProjection, NearestNeighbour
+from littledog_mlsim.models.onestep import OneStepModel
+from littledog_mlsim.rollout.projection import NearestNeighbour
+from littledog_mlsim.rollout.simulate import prepare_test_moves, rollout_moves
 
 HERE = Path(__file__).resolve().parent
+METHODS = ("brute", "auto")
+BATCH = 66
 
 
 def simulated_moves(moves_per_type: int, split_at: int, seed: int = 0):
@@ -54,158 +76,244 @@ def simulated_moves(moves_per_type: int, split_at: int, seed: int = 0):
     return train, test
 
 
-def time_calls(fn, args: list) -> np.ndarray:
-    """Wall time [ms] of fn(a) for each a (after one warm-up call)."""
-    fn(args[0])
-    ts = np.empty(len(args))
-    for k, a in enumerate(args):
-        t0 = time.perf_counter()
-        fn(a)
-        ts[k] = time.perf_counter() - t0
-    return ts * 1e3
+def time_blocks(nns: dict[str, NearestNeighbour], args: list, rounds: int = 3
+                ) -> dict[str, np.ndarray]:
+    """Wall time [ms] of each call of each method: ``rounds`` rounds, in each every method runs
+    all ``args`` in a row (as in a rollout: its own data stays in the caches), the order of the
+    methods alternating between rounds, so that load from other jobs hits both alike."""
+    names = list(nns)
+    ts = {name: [] for name in names}
+    for r in range(rounds):
+        for name in (names if r % 2 == 0 else names[::-1]):
+            nns[name].query(args[0])                     # warm-up
+            for a in args:
+                t0 = time.perf_counter()
+                nns[name].query(a)
+                ts[name].append((time.perf_counter() - t0) * 1e3)
+    return {name: np.array(v) for name, v in ts.items()}
 
 
-def time_paired(nn: NearestNeighbour, args: list) -> dict[str, np.ndarray]:
-    """Wall time [ms] of both methods on each query set, back to back (alternating which goes
-    first), so that load from other jobs on the shared cores hits both alike."""
-    methods = ("brute", "kdtree")
-    for m in methods:
-        nn.query(args[0], method=m)                      # warm-up
-    ts = {m: np.empty(len(args)) for m in methods}
-    for k, a in enumerate(args):
-        for m in (methods if k % 2 == 0 else methods[::-1]):
-            t0 = time.perf_counter()
-            nn.query(a, method=m)
-            ts[m][k] = (time.perf_counter() - t0) * 1e3
-    return ts
-
-
-def bench(nn: NearestNeighbour, queries: np.ndarray, batch: int, repeats: int,
-          rng: np.random.Generator) -> dict:
-    """Median/p90 [ms] of both methods for single queries and batches, and an answer check."""
-    singles = [queries[i:i + 1] for i in rng.choice(queries.shape[0], repeats, replace=False)]
-    batches = [queries[rng.choice(queries.shape[0], batch, replace=False)]
-               for _ in range(max(3, repeats // 10))]
-    t1, tb = time_paired(nn, singles), time_paired(nn, batches)
-    out: dict = {}
-    for method in ("brute", "kdtree"):
-        out[method] = {"single_median_ms": float(np.median(t1[method])),
-                       "single_p90_ms": float(np.percentile(t1[method], 90)),
-                       "single_max_ms": float(t1[method].max()),
-                       f"batch_{batch}_median_ms": float(np.median(tb[method]))}
-    out["single_median_ratio_kdtree_to_brute"] = float(np.median(t1["kdtree"] / t1["brute"]))
-    Q = np.vstack(batches)
-    P = nn.points
-    ib, ik = nn.query(Q, method="brute"), nn.query(Q, method="kdtree")
-    out["same_distances"] = bool(np.array_equal(((Q - P[ib]) ** 2).sum(1),
-                                                ((Q - P[ik]) ** 2).sum(1)))
-    out["median_nn_distance"] = float(np.median(np.sqrt(((Q - P[ib]) ** 2).sum(1))))
+def bench(nns: dict[str, NearestNeighbour], singles: list, batches: list) -> dict:
+    """Median/p90 [ms] per method for single queries and batches, and the answer check."""
+    t1, tb = time_blocks(nns, singles), time_blocks(nns, batches)
+    out: dict = {"n_single": len(singles), "n_batches": len(batches)}
+    for name in nns:
+        out[name] = {"single_median_ms": float(np.median(t1[name])),
+                     "single_p90_ms": float(np.percentile(t1[name], 90)),
+                     "single_max_ms": float(t1[name].max()),
+                     f"batch_{BATCH}_median_ms": float(np.median(tb[name])),
+                     f"batch_{BATCH}_p90_ms": float(np.percentile(tb[name], 90))}
+    a, b = METHODS
+    out["single_speedup"] = float(np.median(t1[a]) / np.median(t1[b]))
+    out["batch_speedup"] = float(np.median(tb[a]) / np.median(tb[b]))
+    Q = np.vstack(singles + batches)
+    idx = {name: nn.query(Q) for name, nn in nns.items()}
+    out["same_indices"] = bool(np.array_equal(idx[a], idx[b]))
+    P = nns[a].points
+    out["median_nn_distance"] = float(np.median(np.sqrt(((Q - P[idx[a]]) ** 2).sum(1))))
     return out
+
+
+def median_of_runs(runs: list):
+    """Element-wise over equally shaped results: median of numbers, all() of booleans."""
+    first = runs[0]
+    if isinstance(first, dict):
+        return {k: median_of_runs([r[k] for r in runs]) for k in first}
+    if isinstance(first, (bool, np.bool_)):
+        return bool(all(runs))
+    if isinstance(first, (int, float)):
+        return float(np.median(runs))
+    return first
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", help="recorded dataset directory (default: simulate in memory)")
+    ap.add_argument("--model", help="saved OneStepModel directory (default: fit an LR)")
     ap.add_argument("--moves-per-type", type=int, default=20)
-    ap.add_argument("--batch", type=int, default=130)
     ap.add_argument("--repeats", type=int, default=300)
-    ap.add_argument("--noise", type=float, default=0.1)
+    ap.add_argument("--rollouts", type=int, default=5, help="rollouts per method and run")
+    ap.add_argument("--runs", type=int, default=3,
+                    help="repeat all timings this often; the report gives medians over runs")
+    ap.add_argument("--alpha", type=float, default=0.5)
+    ap.add_argument("--out", default=str(HERE), help="directory for projection_nn.json/.md")
     a = ap.parse_args()
 
     t0 = time.perf_counter()
     if a.data:
         train, test = load_moves(a.data, "train"), load_moves(a.data, "test")
-        source = f"dataset {a.data}"
+        source = f"dataset `{a.data}`"
     else:
         train, test = simulated_moves(a.moves_per_type, n_train(a.moves_per_type))
-        source = (f"simulated in memory: default dataset ({a.moves_per_type} moves/type, seed 0, "
-                  f"robot measured), TrainPool {len(train)} moves, TestPool {len(test)} moves")
+        source = (f"default dataset simulated in memory ({a.moves_per_type} moves/type, seed 0, "
+                  "robot measured)")
     X_train, Y_train, _ = features_responses(train)
     X_test, Y_test, _ = features_responses(test)
+    moves = prepare_test_moves(test)
+    if a.model:
+        model = OneStepModel.load(a.model)
+        model_note = f"saved OneStepModel `{a.model}` ({model.method})"
+    else:
+        model = OneStepModel.fit(LinearRegression(), X_train, Y_train)
+        model_note = "linear regression fitted on the TrainPool (OneStepModel, target delta)"
+    if model.train_states is None or not np.array_equal(model.train_states, Y_train):
+        print("note: the model's TrainPool states differ from the dataset's; using the model's")
     prep_s = time.perf_counter() - t0
 
-    proj = AlphaProjection(Y_train, alpha=0.5)
-    proj.nn.build_tree()
-    t0 = time.perf_counter()
-    NearestNeighbour(proj.train_states / proj.scale).build_tree()
-    build_ms = (time.perf_counter() - t0) * 1e3
-    rng = np.random.default_rng(0)
-    lr = LinearRegression().fit(X_train, Y_train)
-    queries = {
-        "LR one-step predictions on the TestPool": lr.predict(X_test),
-        "TestPool states (what a perfect model predicts)": Y_test,
-        f"TrainPool states + N(0, {a.noise}^2) per normalised element":
-            Y_train[rng.choice(Y_train.shape[0], Y_test.shape[0], replace=False)]
-            + a.noise * proj.scale * rng.standard_normal(Y_test.shape),
-    }
-    results: dict = {"n_train_states": int(Y_train.shape[0]), "kdtree_build_ms": build_ms,
-                     "queries": {}}
-    for name, Q in queries.items():
-        results["queries"][name] = bench(proj.nn, Q / proj.scale, a.batch, a.repeats, rng)
-    G = NearestNeighbour(rng.standard_normal(Y_train.shape))
-    results["queries"]["i.i.d. N(0, I) points and queries (k-d tree worst case)"] = bench(
-        G, rng.standard_normal((20 * a.batch, N_STATE)), a.batch, a.repeats, rng)
+    proj = {m: model.projection("alpha", alpha=a.alpha, nn_method=m) for m in METHODS}
+    scale = proj["auto"].scale
+    Pn = proj["auto"].train_states / scale
+    build_ms = {}
+    for m in METHODS:
+        t = time.perf_counter()
+        NearestNeighbour(Pn, method=m).prepare()
+        build_ms[m] = (time.perf_counter() - t) * 1e3
+    nns = {m: p.nn.prepare() for m, p in proj.items()}
 
-    # the whole projection as the node (one state) and a TestPool rollout step (a batch) call it
-    P = queries["LR one-step predictions on the TestPool"]
-    t1 = time_calls(proj, [P[i:i + 1] for i in rng.choice(P.shape[0], a.repeats, replace=False)])
-    tb = time_calls(proj, [P[rng.choice(P.shape[0], a.batch, replace=False)]
-                           for _ in range(max(3, a.repeats // 10))])
-    results["alpha_projection_call"] = {"single_median_ms": float(np.median(t1)),
-                                        "single_p90_ms": float(np.percentile(t1, 90)),
-                                        f"batch_{a.batch}_median_ms": float(np.median(tb))}
+    # what alpha-PROJ sees in the rollout: capture the batches passed to the search
+    seen: list[np.ndarray] = []
+    nn_auto = nns["auto"]
+    plain_query = nn_auto.query
+    nn_auto.query = lambda X, method=None: (seen.append(np.array(X)), plain_query(X, method))[1]
+    rollout_moves(model, moves, proj["auto"])
+    del nn_auto.query
+    steps = [b for b in seen if b.shape[0] == BATCH]
+
+    rng = np.random.default_rng(0)
+    n_b = max(3, a.repeats // 10)
+
+    def singles_of(Q):
+        return [Q[i:i + 1] for i in rng.choice(Q.shape[0], a.repeats, replace=False)]
+
+    def batches_of(Q):
+        return [Q[rng.choice(Q.shape[0], BATCH, replace=False)] for _ in range(n_b)]
+
+    Tn = Y_test / scale
+    sets = {}
+    rollout_q = np.vstack(seen)
+    sets[f"alpha rollout: the LR model's predictions at each step ({len(steps)} steps of "
+         f"{BATCH} moves)"] = (singles_of(rollout_q),
+                               [steps[i] for i in np.linspace(0, len(steps) - 1, n_b).astype(int)])
+    for s in (0.3, 0.8, 1.5):
+        Q = Tn + s * rng.standard_normal(Tn.shape)
+        sets[f"TestPool states + N(0, {s}^2) per normalised element"] = (singles_of(Q),
+                                                                       batches_of(Q))
+    Q = model.predict(X_test) / scale
+    sets["LR one-step predictions on the TestPool"] = (singles_of(Q), batches_of(Q))
+    sets["TestPool states (what a perfect model predicts)"] = (singles_of(Tn), batches_of(Tn))
+    G = rng.standard_normal(Pn.shape)
+    Gq = rng.standard_normal((20 * BATCH, N_STATE))
+    gs, gb = singles_of(Gq)[:max(30, a.repeats // 5)], batches_of(Gq)[:5]
+    worst = "i.i.d. N(0, I) points and queries in 33-D (no dominant axes): auto = brute here"
+    forced = "same, with `method=\"pca\"` forced in place of auto (the bounds' worst case)"
+    iid = {worst: ({m: NearestNeighbour(G, method=m).prepare() for m in METHODS}, gs, gb),
+           forced: ({"brute": NearestNeighbour(G, method="brute"),
+                     "auto": NearestNeighbour(G, method="pca").prepare()}, gs, gb)}
+    sim_s = sum(m.n_steps for m in moves) * CONTROL_DT
+    projs = {**proj, "none": model.projection("none")}
+    per_run = []
+    for run in range(a.runs):
+        res: dict = {"queries": {}, "load_average_1min": {"start": os.getloadavg()[0]}}
+        for name, (singles, batches) in sets.items():
+            res["queries"][name] = bench(nns, singles, batches)
+        for name, (nn2, singles, batches) in iid.items():
+            res["queries"][name] = bench(nn2, singles, batches)
+        res["load_average_1min"]["after_queries"] = os.getloadavg()[0]
+        # the whole rollout, per method (alternating), and without projection
+        times: dict[str, list] = {m: [] for m in projs}
+        preds = {}
+        for r in range(a.rollouts):
+            for m in (list(projs) if r % 2 == 0 else list(projs)[::-1]):
+                w, c = time.perf_counter(), time.process_time()
+                preds[m] = np.stack(rollout_moves(model, moves, projs[m]))
+                times[m].append((time.perf_counter() - w, time.process_time() - c))
+        roll = {"same_predictions": bool(np.array_equal(preds["brute"], preds["auto"]))}
+        for m, v in times.items():
+            v = np.array(v)
+            roll[m] = {"wall_median_s": float(np.median(v[:, 0])),
+                       "wall_min_s": float(v[:, 0].min()),
+                       "cpu_median_s": float(np.median(v[:, 1])),
+                       "x_real_time": float(sim_s / np.median(v[:, 0]))}
+        res["rollout"] = roll
+        res["load_average_1min"]["end"] = os.getloadavg()[0]
+        per_run.append(res)
+        print(f"run {run + 1}/{a.runs}:", json.dumps(res), flush=True)
+    results = {"n_train_states": int(Pn.shape[0]), "build_ms": build_ms,
+               **median_of_runs(per_run), "per_run": per_run}
+    results["rollout"].update(n_moves=len(moves), simulated_s=sim_s, runs=a.rollouts)
+    load = results.pop("load_average_1min")
+    load["runs"] = [r["load_average_1min"] for r in per_run]
 
     args = " ".join(sys.argv[1:])
     command = f"OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/projection_nn.py {args}".strip()
-    meta = {"command": command, "source": source, "prepare_s": prep_s, "noise_std": a.noise,
-            "repeats": a.repeats, "batch": a.batch, "cores": os.cpu_count(),
+    meta = {"command": command, "source": source, "model": model_note, "prepare_s": prep_s,
+            "repeats": a.repeats, "batch": BATCH, "alpha": a.alpha, "runs": a.runs,
+            "cores": os.cpu_count(),
             "openblas_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
-            "load_average_1min": os.getloadavg()[0], "python": platform.python_version(),
+            "load_average_1min": load, "python": platform.python_version(),
             "numpy": np.__version__, "scipy": scipy.__version__, "date": time.strftime("%Y-%m-%d")}
-    (HERE / "projection_nn.json").write_text(json.dumps({**meta, **results}, indent=2) + "\n")
-
-    B = a.batch
-    lines = ["# Nearest TrainPool state for alpha-PROJ: brute force vs cKDTree", "",
-             f"Command: `{command}`", "",
-             f"Machine: {meta['cores']} shared cores, OPENBLAS_NUM_THREADS="
-             f"{meta['openblas_threads']}, Python {meta['python']}, NumPy {meta['numpy']}, "
-             f"SciPy {meta['scipy']}, {meta['date']}; 1-min load average at the end "
-             f"{meta['load_average_1min']:.1f} (other jobs share the cores; the p90s carry that "
-             "noise).",
-             "",
-             f"TrainPool: {source}: {results['n_train_states']} states in 33-D, searched in the "
-             f"normalised space of `AlphaProjection`. cKDTree build: "
-             f"{results['kdtree_build_ms']:.0f} ms.",
-             f"Single query: {a.repeats} different queries, one call each (median, p90); batch of "
-             f"{B}: {max(3, a.repeats // 10)} different batches (median). The two methods run "
-             "back to back on each query (alternating order), so load spikes hit both alike. "
-             "Both are exact and returned points at identical distances in every case below.", "",
-             f"| queries | median NN distance | brute 1 query [ms] median / p90 | kd-tree 1 query "
-             f"[ms] median / p90 | kd/brute 1 query, median ratio | brute {B} [ms] | "
-             f"kd-tree {B} [ms] | same distances |",
-             "|---|---|---|---|---|---|---|---|"]
-    for name, r in results["queries"].items():
-        b, k = r["brute"], r["kdtree"]
-        lines.append(f"| {name} | {r['median_nn_distance']:.2f} | {b['single_median_ms']:.3f} / "
-                     f"{b['single_p90_ms']:.3f} | {k['single_median_ms']:.3f} / "
-                     f"{k['single_p90_ms']:.3f} | {r['single_median_ratio_kdtree_to_brute']:.2f} | "
-                     f"{b[f'batch_{B}_median_ms']:.1f} | "
-                     f"{k[f'batch_{B}_median_ms']:.1f} | {r['same_distances']} |")
-    c = results["alpha_projection_call"]
-    lines += ["", "Whole `AlphaProjection.__call__` (default method brute; limits, search, mixing) "
-              f"on LR predictions: one state {c['single_median_ms']:.3f} ms median "
-              f"({c['single_p90_ms']:.3f} ms p90); {B} states {c[f'batch_{B}_median_ms']:.1f} ms.",
-              "", "Choice: brute force for every batch size (`NearestNeighbour(method='brute')`, "
-              "the default). The k-d tree is clearly faster only for queries very close to "
-              "TrainPool states. Real predictions lie at a normalised distance of about 1.3 from "
-              "their nearest TrainPool state, and so do the true TestPool states (a better model "
-              "does not bring the queries closer); there a single k-d tree query costs about the "
-              "same as brute force at the median but has a longer tail, batches are several times "
-              "slower, and far-off queries (a rollout drifting away) cost it an order of "
-              "magnitude more, while brute force costs the same for every query."]
-    (HERE / "projection_nn.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    out_dir = Path(a.out)
+    (out_dir / "projection_nn.json").write_text(json.dumps({**meta, **results}, indent=2) + "\n")
+    (out_dir / "projection_nn.md").write_text(report(meta, results) + "\n")
+    print(report(meta, results))
     return 0
+
+
+def report(meta: dict, results: dict) -> str:
+    B = meta["batch"]
+    ld = meta["load_average_1min"]
+    roll = results["rollout"]
+    lines = [
+        "# Nearest TrainPool state for alpha-PROJ: brute force vs PCA bounds", "",
+        f"Command: `{meta['command']}`", "",
+        f"Machine: {meta['cores']} shared cores, OPENBLAS_NUM_THREADS="
+        f"{meta['openblas_threads']}, Python {meta['python']}, NumPy {meta['numpy']}, SciPy "
+        f"{meta['scipy']}, {meta['date']}. All timings were repeated in {meta['runs']} runs; "
+        "the tables give the median over the runs (`projection_nn.json` has each run). 1-min "
+        "load average per run (start / after the search timings / end): "
+        + "; ".join(f"{r['start']:.1f} / {r['after_queries']:.1f} / {r['end']:.1f}"
+                    for r in ld["runs"])
+        + ". Other jobs shared the two cores throughout, so absolute times are inflated and "
+        "the p90s noisy; both methods ran on the same queries, in alternating rounds.", "",
+        f"Data: {meta['source']}: TrainPool {results['n_train_states']} states in 33-D, searched "
+        f"in the normalised space of `AlphaProjection`; {roll['n_moves']} TestPool moves. "
+        f"Model: {meta['model']}.", "",
+        f"Build: brute {results['build_ms']['brute']:.0f} ms, auto (PCA index) "
+        f"{results['build_ms']['auto']:.0f} ms.", "",
+        "## Search times", "",
+        f"`brute`: the old default (a GEMM over all points). `auto`: the new default, here the "
+        f"PCA-bound search (`method=\"pca\"`). One query: {meta['repeats']} different queries "
+        f"(fewer for the i.i.d. case); batch of {B}: different batches; wall time per call, "
+        "median / p90 over 3 rounds (in each, one method runs all the queries in a row, then "
+        "the other; order alternating), then the median over the runs. "
+        "Same indices: whether both methods returned identical indices for every query timed "
+        "(both are exact, ties to the smallest index).", "",
+        f"| queries | median NN distance | brute 1 query [ms] | auto 1 query [ms] | speed-up | "
+        f"brute {B} [ms] | auto {B} [ms] | speed-up | same indices |",
+        "|---|---|---|---|---|---|---|---|---|"]
+    for name, r in results["queries"].items():
+        b, p = r["brute"], r["auto"]
+        lines.append(
+            f"| {name} | {r['median_nn_distance']:.2f} | {b['single_median_ms']:.3f} / "
+            f"{b['single_p90_ms']:.3f} | {p['single_median_ms']:.3f} / {p['single_p90_ms']:.3f} "
+            f"| {r['single_speedup']:.1f}x | {b[f'batch_{B}_median_ms']:.2f} / "
+            f"{b[f'batch_{B}_p90_ms']:.2f} | {p[f'batch_{B}_median_ms']:.2f} / "
+            f"{p[f'batch_{B}_p90_ms']:.2f} | {r['batch_speedup']:.1f}x | {r['same_indices']} |")
+    lines += [
+        "", "## Whole alpha-PROJ rollout", "",
+        f"All {roll['n_moves']} TestPool moves rolled out together (one model call and one "
+        f"search per step), alpha = {meta['alpha']}, {roll['simulated_s']:.1f} s simulated; "
+        f"{roll['runs']:.0f} rollouts per method in each run, alternating; median (wall also "
+        "min) within a run, then the median over the runs.", "",
+        "| projection search | wall [s] median (min) | CPU [s] median | x real time |",
+        "|---|---|---|---|"]
+    for m, label in (("brute", "brute (old default)"), ("auto", "auto (new default)"),
+                     ("none", "no projection (model and loop only)")):
+        r = roll[m]
+        lines.append(f"| {label} | {r['wall_median_s']:.2f} ({r['wall_min_s']:.2f}) | "
+                     f"{r['cpu_median_s']:.2f} | {r['x_real_time']:.0f} |")
+    lines += ["", f"Identical predicted states with both searches: {roll['same_predictions']}."]
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

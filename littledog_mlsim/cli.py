@@ -6,6 +6,7 @@ one-line reason on stderr.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -89,13 +90,19 @@ def cmd_train(a: argparse.Namespace) -> int:
             raise CliError(f"--{flag.replace('_', '-')} applies to {'/'.join(methods)}, "
                            f"not {a.method}")
         options[arg] = value
+    if a.method == "lgpr" and "n_jobs" not in options:
+        options["n_jobs"] = os.cpu_count() or 1
     if a.out.exists() and not (a.out.is_dir() and (a.out / META_FILE).is_file()):
         raise CliError(f"refusing to replace {a.out}: it exists and is not a model directory")
     if not a.data.is_dir():
         raise CliError(f"{a.data}: no such dataset directory")
     t0 = time.perf_counter()
+    extra_kw = {}
+    if a.features != "paper":  # the default model's features: diagnose.measured_robot_features
+        from .diagnose.candidates import BASELINES
+        extra_kw["feature_set"] = BASELINES[a.features]()
     model = train_from_dataset(a.data, a.method, options=options, max_train_samples=a.n_train,
-                               seed=a.seed, progress=not a.quiet, target=a.target)
+                               seed=a.seed, progress=not a.quiet, target=a.target, **extra_kw)
     model.save(a.out)
     extra = ""
     if a.method == "lgpr":
@@ -138,9 +145,48 @@ def cmd_reproduce(a: argparse.Namespace) -> int:
     from .reproduce import reproduce
 
     s = reproduce(a.data, a.out, scale=a.scale, methods=a.methods, seed=a.seed, fig4=not a.no_fig4,
-                  rollouts=not a.no_rollouts, jobs=a.jobs, progress=True)
+                  rollouts=not a.no_rollouts, jobs=a.jobs, physics_config=a.physics_config,
+                  progress=True)
     print(f"wrote Table I, Fig. 4{'' if a.no_rollouts else ' and Figs 5-7'} into {a.out} "
           f"in {s['wall_s']:.0f} s")
+    return 0
+
+
+def _fraction(text: str) -> float:
+    v = float(text)
+    if not 0.0 < v < 1.0:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {text}")
+    return v
+
+
+def cmd_diagnose(a: argparse.Namespace) -> int:
+    from .diagnose import SearchModel, diagnose
+
+    if not a.data.is_dir():
+        raise CliError(f"{a.data}: no such dataset directory")
+    if a.model is not None and not a.model.exists():
+        raise CliError(f"{a.model}: no such model")
+    if a.model is not None and (a.method is not None or a.option):
+        raise CliError("--method/--option set the report model; with --model it is the model's")
+    if a.max_rounds < 0 or a.folds < 2 or a.random_features < 10:
+        raise CliError("--max-rounds must be >= 0, --folds >= 2, --random-features >= 10")
+    options = dict(a.option) if a.option else None
+    search = SearchModel(n_random_features=a.random_features, n_folds=a.folds, seed=a.seed)
+    r = diagnose(a.data, a.out, model=a.model, baseline=a.baseline, method=a.method,
+                 options=options, alpha=a.significance, min_gain=a.min_gain,
+                 max_rounds=a.max_rounds, projections=a.projections, projection_alpha=a.alpha,
+                 search=search, seed=a.seed, figures=not a.no_figures, progress=not a.quiet)
+    if r["effects"]:
+        for e in r["effects"]:
+            cut = [v for v in e["nmse_cut"].values() if v is not None]
+            print(f"effect {e['round']}: {e['family']} {e['label']} (p = {e['p_value']:.2g}) on "
+                  f"{', '.join(e['outputs'][:6])}{' ...' if len(e['outputs']) > 6 else ''}; "
+                  f"TestPool nMSE of those {100 * sum(cut) / max(len(cut), 1):.1f} % lower")
+    else:
+        print("nothing significant: no candidate effect explains the residual")
+    print(f"one-step nMSE mean {r['before']['nmse_mean']:.4f} -> {r['after']['nmse_mean']:.4f}; "
+          f"wrote {Path(a.out) / 'report.md'}, report.json"
+          f"{', model' if r.get('model') else ''}")
     return 0
 
 
@@ -175,6 +221,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--target", choices=["delta", "next"], default="delta",
                    help="learn s_{t+1} - s_t (delta, default) or s_{t+1} (next)")
     t.add_argument("--seed", type=int, default=0, help="seed of the subset and the regressor")
+    t.add_argument("--features", choices=["paper", "measured"], default="paper",
+                   help="inputs: the paper's 45 (default) or those plus the measured robot's own "
+                        "structure, the previous state (found by `diagnose`; see "
+                        "benchmarks/diagnose.md)")
     t.add_argument("--clusters", type=int, default=None, metavar="K", help="lgpr: number of k-means clusters")
     t.add_argument("--cluster-size", type=int, default=None, metavar="M",
                    help="lgpr: points per cluster when --clusters is not given (default 1000)")
@@ -187,7 +237,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--support-points", type=int, default=None, metavar="M", help="sor: support points")
     t.add_argument("--support", choices=["cv", "random"], default=None, help="sor: support point selection")
     t.add_argument("--jobs", type=int, default=None, metavar="J",
-                   help="lgpr: worker processes for the cluster fits; gpr: threads over outputs")
+                   help="lgpr: worker processes for the cluster fits (default: all cores); "
+                        "gpr: threads over outputs")
     t.add_argument("--dask-scheduler", default=None, metavar="ADDRESS",
                    help="lgpr: fit the clusters on this Dask cluster (tcp://host:port)")
     t.add_argument("--option", type=_option, action="append", metavar="KEY=VALUE",
@@ -228,7 +279,44 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--jobs", type=int, default=2, help="processes for the Fig. 4 fits")
     rp.add_argument("--no-fig4", action="store_true", help="skip Fig. 4")
     rp.add_argument("--no-rollouts", action="store_true", help="skip Figs 5-7 and the animation")
+    rp.add_argument("--physics-config", type=Path, default=None, metavar="FILE.json",
+                    help="tuned nominal robot (e.g. benchmarks/nominal_tuned.json) for the physics "
+                         "baseline curves")
     rp.set_defaults(func=cmd_reproduce)
+
+    dg = sub.add_parser("diagnose", help="find what the model lacks in its residual, add it, report",
+                        description="Screen a library of candidate effects (command delay, lagged "
+                                    "states, friction, backlash, pose, time, contact, gait phase) "
+                                    "against cross-fitted one-step residuals on the TrainPool, add "
+                                    "the significant and material ones to the model, and report "
+                                    "TestPool one-step nMSE and rollout errors before and after: "
+                                    "report.md, report.json and the improved model in OUT/model.")
+    dg.add_argument("--data", required=True, type=Path, help="dataset directory")
+    dg.add_argument("--out", required=True, type=Path, help="output directory")
+    dg.add_argument("--model", type=Path, default=None, metavar="MODEL",
+                    help="start from this model (its features, method and options)")
+    dg.add_argument("--baseline", choices=["measured", "paper"], default="measured",
+                    help="without --model: start from the default model's features (measured, "
+                         "the paper's 45 plus the measured robot's own structure) or the paper's 45")
+    dg.add_argument("--method", choices=["lr", "lwpr", "gpr", "sor", "lgpr"], default=None,
+                    help="report model fitted before/after each effect (default lgpr)")
+    dg.add_argument("--option", type=_option, action="append", metavar="KEY=VALUE",
+                    help="report model constructor argument (VALUE parsed as JSON); repeatable")
+    dg.add_argument("--significance", type=_fraction, default=0.01,
+                    help="family-wise significance level (default 0.01)")
+    dg.add_argument("--min-gain", type=_fraction, default=0.05,
+                    help="materiality: held-out nMSE cut of one element (default 0.05)")
+    dg.add_argument("--max-rounds", type=int, default=4, help="most effects to add (default 4)")
+    dg.add_argument("--projections", type=lambda t: [x for x in t.split(",") if x],
+                    default=["alpha"], help="rollout projections to score (default alpha)")
+    dg.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    dg.add_argument("--random-features", type=int, default=1000,
+                    help="search model: random Fourier features (default 1000)")
+    dg.add_argument("--folds", type=int, default=5, help="search model: cross-fitting folds")
+    dg.add_argument("--seed", type=int, default=0, help="seed of the search model and report model")
+    dg.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    dg.add_argument("--quiet", action="store_true", help="no progress lines")
+    dg.set_defaults(func=cmd_diagnose)
 
     for name in ("info", "dataset"):
         i = sub.add_parser(name, help="summarise a recorded dataset" + (" (alias of info)" if name == "dataset" else ""),

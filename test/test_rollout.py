@@ -289,6 +289,119 @@ def test_nearest_neighbour_equals_a_naive_loop():
     np.testing.assert_array_equal(((Q - P[ik]) ** 2).sum(1), ((Q - P[ref]) ** 2).sum(1))
 
 
+def clustered_points(n: int, seed: int, d: int = N_STATE) -> np.ndarray:
+    """Real-data-like points: clusters along curves of a 5-D latent space, mapped into d-D with
+    decaying scales (a steep PCA spectrum like the TrainPool's) plus a little noise."""
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(0, 2 * np.pi, n)
+    centres = 3.0 * rng.standard_normal((8, 5))
+    lat = centres[rng.integers(0, 8, n)] + np.c_[np.cos(t), np.sin(t), np.cos(2 * t),
+                                                 np.sin(3 * t), t / np.pi]
+    M = rng.standard_normal((5, d)) * (0.7 ** np.arange(d))
+    return lat @ M + 0.05 * rng.standard_normal((n, d)) * (0.85 ** np.arange(d))
+
+
+@pytest.mark.parametrize("kind", ["clustered", "gaussian", "grid", "flat"])
+def test_pca_nearest_neighbour_equals_a_naive_loop(kind):
+    rng = np.random.default_rng(21)
+    n, d = 4000, N_STATE
+    if kind == "clustered":
+        P = clustered_points(n, seed=22)
+    elif kind == "gaussian":                  # flat spectrum: the bounds barely prune
+        P = rng.standard_normal((n, d))
+    elif kind == "grid":                      # half-integer grid: many exactly equal distances
+        P = np.round(2 * clustered_points(n, seed=22)) / 2
+    else:                                     # a 10-D grid in 33-D: the bounds are the
+        P = np.zeros((n, d))                  # distances, up to rounding; many exact ties
+        P[:, 3:13] = np.round(2 * clustered_points(n, seed=22, d=10)) / 2
+    P[3999] = P[17]                           # duplicates in different chunks
+    P[2500] = P[1200]
+    sd = P.std(0)
+    Q = np.vstack([P[rng.choice(n, 60)] + s * sd * rng.standard_normal((60, d))
+                   for s in (0.3, 0.8, 1.5)]
+                  + [P[[17, 1200, 0]],
+                     np.round(2 * P[rng.choice(n, 20)] + 3 * rng.standard_normal((20, d))) / 2,
+                     30.0 * rng.standard_normal((3, d)), 3e3 * rng.standard_normal((2, d)),
+                     1e12 * rng.standard_normal((2, d))])          # far, very far, beyond `far`
+    ref = naive_nearest(P, Q)
+    nn = NearestNeighbour(P, method="pca", chunk_points=128)
+    assert nn.build_index().n_chunks >= 32
+    np.testing.assert_array_equal(nn.query(Q), ref)
+    singles = np.concatenate([nn.query(Q[i:i + 1]) for i in range(0, 190, 7)])
+    np.testing.assert_array_equal(singles, ref[0:190:7])
+    first_copy = [np.flatnonzero((P == P[i]).all(axis=1))[0] for i in (17, 1200)]
+    assert list(ref[180:182]) == first_copy and first_copy[0] <= 17
+    if kind != "gaussian":
+        # the bounds alone answer every query near the data: no fall-back to brute force (which
+        # would also hide a point wrongly ruled out)
+        np.testing.assert_array_equal(nn.build_index().query(Q[:183], P), ref[:183])
+
+
+def test_pca_nearest_neighbour_near_ties_and_blocks():
+    rng = np.random.default_rng(23)
+    d = N_STATE
+    P = clustered_points(3000, seed=24)
+    # near ties far from the origin: two points at distance 1 and 1 +- 1e-13 from a centre
+    centres = P[rng.choice(3000, 40)] + 3.0
+    for k, c in enumerate(centres):
+        v1, v2 = rng.standard_normal((2, d))
+        P[100 + 2 * k] = c + v1 / np.linalg.norm(v1) * (1 + 1e-13 * (1 if k % 2 else -1))
+        P[2900 - 2 * k] = c + v2 / np.linalg.norm(v2)
+    Q = np.vstack([centres, P[rng.choice(3000, 500)] + 0.5 * rng.standard_normal((500, d))])
+    ref = naive_nearest(P, Q)
+    nn = NearestNeighbour(P, method="pca", chunk_points=100)
+    np.testing.assert_array_equal(nn.query(Q), ref)          # 540 rows: several query blocks
+    np.testing.assert_array_equal(nn.query(Q, method="brute"), ref)
+    np.testing.assert_array_equal(nn.query(Q[:1]), ref[:1])
+    assert nn.query(Q[:0]).shape == (0,)
+
+
+def test_nearest_neighbour_auto_method_pickle_and_threads():
+    import pickle
+    import threading
+    P = clustered_points(2000, seed=25, d=12)
+    Q = P[::40] + 0.3
+    ref = naive_nearest(P, Q)
+    assert NearestNeighbour(P, chunk_points=500)._resolve("auto") == "pca"
+    assert NearestNeighbour(P)._resolve("auto") == "brute"             # too few points
+    assert NearestNeighbour(P[:, :4], chunk_points=100)._resolve("auto") == "brute"  # 4-D
+    flat = np.random.default_rng(28).standard_normal((2000, N_STATE))  # no dominant axes
+    assert NearestNeighbour(flat, chunk_points=100)._resolve("auto") == "brute"
+    nn = NearestNeighbour(P, chunk_points=100).prepare()
+    back = pickle.loads(pickle.dumps(nn))
+    np.testing.assert_array_equal(back.query(Q), ref)
+    results = [None] * 4
+
+    def work(i):
+        results[i] = [nn.query(Q) for _ in range(20)]
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for res in results:
+        for r in res:
+            np.testing.assert_array_equal(r, ref)
+    with pytest.raises(ValueError, match="method"):
+        NearestNeighbour(P, method="ball")
+    with pytest.raises(ValueError, match="method"):
+        nn.query(Q, method="ball")
+
+
+def test_alpha_projection_default_search_equals_brute_force():
+    train = clustered_points(9000, seed=26)
+    train[:, S.q] = np.clip(train[:, S.q], JOINT_LOWER + 0.05, JOINT_UPPER - 0.05)
+    train[:, S.d_rpy] = np.clip(train[:, S.d_rpy], -3.0, 3.0)
+    rng = np.random.default_rng(27)
+    s = train[rng.choice(9000, 66)] + 0.8 * train.std(0) * rng.standard_normal((66, N_STATE))
+    auto = make_projection("alpha", train, alpha=0.5)
+    assert auto.nn._resolve(auto.nn.method) == "pca"
+    brute = make_projection("alpha", train, alpha=0.5, nn_method="brute")
+    np.testing.assert_array_equal(auto.nearest(s), brute.nearest(s))
+    np.testing.assert_array_equal(auto(s), brute(s))
+
+
 def test_projection_round_trips_through_npz(tmp_path):
     train = random_states(200, seed=12)
     s = train[:10] + 0.3

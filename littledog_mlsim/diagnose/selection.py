@@ -22,18 +22,24 @@ Method (and why)
    ``gain_j = 1 - SSE_j(with c) / SSE_j(without)``, i.e. the held-out nMSE cut of that element.
 3. **Significance, grouped by move.** A move is the independent unit (samples within a move are
    strongly autocorrelated; treating them as independent inflates significance by ~100x). Per
-   move m the contribution d_mj = M (SSE0_mj - SSE1_mj) / SSE0_j has mean gain_j; a one-sided
-   t-test across the M moves (M - 1 degrees of freedom) tests gain_j > 0. The candidate's
-   ``p_value`` is Bonferroni-adjusted over the 33 elements and the library size, so
-   ``p_value < alpha`` (default 0.01) bounds the chance of any false alarm in a round.
+   move m the contribution d_mj = M (SSE0_mj - SSE1_mj) / SSE0_j has mean gain_j; one-sided
+   t-tests across the M moves (M - 1 degrees of freedom) test the pooled gain (sum over the 33
+   elements: an effect spread over many elements, like a delay on all joints) and each
+   element's gain. The candidate's ``p_value`` is Bonferroni-adjusted over the two tests, the 33
+   elements and the library size, so ``p_value < alpha`` (default 0.01) bounds the chance of
+   any false alarm in a round.
 4. **Materiality.** Significant is not enough (with enough data everything is): an effect counts
    only if it also cuts the held-out nMSE of at least one element by ``min_gain`` (default 5 %,
-   see ``benchmarks/diagnose.md`` for why not 10 %) with that element's adjusted p < alpha.
-   Its ``outputs`` are the elements with adjusted p < alpha and gain >= ``min_gain / 2``.
-5. **Forward selection.** Among the significant and material candidates, the one with the
-   largest total held-out gain (sum over its outputs) is accepted; its parameter is the grid
-   value that wins within its family (e.g. the delay in steps). It joins the model and the next
-   round screens the rest against the new residual, until none is significant and material.
+   see ``benchmarks/diagnose.md`` for why not 10 %) with that element's own p < alpha. Its
+   ``outputs`` are the elements with p < alpha and gain >= ``min_gain / 2``.
+5. **Forward selection.** The family of the significant and material candidate with the largest
+   total held-out gain (summed over the 33 elements) is detected; its parameters are estimated
+   within the family: the delay in steps by refitting the search model with u_t *replaced* by
+   u_{t-d} for every d on the grid (:func:`delay_scan`; as an added column every lag up to the
+   delay helps about equally, so the augmentation profile cannot tell d apart), other families
+   by parsimony among the near-best members (:func:`estimate_member`). That member joins the
+   model and the next round screens the rest against the new residual, until none is
+   significant and material.
 
 Residual-input cross-correlation (Ljung's whiteness test) is reported as evidence for command
 families (:func:`residual_input_ccf`), not used to select: on open-loop trot data the commands
@@ -57,7 +63,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from ..data.recording import MoveRecording
 from ..layout import MOVE_TYPES, N_FEATURE, N_STATE, STATE_NAMES
-from ..models.features import Augmentation, FeatureSet
+from ..models.features import Augmentation, CommandLag, FeatureSet
 
 __all__ = ["SearchModel", "CandidateScore", "Round", "SelectionResult", "move_folds",
            "screen", "select_effects", "candidate_columns", "residual_input_ccf",
@@ -294,6 +300,36 @@ def screen(model: SearchModel, columns: dict[str, np.ndarray],
     return out
 
 
+DELAY_TOLERANCE = 0.1
+
+
+def estimate_member(family: str, scores: Sequence[CandidateScore],
+                    delay_tolerance: float = DELAY_TOLERANCE) -> CandidateScore:
+    """The member of a detected family that states its parameters (see module doc, step 5).
+
+    Command delay: next to u_t, any u_{t-k} with k <= d lets the model rebuild u_{t-d} by
+    inter-/extrapolating with u_t, while k > d only repeats what the state already shows, so the
+    held-out gain of u_{t-k} is about flat up to the delay and drops after it. The estimate is
+    the largest k whose total gain is within ``delay_tolerance`` of the best lag's (the knee of
+    the profile), not the argmax, which is a coin toss between 1 and d. Other families
+    (parsimony): of the members within the same tolerance of the best total gain, the one with
+    the fewest columns (then the larger gain), so friction on the knees is named "knees" rather
+    than "all joints" when the other joints add nothing.
+    """
+    if family == "command delay":
+        lags = [s for s in scores if s.augmentation.name == "command_lag"]
+        if lags:
+            best = max(s.total_gain for s in lags)
+            if best > 0:
+                ok = [s for s in lags if s.total_gain >= (1.0 - delay_tolerance) * best]
+                return max(ok, key=lambda s: s.augmentation.lag)
+    best = max(s.total_gain for s in scores)
+    if best <= 0:
+        return max(scores, key=lambda s: s.total_gain)
+    ok = [s for s in scores if s.total_gain >= (1.0 - delay_tolerance) * best]
+    return min(ok, key=lambda s: (len(s.augmentation.columns()), -s.total_gain))
+
+
 @dataclass
 class Round:
     """One round of forward selection: the feature set screened and what was found."""
@@ -301,11 +337,12 @@ class Round:
     index: int
     feature_set: FeatureSet           # before this round's pick
     scores: list[CandidateScore]
-    picked: CandidateScore | None
+    picked: CandidateScore | None     # the member added (its family was detected)
     residual: np.ndarray              # (n, 33) held-out residual before the pick (std units)
     correction: np.ndarray | None     # (n, 33) held-out correction of the picked candidate
     search_nmse: np.ndarray           # (33,) held-out nMSE of the search model (TrainPool)
     seconds: float
+    delay_profile: list[dict[str, Any]] | None = None  # command delay: the replacement scan
 
 
 @dataclass
@@ -368,10 +405,26 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
         scores = screen(m, columns, todo, alpha=alpha, min_gain=min_gain,
                         n_library=len(library))
         ok = [s for s in scores if s.significant and s.material]
-        picked = max(ok, key=lambda s: s.total_gain) if ok and k < max_rounds else None
+        picked = None
+        delay_profile = None
+        if ok and k < max_rounds:
+            family = max(ok, key=lambda s: s.total_gain).augmentation.family
+            members = [s for s in scores if s.augmentation.family == family]
+            picked = estimate_member(family, members)
+            if family == "command delay":
+                lags = sorted({s.augmentation.lag for s in members
+                               if s.augmentation.name == "command_lag"})
+                delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
+                best = max(delay_profile, key=lambda r: r["total_gain"])
+                by_lag = {s.augmentation.lag: s for s in members
+                          if s.augmentation.name == "command_lag"}
+                if best["delay"] in by_lag:
+                    picked = by_lag[best["delay"]]
+                say(f"delay scan (u_t replaced by u_t-d): " + ", ".join(
+                    f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile))
         corr = m.candidate_fit(columns[picked.label])[1] if picked is not None else None
         rounds.append(Round(k, fs, scores, picked, m.residual_, corr, search_nmse,
-                            time.perf_counter() - t1))
+                            time.perf_counter() - t1, delay_profile))
         if picked is None:
             say(f"round {k}: no significant and material candidate "
                 f"({sum(s.significant for s in scores)} significant, best gain "
@@ -385,6 +438,32 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
     return SelectionResult(rounds=rounds, feature_set=fs, start=start, move_types=move_types,
                            move_index=move_index, search_model=search.describe(), alpha=alpha,
                            min_gain=min_gain, library=library)
+
+
+def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
+               move_types: Sequence[str], columns: dict[str, np.ndarray],
+               lags: Sequence[int]) -> list[dict[str, Any]]:
+    """The command-delay estimate: refit the search model with u_t replaced by u_{t-d}.
+
+    A delay of d steps means the servo acts on u_{t-d}; the search model that is given that
+    command instead of u_t (in its nonlinear map as well as linearly) fits the held-out data
+    best at the true d (system identification's delay estimate by comparing model fits over
+    candidate delays). Returns, for d = 0 (the current model) and each lag, the total held-out
+    gain over the 33 elements relative to d = 0 and the per-element gains.
+    """
+    out = [{"delay": 0, "total_gain": 0.0, "gain": [0.0] * N_STATE}]
+    tot0 = model.sse_.sum(axis=0)
+    tot0 = np.where(tot0 > 0, tot0, 1.0)
+    for d in lags:
+        Xd = np.array(X, copy=True)
+        Xd[:, N_STATE:N_FEATURE] = columns[CommandLag(lag=d).label()]
+        md = SearchModel(**{k: getattr(model, k) for k in (
+            "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
+            "n_folds", "seed")}).fit(Xd, D, move_index, move_types, model.length_scales_)
+        gain = 1.0 - md.sse_.sum(axis=0) / tot0
+        out.append({"delay": int(d), "total_gain": float(gain.sum()),
+                    "gain": [float(g) for g in gain]})
+    return out
 
 
 def residual_input_ccf(residual: np.ndarray, inputs: np.ndarray, move_index: np.ndarray,

@@ -1,0 +1,400 @@
+"""``report.json`` and ``report.md`` (with figures) of a diagnosis.
+
+report.json schema (format ``littledog_mlsim.diagnosis``, version 1)
+--------------------------------------------------------------------
+Top level::
+
+    format, format_version          "littledog_mlsim.diagnosis", 1
+    significant                     bool: at least one effect was found (and added)
+    effects                         list, in the order found (one per round), each:
+      round                         1-based round that found it
+      name, label                   augmentation name ("command_lag") and with parameters
+      family                        kind of effect ("command delay", "Coulomb friction", ...)
+      params                        its estimated parameters ({"lag": 2, "joints": "all"})
+      columns                       feature columns it adds to the model
+      outputs                       state names it affects (held-out cut >= min_gain / 2 and
+                                    p < alpha, unadjusted, on the TrainPool cross-fit)
+      p_value                       the family's best adjusted p (Bonferroni over the 2 tests,
+                                    33 elements, library size); significant iff < alpha
+      evidence                      TrainPool cross-fitted numbers that chose it:
+        held_out_gain               {state: relative cut of the held-out MSE} of this member
+        total_gain, max_gain, p_pooled, n_moves, moves_improved {state: n}
+        parameter_profile           [{candidate, params, total_gain, max_gain, p_value}] of the
+                                    family's members (how the parameter was estimated)
+        search_nmse_before          {state: held-out nMSE of the search model before it}
+        delay_scan                  command delay only: [{delay d, total_gain, gain {state}}]
+                                    of the search model refitted with u_{t-d} in place of u_t
+                                    (d = 0 is the model without the effect); the estimate is
+                                    the best d
+      before, after                 the report model on the TestPool without/with it:
+        nmse {state: value}, nmse_mean, n_samples, feature_set, feature_set_description,
+        rollout {label: {final_xy_error_m, final_xy_error_m_median, final_xy_error_m_p90,
+                         n_nan_moves, element_error_sum_mean {state: value},
+                         nmse_at_horizon {h: {nmse {state: value}, steps, ...}},
+                         xy_error_vs_time_mean [per step], rollout_wall_s}}
+      nmse_cut                      {state: 1 - after / before} on the TestPool, outputs only
+    before, after                   the same blocks for the start and the final feature set
+    stages                          every stage's block (start, then after each effect)
+    rounds                          [{round, feature_set, picked, n_significant, n_material,
+                                    best: [candidate dicts, 10 largest total gain]}]
+    baseline, method, options       where the loop started and the report model
+    search                          search model, folds, alpha, min_gain, library size
+    data, dataset_info, n_train_moves, n_test_moves, model (path of the final model), seconds
+
+All numbers are plain JSON (no NaN: undefined values are null).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..layout import STATE_NAMES
+from .selection import CandidateScore, Round, SelectionResult
+
+REPORT_FORMAT = "littledog_mlsim.diagnosis"
+REPORT_FORMAT_VERSION = 1
+
+__all__ = ["write_report", "build_report", "REPORT_FORMAT", "REPORT_FORMAT_VERSION"]
+
+
+def _f(x: Any) -> float | None:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _named(v: np.ndarray) -> dict[str, float | None]:
+    return {n: _f(x) for n, x in zip(STATE_NAMES, v)}
+
+
+def _clean(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        return _f(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, np.ndarray):
+        return _clean(obj.tolist())
+    return obj
+
+
+def _outputs(s: CandidateScore, alpha: float, min_gain: float) -> list[str]:
+    mask = (s.p_element < alpha) & (s.gain >= 0.5 * min_gain)
+    return [STATE_NAMES[j] for j in np.flatnonzero(mask)]
+
+
+def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -> dict:
+    s = r.picked
+    assert s is not None
+    fam = [c for c in r.scores if c.augmentation.family == s.augmentation.family]
+    outputs = _outputs(s, sel.alpha, sel.min_gain) or s.outputs
+    cut = {}
+    for name in outputs:
+        b, a = before["nmse"].get(name), after["nmse"].get(name)
+        cut[name] = _f(1.0 - a / b) if (a is not None and b) else None
+    order = np.argsort(-s.gain)
+    return {
+        "round": k + 1, "name": s.augmentation.name, "label": s.label,
+        "family": s.augmentation.family, "params": s.augmentation.params(),
+        "columns": list(s.augmentation.columns()), "outputs": outputs,
+        "p_value": min(c.p_value for c in fam),
+        "evidence": {
+            "held_out_gain": _named(s.gain), "total_gain": s.total_gain,
+            "max_gain": s.max_gain, "p_pooled": s.p_pooled, "p_member": s.p_value,
+            "n_moves": len(sel.move_types),
+            "moves_improved": {STATE_NAMES[j]: int(s.n_moves_better[j]) for j in order[:8]},
+            "parameter_profile": [{"candidate": c.label, "params": c.augmentation.params(),
+                                   "total_gain": c.total_gain, "max_gain": c.max_gain,
+                                   "p_value": c.p_value} for c in fam],
+            "search_nmse_before": _named(r.search_nmse),
+            "delay_scan": (None if r.delay_profile is None else
+                           [{"delay": d["delay"], "total_gain": d["total_gain"],
+                             "gain": _named(np.asarray(d["gain"]))} for d in r.delay_profile]),
+        },
+        "before": before, "after": after, "nmse_cut": cut,
+    }
+
+
+def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> dict[str, Any]:
+    """The report.json document (see module doc)."""
+    effects = [_effect(k, r, sel, stages[k], stages[k + 1])
+               for k, r in enumerate([r for r in sel.rounds if r.picked is not None])]
+    rounds = []
+    for r in sel.rounds:
+        best = sorted(r.scores, key=lambda c: -c.total_gain)[:10]
+        rounds.append({"round": r.index + 1, "feature_set": r.feature_set.describe(),
+                       "picked": None if r.picked is None else r.picked.label,
+                       "n_candidates": len(r.scores),
+                       "n_significant": sum(c.significant for c in r.scores),
+                       "n_material": sum(c.significant and c.material for c in r.scores),
+                       "search_nmse_mean": _f(np.nanmean(r.search_nmse)),
+                       "seconds": r.seconds, "best": [c.to_dict() for c in best]})
+    doc = {
+        "format": REPORT_FORMAT, "format_version": REPORT_FORMAT_VERSION,
+        "significant": bool(effects), "effects": effects,
+        "before": stages[0], "after": stages[-1], "stages": list(stages), "rounds": rounds,
+        "search": {**sel.search_model, "residual": "cross-fitted by move (held-out folds)",
+                   "alpha": sel.alpha, "min_gain": sel.min_gain,
+                   "library_size": len(sel.library),
+                   "test": "one-sided t-test over moves of per-move held-out SSE cuts "
+                           "(pooled over elements and per element), Bonferroni"},
+        **info,
+    }
+    return _clean(doc)
+
+
+# ---------------------------------------------------------------------------------------------
+# figures
+
+def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figs: dict[str, list[str]] = {"effects": [], "summary": []}
+    picked_rounds = [r for r in sel.rounds if r.picked is not None]
+    for k, (r, eff) in enumerate(zip(picked_rounds, doc["effects"])):
+        s = r.picked
+        # residual vs candidate: binned held-out residual against the held-out correction
+        outs = [STATE_NAMES.index(n) for n in eff["outputs"]] or list(np.argsort(-s.gain)[:3])
+        outs = sorted(outs, key=lambda j: -s.gain[j])[:3]
+        scan = eff["evidence"].get("delay_scan")
+        n_panels = len(outs) + 1 + (scan is not None)
+        fig, axes = plt.subplots(1, n_panels, figsize=(4.2 * n_panels, 3.6))
+        for ax, j in zip(axes, outs):
+            x, y = r.correction[:, j], r.residual[:, j]
+            q = np.quantile(x, np.linspace(0, 1, 21))
+            q[-1] += 1e-12
+            b = np.clip(np.searchsorted(q, x, side="right") - 1, 0, 19)
+            cx = np.array([x[b == i].mean() if np.any(b == i) else np.nan for i in range(20)])
+            cy = np.array([y[b == i].mean() if np.any(b == i) else np.nan for i in range(20)])
+            se = np.array([y[b == i].std() / math.sqrt(max((b == i).sum(), 1))
+                           for i in range(20)])
+            ax.errorbar(cx, cy, yerr=se, fmt="o", ms=3, label="binned mean")
+            lim = np.nanmax(np.abs(np.concatenate([cx, cy])))
+            ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.8, label="residual = effect")
+            ax.axhline(0, color="0.7", lw=0.5)
+            ax.set_xlabel(f"{s.label.split('(')[0]} term (held-out fit)")
+            ax.set_ylabel(f"held-out residual {STATE_NAMES[j]}")
+            ax.set_title(f"{STATE_NAMES[j]}: cut {s.gain[j]:.1%}", fontsize=9)
+            ax.legend(fontsize=7)
+        if scan is not None:
+            ax = axes[-2]
+            ds = [d["delay"] for d in scan]
+            tg = [d["total_gain"] for d in scan]
+            ax.bar(ds, tg, color=["C3" if d == s.augmentation.params().get("lag") else "C0"
+                                  for d in ds])
+            ax.set_xlabel("d: search model refitted with u_{t-d} in place of u_t")
+            ax.set_ylabel("total held-out gain vs d = 0")
+            ax.set_title("delay scan (red: estimate)", fontsize=9)
+        ax = axes[-1]
+        prof = eff["evidence"]["parameter_profile"]
+        labels = [p["candidate"].replace(f"{p['candidate'].split('(')[0]}", "")[:22]
+                  for p in prof]
+        tg = [p["total_gain"] for p in prof]
+        colors = ["C3" if p["candidate"] == s.label else
+                  ("C0" if p["p_value"] < sel.alpha else "0.6") for p in prof]
+        ax.barh(range(len(prof)), tg, color=colors)
+        ax.set_yticks(range(len(prof)))
+        ax.set_yticklabels([f"{p['candidate'].split('(')[0]}{lab}" for p, lab in zip(prof, labels)],
+                           fontsize=6)
+        ax.invert_yaxis()
+        ax.set_xlabel("total held-out gain (sum over elements)")
+        ax.set_title(f"{s.augmentation.family}: parameter profile\n(red: chosen; blue: p < alpha)",
+                     fontsize=8)
+        fig.tight_layout()
+        name = f"effect{k + 1}_{s.augmentation.name}.png"
+        fig.savefig(out / name, dpi=90)
+        plt.close(fig)
+        figs["effects"].append(name)
+
+    # before/after bars of the one-step nMSE (TestPool), every stage
+    stages = doc["stages"]
+    fig, ax = plt.subplots(figsize=(14, 4))
+    w = 0.8 / len(stages)
+    for i, st in enumerate(stages):
+        v = [st["nmse"].get(n) or np.nan for n in STATE_NAMES]
+        ax.bar(np.arange(len(STATE_NAMES)) + (i - (len(stages) - 1) / 2) * w, v, w,
+               label=("start: " if i == 0 else f"+ effect {i}: ") + st["feature_set_description"][-60:])
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(STATE_NAMES)))
+    ax.set_xticklabels(STATE_NAMES, rotation=90, fontsize=7)
+    ax.set_ylabel("one-step nMSE (TestPool)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "nmse_before_after.png", dpi=90)
+    plt.close(fig)
+    figs["summary"].append("nmse_before_after.png")
+
+    labels = list(stages[0]["rollout"])
+    if labels:
+        fig, axes = plt.subplots(1, len(labels), figsize=(5 * len(labels), 3.6), squeeze=False)
+        for ax, lab in zip(axes[0], labels):
+            for i, st in enumerate(stages):
+                y = [np.nan if v is None else v for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
+                ax.plot(np.arange(1, len(y) + 1) * 0.01, y,
+                        label="start" if i == 0 else f"+ effect {i}")
+            ax.set_xlabel("time after s_1 [s]")
+            ax.set_ylabel("mean cumulative (x, y) error [m]")
+            ax.set_title(f"rollout, projection {lab}")
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out / "rollout_before_after.png", dpi=90)
+        plt.close(fig)
+        figs["summary"].append("rollout_before_after.png")
+
+    last = sel.rounds[-1]
+    best = sorted(last.scores, key=lambda c: -c.max_gain)[:15]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.barh(range(len(best)), [c.max_gain for c in best],
+            color=["C0" if c.significant else "0.6" for c in best])
+    ax.axvline(sel.min_gain, color="C3", ls="--", label=f"min_gain {sel.min_gain:.0%}")
+    ax.set_yticks(range(len(best)))
+    ax.set_yticklabels([f"{c.label[:40]}  p={c.p_value:.1g}" for c in best], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("largest held-out nMSE cut of one element (TrainPool cross-fit)")
+    ax.set_title(f"round {last.index + 1}: what is left (blue: significant)", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "last_round.png", dpi=90)
+    plt.close(fig)
+    figs["summary"].append("last_round.png")
+    return figs
+
+
+# ---------------------------------------------------------------------------------------------
+# markdown
+
+def _num(x: Any, fmt: str = ".4f") -> str:
+    return "n/a" if x is None else format(x, fmt)
+
+
+def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
+    L: list[str] = []
+    add = L.append
+    add("# Residual diagnosis\n")
+    add(f"Data: `{doc.get('data')}` ({doc.get('n_train_moves')} TrainPool moves pick the "
+        f"effects; {doc.get('n_test_moves')} TestPool moves, which took no part in choosing, "
+        f"score them). Start: {doc.get('baseline')} "
+        f"({doc['before']['feature_set_description']}); report model `{doc.get('method')}` "
+        f"{doc.get('options') or ''}.\n")
+    srch = doc["search"]
+    add(f"**Significant: {'yes' if doc['significant'] else 'no'}.** "
+        + (f"Effects found, in order: " + "; ".join(
+            f"{e['family']} `{e['label']}` (p = {e['p_value']:.2g})" for e in doc["effects"])
+           + "." if doc["effects"] else
+           f"No candidate of the {srch['library_size']}-candidate library explains significantly "
+           f"(adjusted p < {srch['alpha']}) and materially (>= {srch['min_gain']:.0%} held-out "
+           f"nMSE cut of one element) more residual variance than chance; nothing was added.")
+        + "\n")
+    add(f"Method: residuals of a {srch.get('kind')} search model (M = "
+        f"{srch.get('n_random_features')} random features, ARD length scales from a GP) "
+        f"cross-fitted over {srch.get('n_folds')} folds of moves; each candidate is added as a "
+        f"linear term and scored by the held-out MSE cut per element; {srch['test']}. "
+        f"See `littledog_mlsim/diagnose/selection.py`.\n")
+    for e, fig in zip(doc["effects"], figs.get("effects", [])):
+        add(f"## Effect {e['round']}: {e['family']} — `{e['label']}`\n")
+        ev = e["evidence"]
+        add(f"- parameters: `{json.dumps(e['params'])}`; adds {len(e['columns'])} columns "
+            f"(`{e['columns'][0]}` ...)")
+        add(f"- affects: {', '.join(e['outputs']) or '(no single element on its own)'}")
+        add(f"- p = {e['p_value']:.2g} (family, adjusted); pooled p (unadjusted) = "
+            f"{ev['p_pooled']:.2g}; held-out TrainPool cut: max {ev['max_gain']:.1%}, "
+            f"total {ev['total_gain']:.2f} over {ev['n_moves']} moves\n")
+        if ev.get("delay_scan"):
+            add("- delay scan (search model refitted with u_{t-d} in place of u_t; total held-out "
+                "gain over the 33 elements): " + ", ".join(
+                    f"d = {d['delay']}: {d['total_gain']:+.3f}" for d in ev["delay_scan"]) + "\n")
+        add(f"![effect {e['round']}]({fig})\n")
+        add("Left: held-out residual of the most affected elements against the candidate's "
+            "held-out fitted term (binned means; on the dashed line the term explains the "
+            "residual). Right: total held-out gain of each member of the family (the "
+            "parameter estimate).\n")
+        add("TestPool, report model, before -> after:\n")
+        add("| element | nMSE before | nMSE after | cut |")
+        add("|---|---|---|---|")
+        for n in e["outputs"]:
+            add(f"| {n} | {_num(e['before']['nmse'].get(n))} | {_num(e['after']['nmse'].get(n))} "
+                f"| {_num(e['nmse_cut'].get(n), '.1%')} |")
+        for lab in e["before"]["rollout"]:
+            b, a = e["before"]["rollout"][lab], e["after"]["rollout"][lab]
+            add(f"| rollout {lab}: final (x, y) error [m] | {_num(b['final_xy_error_m'])} | "
+                f"{_num(a['final_xy_error_m'])} | |")
+        add("")
+    add("## Before and after (TestPool)\n")
+    for f in figs.get("summary", []):
+        add(f"![{f}]({f})\n")
+    stages = doc["stages"]
+    add("| element | " + " | ".join("start" if i == 0 else f"+{i}" for i in range(len(stages)))
+        + " |")
+    add("|---|" + "---|" * len(stages))
+    for n in STATE_NAMES:
+        add(f"| {n} | " + " | ".join(_num(st["nmse"].get(n)) for st in stages) + " |")
+    add("| **mean** | " + " | ".join(_num(st["nmse_mean"]) for st in stages) + " |")
+    for lab in stages[0]["rollout"]:
+        add(f"| rollout {lab} final (x, y) error [m] | "
+            + " | ".join(_num(st["rollout"][lab]["final_xy_error_m"]) for st in stages) + " |")
+        for h in ("0.5", "1"):
+            add(f"| rollout {lab} nMSE mean at {h} s | " + " | ".join(
+                _num(_mean_or_none(st["rollout"][lab]["nmse_at_horizon"].get(h, {}).get("nmse")))
+                for st in stages) + " |")
+    add("")
+    add("## Rounds\n")
+    for r in doc["rounds"]:
+        add(f"Round {r['round']} ({r['feature_set']}): {r['n_significant']} significant, "
+            f"{r['n_material']} significant and material; picked "
+            f"{'`' + r['picked'] + '`' if r['picked'] else 'nothing'} "
+            f"({r['seconds']:.0f} s).\n")
+        add("| candidate | family | max cut | total | p (adjusted) |")
+        add("|---|---|---|---|---|")
+        for c in r["best"][:6]:
+            add(f"| `{c['candidate']}` | {c['family']} | {c['max_gain']:.1%} | "
+                f"{c['total_gain']:.2f} | {c['p_value']:.2g} |")
+        add("")
+    add(f"Final model: `{doc.get('model')}`. Schema of report.json: "
+        f"`littledog_mlsim/diagnose/report.py`.")
+    return "\n".join(L) + "\n"
+
+
+def _mean_or_none(d: Mapping[str, Any] | None) -> float | None:
+    if not d:
+        return None
+    v = [x for x in d.values() if x is not None]
+    return float(np.mean(v)) if v else None
+
+
+def write_report(out: str | os.PathLike, sel: SelectionResult, stages: Sequence[dict], *,
+                 figures: bool = True, **info: Any) -> dict[str, Any]:
+    """Write ``out/report.json``, ``out/report.md`` and the figures; return the JSON document."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    info = dict(info)
+    info["n_train_moves"] = info.pop("n_train", None)
+    info["n_test_moves"] = info.pop("n_test", None)
+    info["model"] = info.pop("model_path", None)
+    doc = build_report(sel, stages, **info)
+    figs = _figures(out, sel, doc) if figures else {}
+    _atomic_write(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    _atomic_write(out / "report.md", _markdown(doc, figs))
+    return doc
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)

@@ -1,0 +1,201 @@
+"""The residual loop end to end: screen, add, retrain, score on the TestPool, report.
+
+:func:`diagnose` is what ``littledog-mlsim diagnose`` runs:
+
+1. the TrainPool picks the effects (:func:`.selection.select_effects`, cross-fitted residuals of
+   the search model; the TestPool is not read for that);
+2. for the starting feature set and after each accepted effect, the *report model* (the method
+   of ``--model``, else ``method``) is fitted on the whole TrainPool with that feature set and
+   scored on the TestPool: one-step nMSE per state element and rollouts from every TestPool
+   move's measured s_1 (alpha-PROJ, and the other projections asked for), with the extra
+   features computed online (:class:`..models.features.FeatureHistory`);
+3. the last model is written to ``OUT/model`` (a model file like any other; it records its
+   feature set, so ``evaluate``/``rollout``/``sim_node`` serve it like the baseline), and
+   ``OUT/report.json`` / ``OUT/report.md`` (+ figures) are written by :mod:`.report`.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..data.dataset import load_moves, read_index
+from ..data.recording import MoveRecording
+from ..layout import N_STATE
+from ..models.features import FeatureSet
+from ..rollout.metrics import nmse, rollout_metrics
+from ..rollout.simulate import prepare_test_moves
+from .candidates import BASELINES, default_library
+from .selection import (DEFAULT_ALPHA, DEFAULT_MIN_GAIN, SearchModel, SelectionResult,
+                        select_effects)
+
+__all__ = ["diagnose", "fit_report_model", "score_on_test", "DEFAULT_METHOD",
+           "DEFAULT_OPTIONS"]
+
+DEFAULT_METHOD = "lgpr"
+DEFAULT_OPTIONS: dict[str, dict[str, Any]] = {
+    "lgpr": {"cluster_size": 500},
+}
+ROLLOUT_KEYS = ("final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m_p90",
+                "n_nan_moves", "element_error_sum_mean", "nmse_at_horizon")
+
+
+def fit_report_model(feature_set: FeatureSet, method: str, options: Mapping[str, Any] | None,
+                     train: Sequence[MoveRecording], *, target: str = "delta", seed: int = 0,
+                     info: Mapping[str, Any] | None = None):
+    """A one-step model of ``method`` with ``feature_set`` fitted on the recordings ``train``."""
+    from ..models.onestep import OneStepModel
+    from ..models.persistence import fingerprint_arrays
+    from ..models.train import make_estimator
+    X, Y, _ = feature_set.features_responses(train)
+    estimator = make_estimator(method, dict(options or {}), seed=seed)
+    return OneStepModel.fit(estimator, X, Y, target=target, train_states=Y,
+                            data_fingerprint=fingerprint_arrays(X, Y),
+                            info=dict(info or {}), feature_set=feature_set)
+
+
+def score_on_test(model, test: Sequence[MoveRecording], projections: Sequence[str] = ("alpha",),
+                  alpha: float = 0.5) -> dict[str, Any]:
+    """One-step nMSE per state element and rollout errors of ``model`` on ``test``."""
+    from ..rollout.simulate import rollout_moves
+    fs = model.feature_set
+    X, Y, _ = fs.features_responses(test)
+    pred = model.predict(X)
+    per = nmse(Y, pred)
+    finite = [v for v in per.values() if np.isfinite(v)]
+    out: dict[str, Any] = {
+        "nmse": {k: (float(v) if np.isfinite(v) else None) for k, v in per.items()},
+        "nmse_mean": float(np.mean(finite)) if finite else None,
+        "n_samples": int(X.shape[0]), "rollout": {}}
+    moves = prepare_test_moves(test)
+    for kind in projections:
+        proj = model.projection(kind, alpha=alpha)
+        t0 = time.perf_counter()
+        predicted = rollout_moves(model, moves, proj)
+        full = rollout_metrics(moves, predicted, projection=proj)
+        label = f"alpha_{alpha:g}" if kind == "alpha" else kind
+        block = {k: full.get(k) for k in ROLLOUT_KEYS}
+        block["xy_error_vs_time_mean"] = full["xy_error_vs_time"]["mean"]
+        block["rollout_wall_s"] = time.perf_counter() - t0
+        out["rollout"][label] = block
+    return out
+
+
+def _say(progress: bool) -> Callable[[str], None]:
+    def say(text: str) -> None:
+        if progress:
+            print(f"diagnose: {text}", file=sys.stderr, flush=True)
+    return say
+
+
+def diagnose(data: str | os.PathLike, out: str | os.PathLike, *, model: str | os.PathLike | None = None,
+             baseline: str = "measured", method: str | None = None,
+             options: Mapping[str, Any] | None = None, alpha: float = DEFAULT_ALPHA,
+             min_gain: float = DEFAULT_MIN_GAIN, max_rounds: int = 4,
+             projections: Sequence[str] = ("alpha",), projection_alpha: float = 0.5,
+             search: SearchModel | None = None, library: Sequence | None = None,
+             seed: int = 0, save_model: bool = True, figures: bool = True,
+             progress: bool = True) -> dict[str, Any]:
+    """Run the residual loop on the dataset ``data``; write ``out/report.json``, ``report.md``,
+    figures and ``out/model``. Returns the report (the JSON document).
+
+    ``model``: start from this model file (its feature set, method, options and target; its
+    "before" scores are its own). Otherwise the starting feature set is ``baseline``
+    (``"measured"``: the default model's, :func:`.candidates.measured_robot_features`;
+    ``"paper"``: the 45 features) and the report model is ``method`` (default
+    :data:`DEFAULT_METHOD`) with ``options``.
+    """
+    from ..models.onestep import OneStepModel
+    from .report import write_report
+    say = _say(progress)
+    t_start = time.perf_counter()
+    out = Path(out)
+    index = read_index(data)
+    train = load_moves(data, "train")
+    test = load_moves(data, "test")
+    say(f"{len(train)} TrainPool and {len(test)} TestPool moves from {data}")
+    loaded = None
+    target = "delta"
+    if model is not None:
+        loaded = OneStepModel.load(model, feature_names=None)
+        start = loaded.feature_set
+        method = loaded.method
+        options = loaded.estimator.get_params()
+        target = loaded.target
+        baseline_desc = f"model {model}"
+    else:
+        if baseline not in BASELINES:
+            raise ValueError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
+        start = BASELINES[baseline]()
+        method = method or DEFAULT_METHOD
+        if options is None:
+            options = DEFAULT_OPTIONS.get(method, {})
+        baseline_desc = f"{baseline} feature set"
+    options = dict(options or {})
+    search = SearchModel(seed=seed) if search is None else search
+    library = list(default_library() if library is None else library)
+
+    sel = select_effects(train, start, library, search=search, alpha=alpha, min_gain=min_gain,
+                         max_rounds=max_rounds, progress=say)
+
+    # report model before and after every accepted effect
+    stages: list[dict[str, Any]] = []
+    fs = start
+    feature_sets = [start] + [start for _ in sel.accepted]
+    for k, picked in enumerate(sel.accepted):
+        fs = fs.with_augmentation(picked.augmentation)
+        feature_sets[k + 1] = fs
+    last_model = None
+    for k, fs_k in enumerate(feature_sets):
+        t0 = time.perf_counter()
+        note = None
+        if k == 0 and loaded is not None:
+            m = loaded
+        else:
+            info = {"diagnosis_stage": k, "data_dir": os.fspath(data)}
+            try:
+                m = fit_report_model(fs_k, method, options, train, target=target, seed=seed,
+                                     info=info)
+            except (ValueError, np.linalg.LinAlgError) as e:
+                if method != "lgpr" or options.get("init") == "cold":
+                    raise
+                # LGPR's warm start can fail on a cluster where an added column is constant up
+                # to rounding (e.g. a saturated tanh); the median-heuristic start does not
+                note = f"lgpr warm start failed ({str(e).splitlines()[0]}); refitted with init=cold"
+                say(note)
+                m = fit_report_model(fs_k, method, {**options, "init": "cold"}, train,
+                                     target=target, seed=seed, info=info)
+        scores = score_on_test(m, test, projections, projection_alpha)
+        if note:
+            scores["note"] = note
+        scores["feature_set"] = fs_k.to_dict()
+        scores["feature_set_description"] = fs_k.describe()
+        scores["fit_and_score_seconds"] = time.perf_counter() - t0
+        stages.append(scores)
+        last_model = m
+        say(f"stage {k} ({fs_k.describe()}): TestPool nMSE mean {scores['nmse_mean']:.4f}, "
+            f"final xy error {_fmt(scores['rollout'])} in {time.perf_counter() - t0:.1f} s")
+    out.mkdir(parents=True, exist_ok=True)
+    model_path = None
+    if save_model and last_model is not None:
+        model_path = last_model.save(out / "model")
+    report = write_report(out, sel, stages, data=os.fspath(data), dataset_info=index.info,
+                          baseline=baseline_desc, method=method, options=options,
+                          model_path=None if model_path is None else os.fspath(model_path),
+                          n_train=len(train), n_test=len(test), figures=figures,
+                          seconds=time.perf_counter() - t_start)
+    say(f"{'found ' + ', '.join(e['label'] for e in report['effects']) if report['effects'] else 'nothing significant'}; "
+        f"wrote {out / 'report.md'} in {time.perf_counter() - t_start:.1f} s")
+    return report
+
+
+def _fmt(rollout: Mapping[str, Any]) -> str:
+    parts = []
+    for label, block in rollout.items():
+        v = block.get("final_xy_error_m")
+        parts.append(f"{label} {v:.3f} m" if v is not None else f"{label} diverged")
+    return ", ".join(parts)
