@@ -190,7 +190,7 @@ class OneStepModel:
 
     # -- projection data
 
-    def projection(self, kind: str = "alpha", alpha: float = 0.5, nn_method: str = "brute"):
+    def projection(self, kind: str = "alpha", alpha: float = 0.5, nn_method: str = "auto"):
         """The rollout projection ``kind`` (none/bound/alpha) built from the TrainPool states."""
         from ..rollout.projection import make_projection
         if kind != "none" and self.train_states is None:
