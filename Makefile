@@ -5,6 +5,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 DATA ?= bags/default
+# `make run`: the demo's dataset and model (built by the demo if absent)
+DEMO_DATA ?= bags/demo
+DEMO_MODEL ?= bags/demo_lgpr
 # Pin BLAS to one thread: OpenBLAS threading is 20-40x slower on 2 cores; we parallelise across processes.
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
@@ -22,10 +25,11 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	for f in $(VENV)/lib/littledog_mlsim/*; do ln -sf ../lib/littledog_mlsim/$$(basename $$f) $(VENV)/bin/; done
 	touch $(STAMP)
 
-# The main job: record the default dataset (if absent) and summarise it.
+# The main job (littledog_mlsim/demo.py): record a small dataset and train an LGPR model if
+# absent, then replay a TestPool move through sim_node and pybullet_node over ROS 2 and report
+# the learned simulator's error against pybullet.
 run: $(STAMP)
-	test -f $(DATA)/dataset.yaml || $(VENV)/bin/littledog-mlsim record --out $(DATA)
-	$(VENV)/bin/littledog-mlsim info --data $(DATA)
+	$(PY) -m littledog_mlsim.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)
 
 test: $(STAMP)
 	$(PY) -m pytest -q test

@@ -32,6 +32,7 @@ setup(
             "pybullet_node = littledog_mlsim.nodes.pybullet_node:main",
             "bag_player = littledog_mlsim.nodes.bag_player:main",
             "bag_recorder = littledog_mlsim.nodes.bag_recorder:main",
+            "topic_echo = littledog_mlsim.nodes.topic_echo:main",
         ],
     },
 )

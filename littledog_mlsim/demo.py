@@ -591,6 +591,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         rec_s = ensure_dataset(a.data)
         if rec_s is not None:
             _print(f"recorded {a.data} in {rec_s:.0f} s")
+        _choose_move(a.data, a.move)          # a bad --move fails before any training
         train_s = ensure_model(a.data, a.model)
         if train_s is not None:
             _print(f"trained {a.model} in {train_s:.0f} s")

@@ -46,8 +46,12 @@ def write_json(path: str | os.PathLike, obj: Any) -> Path:
 
 
 def one_step_nmse(model: OneStepModel, recs: Sequence[MoveRecording]) -> dict[str, Any]:
-    """One-step nMSE per state name on the recordings' samples, plus the mean and timing."""
-    X, Y, _ = features_responses(recs)
+    """One-step nMSE per state name on the recordings' samples, plus the mean and timing.
+
+    The features are the model's own (``model.feature_set``: the paper's 45 plus any
+    augmentations it carries, computed from the recordings)."""
+    fs = getattr(model, "feature_set", None)
+    X, Y, _ = features_responses(recs) if fs is None else fs.features_responses(recs)
     t0 = time.perf_counter()
     pred = model.predict(X)
     dt = time.perf_counter() - t0

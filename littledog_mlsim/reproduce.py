@@ -179,6 +179,8 @@ def fig4_point(cache: str, curve: str, n: int, seed: int, scale_name: str) -> di
     fn = Normalizer().fit(X[rows])
     method = {"gpr": "gpr", "sor_random": "sor", "sor_cv": "sor", "lgpr": "lgpr"}[curve]
     opts = dict(sc.options[method])
+    if "n_jobs" in opts:
+        opts["n_jobs"] = 1          # Fig. 4 points already run in parallel processes: no nested pools
     if curve.startswith("sor"):
         opts.update(support=curve.split("_")[1],
                     n_support=int(min(sc.fig4_support_max, sc.fig4_support_fraction * rows.size)))

@@ -201,7 +201,8 @@ def _record(root: Path, name: str, seed: int, effects: str | None = None) -> Pat
     if effects is not None:
         effects_file = root / f"{name}.yaml"
         effects_file.write_text(effects)
-    record_dataset(out, moves_per_type=4, seed=seed, effects_file=effects_file and str(effects_file),
+    record_dataset(out, moves_per_type=4, seed=seed,
+                   effects_file=None if effects_file is None else str(effects_file),
                    jobs=2, progress=False)
     return out
 

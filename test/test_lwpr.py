@@ -445,6 +445,19 @@ def test_state_round_trip_identical_predictions(cross_data):
         LWPR.from_state(params, loaded, {**meta, "format": "lwpr-999"})
 
 
+def test_model_file_via_registry(tmp_path):
+    """LWPR is registered as "lwpr" and survives the project's model files."""
+    from littledog_mlsim.models.persistence import get_method, load_model, save_model
+    rng = np.random.default_rng(7)
+    X = rng.uniform(-1, 1, (200, 2))
+    Y = np.c_[np.sin(3 * X[:, 0]), X[:, 1] ** 2]
+    model = LWPR(init_D=5.0, n_epochs=2).fit(X, Y)
+    assert get_method("lwpr") is LWPR
+    save_model(tmp_path / "m", model)
+    loaded, _ = load_model(tmp_path / "m", feature_names=["a", "b"])
+    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
+
+
 def test_multi_output_shapes_and_init_D_forms():
     rng = np.random.default_rng(4)
     X = rng.uniform(-1, 1, (150, 3))

@@ -19,7 +19,7 @@ CLI = [sys.executable, "-m", "littledog_mlsim.cli"]
 @pytest.fixture(scope="module")
 def data(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("rep") / "ds"
-    record_dataset(out, moves_per_type=3, types=["F", "BL", "S"], jobs=2, progress=False)
+    record_dataset(out, moves_per_type=2, types=["F", "BL", "S"], jobs=2, progress=False)
     return out
 
 

@@ -22,6 +22,9 @@ Top level::
         parameter_profile           [{candidate, params, total_gain, max_gain, p_value}] of the
                                     family's members (how the parameter was estimated)
         search_nmse_before          {state: held-out nMSE of the search model before it}
+        residual_input_ccf          command delay only: {lags, ccf {state: [corr of the held-out
+                                    residual with that joint's command increment at each lag]},
+                                    band_95 (rough, ~20 independent samples per move)}
         delay_scan                  command delay only: [{delay d, total_gain, gain {state}}]
                                     of the search model refitted with u_{t-d} in place of u_t
                                     (d = 0 is the model without the effect); the estimate is
@@ -36,7 +39,7 @@ Top level::
     before, after                   the same blocks for the start and the final feature set
     stages                          every stage's block (start, then after each effect)
     rounds                          [{round, feature_set, picked, n_significant, n_material,
-                                    best: [candidate dicts, 10 largest total gain]}]
+                                    notes, best: [candidate dicts, 10 largest total gain]}]
     baseline, method, options       where the loop started and the report model
     search                          search model, folds, alpha, min_gain, library size
     data, dataset_info, n_train_moves, n_test_moves, model (path of the final model), seconds
@@ -119,6 +122,7 @@ def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -
                                    "total_gain": c.total_gain, "max_gain": c.max_gain,
                                    "p_value": c.p_value} for c in fam],
             "search_nmse_before": _named(r.search_nmse),
+            "residual_input_ccf": r.ccf,
             "delay_scan": (None if r.delay_profile is None else
                            [{"delay": d["delay"], "total_gain": d["total_gain"],
                              "gain": _named(np.asarray(d["gain"]))} for d in r.delay_profile]),
@@ -140,6 +144,7 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
                        "n_significant": sum(c.significant for c in r.scores),
                        "n_material": sum(c.significant and c.material for c in r.scores),
                        "search_nmse_mean": _f(np.nanmean(r.search_nmse)),
+                       "notes": list(r.notes),
                        "seconds": r.seconds, "best": [c.to_dict() for c in best]})
     doc = {
         "format": REPORT_FORMAT, "format_version": REPORT_FORMAT_VERSION,
@@ -227,7 +232,8 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
     for i, st in enumerate(stages):
         v = [st["nmse"].get(n) or np.nan for n in STATE_NAMES]
         ax.bar(np.arange(len(STATE_NAMES)) + (i - (len(stages) - 1) / 2) * w, v, w,
-               label=("start: " if i == 0 else f"+ effect {i}: ") + st["feature_set_description"][-60:])
+               label=("start: " if i == 0 else f"+ effect {i}: ")
+               + st["feature_set_description"][-60:])
     ax.set_yscale("log")
     ax.set_xticks(range(len(STATE_NAMES)))
     ax.set_xticklabels(STATE_NAMES, rotation=90, fontsize=7)
@@ -243,7 +249,8 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
         fig, axes = plt.subplots(1, len(labels), figsize=(5 * len(labels), 3.6), squeeze=False)
         for ax, lab in zip(axes[0], labels):
             for i, st in enumerate(stages):
-                y = [np.nan if v is None else v for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
+                y = [np.nan if v is None else v
+                     for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
                 ax.plot(np.arange(1, len(y) + 1) * 0.01, y,
                         label="start" if i == 0 else f"+ effect {i}")
             ax.set_xlabel("time after s_1 [s]")
@@ -277,7 +284,7 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
 # ---------------------------------------------------------------------------------------------
 # markdown
 
-def _num(x: Any, fmt: str = ".4f") -> str:
+def _num(x: Any, fmt: str = ".4g") -> str:
     return "n/a" if x is None else format(x, fmt)
 
 
@@ -292,7 +299,7 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
         f"{doc.get('options') or ''}.\n")
     srch = doc["search"]
     add(f"**Significant: {'yes' if doc['significant'] else 'no'}.** "
-        + (f"Effects found, in order: " + "; ".join(
+        + ("Effects found, in order: " + "; ".join(
             f"{e['family']} `{e['label']}` (p = {e['p_value']:.2g})" for e in doc["effects"])
            + "." if doc["effects"] else
            f"No candidate of the {srch['library_size']}-candidate library explains significantly "
@@ -313,6 +320,15 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
         add(f"- p = {e['p_value']:.2g} (family, adjusted); pooled p (unadjusted) = "
             f"{ev['p_pooled']:.2g}; held-out TrainPool cut: max {ev['max_gain']:.1%}, "
             f"total {ev['total_gain']:.2f} over {ev['n_moves']} moves\n")
+        if ev.get("residual_input_ccf"):
+            c = ev["residual_input_ccf"]
+            add("- residual-input cross-correlation (held-out residual vs the joint's command "
+                "increment u_{t-k} - u_{t-k-1}; evidence only):\n")
+            add("| element | " + " | ".join(f"k={k}" for k in c["lags"]) + " |")
+            add("|---|" + "---|" * len(c["lags"]))
+            for n, v in c["ccf"].items():
+                add(f"| {n} | " + " | ".join(f"{x:+.2f}" for x in v) + " |")
+            add(f"\n(rough 95 % band +-{c['band_95']:.2f})\n")
         if ev.get("delay_scan"):
             add("- delay scan (search model refitted with u_{t-d} in place of u_t; total held-out "
                 "gain over the 33 elements): " + ", ".join(
@@ -357,6 +373,8 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
             f"{r['n_material']} significant and material; picked "
             f"{'`' + r['picked'] + '`' if r['picked'] else 'nothing'} "
             f"({r['seconds']:.0f} s).\n")
+        for note in r.get("notes", []):
+            add(f"Note: {note}.\n")
         add("| candidate | family | max cut | total | p (adjusted) |")
         add("|---|---|---|---|---|")
         for c in r["best"][:6]:

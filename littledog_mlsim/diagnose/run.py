@@ -25,13 +25,11 @@ import numpy as np
 
 from ..data.dataset import load_moves, read_index
 from ..data.recording import MoveRecording
-from ..layout import N_STATE
 from ..models.features import FeatureSet
 from ..rollout.metrics import nmse, rollout_metrics
 from ..rollout.simulate import prepare_test_moves
 from .candidates import BASELINES, default_library
-from .selection import (DEFAULT_ALPHA, DEFAULT_MIN_GAIN, SearchModel, SelectionResult,
-                        select_effects)
+from .selection import (DEFAULT_ALPHA, DEFAULT_MIN_GAIN, SearchModel, select_effects)
 
 __all__ = ["diagnose", "fit_report_model", "score_on_test", "DEFAULT_METHOD",
            "DEFAULT_OPTIONS"]
@@ -92,10 +90,10 @@ def _say(progress: bool) -> Callable[[str], None]:
     return say
 
 
-def diagnose(data: str | os.PathLike, out: str | os.PathLike, *, model: str | os.PathLike | None = None,
-             baseline: str = "measured", method: str | None = None,
-             options: Mapping[str, Any] | None = None, alpha: float = DEFAULT_ALPHA,
-             min_gain: float = DEFAULT_MIN_GAIN, max_rounds: int = 4,
+def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
+             model: str | os.PathLike | None = None, baseline: str = "measured",
+             method: str | None = None, options: Mapping[str, Any] | None = None,
+             alpha: float = DEFAULT_ALPHA, min_gain: float = DEFAULT_MIN_GAIN, max_rounds: int = 4,
              projections: Sequence[str] = ("alpha",), projection_alpha: float = 0.5,
              search: SearchModel | None = None, library: Sequence | None = None,
              seed: int = 0, save_model: bool = True, figures: bool = True,
@@ -188,8 +186,9 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *, model: str | os
                           model_path=None if model_path is None else os.fspath(model_path),
                           n_train=len(train), n_test=len(test), figures=figures,
                           seconds=time.perf_counter() - t_start)
-    say(f"{'found ' + ', '.join(e['label'] for e in report['effects']) if report['effects'] else 'nothing significant'}; "
-        f"wrote {out / 'report.md'} in {time.perf_counter() - t_start:.1f} s")
+    found = ", ".join(e["label"] for e in report["effects"])
+    say(f"{'found ' + found if found else 'nothing significant'}; wrote {out / 'report.md'} in "
+        f"{time.perf_counter() - t_start:.1f} s")
     return report
 
 

@@ -35,11 +35,14 @@ Method (and why)
 5. **Forward selection.** The family of the significant and material candidate with the largest
    total held-out gain (summed over the 33 elements) is detected; its parameters are estimated
    within the family: the delay in steps by refitting the search model with u_t *replaced* by
-   u_{t-d} for every d on the grid (:func:`delay_scan`; as an added column every lag up to the
-   delay helps about equally, so the augmentation profile cannot tell d apart), other families
-   by parsimony among the near-best members (:func:`estimate_member`). That member joins the
-   model and the next round screens the rest against the new residual, until none is
-   significant and material.
+   u_{t-d} for every d on the grid and taking the d after which the fit falls off
+   (:func:`delay_scan`, :func:`delay_from_scan`; as an added column every lag up to the delay
+   helps about equally, so the augmentation profile cannot tell d apart), other families by
+   parsimony among the near-best members (:func:`estimate_member`). The scan is also a
+   cross-check: command columns that help while the scan puts the fall-off at d = 0 are not a
+   delay, and the family is not accepted (the next detected family is considered instead).
+   The accepted member joins the model and the next round screens the rest against the new
+   residual, until none is significant and material.
 
 Residual-input cross-correlation (Ljung's whiteness test) is reported as evidence for command
 families (:func:`residual_input_ccf`), not used to select: on open-loop trot data the commands
@@ -343,6 +346,8 @@ class Round:
     search_nmse: np.ndarray           # (33,) held-out nMSE of the search model (TrainPool)
     seconds: float
     delay_profile: list[dict[str, Any]] | None = None  # command delay: the replacement scan
+    notes: list[str] = field(default_factory=list)     # e.g. a family the cross-check rejected
+    ccf: dict[str, Any] | None = None  # command delay: residual-input cross-correlation (evidence)
 
 
 @dataclass
@@ -407,26 +412,41 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
         ok = [s for s in scores if s.significant and s.material]
         picked = None
         delay_profile = None
-        if ok and k < max_rounds:
-            family = max(ok, key=lambda s: s.total_gain).augmentation.family
+        ccf = None
+        notes: list[str] = []
+        families = sorted({s.augmentation.family for s in ok},
+                          key=lambda f: -max(c.total_gain for c in ok
+                                             if c.augmentation.family == f))
+        for family in (families if k < max_rounds else []):
             members = [s for s in scores if s.augmentation.family == family]
             picked = estimate_member(family, members)
-            if family == "command delay":
-                lags = sorted({s.augmentation.lag for s in members
-                               if s.augmentation.name == "command_lag"})
-                delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
-                best = max(delay_profile, key=lambda r: r["total_gain"])
-                by_lag = {s.augmentation.lag: s for s in members
-                          if s.augmentation.name == "command_lag"}
-                if best["delay"] in by_lag:
-                    picked = by_lag[best["delay"]]
-                say(f"delay scan (u_t replaced by u_t-d): " + ", ".join(
-                    f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile))
+            if family != "command delay":
+                break
+            lags = sorted({s.augmentation.lag for s in members
+                           if s.augmentation.name == "command_lag"})
+            delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
+            d_hat = delay_from_scan(delay_profile)
+            say("delay scan (u_t replaced by u_t-d): " + ", ".join(
+                f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
+                + f" -> delay {d_hat}")
+            by_lag = {s.augmentation.lag: s for s in members
+                      if s.augmentation.name == "command_lag"}
+            if d_hat in by_lag:
+                picked = by_lag[d_hat]
+                ccf = _command_ccf(m.residual_, X, move_index, picked)
+                break
+            # the replacement scan sees no delay: the command columns' gain is not a delay
+            scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
+            notes.append("command-delay candidates were significant and material, but the "
+                         "delay scan puts the fall-off at d = 0 (no delay): not accepted; scan "
+                         + scan)
+            say(notes[-1])
+            picked, delay_profile = None, None
         corr = m.candidate_fit(columns[picked.label])[1] if picked is not None else None
         rounds.append(Round(k, fs, scores, picked, m.residual_, corr, search_nmse,
-                            time.perf_counter() - t1, delay_profile))
+                            time.perf_counter() - t1, delay_profile, notes, ccf))
         if picked is None:
-            say(f"round {k}: no significant and material candidate "
+            say(f"round {k}: no effect accepted "
                 f"({sum(s.significant for s in scores)} significant, best gain "
                 f"{max(s.max_gain for s in scores):.3f}) in {time.perf_counter() - t1:.1f} s")
             break
@@ -466,6 +486,48 @@ def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.
     return out
 
 
+def delay_from_scan(profile: Sequence[dict[str, Any]]) -> int:
+    """The delay estimate from :func:`delay_scan`: the d after which the fit falls off.
+
+    Given u_{t-d} with d up to the true delay, the model still sees the command being applied
+    (or a newer one, from which, with the state, it infers it), so its fit changes little; one
+    step older and the applied command is gone, so the held-out gain drops sharply (measured on
+    clean and delayed data, ``benchmarks/diagnose.md``; the best single d is less reliable: a
+    command a step newer than the applied one often fits as well or better). The estimate is the
+    d before the largest one-step drop of the total gain; 0 means no delay.
+    """
+    prof = sorted(profile, key=lambda r: r["delay"])
+    drops = [(prof[i]["total_gain"] - prof[i + 1]["total_gain"], prof[i]["delay"])
+             for i in range(len(prof) - 1)]
+    return int(max(drops)[1]) if drops else 0
+
+
+CCF_LAGS = tuple(range(-3, 9))
+
+
+def _command_ccf(residual: np.ndarray, X: np.ndarray, move_index: np.ndarray,
+                 picked: CandidateScore) -> dict[str, Any]:
+    """Cross-correlation of the held-out residual of the most improved joint elements with the
+    increments of that joint's command, u_{t-k} - u_{t-k-1}, at lags k (Ljung's residual-input
+    test, as evidence for a command delay)."""
+    U = X[:, N_STATE:N_FEATURE]
+    dU = np.zeros_like(U)
+    for mv in np.unique(move_index):
+        idx = np.flatnonzero(move_index == mv)
+        dU[idx[1:]] = np.diff(U[idx], axis=0)
+    joint_el = [j for j in np.argsort(-picked.gain) if STATE_NAMES[j].startswith(("q_", "dq_"))]
+    out: dict[str, Any] = {"lags": list(CCF_LAGS), "ccf": {}}
+    for j in joint_el[:3]:
+        name = STATE_NAMES[j]
+        joint = name.split("_", 1)[1]
+        i = [n.split("_", 1)[1] for n in STATE_NAMES[9:21]].index(joint)
+        out["ccf"][name] = [float(v) for v in
+                            residual_input_ccf(residual[:, j], dU[:, i], move_index, CCF_LAGS)]
+    n_eff = len(np.unique(move_index)) * 20  # ~20 independent samples per 4 s move (trot period)
+    out["band_95"] = 1.96 / math.sqrt(n_eff)
+    return out
+
+
 def residual_input_ccf(residual: np.ndarray, inputs: np.ndarray, move_index: np.ndarray,
                        lags: Sequence[int]) -> np.ndarray:
     """Cross-correlation of a residual r_t (n,) with an input x_{t-k} (n,) at each lag k, within
@@ -477,11 +539,14 @@ def residual_input_ccf(residual: np.ndarray, inputs: np.ndarray, move_index: np.
             idx = np.flatnonzero(move_index == m)
             r, x = residual[idx], inputs[idx]
             if k >= 0:
-                a.append(r[k:]); b.append(x[:len(x) - k])
+                a.append(r[k:])
+                b.append(x[:len(x) - k])
             else:
-                a.append(r[:k]); b.append(x[-k:])
+                a.append(r[:k])
+                b.append(x[-k:])
         a, b = np.concatenate(a), np.concatenate(b)
-        a = a - a.mean(); b = b - b.mean()
+        a = a - a.mean()
+        b = b - b.mean()
         den = math.sqrt(float(a @ a) * float(b @ b))
         out.append(float(a @ b) / den if den > 0 else 0.0)
     return np.array(out)

@@ -59,7 +59,8 @@ BASE_FEATURES = "paper45"
 
 __all__ = [
     "Augmentation", "AUGMENTATIONS", "register_augmentation", "FeatureSet", "FeatureSetError",
-    "FeatureHistory", "Window", "batch_columns", "integrate_pose", "CommandLag", "CommandIncrement", "StateLag",
+    "FeatureHistory", "Window", "batch_columns", "integrate_pose", "CommandLag",
+    "CommandIncrement", "StateLag",
     "TrackingSaturation", "JointRateSign", "JointRateMagnitude", "Play", "Heading",
     "PlanarPosition", "ElapsedTime", "FootHeight", "CommandedLift", "GaitPhase",
     "STATE_GROUPS", "JOINT_GROUPS", "BASE_FEATURES", "FEATURE_SET_FORMAT_VERSION",
@@ -548,7 +549,8 @@ def augmentation_from_dict(d: Mapping[str, Any]) -> Augmentation:
     try:
         aug = cls(**params)
     except TypeError as e:
-        raise FeatureSetError(f"augmentation {d['name']!r}: bad params {dict(params)}: {e}") from None
+        raise FeatureSetError(f"augmentation {d['name']!r}: bad params {dict(params)}: "
+                              f"{e}") from None
     cols = d.get("columns")
     if cols is not None and list(cols) != list(aug.columns()):
         raise FeatureSetError(f"augmentation {aug.label()}: stored columns differ from this "

@@ -254,7 +254,7 @@ class _RFPool:
     """
 
     def __init__(self, d: int, R: int, diag: bool, init_S2: float, init_lambda: float,
-                 capacity: int = 64):
+                 capacity: int = 64, screen_dtype: type = np.float32):
         self.d, self.R, self.diag = d, R, diag
         self.init_S2, self.init_lambda = init_S2, init_lambda
         self.K = 0
@@ -267,8 +267,11 @@ class _RFPool:
         self.nreg = np.zeros(capacity, dtype=np.int64)
         self.out = np.zeros(capacity, dtype=np.int64)
         n_feat = 2 * d if diag else d * d + d
-        self.Zq = np.zeros((capacity, n_feat))  # [D (flattened), D c]: q = Zq @ feat(x) + cDc
-        self.cDc = np.zeros(capacity)
+        # [D (flattened), D c] so that q ~ Zq @ feat(x) + cDc: only screens candidates (their
+        # q is then recomputed exactly), so float32 halves the memory traffic of the GEMV
+        # when the terms are small enough for its rounding (see LWPR._start_training)
+        self.Zq = np.zeros((capacity, n_feat), dtype=screen_dtype)
+        self.cDc = np.zeros(capacity, dtype=screen_dtype)
 
     def _clean_vec_r(self, n: int, R: int) -> np.ndarray:
         v = np.zeros((n, 9, R))
@@ -304,10 +307,12 @@ class _RFPool:
         self.vec_r, self.mat_rd, self.R = vr, mr, R_new
 
     def features(self, x: np.ndarray) -> np.ndarray:
-        """feat(x) such that (x-c)^T D (x-c) = Zq @ feat(x) + cDc."""
+        """feat(x) such that (x-c)^T D (x-c) = Zq @ feat(x) + cDc (in Zq's dtype)."""
         if self.diag:
-            return np.concatenate((x * x, -2.0 * x))
-        return np.concatenate((np.outer(x, x).ravel(), -2.0 * x))
+            f = np.concatenate((x * x, -2.0 * x))
+        else:
+            f = np.concatenate((np.outer(x, x).ravel(), -2.0 * x))
+        return f.astype(self.Zq.dtype, copy=False)
 
     def refresh_distance(self, rows: np.ndarray) -> None:
         D = self.metric[rows, _D]
@@ -446,7 +451,7 @@ class LWPR(Regressor):
         y_std = Y.std(axis=0)
         y_std = np.where(y_std > 0, y_std, 1.0)
         Yn = (Y - y_mean) / y_std
-        self._start_training(d, n_out)
+        self._start_training(d, n_out, float(np.max(np.einsum("ij,ij->i", X, X))))
         rng = np.random.default_rng(self.seed)
         history: dict[str, list] = {"n_rfs": [], "train_nmse": [], "seconds": [],
                                     "rf_updates": []}
@@ -475,8 +480,8 @@ class LWPR(Regressor):
         del self._pool  # PLS statistics are not needed for prediction
         return self
 
-    def _start_training(self, d: int, n_out: int) -> None:
-        """Empty RF pool and the per-fit constants."""
+    def _start_training(self, d: int, n_out: int, max_sq_norm: float = np.inf) -> None:
+        """Empty RF pool and the per-fit constants; ``max_sq_norm`` = max |x|^2 of the data."""
         self._d, self._n_out = d, n_out
         self._R_max = int(min(d, self.max_projections))
         self._nreg0 = min(2 if d > 1 else 1, self._R_max)
@@ -484,12 +489,15 @@ class LWPR(Regressor):
         self._init_M = np.sqrt(D0)  # (n_out, d) diagonal Cholesky factors
         self._init_Dm = D0
         # candidates for the exact activation: anything that could exceed the smallest
-        # threshold in use (update, template, cutoff), with a margin for the rounding of the
-        # expanded quadratic form
-        w_min = min(self.w_update, 0.1 * self.w_gen, self.cutoff) if self.w_gen > 0 \
-            else self.w_update
+        # activation threshold used in training (update, template), with a margin for the
+        # float32 rounding of the expanded quadratic form
+        w_min = min(self.w_update, 0.1 * self.w_gen) if self.w_gen > 0 else self.w_update
         self._q_cand = -2.0 * math.log(max(w_min, 1e-300)) + 1.0
-        self._pool = _RFPool(d, self._nreg0, self.diag_only, self.init_S2, self.init_lambda)
+        # float32 screening is safe while the expanded terms (~ D |x|^2, and D may grow while
+        # learning) stay far below 1 / float32 eps * the candidate margin
+        small = float(np.max(D0)) * max_sq_norm < 1e3
+        self._pool = _RFPool(d, self._nreg0, self.diag_only, self.init_S2, self.init_lambda,
+                             screen_dtype=np.float32 if small else np.float64)
         self._counts = np.zeros(n_out, dtype=np.int64)
         self._n_pruned = np.zeros(n_out, dtype=np.int64)
         self._max_rfs = np.iinfo(np.int64).max if self.max_rfs is None else int(self.max_rfs)
@@ -628,8 +636,9 @@ class LWPR(Regressor):
         nreg = pool.nreg[a]
         R = n_proj = int(nreg.max())      # work on the used projection slots only
         vd = np.take(pool.vec_d, a, axis=0)
-        vr = np.take(pool.vec_r[:, :, :R], a, axis=0)
-        mr = np.take(pool.mat_rd[:, :, :R], a, axis=0)
+        # (np.take on these strided views would copy the whole pool first)
+        vr = pool.vec_r[a, :, :R] if R < pool.R else np.take(pool.vec_r, a, axis=0)
+        mr = pool.mat_rd[a, :, :R] if R < pool.R else np.take(pool.mat_rd, a, axis=0)
         sc = np.take(pool.scal, a, axis=0)
         mean_x = vd[:, _MX]
         beta, SSs2, SSY, sum_w, secv, ndata, lam, H, rr = (vr[:, i] for i in range(9))

@@ -10,6 +10,13 @@ s_1..s_N), a rollout starts at the recorded s_1, applies the recorded u_1..u_{N-
 with the recorded s_2..s_N (T = N - 1 predicted states; 399 for a 4 s move). The world path of a
 state sequence s_2.. is ``integrate_path(states, *initial_pose(rec, 1))``; the reference path is the
 recorded odometry position at measurements 2..N.
+
+Models with a feature set beyond the paper's 45 (``model.feature_set``, see
+``models/features.py``): ``rollout`` keeps a :class:`..models.features.FeatureHistory` per batch
+(lagged states and commands, the integrated pose, recursive terms) and asks it for each step's
+feature rows, so such a model is rolled out exactly like a 45-feature one; the pose starts from
+``pose0`` (``rollout_moves`` passes each move's measured pose at s_1). ``step`` takes the
+history as an argument (the node keeps one per simulated robot).
 """
 from __future__ import annotations
 
@@ -79,8 +86,13 @@ def _predict(model: Any, X: np.ndarray, return_std: bool):
     return mean, std
 
 
+def _feature_set(model: Any):
+    fs = getattr(model, "feature_set", None)
+    return None if fs is None or fs.is_base else fs
+
+
 def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Projection | None = None,
-            return_std: bool = False):
+            return_std: bool = False, pose0: np.ndarray | None = None):
     """Predict T steps ahead for B moves at once, feeding predictions back.
 
     Args:
@@ -91,6 +103,8 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
         projection: applied to every predicted state; None = ``none``.
         return_std: also return the model's one-step predictive std at each step, evaluated at
             the fed-back (predicted, projected) state; it is not propagated through the dynamics.
+        pose0: (B, 3) or (3,) x_w, y_w, yaw at s0; needed only by a model whose feature set
+            uses the pose.
 
     Returns:
         states (B, T, 33): ``states[:, k]`` is the projected prediction k + 1 steps after s0
@@ -116,6 +130,12 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
     B, T = u.shape[:2]
     out = np.full((B, T, N_STATE), np.nan)
     std_out = np.full((B, T, N_STATE), np.nan) if return_std else None
+    fs = _feature_set(model)
+    history = None
+    if fs is not None:
+        if pose0 is not None:
+            pose0 = np.asarray(pose0, dtype=np.float64).reshape(-1, 3)
+        history = fs.history(s, pose0)
     X = np.empty((B, N_FEATURE))
     X[:, :N_STATE] = s
     alive = np.isfinite(s).all(axis=1)
@@ -124,8 +144,12 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
             idx = np.flatnonzero(alive)
             if idx.size == 0:
                 break
-            X[:, N_STATE:] = u[:, t]
-            Xa = X if idx.size == B else X[idx]
+            if history is None:
+                X[:, N_STATE:] = u[:, t]
+                Xa = X if idx.size == B else X[idx]
+            else:
+                Xh = history.features(u[:, t])
+                Xa = Xh if idx.size == B else Xh[idx]
             mean, std = _predict(model, Xa, return_std)
             nxt = projection(mean)
             out[idx, t] = nxt
@@ -133,6 +157,10 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
                 std_out[idx, t] = std
             X[idx, :N_STATE] = nxt
             alive[idx] = np.isfinite(nxt).all(axis=1)
+            if history is not None:
+                s_next = np.full((B, N_STATE), np.nan)
+                s_next[idx] = nxt
+                history.push(s_next)
     if single:
         out = out[0]
         std_out = std_out[0] if return_std else None
@@ -140,23 +168,40 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
 
 
 def step(model: Any, s: np.ndarray, u: np.ndarray, projection: Projection | None = None,
-         return_std: bool = False):
+         return_std: bool = False, history: Any = None):
     """One simulator step for the 100 Hz node: s_t (33,) or (B, 33), u_t (12,) or (B, 12).
 
     Returns the projected s_{t+1} of the same leading shape (and the model's std with
     ``return_std``). A non-finite prediction comes back as all-NaN; the caller decides what to do.
+
+    A model with a feature set beyond the paper's 45 needs ``history``, the
+    :class:`..models.features.FeatureHistory` of this simulated robot
+    (``model.feature_set.history(s_0, pose_0)``, made again on every reset): its current state
+    must be ``s``; it gives the feature row and is advanced to s_{t+1} here.
     """
     projection = NoProjection() if projection is None else projection
     s = np.asarray(s, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
     single = s.ndim == 1
-    X = np.concatenate([np.atleast_2d(s), np.atleast_2d(u)], axis=1)
-    if X.shape[1] != N_FEATURE:
-        raise ValueError(f"s must have {N_STATE} and u {N_ACTION} elements, got "
-                         f"{s.shape} and {u.shape}")
+    fs = _feature_set(model)
+    if fs is not None and history is None:
+        raise ValueError(f"this model's features ({fs.describe()}) need a FeatureHistory: "
+                         f"pass history=model.feature_set.history(s0, pose0)")
+    if history is not None:
+        X = np.atleast_2d(history.features(u))
+        if not np.array_equal(np.atleast_2d(s), X[:, :N_STATE], equal_nan=True):
+            raise ValueError("history's current state is not s (push every step, reset it "
+                             "with the simulator)")
+    else:
+        X = np.concatenate([np.atleast_2d(s), np.atleast_2d(u)], axis=1)
+        if X.shape[1] != N_FEATURE:
+            raise ValueError(f"s must have {N_STATE} and u {N_ACTION} elements, got "
+                             f"{s.shape} and {u.shape}")
     with np.errstate(over="ignore", invalid="ignore"):
         mean, std = _predict(model, X, return_std)
         nxt = projection(mean)
+    if history is not None:
+        history.push(nxt)
     if single:
         nxt = nxt[0]
         std = std[0] if return_std else None
@@ -178,7 +223,9 @@ def rollout_moves(model: Any, moves: Sequence[TestMove], projection: Projection 
     for T, idx in by_len.items():
         s0 = np.stack([moves[i].s0 for i in idx])
         u = np.stack([moves[i].actions for i in idx])
-        res = rollout(model, s0, u, projection, return_std=return_std)
+        pose0 = np.array([[moves[i].pose0.x0, moves[i].pose0.y0, moves[i].pose0.yaw0]
+                          for i in idx])
+        res = rollout(model, s0, u, projection, return_std=return_std, pose0=pose0)
         mean, std = res if return_std else (res, None)
         for j, i in enumerate(idx):
             preds[i] = mean[j]
