@@ -7,9 +7,12 @@
    lgpr --out MODEL`` (about 30 s).
 2. Two simulators as separate processes, each alone in its own ROS domain (so both keep the
    contract's topic names, CONTRACT.md section 2, without remapping, and their outputs cannot
-   mix), with localhost discovery: ``sim_node`` (the learned model, lockstep, default
-   alpha-PROJ) in domain D and ``pybullet_node`` (measured robot, lockstep) in domain D + 1.
-   D is derived from the process id unless ``--domain`` is given.
+   mix), with localhost discovery: ``sim_node`` (the learned model, lockstep) in domain D and
+   ``pybullet_node`` (measured robot, lockstep) in domain D + 1. D is derived from the process
+   id unless ``--domain`` is given. sim_node runs with ``projection:=none`` unless
+   ``--projection`` says otherwise: the most accurate setting in ``benchmarks/lgpr_evaluate``
+   (alpha-PROJ, sim_node's own default and the paper's, pulls the rollout toward TrainPool
+   states and is worse there, and much worse on the small demo dataset: the robot barely moves).
 3. One TestPool move's recorded commands go to both on ``/littledog/cmd``, one command per step,
    the next one only after both simulators published that step's ``/littledog/joint_states``,
    ``/littledog/odom`` and ``~/state`` (lockstep: deterministic whatever the CPU load).
@@ -283,6 +286,7 @@ class DemoResult:
     move: str
     split: str
     method: str
+    projection: str                    # e.g. "alpha-PROJ (alpha 0.5)"
     n_steps: int                       # T
     domains: tuple[int, int]           # (learned, pybullet)
     final_xy_error_m: float
@@ -348,10 +352,12 @@ def _recording_seed(entry, info: dict) -> int:
 def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = DEFAULT_MODEL,
              *, move: str | None = None, max_steps: int | None = None,
              domain: int | None = None, robot: str = "measured",
+             projection: str = "none", alpha: float = 0.5,
              log: Log = _print) -> DemoResult:
     """Replay one move's commands through sim_node and pybullet_node (each a process in its
     own ROS domain, lockstep) and compare what they publish (module doc). ``max_steps`` cuts
-    the move to that many commands (at least 2). Stops every process it started."""
+    the move to that many commands (at least 2); ``projection`` and ``alpha`` are sim_node's
+    parameters (module doc). Stops every process it started."""
     import rclpy  # noqa: F401  (fail early and plainly if the ROS wheels are missing)
 
     from .data.bags import read_bag
@@ -380,7 +386,8 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
     d_learned, d_pyb = pick_domains(domain)
     method = _model_method(model)
 
-    log(f"ROS 2: sim_node ({method} model {model}) in domain {d_learned}, pybullet_node "
+    label = _projection_label(projection, alpha)
+    log(f"ROS 2: sim_node ({method} model {model}, {label}) in domain {d_learned}, pybullet_node "
         f"({robot} robot) in domain {d_pyb}; localhost discovery; both lockstep")
     children: list[Child] = []
     links: list[_Link] = []
@@ -397,7 +404,8 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
                           "initial_state": [float(x) for x in tm.s0],
                           "initial_pose": [float(tm.pose0.x0), float(tm.pose0.y0),
                                            float(tm.pose0.yaw0)],
-                          "start_time": CONTROL_DT, "stats_period": 0.0}
+                          "start_time": CONTROL_DT, "stats_period": 0.0,
+                          "projection": projection, "alpha": float(alpha)}
             pyb_params = {"robot": robot, "seed": seed, "step_mode": "lockstep",
                           "stats_period": 0.0}
             for name, params, dom in (("sim_node", sim_params, d_learned),
@@ -440,8 +448,6 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
                 p_s = np.array([m.state_array(pyb.state[(k + 1) * CONTROL_DT_NS])
                                 for k in range(n_cmd)])
                 last_odom, last_js = learned.odom[stamps[-1]], learned.js[stamps[-1]]
-        except KeyboardInterrupt:
-            raise
         finally:
             _restore_env(saved)
             for link in links:
@@ -472,7 +478,8 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
     ref = tm.states[: n_cmd - 1]
     bag_max_diff = float(np.max(np.abs(np.r_[tm.s0[None], ref] - p_s)))
     return DemoResult(
-        move=entry.name, split=entry.split, method=method, n_steps=n_cmd - 1,
+        move=entry.name, split=entry.split, method=method, projection=label,
+        n_steps=n_cmd - 1,
         domains=(d_learned, d_pyb),
         final_xy_error_m=float(per_step["xy_m"][-1]),
         mean_joint_error_rad=float(np.mean(np.abs(l_q - p_q))),
@@ -482,6 +489,12 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
         example_odom=message_to_yaml(last_odom), example_joint_states=message_to_yaml(last_js),
         example_stamp_s=stamps[-1] / 1e9, start_s=start_s, replay_s=replay_s,
         pids=[c.pid for c in children], exit_codes=codes, seed=seed)
+
+
+def _projection_label(projection: str, alpha: float) -> str:
+    if projection == "alpha":
+        return f"alpha-PROJ (alpha {alpha:g})"
+    return {"none": "no projection", "bound": "BOUND projection"}.get(projection, projection)
 
 
 def _rms(a: np.ndarray) -> np.ndarray:
@@ -531,7 +544,7 @@ def format_report(r: DemoResult) -> str:
     moved_l = float(np.linalg.norm(r.learned_xy[-1] - r.learned_xy[0]))
     lines += [
         "",
-        f"Learned simulator ({r.method} + alpha-PROJ) vs pybullet, {r.move}, {r.n_steps} steps "
+        f"Learned simulator ({r.method}, {r.projection}) vs pybullet, {r.move}, {r.n_steps} steps "
         f"({r.n_steps * 0.01:.2f} s) from the same state:",
         f"  final (x,y) error        {r.final_xy_error_m:.4f} m   (pybullet moved "
         f"{moved_p:.3f} m, the learned simulator {moved_l:.3f} m)",
@@ -582,10 +595,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--move", default=None,
                    help="bag to replay, e.g. F_02 (default: the first TestPool F move)")
     p.add_argument("--steps", type=int, default=None, help="replay only the first N commands")
+    p.add_argument("--projection", choices=["none", "bound", "alpha"], default="none",
+                   help="sim_node's projection (default none, the most accurate in "
+                        "benchmarks/lgpr_evaluate; sim_node's own default is alpha)")
+    p.add_argument("--alpha", type=float, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
     p.add_argument("--domain", type=int, default=None, metavar="D",
                    help="ROS domain of sim_node (pybullet_node uses D + 1; default from the pid)")
     a = p.parse_args(argv)
-    signal.signal(signal.SIGTERM, _interrupt)
+    previous = signal.signal(signal.SIGTERM, _interrupt)
     t0 = time.perf_counter()
     try:
         rec_s = ensure_dataset(a.data)
@@ -595,7 +612,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         train_s = ensure_model(a.data, a.model)
         if train_s is not None:
             _print(f"trained {a.model} in {train_s:.0f} s")
-        r = run_demo(a.data, a.model, move=a.move, max_steps=a.steps, domain=a.domain)
+        r = run_demo(a.data, a.model, move=a.move, max_steps=a.steps, domain=a.domain,
+                     projection=a.projection, alpha=a.alpha)
         _print(format_report(r))
         _print(f"\ndone in {time.perf_counter() - t0:.0f} s; to run the nodes yourself see "
                f"README.md, 'Using it from ROS 2'.")
@@ -606,6 +624,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except DemoError as e:
         print(f"demo: error: {' '.join(str(e).split())}", file=sys.stderr)
         return 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

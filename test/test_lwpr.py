@@ -366,14 +366,23 @@ def test_metric_derivatives_match_finite_differences(full):
 
 
 def test_cross_function_accuracy(cross_data):
-    """Library example setting (500 noisy samples, 20 epochs): nMSE ~0.03 (measured 0.028)."""
+    """Library example setting (500 noisy samples, 20 epochs).  Independent references on the
+    same data: a GP with its marginal-likelihood hyperparameters (fitted once with
+    scikit-learn: 0.884^2 RBF([0.308, 0.168]) + 0.0746 noise) reaches nMSE 0.021, least squares
+    1.0; LWPR measured 0.035 with 63 RFs."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
     X, Y, Xt, Yt = cross_data
     model = LWPR(init_D=25.0, init_alpha=250.0, w_gen=0.2, w_prune=1.0, n_epochs=20,
                  max_rfs=None, **LIB).fit(X, Y)
     err = nmse(Yt, model.predict(Xt)[:, 0])
+    kernel = ConstantKernel(0.884**2) * RBF([0.308, 0.168]) + WhiteKernel(0.0746)
+    gp = GaussianProcessRegressor(kernel, optimizer=None, normalize_y=True).fit(X, Y)
+    err_gp = nmse(Yt, gp.predict(Xt))
     lin = linear_nmse(X, Y, Xt, Yt)
     assert lin > 0.9                      # a linear model explains nothing of the cross
     assert err < 0.045
+    assert err < 2.0 * err_gp             # within 2x of the GP (0.035 vs 0.021)
     assert err < lin / 20
     assert 20 <= model.n_rfs_[0] <= 150
 
@@ -514,4 +523,4 @@ def test_45d_33_outputs_smoke():
     assert P.shape == (n_test, 33) and np.all(np.isfinite(P))
     assert model.n_rfs_.max() <= 30 and model.n_rfs_.min() > 3
     err = np.mean([nmse(Y[n:, o], P[:, o]) for o in range(33)])
-    assert err < 0.5                                   # measured ~0.2 (mean predictor: 1)
+    assert err < 0.5                                   # measured 0.15 (mean predictor: 1)
