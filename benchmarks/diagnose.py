@@ -66,8 +66,9 @@ def markdown(rows: list[dict]) -> str:
         xy = ", ".join(f"{lab} {v['before']:.3f} -> {v['after']:.3f}"
                        for lab, v in r["final_xy_error_m"].items()
                        if v["before"] is not None and v["after"] is not None)
-        out.append(f"| {r['name']} | {found} | {outs} | {cut} | {r['nmse_mean_before']:.4f} -> "
-                   f"{r['nmse_mean_after']:.4f} | {xy} |")
+        nm = " -> ".join("n/a" if v is None else f"{v:.4f}"
+                         for v in (r["nmse_mean_before"], r["nmse_mean_after"]))
+        out.append(f"| {r['name']} | {found} | {outs} | {cut} | {nm} | {xy} |")
     return "\n".join(out)
 
 

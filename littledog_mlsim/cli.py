@@ -184,8 +184,9 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
                   f"TestPool nMSE of those {100 * sum(cut) / max(len(cut), 1):.1f} % lower")
     else:
         print("nothing significant: no candidate effect explains the residual")
-    print(f"one-step nMSE mean {r['before']['nmse_mean']:.4f} -> {r['after']['nmse_mean']:.4f}; "
-          f"wrote {Path(a.out) / 'report.md'}, report.json"
+    b, f = r["before"]["nmse_mean"], r["after"]["nmse_mean"]
+    nm = "n/a" if b is None or f is None else f"{b:.4f} -> {f:.4f}"
+    print(f"one-step nMSE mean {nm}; wrote {Path(a.out) / 'report.md'}, report.json"
           f"{', model' if r.get('model') else ''}")
     return 0
 

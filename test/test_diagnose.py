@@ -191,7 +191,7 @@ def test_search_model_closed_form_candidate_equals_refit():
 # ----------------------------------------------------------------------------- pybullet data
 
 
-FAST_SEARCH = dict(n_random_features=600, n_gp_points=300, gp_max_iter=40)
+FAST_SEARCH = dict(n_gp_points=300, gp_max_iter=40)  # M = 1000 random features (the default)
 
 
 def _record(root: Path, name: str, seed: int, effects: str | None = None) -> Path:

@@ -350,6 +350,11 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
                 f"{_num(a['final_xy_error_m'])} | |")
         add("")
     add("## Before and after (TestPool)\n")
+    stages = doc["stages"]
+    for i, st in enumerate(stages):
+        if st.get("error") or st.get("note"):
+            add(f"Stage {i} ({st['feature_set_description']}): "
+                f"{st.get('error') or st.get('note')}.\n")
     for f in figs.get("summary", []):
         add(f"![{f}]({f})\n")
     stages = doc["stages"]

@@ -150,36 +150,30 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
     last_model = None
     for k, fs_k in enumerate(feature_sets):
         t0 = time.perf_counter()
-        note = None
         if k == 0 and loaded is not None:
-            m = loaded
+            m, note = loaded, None
         else:
             info = {"diagnosis_stage": k, "data_dir": os.fspath(data)}
-            try:
-                m = fit_report_model(fs_k, method, options, train, target=target, seed=seed,
-                                     info=info)
-            except (ValueError, np.linalg.LinAlgError) as e:
-                if method != "lgpr" or options.get("init") == "cold":
-                    raise
-                # LGPR's warm start can fail on a cluster where an added column is constant up
-                # to rounding (e.g. a saturated tanh); the median-heuristic start does not
-                note = f"lgpr warm start failed ({str(e).splitlines()[0]}); refitted with init=cold"
-                say(note)
-                m = fit_report_model(fs_k, method, {**options, "init": "cold"}, train,
-                                     target=target, seed=seed, info=info)
-        scores = score_on_test(m, test, projections, projection_alpha)
-        if note:
-            scores["note"] = note
+            m, note = _fit_with_fallback(fs_k, method, options, train, target, seed, info, say)
+        if m is None:   # the report model could not be fitted: say so, keep going
+            scores = _failed_stage(note, projections, projection_alpha)
+        else:
+            scores = score_on_test(m, test, projections, projection_alpha)
+            if note:
+                scores["note"] = note
         scores["feature_set"] = fs_k.to_dict()
         scores["feature_set_description"] = fs_k.describe()
         scores["fit_and_score_seconds"] = time.perf_counter() - t0
         stages.append(scores)
         last_model = m
+        if m is None:
+            say(f"stage {k} ({fs_k.describe()}): {note}")
+            continue
         say(f"stage {k} ({fs_k.describe()}): TestPool nMSE mean {scores['nmse_mean']:.4f}, "
             f"final xy error {_fmt(scores['rollout'])} in {time.perf_counter() - t0:.1f} s")
     out.mkdir(parents=True, exist_ok=True)
     model_path = None
-    if save_model and last_model is not None:
+    if save_model and last_model is not None:   # None if the last stage's fit failed
         model_path = last_model.save(out / "model")
     report = write_report(out, sel, stages, data=os.fspath(data), dataset_info=index.info,
                           baseline=baseline_desc, method=method, options=options,
@@ -190,6 +184,38 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
     say(f"{'found ' + found if found else 'nothing significant'}; wrote {out / 'report.md'} in "
         f"{time.perf_counter() - t_start:.1f} s")
     return report
+
+
+def _fit_with_fallback(fs, method, options, train, target, seed, info, say):
+    """(model, note): the report model, or (None, reason) if it cannot be fitted.
+
+    LGPR's warm start fails on a cluster where an added column is constant up to rounding (a
+    saturated tanh); it is then refitted from the median heuristic (init=cold), which does not
+    always help either (reported to the LGPR owner).
+    """
+    try:
+        return fit_report_model(fs, method, options, train, target=target, seed=seed,
+                                info=info), None
+    except (ValueError, np.linalg.LinAlgError) as e:
+        first = f"{method} fit failed: {str(e).splitlines()[0]}"
+        if method != "lgpr" or options.get("init") == "cold":
+            return None, first
+    say(f"{first}; refitting with init=cold")
+    try:
+        return (fit_report_model(fs, method, {**options, "init": "cold"}, train, target=target,
+                                 seed=seed, info=info),
+                f"{first}; refitted with init=cold")
+    except (ValueError, np.linalg.LinAlgError) as e:
+        return None, f"{first}; with init=cold too: {str(e).splitlines()[0]}"
+
+
+def _failed_stage(note: str, projections: Sequence[str], alpha: float) -> dict[str, Any]:
+    from ..layout import STATE_NAMES
+    labels = [f"alpha_{alpha:g}" if k == "alpha" else k for k in projections]
+    empty = {k: None for k in ROLLOUT_KEYS}
+    empty["xy_error_vs_time_mean"] = []
+    return {"error": note, "nmse": {n: None for n in STATE_NAMES}, "nmse_mean": None,
+            "n_samples": 0, "rollout": {lab: dict(empty) for lab in labels}}
 
 
 def _fmt(rollout: Mapping[str, Any]) -> str:
