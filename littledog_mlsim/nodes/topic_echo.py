@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import array
 import importlib
+import os
 import re
 import signal
 import sys
@@ -265,7 +266,8 @@ def main(args: Sequence[str] | None = None) -> int:
         return 0
     except (_Stop, KeyboardInterrupt):
         return 0
-    except BrokenPipeError:           # `topic_echo ... | head`
+    except BrokenPipeError:           # `topic_echo ... | head`: quiet, also at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     finally:
         signal.signal(signal.SIGINT, signal.SIG_DFL)
