@@ -6,9 +6,12 @@ import pytest
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-from littledog_mlsim.models.gp import (GPR, cross_kernel, default_bounds, default_init,
-                                       fit_gp_hyperparameters, kernel_cross, kernel_matrix,
-                                       lml_and_grad, log_marginal_likelihood)
+from littledog_mlsim.models.gp import (DEFAULT_LENGTH_SCALE_BOUNDS, GPR,
+                                       NotPositiveDefiniteError, _prior_variance, cross_kernel,
+                                       default_bounds, default_init, degenerate_columns,
+                                       fit_gp_hyperparameters, gp_posterior_stable, jitter_schedule,
+                                       kernel_cross, kernel_matrix, lml_and_grad,
+                                       log_marginal_likelihood)
 
 JITTER = 1e-10
 
@@ -164,12 +167,96 @@ def test_bad_inputs_fail_clearly() -> None:
         m.predict(np.zeros((2, 4)))
 
 
-def test_non_positive_definite_start_fails_clearly() -> None:
+def test_non_positive_definite_start_escalates_the_jitter() -> None:
+    """Duplicates, noise variance e^-50 and no jitter: K is singular at the start; the fit
+    raises the jitter along jitter_schedule instead of giving up, and records it."""
     X = np.repeat(np.random.default_rng(14).standard_normal((10, 3)), 3, axis=0)  # duplicates
     y = np.sin(X[:, 0])
     bounds = np.array([[-3, 3], [-3, 5], [-3, 5], [-3, 5], [-60, 0]], float)
-    with pytest.raises(ValueError, match="not positive definite"):
-        fit_gp_hyperparameters(X, y, init=[0, 0, 0, 0, -50.0], bounds=bounds, jitter=0.0)
+    init = [0, 0, 0, 0, -50.0]
+    assert not np.isfinite(lml_and_grad(np.array(init), X, y, jitter=0.0)[0])
+    res = fit_gp_hyperparameters(X, y, init=init, bounds=bounds, jitter=0.0)
+    assert res.jitter > 0 and np.isfinite(res.lml[0])
+    assert res.jitter in jitter_schedule(0.0, _prior_variance(np.array(init)))
+    m = GPR(optimize=False, init_log_params=init, jitter=0.0, normalize_y=False).fit(X, y)
+    assert m.jitter_ > 0 and np.all(np.isfinite(m.alpha_))
+    _, std = m.predict(X[:4], return_std=True)
+    assert np.all(np.isfinite(std))
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # exp overflow: the point of the test
+def test_unfittable_hyperparameters_fail_in_one_line() -> None:
+    """Only non-finite kernels cannot be fixed by jitter: a one-line error with the reason."""
+    X, Y = smooth_data(20, 3, seed=14)
+    bounds = np.array([[800, 800], [-3, 5], [-3, 5], [-3, 5], [-6, 0]], float)  # sf2 = inf
+    with pytest.raises(NotPositiveDefiniteError, match="non-finite hyperparameters") as e:
+        fit_gp_hyperparameters(X, Y[:, 0], init=[800, 0, 0, 0, -3.0], bounds=bounds)
+    assert "\n" not in str(e.value)
+    with pytest.raises(NotPositiveDefiniteError, match="non-finite") as e:
+        gp_posterior_stable(X, Y, np.array([800, 0, 0, 0, -3.0]))
+
+
+def degenerate_cluster(n: int = 559, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A cluster of the friction features: one column constant up to 1e-15 noise (a saturated
+    tanh), one exactly constant (at n = 559, np.std of 1.3 gives 8e-15: rounding of the mean),
+    one constant column of zeros, and 40 duplicated rows."""
+    rng = np.random.default_rng(seed)
+    X = rng.standard_normal((n, 7))
+    X[:, 4] = 0.8 + 1e-15 * rng.standard_normal(n)
+    X[:, 5] = 1.3
+    X[:, 6] = 0.0
+    X[-40:] = X[:40]
+    Y = np.column_stack([np.sin(X[:, 0]) + 0.5 * X[:, 1] ** 2, np.cos(X[:, 2]) * X[:, 3]])
+    return X, Y + 0.01 * rng.standard_normal(Y.shape)
+
+
+def test_near_constant_columns_get_the_unit_scale() -> None:
+    X, Y = degenerate_cluster()
+    sx = X.std(axis=0)  # the column-wise reduction accumulates rounding: 1.3 has std 8e-15
+    assert 0 < sx[4] < 1e-14 and 0 < sx[5] < 1e-14 and np.ptp(X[:, 5]) == 0
+    np.testing.assert_array_equal(degenerate_columns(X), [0, 0, 0, 0, 1, 1, 1])
+    b = default_bounds(X, Y)
+    np.testing.assert_allclose(np.exp(b[0, 5:8]), [DEFAULT_LENGTH_SCALE_BOUNDS] * 3)
+    np.testing.assert_allclose(np.exp(b[0, 1, :]), X[:, 0].std() * np.array([1e-2, 1e3]))
+    assert np.all(np.isfinite(default_init(X, Y)))
+    # a column that varies (even tiny next to its offset, as far as rounding allows) keeps its std
+    Z = X.copy()
+    Z[:, 4] = 1e3 + 1e-4 * np.arange(X.shape[0])
+    assert not degenerate_columns(Z)[4]
+
+
+def test_kernel_is_translation_invariant_despite_large_offsets() -> None:
+    """Column offsets 1e8 times the length scale: (x / l)^2 ~ 1e16 would leave O(1) errors in
+    |a|^2 + |b|^2 - 2 a.b; the kernel builds distances from centred inputs."""
+    rng = np.random.default_rng(15)
+    X, Y = smooth_data(40, 3, seed=16)
+    Xs = rng.standard_normal((50, 3))
+    lp = random_log_params(3, rng)
+    shift = np.array([1e8, -3e7, 0.0])
+    np.testing.assert_allclose(kernel_matrix(X + shift, lp), kernel_matrix(X, lp), atol=1e-12)
+    np.testing.assert_allclose(kernel_cross(Xs + shift, X + shift, lp), kernel_cross(Xs, X, lp),
+                               atol=1e-9)
+    f, g = lml_and_grad(lp, X, Y[:, 0])
+    f2, g2 = lml_and_grad(lp, X + shift, Y[:, 0])
+    np.testing.assert_allclose([f2, *g2], [f, *g], rtol=1e-8, atol=1e-8)
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_gpr_fits_a_cluster_with_constant_and_duplicated_columns(shared: bool) -> None:
+    """Regression (benchmarks/diagnose.md, "LGPR as the report model"): the std-relative bounds
+    of a std-3e-15 column made K garbage at every start ("not positive definite at any start
+    point"). The constant columns must be harmless: same fit as without them."""
+    X, Y = degenerate_cluster()
+    Xq, Yq = degenerate_cluster(200, seed=1)
+    m = GPR(max_iter=50, shared_hyperparameters=shared).fit(X, Y)
+    assert m.jitter_ == m.jitter  # no escalation needed
+    mean, std = m.predict(Xq, return_std=True)
+    assert np.all(np.isfinite(mean)) and np.all(std > 0)
+    ref = GPR(max_iter=50, shared_hyperparameters=shared).fit(X[:, :4], Y)
+    err = ((mean - Yq) ** 2).mean(0) / Yq.var(0)
+    err_ref = ((ref.predict(Xq[:, :4]) - Yq) ** 2).mean(0) / Yq.var(0)
+    assert np.all(err < 0.01)
+    np.testing.assert_allclose(err, err_ref, rtol=0.05, atol=1e-4)
 
 
 def test_default_init_avoids_the_all_noise_basin() -> None:

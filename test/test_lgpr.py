@@ -188,3 +188,64 @@ def test_variance_cache_budget(serial_model):
 def test_bad_parameters(kw, parallel_data):
     with pytest.raises(ValueError):
         LGPR(n_clusters=2, **kw).fit(*parallel_data)
+
+
+def friction_like_data(n_slide: int = 450, n_free: int = 350, seed: int = 0):
+    """Raw features as in the diagnosis' friction set: two regimes k-means separates. In
+    the "sliding" one the smoothed-sign (tanh) column is constant up to 1e-15 noise, another is
+    exactly constant and 40 rows are duplicated; in the other regime both columns vary."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n_slide, 6))
+    A[:, :4] = 0.5 * A[:, :4] + 3.0
+    A[:, 4] = 1.0 + 1e-15 * rng.standard_normal(n_slide)  # tanh(v / eps), saturated
+    A[:, 5] = -1.3
+    A[-40:] = A[:40]
+    B = rng.standard_normal((n_free, 6))
+    B[:, 4] = np.tanh(3.0 * B[:, 4])
+    X = np.vstack([A, B])
+    Y = np.column_stack([np.sin(X[:, 1]) + 0.3 * X[:, 4] * X[:, 2], np.cos(X[:, 3]) - 0.2 * X[:, 5],
+                         0.5 * X[:, 2] * X[:, 1]])
+    Y += 0.01 * rng.standard_normal(Y.shape)
+    return X, Y
+
+
+@pytest.mark.parametrize("init", ["warm", "cold"])
+def test_cluster_with_constant_columns_fits(init):
+    """Regression (benchmarks/diagnose.md, "LGPR as the report model"): a cluster where a column
+    is constant up to rounding (std ~1e-15) got length-scale bounds ~1e-14 and a garbage kernel
+    matrix ("not positive definite at any start point" from the warm start, "even with jitter
+    0.0001" at paper scale). Now the constant columns are harmless and no jitter is added."""
+    X, Y = friction_like_data()
+    Xq, Yq = friction_like_data(200, 200, seed=1)
+    mu, sd = X.mean(axis=0), X.std(axis=0)  # normalised features, as LGPR expects
+    X, Xq = (X - mu) / sd, (Xq - mu) / sd
+    lg = LGPR(n_clusters=2, init=init, max_iter=30, n_hyperparameter_points=300,
+              n_global_points=300).fit(X, Y)
+    assert lg.n_clusters_ == 2
+    np.testing.assert_array_equal(lg.jitter_, lg.jitter)  # no escalation needed
+    slide = int(np.argmax(lg.centers_[:, 0]))
+    rows = slice(lg.offsets_[slide], lg.offsets_[slide + 1])
+    sx = lg.X_train_[rows].std(axis=0)
+    assert sx[4] < 1e-13 and sx[5] < 1e-13  # the cluster really holds the constant columns
+    ls = np.exp(lg.log_params_[slide][:, 5:7])
+    assert np.all(ls > 0.1)  # unit scale, not 1e-14: a query off by rounding is not "far"
+    mean, std = lg.predict(Xq, return_std=True)
+    assert np.all(np.isfinite(mean)) and np.all(std > 0)
+    assert np.all(((mean - Yq) ** 2).mean(0) / Yq.var(0) < 0.01)
+
+
+def test_cluster_failure_is_one_line_naming_the_cluster(monkeypatch):
+    from littledog_mlsim.models.gp import NotPositiveDefiniteError
+
+    def broken(*a, **k):
+        raise NotPositiveDefiniteError("GP kernel matrix (300 points): reason\nsecond line")
+
+    X, Y = friction_like_data()
+    monkeypatch.setattr(lgpr, "fit_gp_hyperparameters", broken)
+    with pytest.raises(NotPositiveDefiniteError, match=r"LGPR cluster \d \(\d+ points, "
+                       r"hyperparameters on 300, cold start\): GP kernel matrix .*reason") as e:
+        LGPR(n_clusters=2, init="cold", n_hyperparameter_points=300).fit(X, Y)
+    assert "\n" not in str(e.value)
+    with pytest.raises(NotPositiveDefiniteError, match="LGPR global GP of the warm start") as e:
+        LGPR(n_clusters=2, init="warm", n_global_points=100).fit(X, Y)
+    assert "\n" not in str(e.value)

@@ -10,6 +10,19 @@ Hyperparameters live in log space as one vector per output, in scikit-learn's or
     log_params = [log sf2, log l_1, ..., log l_d, log sn2]        shape (d + 2,)
 
 ``jitter`` is a fixed constant on the diagonal (scikit-learn's ``alpha``), not a hyperparameter.
+If the kernel matrix is not positive definite at the requested jitter (e.g. at an L-BFGS-B
+start), the fit raises it along :func:`jitter_schedule` (up to 1e-2 x the prior variance) and
+records the jitter used (``GPFit.jitter``, ``GPR.jitter_``); only when that fails too does it
+raise :class:`NotPositiveDefiniteError`, with the reason in one line.
+
+Near-constant input columns (:func:`_data_scales`): a column whose std is below
+``DEGENERATE_STD_RTOL`` x max(largest column std, |column mean|) -- a constant column whose std
+is rounding noise (``np.std`` of 559 copies of 1.3 is 8e-15), a saturated tanh -- carries no
+information, and the std-relative length-scale bounds and start would be absurd (l ~ 1e-14). Such
+a column gets the unit scale, as an exactly constant one always had: its length scale keeps its
+start value (its LML gradient is zero) and it cannot shrink the kernel. Squared distances are
+computed on column-centred inputs, so a column's offset never cancels catastrophically against
+its spread (before, (x / l)^2 ~ 1e28 for l ~ 1e-14 left garbage in K).
 
 The building blocks are plain functions so that other regressors reuse them (SoR fits its
 hyperparameters on a subset with :func:`fit_gp_hyperparameters`; LGPR fits one GP per cluster):
@@ -45,6 +58,12 @@ DEFAULT_SIGNAL_VARIANCE_BOUNDS = (1e-3, 1e3)
 DEFAULT_NOISE_VARIANCE_BOUNDS = (1e-6, 1e1)
 DEFAULT_INIT_NOISE_RATIO = 1e-2
 DEFAULT_INIT_LENGTH_SCALE_FACTORS = (1.0, 0.5, 0.25)
+# A column whose std is at most this times max(largest column std, |column mean|) is treated as
+# constant (unit scale): float64 rounding noise of a constant feature is ~1e-16 of its size.
+DEGENERATE_STD_RTOL = 1e-10
+# Jitter escalation when K is not positive definite: these multiples of the prior variance
+# sf2 + sn2 after the requested jitter (see jitter_schedule).
+JITTER_ESCALATION = (1e-8, 1e-6, 1e-4, 1e-2)
 _LOG_2PI = float(np.log(2.0 * np.pi))
 # Elements per block when building cross-kernels (bounds the temporary (c, n, d) array: 32 MB).
 _BLOCK_ELEMENTS = 1 << 22
@@ -76,10 +95,25 @@ def unpack_log_params(log_params: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     return p[..., 0], p[..., 1:-1], p[..., -1]
 
 
-def _data_scales(X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-dimension std of X (d,) and per-output variance of Y (p,); zeros replaced by 1."""
+def degenerate_columns(X: np.ndarray) -> np.ndarray:
+    """Mask (d,) of the columns of X (n, d) that are constant up to rounding.
+
+    Column j is degenerate if std_j <= ``DEGENERATE_STD_RTOL`` * max(max_k std_k, |mean_j|): its
+    spread is rounding noise relative to its own size or negligible next to the other columns.
+    """
     sx = X.std(axis=0)
-    sx = np.where(np.isfinite(sx) & (sx > 0), sx, 1.0)
+    ref = np.max(sx, initial=0.0)
+    return ~(sx > DEGENERATE_STD_RTOL * np.maximum(ref, np.abs(X.mean(axis=0))))
+
+
+def _data_scales(X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-dimension std of X (d,) and per-output variance of Y (p,).
+
+    Degenerate columns (:func:`degenerate_columns`: constant up to rounding) get the unit scale
+    (features are expected on a normalised scale); a zero output variance becomes 1.
+    """
+    sx = X.std(axis=0)
+    sx = np.where(degenerate_columns(X) | ~np.isfinite(sx), 1.0, sx)
     vy = Y.var(axis=0)
     vy = np.where(np.isfinite(vy) & (vy > 0), vy, 1.0)
     return sx, vy
@@ -139,8 +173,9 @@ def default_bounds(X: np.ndarray, Y: np.ndarray,
                    ) -> np.ndarray:
     """Bounds on log_params relative to the data, one block per output: (p, d + 2, 2).
 
-    Length scale l_d in ``length_scale_bounds * std(X_d)``; sf2 in ``signal_variance_bounds *
-    var(y)``; sn2 in ``noise_variance_bounds * var(y)``.
+    Length scale l_d in ``length_scale_bounds * std(X_d)`` (std 1 for a column that is constant
+    up to rounding, see :func:`degenerate_columns`); sf2 in ``signal_variance_bounds * var(y)``;
+    sn2 in ``noise_variance_bounds * var(y)``.
     """
     X, Y = check_fit_inputs(X, Y)
     sx, vy = _data_scales(X, Y)
@@ -166,10 +201,17 @@ def _sqdist_self(Z: np.ndarray) -> np.ndarray:
     return D
 
 
+def _centred(X: np.ndarray, shift: np.ndarray | None = None) -> np.ndarray:
+    """X (n, d) minus its column means (or ``shift``): the kernel is translation invariant, and
+    |a|^2 + |b|^2 - 2 a.b on centred rows does not cancel a column's offset against its spread."""
+    X = np.asarray(X, dtype=np.float64)
+    return X - (X.mean(axis=0) if shift is None else shift)
+
+
 def kernel_matrix(X: np.ndarray, log_params: np.ndarray) -> np.ndarray:
     """Noise-free ARD-SE kernel of X (n, d) with itself for one output's log_params -> (n, n)."""
     sf2, ls, _ = unpack_log_params(log_params)
-    D = _sqdist_self(np.asarray(X, dtype=np.float64) / ls)
+    D = _sqdist_self(_centred(X) / ls)
     D *= -0.5
     np.exp(D, out=D)
     D *= sf2
@@ -192,10 +234,13 @@ def _sqdist_cross(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 def kernel_cross(A: np.ndarray, B: np.ndarray, log_params: np.ndarray) -> np.ndarray:
     """Noise-free ARD-SE cross-kernel k(A, B) for one output's log_params: (na, nb).
 
-    A (na, d), B (nb, d). One (na, d) x (d, nb) GEMM; see :func:`cross_kernel` for many kernels.
+    A (na, d), B (nb, d). One (na, d) x (d, nb) GEMM (on inputs centred at B's mean); see
+    :func:`cross_kernel` for many kernels.
     """
     sf2, ls, _ = unpack_log_params(log_params)
-    D = _sqdist_cross(np.asarray(A, dtype=np.float64) / ls, np.asarray(B, dtype=np.float64) / ls)
+    B = np.asarray(B, dtype=np.float64)
+    shift = B.mean(axis=0)
+    D = _sqdist_cross(_centred(A, shift) / ls, _centred(B, shift) / ls)
     D *= -0.5
     np.exp(D, out=D)
     D *= sf2
@@ -260,7 +305,7 @@ def lml_and_grad(log_params: np.ndarray, X: np.ndarray, y: np.ndarray,
         Y = Y[:, None]
     n, p = Y.shape
     sf2, ls, sn2 = unpack_log_params(lp)
-    Z = X / ls
+    Z = _centred(X) / ls
     Kf = _sqdist_self(Z)
     Kf *= -0.5
     np.exp(Kf, out=Kf)
@@ -315,6 +360,61 @@ def log_marginal_likelihood(log_params: np.ndarray, X: np.ndarray, y: np.ndarray
             - 0.5 * n * _LOG_2PI)
 
 
+# ----------------------------------------------------------------------------- jitter
+
+class NotPositiveDefiniteError(ValueError):
+    """The kernel matrix stayed non positive definite along the whole jitter schedule."""
+
+
+def jitter_schedule(jitter: float, prior_variance: float) -> list[float]:
+    """Jitters to try in turn: ``jitter``, then ``JITTER_ESCALATION`` x ``prior_variance``
+    (sf2 + sn2) where larger. Kf is positive semi-definite up to rounding (~n eps sf2), so with
+    finite hyperparameters the schedule ends on a positive definite matrix."""
+    out = [float(jitter)]
+    if np.isfinite(prior_variance) and prior_variance > 0:
+        out += [f * float(prior_variance) for f in JITTER_ESCALATION
+                if f * prior_variance > out[-1]]
+    return out
+
+
+def _prior_variance(log_params: np.ndarray) -> float:
+    """Largest sf2 + sn2 over rows of log_params (..., d + 2) (inf if one overflows)."""
+    sf2, _, sn2 = unpack_log_params(log_params)
+    return float(np.max(sf2 + sn2))
+
+
+def _npd_reason(log_params: np.ndarray, jitter: float) -> str:
+    lp = np.asarray(log_params, dtype=np.float64)
+    with np.errstate(over="ignore"):
+        natural = np.exp(lp)
+    if not np.all(np.isfinite(natural)):
+        return (f"non-finite hyperparameters (log params up to {np.max(np.abs(lp)):.3g}: "
+                f"exp overflows); check the init and bounds")
+    return (f"not positive definite even with jitter {jitter:.3g} "
+            f"({jitter / _prior_variance(lp):.0e} x sf2 + sn2)")
+
+
+def gp_posterior_stable(X: np.ndarray, Y: np.ndarray, log_params: np.ndarray,
+                        jitter: float = DEFAULT_JITTER
+                        ) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`gp_posterior` along :func:`jitter_schedule` -> (alpha, lml, jitter used).
+
+    Raises NotPositiveDefiniteError (one line, with the reason) if no jitter of the schedule
+    gives positive definite matrices.
+    """
+    lp = np.atleast_2d(np.asarray(log_params, dtype=np.float64))
+    schedule = jitter_schedule(jitter, _prior_variance(lp))
+    for j in schedule:
+        try:
+            alpha, lml = gp_posterior(X, Y, lp, j)
+        except np.linalg.LinAlgError:
+            continue
+        if np.all(np.isfinite(alpha)) and np.all(np.isfinite(lml)):  # potrf passes inf/NaN
+            return alpha, lml, j
+    raise NotPositiveDefiniteError(f"GP kernel matrix ({np.shape(X)[0]} points): "
+                                   f"{_npd_reason(lp, schedule[-1])}")
+
+
 # ----------------------------------------------------------------------------- fitting
 
 @dataclass
@@ -327,11 +427,34 @@ class GPFit:
     n_fev: np.ndarray       # (p,) LML evaluations over all starts
     converged: np.ndarray   # (p,) bool, L-BFGS-B reported success for the best start
     shared: bool
+    jitter: float = DEFAULT_JITTER  # the jitter the optimisation used (largest over outputs)
+
+
+def _optimise_escalating(X: np.ndarray, Y: np.ndarray, starts: np.ndarray, bounds: np.ndarray,
+                         max_iter: int, jitter: float
+                         ) -> tuple[np.ndarray, float, int, int, bool, float]:
+    """:func:`_optimise` at ``jitter``, and along :func:`jitter_schedule` while no start gives a
+    positive definite K. Returns (log_params, lml, nit, nfev, ok, jitter used)."""
+    schedule = jitter_schedule(jitter, _prior_variance(starts))
+    fev = 0
+    for j in schedule:
+        try:
+            theta, lml, nit, nfev, ok = _optimise(X, Y, starts, bounds, max_iter, j)
+            return theta, lml, nit, fev + nfev, ok, j
+        except NotPositiveDefiniteError as e:
+            fev += getattr(e, "nfev", 0)
+    raise NotPositiveDefiniteError(
+        f"GP kernel matrix ({X.shape[0]} points) at every start point: "
+        f"{_npd_reason(starts, schedule[-1])}")
 
 
 def _optimise(X: np.ndarray, Y: np.ndarray, starts: np.ndarray, bounds: np.ndarray,
               max_iter: int, jitter: float) -> tuple[np.ndarray, float, int, int, bool]:
-    """L-BFGS-B from each start in ``starts`` (s, d + 2); best (log_params, lml, nit, nfev, ok)."""
+    """L-BFGS-B from each start in ``starts`` (s, d + 2); best (log_params, lml, nit, nfev, ok).
+
+    Raises NotPositiveDefiniteError (``nfev`` attribute) if K is not positive definite at
+    every start.
+    """
     def objective(theta: np.ndarray) -> tuple[float, np.ndarray]:
         f, g = lml_and_grad(theta, X, Y, jitter)
         if not np.isfinite(f):
@@ -349,8 +472,10 @@ def _optimise(X: np.ndarray, Y: np.ndarray, starts: np.ndarray, bounds: np.ndarr
             best = (np.asarray(res.x, dtype=np.float64), lml, int(res.nit), 0, bool(res.success))
     assert best is not None
     if not np.isfinite(best[1]):
-        raise ValueError("GP kernel matrix is not positive definite at any start point; "
-                         "raise the jitter or the noise-variance lower bound")
+        err = NotPositiveDefiniteError("GP kernel matrix is not positive definite at any start "
+                                       f"point with jitter {jitter:g}")
+        err.nfev = total_fev
+        raise err
     return best[0], best[1], best[2], total_fev, best[4]
 
 
@@ -369,7 +494,9 @@ def fit_gp_hyperparameters(X: np.ndarray, Y: np.ndarray, *, shared: bool = False
     space (clipped to bounds); the best LML wins. ``n_jobs`` > 1 fits outputs in threads (LAPACK
     releases the GIL) with BLAS limited to one thread meanwhile. Cost per LML evaluation:
     O(n^3 / 3) Cholesky + O(n^3 / 3) inverse (LAPACK potri) + O(n^2 d); memory about four n x n
-    float64 matrices. Raises ValueError if K is not positive definite at every start.
+    float64 matrices. If K is not positive definite at any start point the jitter is raised
+    along :func:`jitter_schedule` (the jitter used is ``GPFit.jitter``, the largest over outputs);
+    raises NotPositiveDefiniteError if even the last jitter fails.
     """
     X, Y = check_fit_inputs(X, Y)
     n, d = X.shape
@@ -396,15 +523,16 @@ def fit_gp_hyperparameters(X: np.ndarray, Y: np.ndarray, *, shared: bool = False
         else:
             x0 = init_arr[0]
         b = np.stack([bounds_arr[:, :, 0].min(axis=0), bounds_arr[:, :, 1].max(axis=0)], 1)
-        theta, _, nit, nfev, ok = _optimise(X, Y, starts_for(x0, b), b, max_iter, jitter)
+        theta, _, nit, nfev, ok, jit = _optimise_escalating(X, Y, starts_for(x0, b), b,
+                                                            max_iter, jitter)
         lp = np.broadcast_to(theta, (p, k)).copy()
-        return GPFit(lp, log_marginal_likelihood(theta, X, Y, jitter), np.full(p, nit),
-                     np.full(p, nfev), np.full(p, ok), True)
+        return GPFit(lp, log_marginal_likelihood(theta, X, Y, jit), np.full(p, nit),
+                     np.full(p, nfev), np.full(p, ok), True, jit)
 
     starts = [starts_for(init_arr[j], bounds_arr[j]) for j in range(p)]  # rng order fixed
 
-    def one(j: int) -> tuple[np.ndarray, float, int, int, bool]:
-        return _optimise(X, Y[:, j], starts[j], bounds_arr[j], max_iter, jitter)
+    def one(j: int) -> tuple[np.ndarray, float, int, int, bool, float]:
+        return _optimise_escalating(X, Y[:, j], starts[j], bounds_arr[j], max_iter, jitter)
 
     if n_jobs == 1 or p == 1:
         results = [one(j) for j in range(p)]
@@ -416,7 +544,7 @@ def fit_gp_hyperparameters(X: np.ndarray, Y: np.ndarray, *, shared: bool = False
                                                                 for j in range(p))
     return GPFit(np.stack([r[0] for r in results]), np.array([r[1] for r in results]),
                  np.array([r[2] for r in results]), np.array([r[3] for r in results]),
-                 np.array([r[4] for r in results]), False)
+                 np.array([r[4] for r in results]), False, max(r[5] for r in results))
 
 
 # ----------------------------------------------------------------------------- posterior
@@ -528,7 +656,9 @@ class GPR(Regressor):
     one n x n Cholesky factor per output (p n^2 8 bytes; one in total when shared).
 
     Fitted attributes: ``X_train_`` (n, d), ``alpha_`` (n, p), ``log_params_`` (p, d + 2),
-    ``y_mean_`` (p,), ``y_std_`` (p,), ``lml_`` (p,), ``n_features_in_``, ``n_outputs_``.
+    ``y_mean_`` (p,), ``y_std_`` (p,), ``lml_`` (p,), ``jitter_`` (the jitter actually used:
+    ``jitter`` unless K needed more, see :func:`jitter_schedule`), ``n_features_in_``,
+    ``n_outputs_``.
     """
 
     method = "gpr"
@@ -602,10 +732,12 @@ class GPR(Regressor):
         p, k = Y.shape[1], n_log_params(X.shape[1])
         Yn = self._normalise_targets(Y)
         opts = self.hyperparameter_options(X, Yn)
+        jitter = float(self.jitter)
         if self.optimize:
             res = fit_gp_hyperparameters(X, Yn, **opts)
             self.log_params_ = res.log_params
             self.n_iter_ = res.n_iter
+            jitter = res.jitter
         else:
             if self.init_log_params is None:
                 raise ValueError("optimize=False needs init_log_params")
@@ -616,7 +748,8 @@ class GPR(Regressor):
             self.log_params_ = np.broadcast_to(init, (p, k)).copy()
             self.n_iter_ = np.zeros(p, dtype=int)
         self.X_train_ = X
-        self.alpha_, self.lml_ = gp_posterior(X, Yn, self.log_params_, self.jitter)
+        self.alpha_, self.lml_, self.jitter_ = gp_posterior_stable(X, Yn, self.log_params_,
+                                                                   jitter)
         self.n_features_in_ = X.shape[1]
         self.n_outputs_ = p
         self._chol = None
@@ -627,7 +760,8 @@ class GPR(Regressor):
     def _cholesky_factors(self) -> list[np.ndarray]:
         if getattr(self, "_chol", None) is None:
             kernels, _ = _unique_kernels(self.log_params_)
-            self._chol = [gp_cholesky(self.X_train_, th, self.jitter) for th in kernels]
+            jitter = float(getattr(self, "jitter_", self.jitter))
+            self._chol = [gp_cholesky(self.X_train_, th, jitter) for th in kernels]
         return self._chol
 
     def predict(self, X: np.ndarray, return_std: bool = False):
@@ -644,7 +778,8 @@ class GPR(Regressor):
 
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         arrays = {"X_train": self.X_train_, "alpha": self.alpha_, "log_params": self.log_params_,
-                  "y_mean": self.y_mean_, "y_std": self.y_std_, "lml": self.lml_}
+                  "y_mean": self.y_mean_, "y_std": self.y_std_, "lml": self.lml_,
+                  "jitter": np.asarray(self.jitter_, dtype=np.float64)}
         meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
                 "n_train": int(self.X_train_.shape[0])}
         return arrays, meta
@@ -660,6 +795,8 @@ class GPR(Regressor):
         m.y_mean_ = expect_array(arrays, "y_mean", (p,)).astype(np.float64)
         m.y_std_ = expect_array(arrays, "y_std", (p,)).astype(np.float64)
         m.lml_ = expect_array(arrays, "lml", (p,)).astype(np.float64)
+        m.jitter_ = (float(expect_array(arrays, "jitter", ())) if "jitter" in arrays
+                     else float(m.jitter))  # files written before jitter_ existed
         m.n_features_in_, m.n_outputs_ = d, p
         m.n_iter_ = np.zeros(p, dtype=int)
         m._chol = None
