@@ -120,10 +120,36 @@ def _alpha(text: str) -> float:
     return a
 
 
+def _radius(text: str) -> float:
+    r = float(text)
+    if not (r >= 0.0 and r < float("inf")):
+        raise argparse.ArgumentTypeError(f"radius must be finite and >= 0, got {text}")
+    return r
+
+
+def _quantile(text: str) -> float:
+    q = float(text)
+    if not 0.0 <= q <= 1.0:
+        raise argparse.ArgumentTypeError(f"quantile must be in [0, 1], got {text}")
+    return q
+
+
+def _add_radius_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--radius", type=_radius, default=0.0, metavar="R",
+                   help="gated alpha-PROJ: leave states within R (normalised units) of their "
+                        "nearest TrainPool state alone, pull only the excess (default 0: plain "
+                        "alpha-PROJ)")
+    g.add_argument("--radius-quantile", type=_quantile, default=None, metavar="Q",
+                   help="gated alpha-PROJ with R = the Q quantile of the distances of TrainPool "
+                        "states to the nearest state of another TrainPool move (e.g. 0.9)")
+
+
 def cmd_evaluate(a: argparse.Namespace) -> int:
     from .evaluate import evaluate
 
-    r = evaluate(a.model, a.data, a.out, projections=a.projections, alpha=a.alpha)
+    r = evaluate(a.model, a.data, a.out, projections=a.projections, alpha=a.alpha,
+                 radius=a.radius, radius_quantile=a.radius_quantile)
     print(f"{r['method']}: mean one-step nMSE {r['nmse_mean']:.4f} over {r['n_samples']} TestPool samples")
     for label, v in r["rollout"].items():
         print(f"  rollout {label:<10} final (x,y) error {v['final_xy_error_m']} m "
@@ -135,8 +161,11 @@ def cmd_evaluate(a: argparse.Namespace) -> int:
 def cmd_rollout(a: argparse.Namespace) -> int:
     from .evaluate import rollout_verb
 
-    r = rollout_verb(a.model, a.data, a.out, kind=a.projection, alpha=a.alpha)
-    print(f"{r['method']} + {a.projection}: mean final (x,y) error {r['final_xy_error_m']} m over "
+    r = rollout_verb(a.model, a.data, a.out, kind=a.projection, alpha=a.alpha,
+                     radius=a.radius, radius_quantile=a.radius_quantile)
+    gate = f" (radius {r['radius']:.4g})" if "radius" in r else ""
+    print(f"{r['method']} + {a.projection}{gate}: mean final (x,y) error "
+          f"{r['final_xy_error_m']} m over "
           f"{len(r['per_move'])} TestPool moves; wrote {Path(a.out) / 'rollout.json'}")
     return 0
 
@@ -256,6 +285,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--projections", type=lambda t: [x for x in t.split(",") if x],
                    default=["none", "bound", "alpha"], help="comma-separated: none,bound,alpha")
     e.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    _add_radius_options(e)
     e.set_defaults(func=cmd_evaluate)
 
     o = sub.add_parser("rollout", help="roll a model out over every TestPool move",
@@ -265,6 +295,7 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--data", required=True, type=Path, help="dataset directory")
     o.add_argument("--projection", choices=["none", "bound", "alpha"], default="alpha")
     o.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    _add_radius_options(o)
     o.add_argument("--out", required=True, type=Path, help="output directory")
     o.set_defaults(func=cmd_rollout)
 

@@ -4,7 +4,9 @@
   over all TestPool samples (the paper's Table I metric; variance of the TestPool response).
 - ``rollout_results``: every TestPool move rolled out from its measured s_1 with its recorded
   commands and a projection (none / bound / alpha), scored by ``rollout.metrics.rollout_metrics``
-  (cumulative (x, y) error, per-element non-cumulative errors, nMSE at horizons).
+  (cumulative (x, y) error, per-element non-cumulative errors, nMSE at horizons). alpha-PROJ
+  may be gated (``radius``, normalised units; or ``radius_quantile``: that quantile of the
+  TrainPool's leave-move-out nearest-neighbour distances, ``trainpool_radius``).
 - ``evaluate``: both, for each of ``projections``, into ``metrics.json``.
 
 Outputs are written atomically (temporary file, then rename).
@@ -23,13 +25,47 @@ from .data.dataset import features_responses, load_moves
 from .data.recording import MoveRecording
 from .models.onestep import OneStepModel
 from .rollout.metrics import nmse, rollout_metrics
+from .rollout.projection import make_projection, radius_from_quantile
 from .rollout.simulate import prepare_test_moves, rollout_moves
 
 PROJECTIONS = ("none", "bound", "alpha")
 
 
-def projection_label(kind: str, alpha: float) -> str:
-    return f"alpha_{alpha:g}" if kind == "alpha" else kind
+def projection_label(kind: str, alpha: float, radius: float = 0.0,
+                     radius_quantile: float | None = None) -> str:
+    """``none``, ``bound``, ``alpha_0.5``; gated: ``alpha_0.5_q0.9`` (radius from a quantile) or
+    ``alpha_0.5_r1.2`` (radius given)."""
+    if kind != "alpha":
+        return kind
+    label = f"alpha_{alpha:g}"
+    if radius_quantile is not None:
+        return f"{label}_q{radius_quantile:g}"
+    return f"{label}_r{radius:g}" if radius > 0 else label
+
+
+def trainpool_radius(model: OneStepModel, data: str | os.PathLike, quantile: float,
+                     every: int = 4) -> float:
+    """The ``quantile`` of the normalised distances of TrainPool states to the nearest state of
+    another TrainPool move (``projection.radius_from_quantile``, every ``every``-th state),
+    with the model's TrainPool states (which must be those of ``data``'s TrainPool)."""
+    if model.train_states is None:
+        raise ValueError("this model holds no TrainPool states for a projection")
+    _, Y, groups = features_responses(load_moves(data, split="train"))
+    if Y.shape != model.train_states.shape or not np.array_equal(Y, model.train_states):
+        raise ValueError(f"the model's TrainPool states are not those of {data}'s TrainPool")
+    return radius_from_quantile(model.train_states, groups, quantile, every=every)
+
+
+def _resolve_radius(model: OneStepModel, data: str | os.PathLike, radius: float,
+                    radius_quantile: float | None) -> float:
+    if radius_quantile is not None:
+        if radius:
+            raise ValueError("give radius or radius_quantile, not both")
+        return trainpool_radius(model, data, radius_quantile)
+    radius = float(radius)
+    if not (np.isfinite(radius) and radius >= 0):
+        raise ValueError(f"radius must be finite and >= 0, got {radius}")
+    return radius
 
 
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
@@ -62,10 +98,17 @@ def one_step_nmse(model: OneStepModel, recs: Sequence[MoveRecording]) -> dict[st
 
 
 def rollout_results(model: OneStepModel, recs: Sequence[MoveRecording], kind: str = "alpha",
-                    alpha: float = 0.5) -> dict[str, Any]:
-    """Roll every recording out with the model and projection; the contract's rollout.json."""
+                    alpha: float = 0.5, radius: float = 0.0) -> dict[str, Any]:
+    """Roll every recording out with the model and projection; the contract's rollout.json.
+
+    ``radius`` > 0 (alpha only): gated alpha-PROJ with that radius (normalised units)."""
     moves = prepare_test_moves(recs)
-    projection = model.projection(kind, alpha=alpha)
+    if kind != "alpha" or radius == 0:
+        projection = model.projection(kind, alpha=alpha)
+    else:
+        if model.train_states is None:
+            raise ValueError("this model holds no TrainPool states for a projection")
+        projection = make_projection(kind, model.train_states, alpha=alpha, radius=radius)
     t0 = time.perf_counter()
     predicted = rollout_moves(model, moves, projection)
     wall = time.perf_counter() - t0
@@ -73,6 +116,8 @@ def rollout_results(model: OneStepModel, recs: Sequence[MoveRecording], kind: st
     robot_time = sum(m.n_steps for m in moves) * 0.01
     out.update(projection=kind, alpha=alpha if kind == "alpha" else None, method=model.method,
                rollout_wall_s=wall, realtime_factor=robot_time / wall if wall > 0 else None)
+    if kind == "alpha" and radius > 0:
+        out["radius"] = float(radius)
     return out
 
 
@@ -84,14 +129,22 @@ def _load(model_path: str | os.PathLike, data: str | os.PathLike, split: str
 
 
 def rollout_verb(model_path: str | os.PathLike, data: str | os.PathLike, out: str | os.PathLike,
-                 kind: str = "alpha", alpha: float = 0.5, split: str = "test") -> dict[str, Any]:
-    """``littledog-mlsim rollout``: writes ``OUT/rollout.json``; returns the results."""
+                 kind: str = "alpha", alpha: float = 0.5, split: str = "test",
+                 radius: float = 0.0, radius_quantile: float | None = None) -> dict[str, Any]:
+    """``littledog-mlsim rollout``: writes ``OUT/rollout.json``; returns the results.
+
+    ``radius``/``radius_quantile``: gated alpha-PROJ (see ``trainpool_radius``); alpha only."""
     if kind not in PROJECTIONS:
         raise ValueError(f"--projection must be one of {', '.join(PROJECTIONS)}, got {kind!r}")
     if not 0.0 <= alpha <= 1.0:
         raise ValueError(f"--alpha must be in [0, 1], got {alpha}")
+    if kind != "alpha" and (radius or radius_quantile is not None):
+        raise ValueError("--radius/--radius-quantile apply to --projection alpha only")
     model, recs = _load(model_path, data, split)
-    res = rollout_results(model, recs, kind, alpha)
+    r = _resolve_radius(model, data, radius, radius_quantile) if kind == "alpha" else 0.0
+    res = rollout_results(model, recs, kind, alpha, radius=r)
+    if radius_quantile is not None:
+        res["radius_quantile"] = float(radius_quantile)
     res.update(model=str(model_path), data=str(data), split=split)
     write_json(Path(out) / "rollout.json", res)
     return res
@@ -99,26 +152,37 @@ def rollout_verb(model_path: str | os.PathLike, data: str | os.PathLike, out: st
 
 def evaluate(model_path: str | os.PathLike, data: str | os.PathLike, out: str | os.PathLike,
              projections: Sequence[str] = PROJECTIONS, alpha: float = 0.5,
-             split: str = "test") -> dict[str, Any]:
+             split: str = "test", radius: float = 0.0,
+             radius_quantile: float | None = None) -> dict[str, Any]:
     """``littledog-mlsim evaluate``: one-step nMSE and rollout errors into ``OUT/metrics.json``.
 
     ``metrics.json`` = {model, method, data, split, nmse {state: value}, nmse_mean, n_samples,
     predict_seconds_per_sample, rollout {label: {final_xy_error_m, final_xy_error_m_median,
     final_xy_error_m_p90, nmse_at_horizon, element_error_sum_mean, n_nan_moves, rollout_wall_s,
     realtime_factor}}}; the full per-projection results go to ``OUT/rollout_<label>.json``.
+    ``radius``/``radius_quantile`` gate the alpha projection (label ``alpha_<a>_r<r>`` or
+    ``alpha_<a>_q<quantile>``; its entry also holds ``radius``).
     """
+    for kind in projections:
+        if kind not in PROJECTIONS:
+            raise ValueError(f"projections must be among {', '.join(PROJECTIONS)}, got {kind!r}")
     model, recs = _load(model_path, data, split)
+    r = (_resolve_radius(model, data, radius, radius_quantile) if "alpha" in projections
+         else 0.0)
     res: dict[str, Any] = {"model": str(model_path), "method": model.method, "data": str(data),
                            "split": split}
     res.update(one_step_nmse(model, recs))
     res["rollout"] = {}
     keep = ("final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m_p90",
             "nmse_at_horizon", "element_error_sum_mean", "n_nan_moves", "rollout_wall_s",
-            "realtime_factor")
+            "realtime_factor", "radius")
     for kind in projections:
-        full = rollout_results(model, recs, kind, alpha)
-        label = projection_label(kind, alpha)
+        full = rollout_results(model, recs, kind, alpha, radius=r if kind == "alpha" else 0.0)
+        label = projection_label(kind, alpha, r if kind == "alpha" else 0.0,
+                                 radius_quantile if kind == "alpha" else None)
+        if kind == "alpha" and radius_quantile is not None:
+            full["radius_quantile"] = float(radius_quantile)
         write_json(Path(out) / f"rollout_{label}.json", full)
-        res["rollout"][label] = {k: full.get(k) for k in keep}
+        res["rollout"][label] = {k: full.get(k) for k in keep if k in full}
     write_json(Path(out) / "metrics.json", res)
     return res

@@ -13,6 +13,18 @@ back as the next feature vector (``simulate.rollout``). Three kinds:
   paper's equation for q writes the plain norm; normalising keeps metres, radians and rad/s
   elements comparable.) The search is exact; see ``NearestNeighbour``.
 
+  Gated alpha-PROJ (an extension, not in the paper): with ``radius = r > 0`` (normalised units)
+  a state within ``r`` of its nearest TrainPool state is left alone, and alpha pulls only the
+  excess beyond ``r``: with ``d = ||(s - q) / scale||``,
+  ``s := s - alpha * max(0, 1 - r / d) * (s - q)``; the new distance to ``q`` is
+  ``r + (1 - alpha) (d - r)`` for ``d > r`` (``alpha = 1``: ``s := q + (s - q) r / d``, the
+  point of the ball of radius ``r`` around ``q`` nearest to ``s``). ``q`` stays the nearest
+  TrainPool state of the result. ``r = 0`` (the default) is plain alpha-PROJ, computed by its
+  own formula above (bit for bit as without the option). A natural ``r`` is a quantile of the
+  distances of real states to their nearest TrainPool state of *another* move
+  (``leave_move_out_distances``): states as close to the TrainPool as held-out real states
+  usually are stay untouched.
+
 Every kind, ``none`` included, also applies two constraints that hold for any LittleDog state
 (``enforce_limits``), before and after the adjustment:
 
@@ -30,7 +42,8 @@ rows NaN and the metrics report them.
 Storage: ``to_arrays()`` gives a flat dict of NumPy arrays (the kind as a 0-d unicode array), which
 ``numpy.savez`` stores and ``numpy.load(allow_pickle=False)`` reads back; ``Projection.from_arrays``
 rebuilds the projection (the nearest-neighbour index is rebuilt from the TrainPool states; it is
-not stored).
+not stored). The gated projection's ``radius`` is stored only when it is not 0 (absent = 0), so
+the arrays of plain alpha-PROJ are the same as before the option.
 """
 from __future__ import annotations
 
@@ -44,7 +57,7 @@ from ..layout import JOINT_LOWER, JOINT_UPPER, N_STATE, WRAPPED_STATE, S, wrap_a
 __all__ = [
     "PROJECTION_KINDS", "PROJECTION_FORMAT_VERSION", "Projection", "NoProjection",
     "BoundProjection", "AlphaProjection", "NearestNeighbour", "make_projection",
-    "enforce_limits",
+    "enforce_limits", "leave_move_out_distances", "radius_from_quantile",
 ]
 
 PROJECTION_KINDS: tuple[str, ...] = ("none", "bound", "alpha")
@@ -672,21 +685,26 @@ class AlphaProjection(Projection):
     """alpha-PROJ: ``s := (1 - alpha) s + alpha q``, q the nearest TrainPool state (normalised).
 
     ``train_states`` (n, 33) raw TrainPool states; ``scale`` (33,) the per-element divisor of the
-    distance (default: their std, 1 where std < 1e-12); ``nn_method`` see ``NearestNeighbour``.
+    distance (default: their std, 1 where std < 1e-12); ``nn_method`` see ``NearestNeighbour``;
+    ``radius`` >= 0 (normalised units): gated alpha-PROJ (module doc), 0 = plain alpha-PROJ.
     """
 
     kind = "alpha"
 
     def __init__(self, train_states: np.ndarray, alpha: float = 0.5,
-                 scale: np.ndarray | None = None, nn_method: str = "auto") -> None:
+                 scale: np.ndarray | None = None, nn_method: str = "auto",
+                 radius: float = 0.0) -> None:
         alpha = float(alpha)
         if not 0.0 <= alpha <= 1.0:
             raise ValueError(f"alpha must be in [0, 1], got {alpha}")
+        radius = float(radius)
+        if not (np.isfinite(radius) and radius >= 0.0):
+            raise ValueError(f"radius must be finite and >= 0, got {radius}")
         self.alpha = alpha
+        self.radius = radius
         self.train_states = np.ascontiguousarray(_check_states(train_states, "TrainPool states"))
         if scale is None:
-            std = self.train_states.std(axis=0)
-            scale = np.where(std < _MIN_STD, 1.0, std)
+            scale = train_scale(self.train_states)
         self.scale = _float_array(np.asarray(scale), (N_STATE,), "scale")
         if np.any(self.scale <= 0):
             raise ValueError("alpha projection: scale must be positive")
@@ -696,27 +714,120 @@ class AlphaProjection(Projection):
         """Index into ``train_states`` (B,) of the nearest TrainPool state of each finite row."""
         return self.nn.query(np.asarray(states, dtype=np.float64) / self.scale)
 
+    def distance(self, states: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """(B,) normalised distance of each finite row (B, 33) to its nearest TrainPool state
+        (or to ``train_states[index]``)."""
+        s = np.asarray(states, dtype=np.float64)
+        i = self.nearest(s) if index is None else np.asarray(index)
+        diff = s / self.scale - self.nn._P[i]
+        return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+
     def _project(self, s: np.ndarray) -> np.ndarray:
         if self.alpha == 0.0:
             return s
-        q = self.train_states[self.nearest(s)]
+        i = self.nearest(s)
+        q = self.train_states[i]
+        if self.radius > 0.0:
+            return self._gated(s, q, i)
         if self.alpha == 1.0:
             return q.copy()
         return (1.0 - self.alpha) * s + self.alpha * q
 
+    def _gated(self, s: np.ndarray, q: np.ndarray, i: np.ndarray) -> np.ndarray:
+        d = self.distance(s, i)
+        out = s.copy()
+        far = np.flatnonzero(d > self.radius)
+        if far.size:
+            f = self.alpha * (1.0 - self.radius / d[far])        # share of (s - q) removed
+            out[far] = s[far] - f[:, None] * (s[far] - q[far])
+        return out
+
     def describe(self) -> dict[str, Any]:
-        return {"kind": self.kind, "alpha": self.alpha,
-                "n_train_states": int(self.train_states.shape[0])}
+        out = {"kind": self.kind, "alpha": self.alpha,
+               "n_train_states": int(self.train_states.shape[0])}
+        if self.radius > 0.0:
+            out["radius"] = self.radius
+        return out
 
     def _arrays(self) -> dict[str, np.ndarray]:
-        return {"alpha": np.array(self.alpha), "train_states": self.train_states,
-                "scale": self.scale}
+        out = {"alpha": np.array(self.alpha), "train_states": self.train_states,
+               "scale": self.scale}
+        if self.radius > 0.0:        # absent = 0: files of plain alpha-PROJ stay as they were
+            out["radius"] = np.array(self.radius)
+        return out
 
     @classmethod
     def _from(cls, get) -> "AlphaProjection":
+        try:
+            radius = float(_float_array(get("radius"), (), "radius"))
+        except ValueError as e:      # arrays written before the option: plain alpha-PROJ
+            if "missing" not in str(e):
+                raise
+            radius = 0.0
         return cls(_float_array(get("train_states"), (None, N_STATE), "train_states"),
                    alpha=float(_float_array(get("alpha"), (), "alpha")),
-                   scale=_float_array(get("scale"), (N_STATE,), "scale"))
+                   scale=_float_array(get("scale"), (N_STATE,), "scale"), radius=radius)
+
+
+def train_scale(train_states: np.ndarray) -> np.ndarray:
+    """(33,) the divisor of alpha-PROJ's normalised distance: the std of each element over the
+    TrainPool states, 1 where it is below 1e-12."""
+    std = np.asarray(train_states, dtype=np.float64).std(axis=0)
+    return np.where(std < _MIN_STD, 1.0, std)
+
+
+def leave_move_out_distances(train_states: np.ndarray, groups: np.ndarray,
+                             scale: np.ndarray | None = None, every: int = 1,
+                             block: int = 256) -> np.ndarray:
+    """Normalised distance of TrainPool states to the nearest TrainPool state of another move.
+
+    ``groups`` (n,) the move of each state (e.g. ``features_responses``' ``move_index``);
+    ``scale`` as ``AlphaProjection`` (default ``train_scale``). Every ``every``-th state of each
+    move is a query (in order); returns their distances (m,), in the order of the states. These
+    are the distances to the TrainPool that real states of a move the TrainPool does not hold
+    have, the scale for the gated projection's ``radius``.
+
+    Exact up to rounding: a float64 GEMM over all states with the query's own move masked
+    finds the nearest; its distance is then recomputed directly (``((x - p) ** 2).sum()``).
+    Needs at least two moves.
+    """
+    S_ = _check_states(train_states, "TrainPool states")
+    g = np.asarray(groups)
+    if g.shape != (S_.shape[0],):
+        raise ValueError(f"groups must have shape ({S_.shape[0]},), got {g.shape}")
+    if np.unique(g).size < 2:
+        raise ValueError("leave-move-out distances need at least two moves")
+    every = int(every)
+    if every < 1:
+        raise ValueError(f"every must be >= 1, got {every}")
+    sc = train_scale(S_) if scale is None else _float_array(np.asarray(scale), (N_STATE,),
+                                                               "scale")
+    P = S_ / sc
+    sq = np.einsum("ij,ij->i", P, P)
+    qidx = []
+    for m in np.unique(g):
+        qidx.append(np.flatnonzero(g == m)[::every])
+    qidx = np.sort(np.concatenate(qidx))
+    out = np.empty(qidx.size)
+    for a in range(0, qidx.size, block):
+        rows = qidx[a:a + block]
+        Q = P[rows]
+        D = sq[None, :] - 2.0 * (Q @ P.T)                  # ||p||^2 - 2 q.p, (b, n)
+        D[g[rows][:, None] == g[None, :]] = np.inf         # own move
+        j = D.argmin(axis=1)
+        diff = Q - P[j]
+        out[a:a + block] = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+    return out
+
+
+def radius_from_quantile(train_states: np.ndarray, groups: np.ndarray, quantile: float,
+                         scale: np.ndarray | None = None, every: int = 4) -> float:
+    """The ``quantile`` (0..1) of ``leave_move_out_distances`` (every ``every``-th state)."""
+    quantile = float(quantile)
+    if not 0.0 <= quantile <= 1.0:
+        raise ValueError(f"quantile must be in [0, 1], got {quantile}")
+    d = leave_move_out_distances(train_states, groups, scale=scale, every=every)
+    return float(np.quantile(d, quantile))
 
 
 _KINDS: dict[str, type[Projection]] = {
@@ -725,12 +836,16 @@ _KINDS: dict[str, type[Projection]] = {
 
 
 def make_projection(kind: str, train_states: np.ndarray | None = None,
-                    alpha: float = 0.5, nn_method: str = "auto") -> Projection:
+                    alpha: float = 0.5, nn_method: str = "auto",
+                    radius: float = 0.0) -> Projection:
     """The projection ``kind`` (``none``/``bound``/``alpha``) built from TrainPool states (n, 33).
 
     ``train_states`` are the states of the TrainPool (e.g. the responses ``Y`` of
-    ``features_responses`` on the TrainPool); not needed for ``none``.
+    ``features_responses`` on the TrainPool); not needed for ``none``. ``radius``: the gated
+    alpha-PROJ's radius (normalised units; ``alpha`` only, 0 = plain alpha-PROJ).
     """
+    if float(radius) != 0.0 and kind != "alpha":
+        raise ValueError(f"radius applies to the alpha projection only, not {kind!r}")
     if kind not in _KINDS:
         raise ValueError(f"projection must be one of {PROJECTION_KINDS}, got {kind!r}")
     if kind == "none":
@@ -739,4 +854,4 @@ def make_projection(kind: str, train_states: np.ndarray | None = None,
         raise ValueError(f"projection {kind!r} needs the TrainPool states")
     if kind == "bound":
         return BoundProjection.from_train_states(train_states)
-    return AlphaProjection(train_states, alpha=alpha, nn_method=nn_method)
+    return AlphaProjection(train_states, alpha=alpha, nn_method=nn_method, radius=radius)
