@@ -54,7 +54,6 @@ import json
 import math
 import multiprocessing as mp
 import os
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -64,6 +63,7 @@ import numpy as np
 
 from .data.dataset import features_responses, load_moves, states_from_recording
 from .data.recording import MoveRecording
+from .fileio import atomic_write_text
 from .layout import MOVE_TYPES, S, STATE_NAMES
 from .robot.config import RobotConfig, robot_config
 from .robot.sim import OBS_FIELDS, InitialState, LittleDogSim
@@ -446,15 +446,7 @@ def save_robot_config(config: RobotConfig, path: str | os.PathLike,
     path = Path(path)
     doc = {"format": CONFIG_FORMAT, "format_version": CONFIG_FORMAT_VERSION,
            "config": config_to_dict(config), **(dict(extra) if extra else {})}
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; a config is a shared, readable file
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(json.dumps(doc, indent=2, allow_nan=False) + "\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_text(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
 
 
 def load_robot_config(path: str | os.PathLike) -> RobotConfig:

@@ -23,6 +23,7 @@ import numpy as np
 
 from .data.dataset import features_responses, load_moves
 from .data.recording import MoveRecording
+from .fileio import atomic_write_text
 from .models.onestep import OneStepModel
 from .rollout.metrics import nmse, rollout_metrics
 from .rollout.projection import make_projection, radius_from_quantile
@@ -72,13 +73,7 @@ def write_json(path: str | os.PathLike, obj: Any) -> Path:
     """Write JSON atomically (no NaN: non-finite numbers must already be None)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(json.dumps(obj, indent=1, allow_nan=False) + "\n")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return atomic_write_text(path, json.dumps(obj, indent=1, allow_nan=False) + "\n")
 
 
 def one_step_nmse(model: OneStepModel, recs: Sequence[MoveRecording]) -> dict[str, Any]:

@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -59,6 +58,7 @@ from typing import Any, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
+from ..fileio import atomic_write_text
 from ..layout import (
     MOVE_TYPES,
     N_ACTION,
@@ -239,18 +239,7 @@ def write_index(directory: str | os.PathLike, entries: Iterable[BagEntry | Mappi
         raise ValueError(f"dataset info holds a value YAML cannot store: {exc}") from None
     if not directory.is_dir():
         raise FileNotFoundError(f"{directory} is not a directory")
-    target = directory / INDEX_FILE
-    fd, tmp = tempfile.mkstemp(prefix=f".{INDEX_FILE}.", suffix=".partial", dir=directory)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    return atomic_write_text(directory / INDEX_FILE, text)
 
 
 def read_index(directory: str | os.PathLike) -> DatasetIndex:

@@ -56,6 +56,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..fileio import atomic_write_text
 from ..layout import STATE_NAMES
 from .selection import CandidateScore, Round, SelectionResult
 
@@ -409,15 +410,6 @@ def write_report(out: str | os.PathLike, sel: SelectionResult, stages: Sequence[
     info["model"] = info.pop("model_path", None)
     doc = build_report(sel, stages, **info)
     figs = _figures(out, sel, doc) if figures else {}
-    _atomic_write(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
-    _atomic_write(out / "report.md", _markdown(doc, figs))
+    atomic_write_text(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    atomic_write_text(out / "report.md", _markdown(doc, figs))
     return doc
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
