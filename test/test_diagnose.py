@@ -161,6 +161,22 @@ def test_effect_model_is_saved_loaded_and_rolled_out_like_the_paper_model(tmp_pa
     with pytest.raises(ValueError, match="FeatureHistory"):
         step(model, moves[0].s0, moves[0].actions[0], proj)
 
+    # sim_node's stepping object serves it the same way, also after a reset and after a
+    # refused (non-finite) step, which must leave its history untouched
+    from littledog_mlsim.nodes.learned_sim import LearnedSimulator, model_has_variance
+    m, p = moves[0], pred[0]
+    sim = LearnedSimulator(back, proj, m.s0, [m.pose0.x0, m.pose0.y0, m.pose0.yaw0])
+    assert model_has_variance(back)
+    for t in range(m.n_steps):
+        if t == 5:
+            assert not sim.step(np.full(12, np.nan)) and sim.steps == 5
+        assert sim.step(m.actions[t])
+        np.testing.assert_allclose(sim.state, p[t], rtol=0, atol=1e-12)
+    sim.reset()
+    for t in range(3):
+        sim.step(m.actions[t])
+    np.testing.assert_allclose(sim.state, p[2], rtol=0, atol=1e-12)
+
 
 def test_search_model_closed_form_candidate_equals_refit():
     rng = np.random.default_rng(3)

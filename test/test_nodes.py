@@ -55,6 +55,8 @@ from littledog_mlsim.layout import (  # noqa: E402
     JOINT_UPPER,
     S,
 )
+from littledog_mlsim.models.features import (  # noqa: E402
+    CommandLag, FeatureSet, Heading, Play)
 from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.nodes import messages as m  # noqa: E402
@@ -317,14 +319,37 @@ def test_move(dataset):
 # sim_node, lockstep: the core's rollout exactly
 
 
+# lagged commands, a recursive play operator, the heading: history, carry and pose online (a
+# StateLag here makes this tiny LR diverge under alpha-PROJ, which breaks s_t - s_{t-1})
+EFFECTS = FeatureSet((CommandLag(lag=2), Play(width=0.02, source="q"), Heading()))
+
+
+@pytest.fixture(scope="module", params=["paper", "effects"])
+def served(request, work, dataset, model_path):
+    """(path, model) sim_node serves in lockstep: the paper's 45 features, or a model with added
+    effects (``EFFECTS``)."""
+    if request.param == "paper":
+        return model_path, OneStepModel.load(model_path)
+    X, Y, _ = EFFECTS.features_responses(load_moves(dataset, split="train"))
+    path = work / "lr_effects_model"
+    OneStepModel.fit(LinearRegression(), X, Y, feature_set=EFFECTS).save(path)
+    return path, OneStepModel.load(path)
+
+
+def core_rollout(model, move, actions):
+    """The core's rollout of ``move`` from its s0 and pose with ``actions``, alpha-PROJ 0.5."""
+    pose0 = np.array([move.pose0.x0, move.pose0.y0, move.pose0.yaw0])
+    return rollout(model, move.s0, actions, model.projection("alpha", 0.5), pose0=pose0)
+
+
 @pytest.fixture(scope="class")
-def lockstep_sim(ros, work, model_path, test_move):
+def lockstep_sim(ros, work, served, test_move):
     # initial state and pose through a params file, the projection through -p.
     params = work / "lockstep.yaml"
     s0 = [float(x) for x in test_move.s0]
     pose = [float(test_move.pose0.x0), float(test_move.pose0.y0), float(test_move.pose0.yaw0)]
     params.write_text(json.dumps({"sim_node": {"ros__parameters": {
-        "model_path": str(model_path), "step_mode": "lockstep", "initial_state": s0,
+        "model_path": str(served[0]), "step_mode": "lockstep", "initial_state": s0,
         "initial_pose": pose, "stats_period": 0.2}}}))
     proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5}, work,
                 "--params-file", str(params))
@@ -336,9 +361,9 @@ def lockstep_sim(ros, work, model_path, test_move):
 
 
 class TestLockstep:
-    def test_replay_equals_core_rollout(self, lockstep_sim, model, test_move):
+    def test_replay_equals_core_rollout(self, lockstep_sim, served, test_move):
         proc, probe = lockstep_sim
-        ref = rollout(model, test_move.s0, test_move.actions, model.projection("alpha", 0.5))
+        ref = core_rollout(served[1], test_move, test_move.actions)
         k0 = probe.counter("steps") if probe.stats else 0
         assert k0 == 0
         rng = np.random.default_rng(0)
@@ -384,7 +409,7 @@ class TestLockstep:
         st = probe.wait_counter("steps", T)
         assert int(st["steps"]) == T and int(st["cmd_accepted"]) == T
 
-    def test_reset_and_pause(self, lockstep_sim, model, test_move):
+    def test_reset_and_pause(self, lockstep_sim, served, test_move):
         proc, probe = lockstep_sim
         k = int(probe.wait_counter("steps", 1)["steps"])
         t_before = max(probe.state)
@@ -395,7 +420,7 @@ class TestLockstep:
         # after the reset, the same command gives the same first step as the rollout
         probe.send(test_move.actions[0])
         probe.wait(lambda: t_reset + CONTROL_DT_NS in probe.state, what="a step after reset")
-        ref = rollout(model, test_move.s0, test_move.actions[:1], model.projection("alpha", 0.5))
+        ref = core_rollout(served[1], test_move, test_move.actions[:1])
         np.testing.assert_allclose(probe.state[t_reset + CONTROL_DT_NS], ref[0], atol=1e-12)
         # paused: a lockstep command is dropped and counted, no state is published
         assert probe.call(probe.pause_client, SetBool.Request(data=True)).success

@@ -834,6 +834,17 @@ class FeatureHistory:
         self._carry: dict[int, np.ndarray] = {}          # recursive augmentations' state
         self._pending_carry: dict[int, np.ndarray] = {}  # ... after the current step
 
+    def copy(self) -> "FeatureHistory":
+        """An independent copy (to undo a step: keep one, restore it if the step is refused).
+        Arrays are never modified in place here, so copying the containers is enough."""
+        new = object.__new__(FeatureHistory)
+        new.__dict__.update(self.__dict__)
+        new._states = list(self._states)
+        new._actions = None if self._actions is None else list(self._actions)
+        new._carry = dict(self._carry)
+        new._pending_carry = dict(self._pending_carry)
+        return new
+
     @property
     def state(self) -> np.ndarray:
         """The current s_t, (B, 33) (or (33,) if started from one state)."""

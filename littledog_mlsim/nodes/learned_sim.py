@@ -43,6 +43,7 @@ from ..data.dataset import integrate_path
 from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S
 from ..robot.sensors import twist_from_poses
 from ..rollout.projection import AlphaProjection, Projection
+from ..rollout.simulate import model_feature_set
 from ..rollout.simulate import step as model_step
 from ..rotations import rpy_to_matrix, rpy_to_quat
 
@@ -71,11 +72,16 @@ def standing_train_state(train_states: np.ndarray, projection: Projection | None
 
 
 def model_has_variance(model: Any) -> bool:
-    """True if ``model.predict(X, return_std=True)`` works (one trial prediction)."""
+    """True if ``model.predict(X, return_std=True)`` works (one trial prediction at the home
+    stance, through the model's feature set if it has one)."""
     try:
-        x = np.zeros((1, N_STATE + N_ACTION))
-        x[0, S.q] = HOME_POSE
-        x[0, N_STATE:] = HOME_POSE
+        fs = model_feature_set(model)
+        if fs is None:
+            x = np.zeros((1, N_STATE + N_ACTION))
+            x[0, :N_STATE] = home_state()
+            x[0, N_STATE:] = HOME_POSE
+        else:
+            x = np.atleast_2d(fs.history(home_state(), np.zeros(3)).features(HOME_POSE))
         model.predict(x, return_std=True)
         return True
     except (ValueError, TypeError, NotImplementedError):
@@ -93,7 +99,11 @@ class LearnedSimulator:
     """One learned LittleDog: ``reset()``, ``step(u)``, then read the attributes below.
 
     Args:
-        model: ``predict(X (n, 45)) -> (n, 33)`` raw (``OneStepModel``).
+        model: ``predict(X) -> (n, 33)`` raw (``OneStepModel``). A model whose feature set goes
+            beyond the paper's 45 (lagged commands, friction terms, ... from ``diagnose`` or
+            ``train --features``) is stepped through a ``FeatureHistory`` started at the
+            initial state and pose and restarted on every ``reset``, exactly as ``rollout``
+            does, so the node serves it like the baseline.
         projection: applied to every prediction (``OneStepModel.projection(...)``).
         initial_state: s_0 (33,).
         initial_pose: (x, y, yaw) of the body in odom at t = 0.
@@ -113,6 +123,7 @@ class LearnedSimulator:
         self.initial_pose = _as_vector(initial_pose, 3, "initial_pose (x, y, yaw)")
         self.use_variance = bool(use_variance)
         self.dt = CONTROL_DT
+        self.feature_set = model_feature_set(model)
         self.reset()
 
     # -- state
@@ -126,6 +137,8 @@ class LearnedSimulator:
         self._sigma_xy = np.zeros((2, 2))
         self._var_yaw = 0.0
         self.steps = 0
+        self._history = (None if self.feature_set is None
+                         else self.feature_set.history(s, np.array([x, y, yaw])))
         # The pose one step earlier, from s_0's own deltas, so the first twist is a finite
         # difference like all later ones.
         rpy_prev = np.array([s[S.roll], s[S.pitch], yaw]) - s[S.d_rpy]
@@ -137,16 +150,21 @@ class LearnedSimulator:
         """Advance 10 ms with desired joint angles u (12,). False (nothing changed) if the
         prediction is not finite (a diverged model)."""
         u = np.asarray(u, dtype=np.float64)
+        undo = None if self._history is None else self._history.copy()
         if self.use_variance:
-            nxt, std = model_step(self.model, self.state, u, self.projection, return_std=True)
+            nxt, std = model_step(self.model, self.state, u, self.projection, return_std=True,
+                                  history=self._history)
         else:
-            nxt, std = model_step(self.model, self.state, u, self.projection), None
+            nxt, std = model_step(self.model, self.state, u, self.projection,
+                                  history=self._history), None
         if not np.all(np.isfinite(nxt)) or (std is not None and not np.all(np.isfinite(std))):
+            self._history = undo
             return False
         prev_state, prev_xy_yaw = self.state, self._xy_yaw
         xy_yaw = integrate_path(nxt[None], prev_xy_yaw[0], prev_xy_yaw[1], prev_xy_yaw[2],
                                 prev_state[S.roll_pitch])[0]
         if not np.all(np.isfinite(xy_yaw)):
+            self._history = undo
             return False
         self._prev_pose = (self.position, self.orientation)
         if std is not None:

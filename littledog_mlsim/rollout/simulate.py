@@ -86,7 +86,9 @@ def _predict(model: Any, X: np.ndarray, return_std: bool):
     return mean, std
 
 
-def _feature_set(model: Any):
+def model_feature_set(model: Any):
+    """The model's :class:`..models.features.FeatureSet` if it goes beyond the paper's 45
+    features (then stepping it needs a FeatureHistory), else None."""
     fs = getattr(model, "feature_set", None)
     return None if fs is None or fs.is_base else fs
 
@@ -130,7 +132,7 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
     B, T = u.shape[:2]
     out = np.full((B, T, N_STATE), np.nan)
     std_out = np.full((B, T, N_STATE), np.nan) if return_std else None
-    fs = _feature_set(model)
+    fs = model_feature_set(model)
     history = None
     if fs is not None:
         if pose0 is not None:
@@ -183,7 +185,7 @@ def step(model: Any, s: np.ndarray, u: np.ndarray, projection: Projection | None
     s = np.asarray(s, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
     single = s.ndim == 1
-    fs = _feature_set(model)
+    fs = model_feature_set(model)
     if fs is not None and history is None:
         raise ValueError(f"this model's features ({fs.describe()}) need a FeatureHistory: "
                          f"pass history=model.feature_set.history(s0, pose0)")
