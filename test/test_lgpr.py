@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from littledog_mlsim.models import lgpr
-from littledog_mlsim.models.gp import GPR
+from littledog_mlsim.models.gp import GPR, kernel_matrix
 from littledog_mlsim.models.lgpr import LGPR, balanced_clusters
 from littledog_mlsim.models.persistence import load_model, save_model
 
@@ -20,24 +20,45 @@ def smooth_data(n: int, d: int = 4, seed: int = 0, noise: float = 0.02):
     return X, Y + noise * rng.standard_normal(Y.shape)
 
 
+def ml_output_scale(X: np.ndarray, Y: np.ndarray, log_params: np.ndarray, jitter: float
+                    ) -> np.ndarray:
+    """c_j = y_j^T K_j^-1 y_j / m (standardised y_j, K_j with noise and jitter), by a solve."""
+    Yn = (Y - Y.mean(axis=0)) / Y.std(axis=0)
+    c = []
+    for j in range(Y.shape[1]):
+        K = kernel_matrix(X, log_params[j])
+        K.flat[:: X.shape[0] + 1] += np.exp(log_params[j, -1]) + jitter
+        c.append(Yn[:, j] @ np.linalg.solve(K, Yn[:, j]) / X.shape[0])
+    return np.array(c)
+
+
 @pytest.mark.parametrize("mode", ["shared", "per_output"])
 def test_one_cluster_is_the_full_gp(mode):
+    """One cluster = GPR; its std is GPR's (noisy-observation std) x sqrt(c_j), or GPR's exactly
+    with output_scale=False."""
     X, Y = smooth_data(120)
     Xt, _ = smooth_data(40, seed=1)
     lg = LGPR(n_clusters=1, hyperparameters=mode, init="cold", max_iter=40).fit(X, Y)
     gp = GPR(shared_hyperparameters=(mode == "shared"), max_iter=40).fit(X, Y)
     np.testing.assert_array_equal(lg.log_params_[0], gp.log_params_)
+    c = ml_output_scale(X, Y, gp.log_params_, float(lg.jitter_[0]))
+    np.testing.assert_allclose(lg.output_scale_[0], c, rtol=1e-8)
     m1, s1 = lg.predict(Xt, return_std=True)
     m2, s2 = gp.predict(Xt, return_std=True)
     np.testing.assert_allclose(m1, m2, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(s1, s2, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(s1, s2 * np.sqrt(c), rtol=1e-8, atol=1e-12)
+    lg.output_scale = False
+    m0, s0 = lg.predict(Xt, return_std=True)
+    np.testing.assert_array_equal(m0, m1)
+    np.testing.assert_allclose(s0, s2, rtol=1e-8, atol=1e-12)
     np.testing.assert_allclose(lg.predict(Xt[:1]), m2[:1], rtol=1e-10, atol=1e-12)
 
 
 def test_nearest_centre_and_prediction_match_a_naive_loop():
     X, Y = smooth_data(400, seed=2)
     Q, _ = smooth_data(60, seed=3)
-    lg = LGPR(n_clusters=5, max_iter=15, n_hyperparameter_points=60).fit(X, Y)
+    lg = LGPR(n_clusters=5, max_iter=15, n_hyperparameter_points=60,
+              output_scale=False).fit(X, Y)
     k = lg.n_clusters_
     sizes = np.diff(lg.offsets_)
     assert sizes.sum() == 400 and sizes.max() <= 1.5 * 400 / 5
@@ -58,6 +79,86 @@ def test_nearest_centre_and_prediction_match_a_naive_loop():
         np.testing.assert_allclose(mean[i], m[0], rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(std[i], s[0], rtol=1e-7, atol=1e-12)
         np.testing.assert_allclose(lg.predict(q), m, rtol=1e-9, atol=1e-12)
+
+
+def hetero_noise_data(n: int, seed: int, noise_fraction: np.ndarray, d: int = 4):
+    """Smooth outputs of about unit variance with noise variance ``noise_fraction`` x theirs."""
+    rng = np.random.default_rng(seed)
+    X = rng.standard_normal((n, d))
+    W = np.random.default_rng(123).standard_normal((d, noise_fraction.size))
+    F = (np.sin(X @ W / np.sqrt(d) * 1.5)
+         + 0.3 * np.cos(X[:, :1] * np.arange(1, noise_fraction.size + 1)))
+    return X, F + 0.7 * np.sqrt(noise_fraction) * rng.standard_normal(F.shape)
+
+
+def test_output_scale_calibrates_outputs_of_different_noise():
+    """Shared hyperparameters: one noise level for outputs whose noise fractions differ 100x,
+    so the plain std is far too wide for the clean output and too narrow for the noisy one
+    (mean z^2 0.04 and 2.9 here). The profiled amplitude brings every output into [0.5, 2]
+    (0.56-1.07) and leaves the mean bit-identical."""
+    frac = np.array([1e-3, 1e-2, 1e-1])
+    X, Y = hetero_noise_data(1500, 0, frac)
+    Xq, Yq = hetero_noise_data(2000, 100, frac)
+    on = LGPR(n_clusters=2, max_iter=30, n_global_points=300).fit(X, Y)
+    off = LGPR(n_clusters=2, max_iter=30, n_global_points=300, output_scale=False).fit(X, Y)
+    assert on.output_scale is True and on.get_params()["output_scale"] is True
+    _same_model(on, off)  # the option only changes prediction
+    mean_on, std_on = on.predict(Xq, return_std=True)
+    mean_off, std_off = off.predict(Xq, return_std=True)
+    np.testing.assert_array_equal(mean_on, mean_off)
+    np.testing.assert_array_equal(on.predict(Xq), mean_off)
+    np.testing.assert_array_equal(on.predict(Xq[0]), off.predict(Xq[0]))
+    c = on.output_scale_[on.nearest_cluster(Xq)]
+    np.testing.assert_allclose(std_on, std_off * np.sqrt(c), rtol=1e-12)
+    z2_on = (((Yq - mean_on) / std_on) ** 2).mean(axis=0)
+    z2_off = (((Yq - mean_off) / std_off) ** 2).mean(axis=0)
+    assert z2_off.min() < 0.2 and z2_off.max() > 2.0  # mis-calibrated without
+    assert np.all((z2_on > 0.5) & (z2_on < 2.0)), z2_on
+    # the clean output's amplitude is small, the noisy one's large, in every cluster
+    assert np.all(on.output_scale_[:, 0] < 0.3) and np.all(on.output_scale_[:, 2] > 1.5)
+
+
+def test_blend_uses_the_calibrated_variances():
+    """The blend's weights and mixture variance are built from the variances predict reports
+    for each local model alone (calibrated); "relative" weights do not depend on the option."""
+    frac = np.array([1e-3, 1e-1])
+    X, Y = hetero_noise_data(600, 1, frac, d=2)
+    Q, _ = hetero_noise_data(50, 2, frac, d=2)
+    lg = LGPR(n_clusters=4, max_iter=15, n_global_points=200, blend=True, n_blend=2).fit(X, Y)
+    assert lg.n_clusters_ == 4
+    D2 = ((Q[:, None, :] - lg.centers_[None]) ** 2).sum(axis=2)
+    order = np.argsort(D2, axis=1)
+    for weights in ("precision", "relative"):
+        lg.blend_weights = weights
+        mean, std = lg.predict(Q, return_std=True)
+        for i, q in enumerate(Q):
+            r = order[i, :2]
+            g = D2[i, order[i, 2]] - D2[i, r]
+            mus, vs, prior = [], [], []
+            for c in r:  # model c alone: its cluster's points and the stored hyperparameters
+                rows = lg.train_index_[lg.offsets_[c]:lg.offsets_[c + 1]]
+                gp = GPR(optimize=False, init_log_params=lg.log_params_[c].tolist(),
+                         jitter=float(lg.jitter_[c])).fit(X[rows], Y[rows])
+                m, s = gp.predict(q[None], return_std=True)
+                sf2 = np.exp(lg.log_params_[c][:, 0]) + np.exp(lg.log_params_[c][:, -1])
+                mus.append(m[0])
+                vs.append(s[0] ** 2 * lg.output_scale_[c])
+                prior.append(sf2 * Y[rows].var(axis=0) * lg.output_scale_[c])
+            prec = [1 / v if weights == "precision" else p / v for v, p in zip(vs, prior)]
+            w = np.stack([g[j] * prec[j] for j in range(2)])
+            w /= w.sum(axis=0)
+            mu = np.stack(mus)
+            want = (w * mu).sum(axis=0)
+            var = (w * (np.stack(vs) + mu * mu)).sum(axis=0) - want ** 2
+            np.testing.assert_allclose(mean[i], want, rtol=1e-7, atol=1e-10)
+            np.testing.assert_allclose(std[i], np.sqrt(var), rtol=1e-6, atol=1e-10)
+        lg.output_scale = False
+        mean_off = lg.predict(Q)
+        lg.output_scale = True
+        if weights == "relative":
+            np.testing.assert_allclose(mean_off, mean, rtol=1e-12, atol=1e-14)
+        else:  # the calibrated precisions re-weight the models
+            assert not np.allclose(mean_off, mean, rtol=1e-9, atol=0)
 
 
 def test_balanced_clusters_split_and_dissolve():
@@ -169,7 +270,44 @@ def test_save_load_round_trip(tmp_path, serial_model, parallel_data):
         m2, s2 = loaded.predict(Q, return_std=True)
         np.testing.assert_array_equal(m1, m2)
         np.testing.assert_array_equal(s1, s2)
-    serial_model.blend = False
+    serial_model.blend = loaded.blend = False
+    assert "output_scale" in serial_model.get_state()[0] and loaded.output_scale is True
+    serial_model.output_scale = False  # the option itself is persisted
+    try:
+        save_model(tmp_path / "off", serial_model)
+    finally:
+        serial_model.output_scale = True
+    off, _ = load_model(tmp_path / "off")
+    assert off.output_scale is False
+    np.testing.assert_array_equal(off.output_scale_, serial_model.output_scale_)
+    m_on, s_on = loaded.predict(Q, return_std=True)
+    m_off, s_off = off.predict(Q, return_std=True)
+    np.testing.assert_array_equal(m_on, m_off)
+    assert not np.allclose(s_on, s_off)
+
+
+def test_older_model_files_load_with_unit_output_scale(serial_model):
+    """A model saved before output_scale existed (no array, no parameter) predicts the plain
+    std, as it did."""
+    Q, _ = smooth_data(30, seed=6)
+    arrays, meta = serial_model.get_state()
+    params = serial_model.get_params()
+    old_arrays = {k: v for k, v in arrays.items() if k != "output_scale"}
+    old_params = {k: v for k, v in params.items() if k != "output_scale"}
+    old = LGPR.from_state(old_params, old_arrays, meta)
+    assert old.output_scale is True
+    np.testing.assert_array_equal(old.output_scale_, np.ones_like(serial_model.output_scale_))
+    assert not np.allclose(serial_model.output_scale_, 1.0)
+    serial_model.output_scale = False
+    try:
+        m1, s1 = serial_model.predict(Q, return_std=True)
+    finally:
+        serial_model.output_scale = True
+    m2, s2 = old.predict(Q, return_std=True)
+    np.testing.assert_array_equal(m1, m2)
+    np.testing.assert_array_equal(s1, s2)
+    with pytest.raises(ValueError, match="output_scale"):
+        LGPR.from_state(params, {**arrays, "output_scale": arrays["output_scale"][:, :1]}, meta)
 
 
 def test_variance_cache_budget(serial_model):

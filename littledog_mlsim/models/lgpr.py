@@ -34,21 +34,10 @@ the cluster's points. ``hyperparameters``:
 - ``"shared"`` (default): one ARD kernel for all p outputs of a cluster (the LML is summed over
   the outputs; outputs are standardised per cluster, so they share length scales and the
   signal/noise ratio), so one Cholesky per cluster serves every output, in fitting and for the
-  variance. The std is therefore calibrated only on average over the outputs: standardising
-  equalises the outputs' variances, not their noise fractions, and the one sn2 (ML for the
-  summed LML) lies between them, too large for the low-noise outputs (std conservative) and too
-  small for the noisiest (std over-confident). On the TestPool the median over outputs of
-  mean(z^2), z = (y - mean) / std, was 0.35-0.47. This is the model, not a scaling bug (the std
-  is sqrt(sf2 + sn2 - k*^T K^-1 k*) x the cluster's y std, the variance of a noisy observation,
-  as :class:`.gp.GPR`): on generated data (6 inputs, 8 outputs with noise variance 1e-4..1e-1
-  of their variance, 2000 points, 2 clusters; 3000 test points) mean(z^2) per output was
-  0.13, 0.32, 0.32, 0.31, 0.71, 0.72, 1.58, 4.16 (median 0.52) with shared hyperparameters (the
-  fitted sn2 was 187x the true noise of the cleanest output, 0.19x that of the noisiest) and
-  0.96-1.07 (median 1.03) with ``"per_output"``; a full GPR on 1000 points behaves the same
-  (median 0.57 shared, 1.02 per output); with equal noise fractions the shared std is
-  calibrated (median 1.07). Profiling a per-output amplitude on the shared kernel (c_j = y_j^T
-  K^-1 y_j / m, std x sqrt(c_j): the same Cholesky) would narrow it to 0.48-1.31 (median 0.74);
-  not done here.
+  variance. Its std alone is calibrated only on average over the outputs (hence
+  ``output_scale``, below): standardising equalises the outputs' variances, not their noise
+  fractions, and the one sn2 (ML for the summed LML) lies between them, too large for the
+  low-noise outputs (std conservative) and too small for the noisiest (std over-confident).
 - ``"per_output"``: the paper's one GP per state element, p kernels per cluster; p times the fit
   work, and ``return_std`` needs p Cholesky factors per cluster (m^2 8 bytes each).
 
@@ -88,6 +77,43 @@ features, std 3e-15) get the unit scale for the length-scale bounds and start (s
 that still cannot be fitted raises a one-line ValueError naming the cluster, its size, the start
 and the reason.
 
+Predictive std and ``output_scale`` (default True)
+--------------------------------------------------
+``predict(..., return_std=True)`` gives the std of a noisy observation y (not of the latent f),
+as :class:`.gp.GPR`: sqrt(sf2 + sn2 - k*^T K^-1 k*) x the cluster's y std, with K = Kf + (sn2 +
+jitter) I; the TestPool targets it is compared with are noisy observations too.
+
+With ``output_scale`` each output j of cluster c also gets the profile-likelihood amplitude of
+its whole covariance on the shared kernel (:func:`output_scales`): c_j = y_j^T K^-1 y_j / m
+(standardised y_j, all m points of the cluster; stored as ``output_scale_`` (k, p)), and its
+predictive variance is multiplied by c_j. Scaling K by c leaves the mean K*^T K^-1 y unchanged
+(predictions with and without the option are bit-identical, except in a precision-weighted
+blend, whose weights are variances) and c_j is a by-product of the fit (the alpha already
+computed: no extra Cholesky, no extra prediction cost). It corrects each output's overall level,
+not the shape (signal vs noise share) of its variance. Measured calibration, mean(z^2) per
+output, z = (y - mean) / std (1 = calibrated):
+
+- generated data (6 inputs, 8 outputs with noise variance 1e-4..1e-1 of their variance, 2000
+  points, 2 clusters, 3000 test points; ``test/test_lgpr.py`` has a smaller version): shared
+  0.13-4.16 (median 0.52; the fitted sn2 was 187x the true noise of the cleanest output, 0.19x
+  that of the noisiest), shared + ``output_scale`` 0.48-1.31 (median 0.74; c_j 0.24-3.3),
+  ``"per_output"`` 0.96-1.07 (median 1.03; there c_j is 0.94-1.11 and the option is neutral,
+  0.94-1.09). With equal noise fractions: 0.81-1.30 without, 0.96-1.19 with the option. A full
+  :class:`.gp.GPR` with shared hyperparameters behaves like shared LGPR (median 0.57) and has no
+  such option.
+- the recorded dataset (``bags/default``: the whole TrainPool, 61446 samples, default model, 70
+  clusters; all 26334 TestPool samples; z of s_{t+1} in raw units; 33 state elements): without
+  the option 0.06-5.29 (median 0.35; 4 of 33 in [0.5, 2]: the base height and body velocities
+  over-confident, 2.0-5.3, the joint angles conservative, 0.06-0.19), with it 0.70-1.06
+  (median 0.93; 33 of 33 in [0.5, 2]; the joint angles 0.70-0.94, the rest 0.87-1.06). c_j over
+  clusters and outputs 0.001-6.7 (median 0.26). The nearest-centre mean is bit-identical (mean
+  nMSE 0.0450 either way). Blend of 2 with ``"precision"`` weights: mean nMSE 0.0426 without,
+  0.0430 with the option (the weights follow the calibrated variances); ``"relative"``: 0.0433
+  either way.
+
+``output_scale=False`` restores the plain shared-kernel std. Model files written before the
+option have no ``output_scale`` array and load with c = 1 (their old std).
+
 Blend (the paper's future work: overlapping local models)
 ---------------------------------------------------------
 With ``blend=True`` a query combines the ``n_blend`` local models whose centres are nearest.
@@ -97,16 +123,27 @@ Model r (distances d_0 <= d_1 <= ... to the sorted centres) gets the weight
 
 (``g_r = 1`` when k <= n_blend): its predictive precision 1/v_r (per output; ``blend_weights =
 "precision"`` uses v_r in output units, ``"relative"`` v_r divided by the model's prior variance
-sf2 + sn2, i.e. how well the model knows x irrespective of its cluster's output scale) tapered
-by g_r, which reaches 0 exactly where centre r stops being among the n_blend nearest. Both
-factors are continuous in x, so the blended mean is continuous across cluster boundaries, where
-the nearest-centre rule jumps. The mean is sum_r w_r mu_r and the variance that of the mixture,
-sum_r w_r (v_r + mu_r^2) - mean^2. ``n_blend = 1`` is the nearest-centre rule.
+(sf2 + sn2) in output units, i.e. how well the model knows x irrespective of its cluster's
+output scale) tapered by g_r, which reaches 0 exactly where centre r stops being among the
+n_blend nearest. Both factors are continuous in x, so the blended mean is continuous across
+cluster boundaries, where the nearest-centre rule jumps. The mean is sum_r w_r mu_r and the
+variance that of the mixture, sum_r w_r (v_r + mu_r^2) - mean^2. ``n_blend = 1`` is the
+nearest-centre rule. v_r is everywhere the variance ``predict`` would report for model r alone:
+with ``output_scale`` the calibrated one, c_j v_r, and the prior variance of ``"relative"`` is
+scaled by the same c_j (so those weights, ratios of the two, do not depend on the option, while
+``"precision"`` weights and the mixture variance use the calibrated variances). The blend's std
+is conservative, because of the mixture's spread term sum_r w_r mu_r^2 - mean^2 (the local
+models' disagreement, while the blended mean is better than either): on the recorded dataset
+(below) mean(z^2) per output was 0.45-0.88 (median 0.64) with precision weights, 0.40-0.88
+(median 0.54) with relative ones; without the spread term (precision weights: sum_r w_r v_r,
+which then equals the weighted harmonic mean sum_r g_r / sum_r (g_r / v_r)) 0.75-1.35 (median
+1.00). Not changed here.
 
 Prediction cost and memory
 --------------------------
 Stored: centres (k, d), each cluster's training inputs and weights alpha (n d + n p floats in
-total), log hyperparameters (k, p, d + 2), per-cluster output mean/std. One query, nearest rule:
+total), log hyperparameters (k, p, d + 2), per-cluster output mean/std and ``output_scale_``.
+One query, nearest rule:
 one (k, d) distance pass and one (m, d) cross-kernel pass for all outputs (:func:`.gp.gp_predict`),
 no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the clusters it touches;
 they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
@@ -318,6 +355,19 @@ def _one_line_error(e: ValueError, where: str) -> ValueError:
     return cls(f"{where}: {text}")
 
 
+def output_scales(Yn: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Maximum-likelihood amplitude (p,) of each output on its cluster's covariance.
+
+    Yn (m, p) standardised targets, alpha (m, p) = K^-1 Yn. Scaling the whole covariance
+    K -> c K (signal, noise and jitter alike) leaves the mean K*^T K^-1 y unchanged, and the
+    log-likelihood -1/2 (y^T K^-1 y / c + m log c) is largest at c = y^T K^-1 y / m. An output
+    that is constant in the cluster (Yn = 0) keeps c = 1 (nothing to calibrate on).
+    """
+    m = Yn.shape[0]
+    c = np.einsum("ij,ij->j", Yn, alpha) / m
+    return np.where(np.any(Yn != 0, axis=0) & (c > 0), c, 1.0)
+
+
 def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any] | None,
                  options: dict[str, Any], seed: int, cluster: int | None = None
                  ) -> dict[str, Any]:
@@ -326,7 +376,8 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
     ``init``: None (cold, median heuristic) or {"log_params" (p, d + 2), "y_std" (p,)} of the
     global GP (warm). Hyperparameters are fitted on at most ``options["n_hyperparameter_points"]``
     rows (seeded by ``seed``), alpha on all rows. Returns a dict of arrays: log_params (p, d + 2),
-    alpha (m, p), lml (p,), y_mean, y_std (p,), n_iter (p,), jitter, seconds (wall), cpu_seconds
+    alpha (m, p), lml (p,), y_mean, y_std (p,), output_scale (p,) (:func:`output_scales`),
+    n_iter (p,), jitter, seconds (wall), cpu_seconds
     (this worker process's CPU time: comparable between runs on a busy machine). ``cluster``
     (the cluster's number) only names it in errors: a failure raises a one-line ValueError
     (NotPositiveDefiniteError for a kernel matrix) with the cluster, its size, the start and the
@@ -346,12 +397,13 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
             opts = _gp_options(X[rows], Yn[rows], shared, start, options)
             res = fit_gp_hyperparameters(X[rows], Yn[rows], **opts)
             alpha, lml, jitter = gp_posterior_stable(X, Yn, res.log_params, res.jitter)
+            scale = output_scales(Yn, alpha)
     except ValueError as e:
         name = "LGPR cluster" + ("" if cluster is None else f" {cluster}")
         raise _one_line_error(e, f"{name} ({m} points, hyperparameters on {nh}, "
                                  f"{'cold' if init is None else 'warm'} start)") from None
     return {"log_params": res.log_params, "alpha": alpha, "lml": lml, "y_mean": y_mean,
-            "y_std": y_std, "n_iter": res.n_iter, "jitter": jitter,
+            "y_std": y_std, "output_scale": scale, "n_iter": res.n_iter, "jitter": jitter,
             "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
 
 
@@ -417,6 +469,10 @@ class LGPR(Regressor):
       ``n_global_points`` rows of the warm start's global GP; ``max_iter`` L-BFGS-B iterations.
     - ``jitter``, ``init_noise_ratio``, ``*_bounds``: as :class:`.gp.GPR` (bounds relative to the
       cluster's data).
+    - ``output_scale`` (default True): multiply each output's predictive variance by its
+      profile-likelihood amplitude c_j on the cluster's kernel (``output_scale_``), which
+      calibrates the std of the shared-kernel mode per output; the mean is unchanged (module
+      doc, "Predictive std and output_scale"). False: the plain kernel's std.
     - ``blend``, ``n_blend``, ``blend_weights``: the blend of the nearest local models.
     - ``n_jobs``, ``dask_scheduler``: where the fits run; ``variance_cache_mb`` the Cholesky cache
       budget; ``random_state`` seeds k-means and the subsets; ``verbose`` prints progress to
@@ -425,9 +481,10 @@ class LGPR(Regressor):
     Fitted attributes: ``centers_`` (k, d); ``offsets_`` (k + 1,): cluster c's rows of
     ``X_train_`` (n, d) and ``alpha_`` (n, p) are ``offsets_[c]:offsets_[c+1]``; ``train_index_``
     (n,) the row of ``fit``'s X each stored row came from; ``log_params_`` (k, p, d + 2);
-    ``y_mean_``, ``y_std_``, ``lml_``, ``n_iter_`` (k, p); ``jitter_`` (k,); ``fit_seconds_`` (k,)
-    per-cluster wall time in its worker, ``fit_cpu_seconds_`` (k,) its CPU time,
-    ``global_cpu_seconds_`` the warm start's; ``global_log_params_`` (p, d + 2) or None (cold).
+    ``y_mean_``, ``y_std_``, ``output_scale_`` (the amplitudes c_j), ``lml_``, ``n_iter_``
+    (k, p); ``jitter_`` (k,); ``fit_seconds_`` (k,) per-cluster wall time in its worker,
+    ``fit_cpu_seconds_`` (k,) its CPU time, ``global_cpu_seconds_`` the warm start's;
+    ``global_log_params_`` (p, d + 2) or None (cold).
     """
 
     method = "lgpr"
@@ -441,6 +498,7 @@ class LGPR(Regressor):
                  length_scale_bounds: tuple[float, float] = DEFAULT_LENGTH_SCALE_BOUNDS,
                  signal_variance_bounds: tuple[float, float] = DEFAULT_SIGNAL_VARIANCE_BOUNDS,
                  noise_variance_bounds: tuple[float, float] = DEFAULT_NOISE_VARIANCE_BOUNDS,
+                 output_scale: bool = True,
                  blend: bool = False, n_blend: int = 2, blend_weights: str = "precision",
                  n_jobs: int = 1, dask_scheduler: str | None = None,
                  variance_cache_mb: float = 2048.0, random_state: int = 0,
@@ -459,6 +517,7 @@ class LGPR(Regressor):
         self.length_scale_bounds = length_scale_bounds
         self.signal_variance_bounds = signal_variance_bounds
         self.noise_variance_bounds = noise_variance_bounds
+        self.output_scale = output_scale
         self.blend = blend
         self.n_blend = n_blend
         self.blend_weights = blend_weights
@@ -471,7 +530,8 @@ class LGPR(Regressor):
     _PARAM_NAMES = ("n_clusters", "cluster_size", "max_cluster_factor", "min_cluster_factor",
                     "hyperparameters", "init", "n_hyperparameter_points", "n_global_points",
                     "max_iter", "jitter", "init_noise_ratio", "length_scale_bounds",
-                    "signal_variance_bounds", "noise_variance_bounds", "blend", "n_blend",
+                    "signal_variance_bounds", "noise_variance_bounds", "output_scale",
+                    "blend", "n_blend",
                     "blend_weights", "n_jobs", "dask_scheduler", "variance_cache_mb",
                     "random_state", "verbose")
 
@@ -578,6 +638,7 @@ class LGPR(Regressor):
         self.log_params_ = np.stack([r["log_params"] for r in res])
         self.y_mean_ = np.stack([r["y_mean"] for r in res])
         self.y_std_ = np.stack([r["y_std"] for r in res])
+        self.output_scale_ = np.stack([r["output_scale"] for r in res])
         self.lml_ = np.stack([r["lml"] for r in res])
         self.n_iter_ = np.stack([np.asarray(r["n_iter"], dtype=np.int64) for r in res])
         self.jitter_ = np.array([r["jitter"] for r in res], dtype=np.float64)
@@ -652,8 +713,16 @@ class LGPR(Regressor):
         mean *= self.y_std_[c]
         mean += self.y_mean_[c]
         if var is not None:
-            var *= self.y_std_[c] ** 2
+            var *= self._variance_units(c)
         return mean, var
+
+    def _variance_units(self, c: np.ndarray | int) -> np.ndarray:
+        """Factor from standardised GP variance to output units for cluster(s) c: y_std^2, times
+        the profiled amplitude ``output_scale_`` when ``output_scale`` is on."""
+        units = self.y_std_[c] ** 2
+        if self.output_scale:
+            units = units * self.output_scale_[c]
+        return units
 
     def _by_cluster(self, X: np.ndarray, labels: np.ndarray, want_var: bool
                     ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -695,7 +764,8 @@ class LGPR(Regressor):
         return ranks[:, :r], g
 
     def predict(self, X: np.ndarray, return_std: bool = False):
-        """X (ns, d) -> mean (ns, p); with return_std also the noisy-observation std (ns, p)."""
+        """X (ns, d) -> mean (ns, p); with return_std also the noisy-observation std (ns, p)
+        (scaled per output by sqrt(``output_scale_``) when ``output_scale`` is on)."""
         X = check_predict_inputs(X, self.n_features_in_)
         if not self.blend or int(self.n_blend) == 1 or self.n_clusters_ == 1:
             labels = _nearest_rows(X, self.centers_)
@@ -711,7 +781,7 @@ class LGPR(Regressor):
             mus.append(mu)
             vs.append(np.maximum(v, np.finfo(np.float64).tiny))
         if self.blend_weights == "relative":  # variance relative to the model's prior variance
-            scale = [self._prior_var[ranks[:, j]] * self.y_std_[ranks[:, j]] ** 2
+            scale = [self._prior_var[ranks[:, j]] * self._variance_units(ranks[:, j])
                      for j in range(r)]
             prec = [s / v for s, v in zip(scale, vs)]
         else:
@@ -731,8 +801,8 @@ class LGPR(Regressor):
         arrays = {"centers": self.centers_, "offsets": self.offsets_,
                   "train_index": self.train_index_, "X_train": self.X_train_,
                   "alpha": self.alpha_, "log_params": self.log_params_, "y_mean": self.y_mean_,
-                  "y_std": self.y_std_, "lml": self.lml_, "n_iter": self.n_iter_,
-                  "jitter": self.jitter_, "fit_seconds": self.fit_seconds_,
+                  "y_std": self.y_std_, "output_scale": self.output_scale_, "lml": self.lml_,
+                  "n_iter": self.n_iter_, "jitter": self.jitter_, "fit_seconds": self.fit_seconds_,
                   "fit_cpu_seconds": self.fit_cpu_seconds_}
         if self.global_log_params_ is not None:
             arrays["global_log_params"] = self.global_log_params_
@@ -760,6 +830,8 @@ class LGPR(Regressor):
         m.log_params_ = expect_array(arrays, "log_params", (k, p, d + 2)).astype(f64)
         m.y_mean_ = expect_array(arrays, "y_mean", (k, p)).astype(f64)
         m.y_std_ = expect_array(arrays, "y_std", (k, p)).astype(f64)
+        m.output_scale_ = (expect_array(arrays, "output_scale", (k, p)).astype(f64)
+                           if "output_scale" in arrays else np.ones((k, p)))  # older files
         m.lml_ = expect_array(arrays, "lml", (k, p)).astype(f64)
         m.n_iter_ = expect_array(arrays, "n_iter", (k, p)).astype(np.int64)
         m.jitter_ = expect_array(arrays, "jitter", (k,)).astype(f64)
