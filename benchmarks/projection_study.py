@@ -37,6 +37,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from _common import git_state  # noqa: E402  (benchmarks/ is the script directory)
 from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
 from littledog_mlsim.evaluate import projection_label  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
@@ -73,19 +74,6 @@ def run(model: OneStepModel, moves, kind: str, alpha: float, radius: float, nn) 
         out[f"nn_dist_step{k}_median"] = (float(np.median(nn.distance(s[ok])))
                                           if ok.all() else None)
     return out
-
-
-def git_state() -> str:
-    """HEAD commit and the modified tracked files (the code measured)."""
-    import subprocess
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
-                              capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "diff", "--name-only", "HEAD"], cwd=ROOT,
-                               capture_output=True, text=True).stdout.split()
-    except OSError:
-        return "unknown"
-    return head + (f" + uncommitted changes to {', '.join(dirty)}" if dirty else "")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -42,23 +42,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from _common import git_state  # noqa: E402  (benchmarks/ is the script directory)
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.rollout.metrics import rollout_metrics  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_moves, rollout_moves  # noqa: E402
-
-
-def git_state() -> str:
-    """HEAD commit and the modified tracked files (the code measured)."""
-    import subprocess
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
-                              capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "diff", "--name-only", "HEAD"], cwd=ROOT,
-                               capture_output=True, text=True).stdout.split()
-    except OSError:
-        return "unknown"
-    return head + (f" + uncommitted changes to {', '.join(dirty)}" if dirty else "")
 
 
 def main(argv: list[str] | None = None) -> int:
