@@ -163,7 +163,7 @@ def test_effect_model_is_saved_loaded_and_rolled_out_like_the_paper_model(tmp_pa
 
     # sim_node's stepping object serves it the same way, also after a reset and after a
     # refused (non-finite) step, which must leave its history untouched
-    from littledog_mlsim.nodes.learned_sim import LearnedSimulator, model_has_variance
+    from littledog_mlsim.rollout.learned_sim import LearnedSimulator, model_has_variance
     m, p = moves[0], pred[0]
     sim = LearnedSimulator(back, proj, m.s0, [m.pose0.x0, m.pose0.y0, m.pose0.yaw0])
     assert model_has_variance(back)

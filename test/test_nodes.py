@@ -55,14 +55,13 @@ from littledog_mlsim.layout import (  # noqa: E402
     JOINT_UPPER,
     S,
 )
-from littledog_mlsim.models.features import (  # noqa: E402
-    CommandLag, FeatureSet, Heading, Play)
+from littledog_mlsim.models.features import CommandLag, FeatureSet, Heading, Play  # noqa: E402
 from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.nodes import messages as m  # noqa: E402
-from littledog_mlsim.nodes.learned_sim import standing_train_state  # noqa: E402
 from littledog_mlsim.nodes.simulator import QOS  # noqa: E402
 from littledog_mlsim.robot.sensors import twist_from_poses  # noqa: E402
+from littledog_mlsim.rollout.learned_sim import standing_train_state  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
 from littledog_mlsim.rotations import quat_to_rpy  # noqa: E402
 

@@ -27,23 +27,19 @@ pacing timed out (one FATAL line), 2 for a bad parameter.
 from __future__ import annotations
 
 import importlib
-import signal
 import sys
 import time
 from pathlib import Path
 from typing import Any, Sequence
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.exceptions import ParameterUninitializedException
-from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from ..layout import TOPIC_CLOCK, TOPIC_CMD
 from . import messages as m
-from .simulator import QOS, Param, StartupError
+from ._run import ConfiguredNode, Param, StartupError, run_node
+from .simulator import QOS
 
 NODE_NAME = "bag_player"
 
@@ -73,16 +69,9 @@ def _message_class(msgtype: str) -> type:
     return getattr(importlib.import_module(f"{pkg}.{kind}"), name)
 
 
-class BagPlayer(Node):
+class BagPlayer(ConfiguredNode):
     def __init__(self) -> None:
-        super().__init__(NODE_NAME)
-        for p in PARAMS:
-            try:
-                self.declare_parameter(p.name, p.default, ParameterDescriptor(
-                    description=p.description, read_only=True,
-                    additional_constraints=p.constraints))
-            except Exception as e:
-                raise StartupError(f"parameter {p.name}: {' '.join(str(e).split())}") from None
+        super().__init__(NODE_NAME, PARAMS)
         self.bag = Path(self.param("bag"))
         if not self.param("bag"):
             raise StartupError("set the parameter bag (a bag directory)")
@@ -96,12 +85,6 @@ class BagPlayer(Node):
         self._paced = 0
         self.clock_pub = (self.create_publisher(ClockMsg, TOPIC_CLOCK, QOS)
                           if self.param("publish_clock") else None)
-
-    def param(self, name: str) -> Any:
-        try:
-            return self.get_parameter(name).value
-        except ParameterUninitializedException:
-            return None
 
     def _spin_until(self, done, timeout: float) -> bool:
         end = time.monotonic() + timeout
@@ -208,36 +191,9 @@ class BagPlayer(Node):
         return n
 
 
-def _interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def main(args: Sequence[str] | None = None) -> int:
-    try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as e:
-        print(f"{NODE_NAME}: error: {' '.join(str(e).split())}", file=sys.stderr)
-        return 2
-    signal.signal(signal.SIGTERM, _interrupt)
-    logger = rclpy.logging.get_logger(NODE_NAME)
-    node = None
-    status = 0
-    try:
-        node = BagPlayer()
-        status = node.play()
-    except StartupError as e:
-        logger.fatal(" ".join(str(e).split()))
-        status = 2
-    except PlaybackError as e:
-        logger.fatal(str(e))
-        status = 1
-    except KeyboardInterrupt:
-        logger.info("stopped")
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return status
+    return run_node(NODE_NAME, BagPlayer, BagPlayer.play, args,
+                    failures={PlaybackError: (1, "{}")}, interrupted=(0, "stopped"))
 
 
 if __name__ == "__main__":

@@ -15,26 +15,23 @@ a joint state, an odometry message and an applied command; it ends at the first 
 of them is missing (a reset, a pause that dropped nothing is fine, a lost message), with the
 last measurement's command left out (N commands, N + 1 measurements). Exit status 0 when the
 bag is written, 1 when there is nothing to write (fewer than 2 measurements) or writing fails,
-2 for a bad parameter.
+2 for a bad parameter, 130 when a signal comes before recording started or while writing.
 """
 from __future__ import annotations
 
-import signal
 import sys
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 import rclpy
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
 from ..layout import CONTROL_DT_NS, TOPIC_JOINT_STATES, TOPIC_ODOM
 from . import messages as m
-from .simulator import SIM_QOS, Param, StartupError
+from ._run import ConfiguredNode, Param, StartupError, one_line, run_node
+from .simulator import SIM_QOS
 
 NODE_NAME = "bag_recorder"
 
@@ -51,17 +48,10 @@ class RecordError(Exception):
     """Nothing usable was recorded or writing failed (one FATAL line, exit status 1)."""
 
 
-class BagRecorder(Node):
+class BagRecorder(ConfiguredNode):
     def __init__(self) -> None:
-        super().__init__(NODE_NAME)
-        for p in PARAMS:
-            try:
-                self.declare_parameter(p.name, p.default, ParameterDescriptor(
-                    description=p.description, read_only=True,
-                    additional_constraints=p.constraints))
-            except Exception as e:
-                raise StartupError(f"parameter {p.name}: {' '.join(str(e).split())}") from None
-        out = self.get_parameter("out").value
+        super().__init__(NODE_NAME, PARAMS)
+        out = self.param("out")
         if not out:
             raise StartupError("set the parameter out (bag directory to create)")
         self.out = Path(out)
@@ -72,10 +62,10 @@ class BagRecorder(Node):
             self.move_type = move_type_from_name(self.out.name)
         except ValueError as e:
             raise StartupError(str(e)) from None
-        self.storage = self.get_parameter("storage").value
+        self.storage = self.param("storage")
         if self.storage not in STORAGES:
             raise StartupError(f"storage must be one of {', '.join(STORAGES)}")
-        self.max_steps = self.get_parameter("max_steps").value
+        self.max_steps = self.param("max_steps")
         if self.max_steps < 0:
             raise StartupError("max_steps must be >= 0")
         self.js: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -83,8 +73,7 @@ class BagRecorder(Node):
         self.cmd: dict[int, np.ndarray] = {}
         self.create_subscription(JointState, TOPIC_JOINT_STATES, self._on_js, SIM_QOS)
         self.create_subscription(Odometry, TOPIC_ODOM, self._on_odom, SIM_QOS)
-        self.create_subscription(JointState, self.get_parameter("cmd_topic").value,
-                                 self._on_cmd, SIM_QOS)
+        self.create_subscription(JointState, self.param("cmd_topic"), self._on_cmd, SIM_QOS)
         self.done = False
 
     def _on_js(self, msg: JointState) -> None:
@@ -125,6 +114,19 @@ class BagRecorder(Node):
             if len(self._stamps()) >= self.max_steps + 1:
                 self.done = True
 
+    def record(self) -> int:
+        """Record until ``max_steps`` steps are in (or SIGINT/SIGTERM), then write the bag."""
+        log = self.get_logger()
+        log.info(f"recording into {self.out}")
+        try:
+            while not self.done:
+                rclpy.spin_once(self, timeout_sec=0.1)
+        except KeyboardInterrupt:
+            pass
+        n = self.write()
+        log.info(f"wrote {self.out} ({n} steps)")
+        return 0
+
     def write(self) -> int:
         """Write the bag; returns the number of steps written."""
         from ..data.bags import write_bag
@@ -149,45 +151,14 @@ class BagRecorder(Node):
         try:
             write_bag(self.out, rec, storage=self.storage)
         except (ValueError, OSError) as e:
-            raise RecordError(f"cannot write {self.out}: {' '.join(str(e).split())}") from None
+            raise RecordError(f"cannot write {self.out}: {one_line(e)}") from None
         return len(stamps) - 1
 
 
-def _interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def main(args: Sequence[str] | None = None) -> int:
-    try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as e:
-        print(f"{NODE_NAME}: error: {' '.join(str(e).split())}", file=sys.stderr)
-        return 2
-    signal.signal(signal.SIGTERM, _interrupt)
-    logger = rclpy.logging.get_logger(NODE_NAME)
-    node = None
-    status = 0
-    try:
-        node = BagRecorder()
-        logger.info(f"recording into {node.out}")
-        try:
-            while not node.done:
-                rclpy.spin_once(node, timeout_sec=0.1)
-        except KeyboardInterrupt:
-            pass
-        n = node.write()
-        logger.info(f"wrote {node.out} ({n} steps)")
-    except StartupError as e:
-        logger.fatal(" ".join(str(e).split()))
-        status = 2
-    except RecordError as e:
-        logger.fatal(str(e))
-        status = 1
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return status
+    return run_node(NODE_NAME, BagRecorder, BagRecorder.record, args,
+                    failures={RecordError: (1, "{}")},
+                    interrupted=(130, "interrupted, no bag written"))
 
 
 if __name__ == "__main__":

@@ -25,7 +25,8 @@ import numpy as np
 from ..data.dataset import states_from_recording
 from ..data.recording import MoveRecording
 from ..layout import CONTROL_DT_NS
-from .simulator import Backend, Param, SimulatorNode, StartupError, run_node
+from ._run import Param, StartupError
+from .simulator import Backend, SimulatorNode, run_simulator
 
 NODE_NAME = "pybullet_node"
 
@@ -108,7 +109,7 @@ class PybulletNode(SimulatorNode):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    return run_node(PybulletNode, NODE_NAME, args)
+    return run_simulator(PybulletNode, NODE_NAME, args)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ FATAL log line and exit status 2), starts from the initial state and advances on
 per timer tick or per command (``step_mode``), each step ``LearnedSimulator.step``: the
 model's prediction passed through the projection (default alpha-PROJ, alpha 0.5), the pose
 integrated from the predicted states as ``integrate_path`` does, covariances from the model's
-predictive std (see ``nodes/learned_sim.py`` for the approximation). Topics, services, command
+predictive std (see ``rollout/learned_sim.py`` for the approximation). Topics, services, command
 rule, timeout and counters: ``nodes/simulator.py``.
 
 Initial state (``initial_state`` unset, the default): the TrainPool state stored in the model
@@ -29,8 +29,9 @@ from rclpy.parameter import Parameter
 
 from ..layout import N_STATE
 from ..models.persistence import ModelError
-from .learned_sim import LearnedSimulator, model_has_variance, standing_train_state
-from .simulator import Param, SimulatorNode, StartupError, run_node
+from ..rollout.learned_sim import LearnedSimulator, model_has_variance, standing_train_state
+from ._run import Param, StartupError
+from .simulator import SimulatorNode, run_simulator
 
 NODE_NAME = "sim_node"
 PROJECTIONS = ("none", "bound", "alpha")
@@ -114,7 +115,7 @@ class SimNode(SimulatorNode):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    return run_node(SimNode, NODE_NAME, args)
+    return run_simulator(SimNode, NODE_NAME, args)
 
 
 if __name__ == "__main__":

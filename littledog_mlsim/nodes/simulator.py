@@ -70,12 +70,13 @@ dropped (``cmd_dropped_paused``); timer-mode commands still update the held comm
 
 Parameters are declared read-only with descriptions; defaults come from ``config/<node>.yaml``
 (section ``<node name>: ros__parameters``) found in the package's share directory or source
-tree, and ``--ros-args -p name:=value`` / ``--params-file`` override them.
+tree, and ``--ros-args -p name:=value`` / ``--params-file`` override them
+(``_run.ConfiguredNode``, shared with the other nodes). Process start-up, exit status and
+shutdown: ``_run.run_node`` (:func:`run_simulator`).
 """
 from __future__ import annotations
 
 import os
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,15 +84,10 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 import rclpy
-import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterUninitializedException
 from rclpy.event_handler import PublisherEventCallbacks
-from rclpy.executors import ExternalShutdownException
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -110,11 +106,10 @@ from ..layout import (
     TOPIC_ODOM,
 )
 from . import messages as m
+from ._run import ConfiguredNode, Param, StartupError, run_node
 
-__all__ = ["SimulatorNode", "Backend", "Param", "StartupError", "QOS", "SIM_QOS",
-           "run_node", "COMMON_PARAMS", "load_config_defaults"]
+__all__ = ["SimulatorNode", "Backend", "QOS", "SIM_QOS", "run_simulator", "COMMON_PARAMS"]
 
-PACKAGE = "littledog_mlsim"
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                  reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 # The simulators' publishers: also transient-local, so a late-joining transient-local subscriber
@@ -126,21 +121,6 @@ SIM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
 STEP_MODES = ("timer", "lockstep")
 MAX_CATCH_UP = 50   # timer mode: at most this many missed steps (0.5 s) are run late
 TIMEOUT_ACTIONS = ("hold", "stand")
-
-
-class StartupError(Exception):
-    """A configuration or input problem: logged as one line, the node exits with status 2."""
-
-
-@dataclass(frozen=True)
-class Param:
-    """A node parameter: ``default`` is a value or a ``Parameter.Type`` (no default: unset)."""
-
-    name: str
-    default: Any
-    description: str
-    constraints: str = ""
-
 
 COMMON_PARAMS: tuple[Param, ...] = (
     Param("step_mode", "timer", "timer: one step per tick of a 100 Hz steady-clock timer, "
@@ -165,36 +145,6 @@ COMMON_PARAMS: tuple[Param, ...] = (
           "cmd_received_ns, step_start_ns, published_ns (system clock; cmd_received_ns -1 if "
           "the step reused a held command), step_cpu_ns (the thread's CPU time of the step)"),
 )
-
-
-def _config_dirs() -> list[Path]:
-    dirs = []
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        dirs.append(Path(get_package_share_directory(PACKAGE)) / "config")
-    except Exception:  # not in an ament environment (pip/venv)
-        pass
-    dirs.append(Path(sys.prefix) / "share" / PACKAGE / "config")
-    dirs.append(Path(__file__).resolve().parents[2] / "config")  # source tree / editable
-    return dirs
-
-
-def load_config_defaults(file_name: str, node_name: str) -> tuple[dict[str, Any], Path | None]:
-    """The ``ros__parameters`` of ``node_name`` in the first ``config/<file_name>`` found."""
-    for d in _config_dirs():
-        path = d / file_name
-        if path.is_file():
-            try:
-                doc = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-                section = doc.get(node_name, doc.get("/**", {})) or {}
-                params = section.get("ros__parameters", {}) or {}
-            except (OSError, yaml.YAMLError, AttributeError) as e:
-                raise StartupError(f"{path}: unreadable parameter file: "
-                                   f"{' '.join(str(e).split())}") from None
-            if not isinstance(params, dict):
-                raise StartupError(f"{path}: ros__parameters is not a mapping")
-            return params, path
-    return {}, None
 
 
 class Throttle:
@@ -269,7 +219,7 @@ class _StepTimes:
             self.cpu.append(cpu)
 
 
-class SimulatorNode(Node):
+class SimulatorNode(ConfiguredNode):
     """Base of sim_node and pybullet_node; subclasses set ``CONFIG_FILE``, ``PARAMS`` and
     implement ``make_backend()`` (called after the parameters are declared)."""
 
@@ -277,8 +227,7 @@ class SimulatorNode(Node):
     PARAMS: tuple[Param, ...] = ()
 
     def __init__(self, node_name: str) -> None:
-        super().__init__(node_name)
-        self._declare(self.PARAMS + COMMON_PARAMS, node_name)
+        super().__init__(node_name, self.PARAMS + COMMON_PARAMS)
         self.step_mode = self._choice("step_mode", STEP_MODES)
         self.timeout_action = self._choice("cmd_timeout_action", TIMEOUT_ACTIONS)
         rtf = self.param("real_time_factor")
@@ -345,33 +294,6 @@ class SimulatorNode(Node):
         self._publish(None)   # measurement 0
 
     # -- parameters -------------------------------------------------------------------------
-
-    def _declare(self, params: Sequence[Param], node_name: str) -> None:
-        defaults, path = load_config_defaults(self.CONFIG_FILE, node_name) \
-            if self.CONFIG_FILE else ({}, None)
-        known = {p.name for p in params}
-        unknown = sorted(set(defaults) - known)
-        if unknown:
-            raise StartupError(f"{path}: unknown parameter(s) {', '.join(unknown)}")
-        for p in params:
-            default = defaults.get(p.name, p.default)
-            if isinstance(p.default, float) and isinstance(default, int) \
-                    and not isinstance(default, bool):
-                default = float(default)
-            desc = ParameterDescriptor(description=p.description, read_only=True,
-                                       additional_constraints=p.constraints)
-            try:
-                self.declare_parameter(p.name, default, desc)
-            except Exception as e:  # a -p override of the wrong type, mostly
-                raise StartupError(f"parameter {p.name}: {' '.join(str(e).split())}") from None
-        self.config_path = path
-
-    def param(self, name: str) -> Any:
-        """A parameter's value; None if it is declared without a default and not set."""
-        try:
-            return self.get_parameter(name).value
-        except ParameterUninitializedException:
-            return None
 
     def _choice(self, name: str, choices: Sequence[str]) -> str:
         v = self.param(name)
@@ -575,48 +497,22 @@ def _received_ns(info: Any) -> int:
     return time.time_ns()
 
 
-def run_node(factory: Callable[[], SimulatorNode | Node], name: str,
-             args: Sequence[str] | None = None) -> int:
-    """rclpy.init, build the node, spin until SIGINT/SIGTERM (rclpy's handlers turn them into
-    ExternalShutdownException); one-line error and exit 2 on a StartupError. Returns the exit
-    status (0 after a signal).
+def run_simulator(factory: Callable[[], SimulatorNode], name: str,
+                  args: Sequence[str] | None = None) -> int:
+    """``_run.run_node`` for a simulator: spin until SIGINT/SIGTERM (rclpy's handlers turn them
+    into ExternalShutdownException; exit status 0), then write the latency log.
 
     The executor is rclpy's SingleThreadedExecutor. (rclpy.experimental.EventsExecutor needs
     about 40 % less CPU per step here but never notices SIGINT/SIGTERM in this rclpy, 7.1.6.)
     """
+    return run_node(name, factory, _spin, args, rclpy_signals=True)
+
+
+def _spin(node: SimulatorNode) -> None:
     try:
-        rclpy.init(args=args)
-    except Exception as e:  # rcl refuses the command line (e.g. an unparsable -p override)
-        print(f"{name}: error: {_one_line(e)}", file=sys.stderr)
-        return 2
-    node = None
-    status = 0
-    try:
-        node = factory()
         rclpy.spin(node)
-    except StartupError as e:
-        rclpy.logging.get_logger(name).fatal(" ".join(str(e).split()))
-        status = 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        # A signal that arrives while rclpy converts a message surfaces as a RuntimeError from
-        # take_message; after a shutdown request that is a normal end, otherwise a bug.
-        if rclpy.ok():
-            raise
     finally:
-        if node is not None:
-            hook = getattr(node, "write_latency_log", None)
-            if hook is not None:
-                try:
-                    hook()
-                except OSError as e:
-                    rclpy.logging.get_logger(name).error(f"cannot write the latency log: {e}")
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return status
-
-
-def _one_line(e: BaseException) -> str:
-    text = " ".join(str(e).split())
-    return text or type(e).__name__
+        try:
+            node.write_latency_log()
+        except OSError as e:
+            node.get_logger().error(f"cannot write the latency log: {e}")

@@ -29,7 +29,6 @@ import array
 import importlib
 import os
 import re
-import signal
 import sys
 import time
 from typing import Any, Sequence
@@ -155,14 +154,6 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-class _Stop(Exception):
-    pass
-
-
-def _raise_stop(signum: int, frame: Any) -> None:
-    raise _Stop
-
-
 def _qos(node: Any, topic: str, reliability: str | None, durability: str | None, depth: int):
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -184,20 +175,20 @@ def _qos(node: Any, topic: str, reliability: str | None, durability: str | None,
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    import rclpy
     from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
     from rclpy.utilities import remove_ros_args
+
+    from ._run import run_node
 
     argv = list(sys.argv if args is None else ["topic_echo", *args])
     parser = _parser()
     a = parser.parse_args(remove_ros_args(argv)[1:])
-    want = 1 if a.once else a.count
-    if want is not None and want < 1:
+    if a.once:
+        a.count = 1
+    if a.count is not None and a.count < 1:
         parser.error("--count must be >= 1")
     if a.qos_depth < 1:
         parser.error("--qos-depth must be >= 1")
-    truncate = None if a.full_length else a.truncate_length
     cls = None
     if a.message_type:
         try:
@@ -205,20 +196,21 @@ def main(args: Sequence[str] | None = None) -> int:
         except ValueError as e:
             print(f"topic_echo: error: {e}", file=sys.stderr)
             return 2
-    try:
-        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as e:
-        print(f"topic_echo: error: {' '.join(str(e).split())}", file=sys.stderr)
-        return 2
-    signal.signal(signal.SIGINT, _raise_stop)
-    signal.signal(signal.SIGTERM, _raise_stop)
+    return run_node("topic_echo", lambda: Node(f"topic_echo_{time.monotonic_ns() % 10**9}"),
+                    lambda node: _echo(node, a, cls), argv)
+
+
+def _echo(node: Any, a: argparse.Namespace, cls: type | None) -> int:
+    """Print the messages of ``a.topic`` (type ``cls``, or from the graph); the exit status."""
+    import rclpy
+
+    want = a.count
+    truncate = None if a.full_length else a.truncate_length
     deadline = None if a.timeout is None else time.monotonic() + a.timeout
-    node = None
     printed = 0
+    topic = node.resolve_topic_name(a.topic)
+    warned = False
     try:
-        node = Node(f"topic_echo_{time.monotonic_ns() % 10**9}")
-        topic = node.resolve_topic_name(a.topic)
-        warned = False
         # the type (if not given) and the publishers' QoS both come from the graph
         while True:
             types = dict(node.get_topic_names_and_types()).get(topic)
@@ -264,17 +256,9 @@ def main(args: Sequence[str] | None = None) -> int:
                 return 1
             rclpy.spin_once(node, timeout_sec=0.1)
         return 0
-    except (_Stop, KeyboardInterrupt):
-        return 0
     except BrokenPipeError:           # `topic_echo ... | head`: quiet, also at exit
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    finally:
-        signal.signal(signal.SIGINT, signal.SIG_DFL)
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
 
 
 if __name__ == "__main__":

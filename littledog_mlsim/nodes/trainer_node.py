@@ -22,21 +22,15 @@ One-shot: no ``~/train`` service; the node exits when the model is written. Para
 """
 from __future__ import annotations
 
-import signal
 import sys
 import threading
 import time
 from typing import Any, Sequence
 
 import numpy as np
-import rclpy
 import yaml
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.exceptions import ParameterUninitializedException
-from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 
-from .simulator import Param, StartupError, load_config_defaults
+from ._run import ConfiguredNode, Param, StartupError, one_line, run_node
 
 NODE_NAME = "trainer_node"
 
@@ -62,29 +56,11 @@ class TrainingError(Exception):
     """Training failed (bad data, failing fit): one FATAL line, exit status 1."""
 
 
-class TrainerNode(Node):
-    def __init__(self) -> None:
-        super().__init__(NODE_NAME)
-        defaults, self.config_path = load_config_defaults("trainer.yaml", NODE_NAME)
-        unknown = sorted(set(defaults) - {p.name for p in PARAMS})
-        if unknown:
-            raise StartupError(f"{self.config_path}: unknown parameter(s) {', '.join(unknown)}")
-        for p in PARAMS:
-            value = defaults.get(p.name, p.default)
-            if isinstance(p.default, float) and isinstance(value, int):
-                value = float(value)
-            try:
-                self.declare_parameter(p.name, value, ParameterDescriptor(
-                    description=p.description, read_only=True,
-                    additional_constraints=p.constraints))
-            except Exception as e:
-                raise StartupError(f"parameter {p.name}: {' '.join(str(e).split())}") from None
+class TrainerNode(ConfiguredNode):
+    CONFIG_FILE = "trainer.yaml"
 
-    def param(self, name: str) -> Any:
-        try:
-            return self.get_parameter(name).value
-        except ParameterUninitializedException:
-            return None
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME, PARAMS)
 
     def settings(self) -> dict[str, Any]:
         """Parameters checked; StartupError (exit 2) on a bad one."""
@@ -100,14 +76,14 @@ class TrainerNode(Node):
         try:
             params = yaml.safe_load(s["method_params"]) or {}
         except yaml.YAMLError as e:
-            raise StartupError(f"method_params is not YAML: {' '.join(str(e).split())}") from None
+            raise StartupError(f"method_params is not YAML: {one_line(e)}") from None
         if not isinstance(params, dict):
             raise StartupError("method_params must be a YAML mapping, e.g. \"{max_iter: 50}\"")
         s["method_params"] = params
         try:   # fail on a bad option before reading any bag
             make_estimator(s["method"], {k: v for k, v in params.items() if k != "target"})
         except (TypeError, ValueError) as e:
-            raise StartupError(_one_line(e)) from None
+            raise StartupError(one_line(e)) from None
         if s["max_samples"] < 0 or s["heartbeat"] < 0:
             raise StartupError("max_samples and heartbeat must be >= 0")
         return s
@@ -136,14 +112,14 @@ class TrainerNode(Node):
                     progress=True, target=s["target"])
         except (ValueError, OSError, np.linalg.LinAlgError, MemoryError) as e:
             # DatasetError, BagError (naming bag and topic), ModelError are ValueErrors
-            raise TrainingError(_one_line(e)) from None
+            raise TrainingError(one_line(e)) from None
         finally:
             done.set()
         log.info(f"writing {s['out']}")
         try:
             model.save(s["out"])
         except (ValueError, OSError) as e:
-            raise TrainingError(f"cannot write the model: {_one_line(e)}") from None
+            raise TrainingError(f"cannot write the model: {one_line(e)}") from None
         log.info(f"wrote {s['method']} model to {s['out']} "
                  f"({time.perf_counter() - t0:.1f} s in all)")
 
@@ -166,43 +142,11 @@ class _LogLines:
         pass
 
 
-def _one_line(e: BaseException) -> str:
-    text = " ".join(str(e).split())
-    return text or type(e).__name__
-
-
-def _interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def main(args: Sequence[str] | None = None) -> int:
     # No rclpy signal handlers: nothing spins here, so SIGINT/SIGTERM must interrupt the fit.
-    try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as e:  # rcl refuses the command line (e.g. an unparsable -p override)
-        print(f"{NODE_NAME}: error: {_one_line(e)}", file=sys.stderr)
-        return 2
-    signal.signal(signal.SIGTERM, _interrupt)
-    logger = rclpy.logging.get_logger(NODE_NAME)
-    node = None
-    status = 0
-    try:
-        node = TrainerNode()
-        node.train()
-    except StartupError as e:
-        logger.fatal(_one_line(e))
-        status = 2
-    except TrainingError as e:
-        logger.fatal(f"training failed, no model written: {e}")
-        status = 1
-    except KeyboardInterrupt:
-        logger.fatal("interrupted, no model written")
-        status = 130
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return status
+    return run_node(NODE_NAME, TrainerNode, TrainerNode.train, args,
+                    failures={TrainingError: (1, "training failed, no model written: {}")},
+                    interrupted=(130, "interrupted, no model written"))
 
 
 if __name__ == "__main__":

@@ -1,9 +1,15 @@
 """The learned simulator as a stepping object: state, integrated pose and covariance (no rclpy).
 
-``sim_node`` is a ROS shell around :class:`LearnedSimulator`; everything numeric is a call into
-the core (``rollout.simulate.step``, ``data.dataset.integrate_path``,
-``robot.sensors.twist_from_poses``, ``rotations``) so that the node's output is exactly the
-core's rollout.
+``sim_node`` (``nodes/sim_node.py``) is a ROS shell around :class:`LearnedSimulator`, which lives
+here with the rollout because it is plain NumPy; everything numeric is a call into the core
+(``rollout.simulate.step``, ``data.dataset.integrate_path``, ``robot.sensors.twist_from_poses``,
+``rotations``) so that the node's output is exactly the core's rollout.
+
+A model whose feature set goes beyond the paper's 45 (``model.feature_set``: lagged commands and
+states, friction terms, the play operator, the heading, ...; models from ``diagnose`` or
+``train --features``) is stepped through a ``FeatureHistory`` started at the initial state and
+pose and restarted on every ``reset``, exactly as ``rollout`` does; a plain model is stepped
+without one, as before.
 
 One step (``step(u)``): s_{t+1} = projection(model(s_t, u_t)) (``rollout.simulate.step``, the
 same call ``rollout`` makes for each of its steps), then the pose by ``integrate_path`` applied
@@ -42,10 +48,10 @@ import numpy as np
 from ..data.dataset import integrate_path
 from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S
 from ..robot.sensors import twist_from_poses
-from ..rollout.projection import AlphaProjection, Projection
-from ..rollout.simulate import model_feature_set
-from ..rollout.simulate import step as model_step
 from ..rotations import rpy_to_matrix, rpy_to_quat
+from .projection import AlphaProjection, Projection
+from .simulate import model_feature_set
+from .simulate import step as model_step
 
 __all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance"]
 

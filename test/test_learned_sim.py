@@ -1,0 +1,84 @@
+"""The learned simulator's stepping object (``rollout/learned_sim.py``, what sim_node serves)
+against the core rollout, without ROS.
+
+Reference: ``rollout.simulate.rollout`` of the same model from the same state and pose (its own
+batch FeatureHistory), and ``integrate_path`` for the pose. Models: LR on synthetic moves, with
+the paper's 45 features and with the measured robot's features plus a command delay (what
+``diagnose`` adds on delayed data), saved and loaded as sim_node loads them.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from synthetic import make_recording
+
+from littledog_mlsim.data.dataset import integrate_path
+from littledog_mlsim.diagnose import measured_robot_features
+from littledog_mlsim.layout import S
+from littledog_mlsim.models.features import CommandLag, FeatureSet
+from littledog_mlsim.models.lr import LinearRegression
+from littledog_mlsim.models.onestep import OneStepModel
+from littledog_mlsim.rollout.learned_sim import LearnedSimulator, model_has_variance
+from littledog_mlsim.rollout.simulate import prepare_test_move, rollout
+
+EFFECTS = measured_robot_features().with_augmentation(CommandLag(lag=2))
+
+
+@pytest.fixture(scope="module")
+def moves():
+    return [make_recording(f"{t}_0{i}", n=120, yaw0=2.9 - i, yaw_rate=0.6 + 0.3 * i, seed=i)
+            for i, t in enumerate(["F", "FL", "BL", "S"])]
+
+
+@pytest.fixture(scope="module", params=["paper", "measured+command_lag"])
+def model(request, moves, tmp_path_factory):
+    fs = FeatureSet() if request.param == "paper" else EFFECTS
+    X, Y, _ = fs.features_responses(moves[:3])
+    path = tmp_path_factory.mktemp("model") / "m"
+    OneStepModel.fit(LinearRegression(), X, Y, feature_set=fs).save(path)
+    return OneStepModel.load(path)
+
+
+def test_steps_equal_the_core_rollout_also_after_a_reset(model, moves):
+    move = prepare_test_move(moves[3])
+    pose0 = np.array([move.pose0.x0, move.pose0.y0, move.pose0.yaw0])
+    proj = model.projection("bound")
+    ref, ref_std = rollout(model, move.s0, move.actions, proj, return_std=True, pose0=pose0)
+    assert np.all(np.isfinite(ref))
+    assert model_has_variance(model)
+    sim = LearnedSimulator(model, proj, move.s0, pose0, use_variance=True)
+    assert (sim.feature_set is None) == model.feature_set.is_base
+    # a few steps, a reset (the history starts again from s_0 and pose_0), then the whole move
+    for u in move.actions[:7]:
+        assert sim.step(u)
+    sim.reset()
+    np.testing.assert_array_equal(sim.state, move.s0)
+    states, pos, var_z = [], [], []
+    for u in move.actions:
+        assert sim.step(u)
+        states.append(sim.state)
+        pos.append(sim.position)
+        var_z.append(sim.pose_covariance[14])
+    np.testing.assert_allclose(np.array(states), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.array(var_z), ref_std[:, S.z_w] ** 2, rtol=1e-12, atol=0)
+    path = integrate_path(ref, *move.pose0)
+    np.testing.assert_allclose(np.array(pos)[:, :2], path[:, :2], rtol=0, atol=1e-12)
+    assert sim.steps == move.n_steps
+
+
+def test_a_refused_step_changes_nothing(model, moves):
+    """A non-finite prediction is refused and leaves state and history as they were: the
+    next steps still equal the rollout."""
+    move = prepare_test_move(moves[3])
+    pose0 = np.array([move.pose0.x0, move.pose0.y0, move.pose0.yaw0])
+    proj = model.projection("bound")
+    ref = rollout(model, move.s0, move.actions[:20], proj, pose0=pose0)
+    sim = LearnedSimulator(model, proj, move.s0, pose0, use_variance=False)
+    for t, u in enumerate(move.actions[:20]):
+        if t in (3, 4):
+            before = sim.state.copy()
+            assert not sim.step(np.full(12, np.nan))
+            np.testing.assert_array_equal(sim.state, before)
+        assert sim.step(u)
+        np.testing.assert_allclose(sim.state, ref[t], rtol=0, atol=1e-12)
+    assert sim.pose_covariance is None and sim.steps == 20
