@@ -46,6 +46,7 @@ import numpy as np  # noqa: E402
 import psutil  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
+from _common import time_calls  # noqa: E402  (benchmarks/ is the script directory)
 from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
 from littledog_mlsim.layout import STATE_NAMES  # noqa: E402
 from littledog_mlsim.models.lgpr import LGPR, estimator_bytes  # noqa: E402
@@ -108,17 +109,10 @@ def latency(model: OneStepModel, X: np.ndarray, return_std: bool, n: int = 2000
     rows = np.random.default_rng(1).choice(X.shape[0], size=min(n, X.shape[0]), replace=False)
     for i in rows[:50]:
         model.predict(X[i], return_std=return_std)
-    wall = np.empty(rows.size)
-    cpu = np.empty(rows.size)
-    for j, i in enumerate(rows):
-        x = X[i].copy()
-        c0 = time.thread_time_ns()
-        t0 = time.perf_counter_ns()
-        model.predict(x, return_std=return_std)
-        wall[j] = time.perf_counter_ns() - t0
-        cpu[j] = time.thread_time_ns() - c0
-    return (float(np.median(wall) / 1e6), float(np.percentile(wall, 99) / 1e6),
-            float(np.median(cpu) / 1e6), float(np.percentile(cpu, 99) / 1e6))
+    wall, cpu = time_calls(lambda x: model.predict(x, return_std=return_std),
+                           [X[i].copy() for i in rows])
+    return (float(np.median(wall)), float(np.percentile(wall, 99)),
+            float(np.median(cpu)), float(np.percentile(cpu, 99)))
 
 
 def score(name: str, model: OneStepModel, Xt: np.ndarray, Yt: np.ndarray,
@@ -170,16 +164,9 @@ def paced_latency(path: Path, n: int, return_std: bool, blend: bool, X: np.ndarr
         model.estimator.blend, model.estimator.n_blend = True, 2
     model.prepare(return_std=return_std or blend)
     rows = np.random.default_rng(2).choice(X.shape[0], n)
-    wall, cpu = np.empty(n), np.empty(n)
-    for j, i in enumerate(rows):
-        x = X[i].copy()
-        c0 = time.thread_time_ns()
-        t0 = time.perf_counter_ns()
-        model.predict(x, return_std=return_std)
-        wall[j] = time.perf_counter_ns() - t0
-        cpu[j] = time.thread_time_ns() - c0
-        time.sleep(max(0.0, 0.01 - (time.perf_counter_ns() - t0) / 1e9))
-    w, c = wall[20:] / 1e6, cpu[20:] / 1e6
+    wall, cpu = time_calls(lambda x: model.predict(x, return_std=return_std),
+                           [X[i].copy() for i in rows], pace_s=0.01)
+    w, c = wall[20:], cpu[20:]
     return (f"{'mean + std' if return_std else 'mean'}{', blend of 2' if blend else ''}: wall "
             f"median {np.median(w):.3f} p99 {np.percentile(w, 99):.3f} max {w.max():.2f} ms; "
             f"CPU median {np.median(c):.3f} p99 {np.percentile(c, 99):.3f} ms; {w.size} queries; "

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import ROOT, git_state
+from _common import ROOT, git_state, time_calls
 
 sys.path.insert(0, str(ROOT))
 
@@ -29,13 +29,7 @@ from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 
 
 def _time(fn, rows) -> dict[str, float]:
-    wall, cpu = [], []
-    for x in rows:
-        t0, c0 = time.perf_counter_ns(), time.thread_time_ns()
-        fn(x)
-        cpu.append((time.thread_time_ns() - c0) / 1e6)
-        wall.append((time.perf_counter_ns() - t0) / 1e6)
-    w, c = np.array(wall), np.array(cpu)
+    w, c = time_calls(fn, rows)
     return {"wall_ms_median": float(np.median(w)), "wall_ms_p99": float(np.percentile(w, 99)),
             "wall_ms_max": float(w.max()), "cpu_ms_median": float(np.median(c)),
             "cpu_ms_p99": float(np.percentile(c, 99))}

@@ -593,6 +593,13 @@ def gp_posterior(X: np.ndarray, Y: np.ndarray, log_params: np.ndarray,
     return alpha, lml
 
 
+def noisy_variance(chol: np.ndarray, Kq: np.ndarray, sf2: float, sn2: float) -> np.ndarray:
+    """Predictive variance (c,) of a noisy observation at c queries, sf2 + sn2 - k*^T K^-1 k*,
+    from the lower Cholesky factor (n, n) of K and the kernel rows Kq (c, n)."""
+    v = sla.solve_triangular(chol, Kq.T, lower=True, check_finite=False)
+    return np.maximum(sf2 + sn2 - np.einsum("ij,ij->j", v, v), 0.0)
+
+
 def gp_predict(Xs: np.ndarray, X: np.ndarray, alpha: np.ndarray, log_params: np.ndarray,
                cholesky: Sequence[np.ndarray] | None = None
                ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -618,9 +625,7 @@ def gp_predict(Xs: np.ndarray, X: np.ndarray, alpha: np.ndarray, log_params: np.
 
     def add_variance(sl: slice, q: int, Kq: np.ndarray) -> None:  # Kq (c, n)
         assert var is not None and cholesky is not None
-        v = sla.solve_triangular(cholesky[q], Kq.T, lower=True, check_finite=False)
-        vq = np.maximum(sf2[q] + sn2[q] - np.einsum("ij,ij->j", v, v), 0.0)
-        var[sl, cols[q]] = vq[:, None]
+        var[sl, cols[q]] = noisy_variance(cholesky[q], Kq, sf2[q], sn2[q])[:, None]
 
     if ns <= _FEW_QUERIES:
         Ks = cross_kernel(Xs, X, kernels)  # (ns, n, q)

@@ -173,7 +173,6 @@ from collections import OrderedDict
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
-import scipy.linalg as sla
 from threadpoolctl import threadpool_limits
 
 from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
@@ -190,6 +189,7 @@ from .gp import (
     gp_cholesky,
     gp_posterior_stable,
     gp_predict,
+    noisy_variance,
     unpack_log_params,
 )
 from .persistence import register
@@ -739,8 +739,7 @@ class LGPR(Regressor):
         mean = K @ self._alpha[c]
         if not want_var:
             return mean, None
-        v = sla.solve_triangular(self._factors(c)[0], K.T, lower=True, check_finite=False)
-        vq = np.maximum(sf2 + sn2 - np.einsum("ij,ij->j", v, v), 0.0)
+        vq = noisy_variance(self._factors(c)[0], K, sf2, sn2)
         return mean, np.repeat(vq[:, None], mean.shape[1], axis=1)
 
     def _local(self, c: int, Xq: np.ndarray, want_var: bool

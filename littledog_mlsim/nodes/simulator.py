@@ -76,10 +76,8 @@ shutdown: ``_run.run_node`` (:func:`run_simulator`).
 """
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -94,6 +92,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from ..fileio import atomic_write_text
 from ..layout import (
     CONTROL_DT,
     CONTROL_DT_NS,
@@ -479,13 +478,10 @@ class SimulatorNode(ConfiguredNode):
         if not self._latency_log:
             return
         t = self._times
-        path = Path(self._latency_log)
-        tmp = path.with_name(f".{path.name}.partial")
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write("cmd_received_ns,step_start_ns,published_ns,step_cpu_ns\n")
-            for r, s, p, c in zip(t.received, t.start, t.published, t.cpu, strict=True):
-                f.write(f"{r},{s},{p},{c}\n")
-        os.replace(tmp, path)
+        rows = "".join(f"{r},{s},{p},{c}\n"
+                       for r, s, p, c in zip(t.received, t.start, t.published, t.cpu, strict=True))
+        atomic_write_text(self._latency_log,
+                          "cmd_received_ns,step_start_ns,published_ns,step_cpu_ns\n" + rows)
 
 
 def _received_ns(info: Any) -> int:
