@@ -25,6 +25,7 @@ from typing import Sequence
 
 import numpy as np
 import rclpy
+from rclpy.qos import QoSProfile
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 
@@ -32,6 +33,11 @@ from ..layout import CONTROL_DT_NS, TOPIC_JOINT_STATES, TOPIC_ODOM
 from . import messages as m
 from ._run import ConfiguredNode, Param, StartupError, one_line, run_node
 from .simulator import SIM_QOS
+
+# A recorder must not lose messages when it falls behind for a moment (a busy machine): the same
+# QoS as the simulators' publishers (reliable, transient-local), with a deep reader queue.
+RECORD_QOS = QoSProfile(history=SIM_QOS.history, depth=1000, reliability=SIM_QOS.reliability,
+                        durability=SIM_QOS.durability)
 
 NODE_NAME = "bag_recorder"
 
@@ -71,9 +77,9 @@ class BagRecorder(ConfiguredNode):
         self.js: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.odom: dict[int, dict[str, np.ndarray]] = {}
         self.cmd: dict[int, np.ndarray] = {}
-        self.create_subscription(JointState, TOPIC_JOINT_STATES, self._on_js, SIM_QOS)
-        self.create_subscription(Odometry, TOPIC_ODOM, self._on_odom, SIM_QOS)
-        self.create_subscription(JointState, self.param("cmd_topic"), self._on_cmd, SIM_QOS)
+        self.create_subscription(JointState, TOPIC_JOINT_STATES, self._on_js, RECORD_QOS)
+        self.create_subscription(Odometry, TOPIC_ODOM, self._on_odom, RECORD_QOS)
+        self.create_subscription(JointState, self.param("cmd_topic"), self._on_cmd, RECORD_QOS)
         self.done = False
 
     def _on_js(self, msg: JointState) -> None:
