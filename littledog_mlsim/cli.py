@@ -35,7 +35,7 @@ def cmd_record(a: argparse.Namespace) -> int:
 
     s = record_dataset(a.out, moves_per_type=a.moves_per_type, types=a.types, seed=a.seed,
                        robot=a.robot, effects_file=a.effects, storage=a.storage, jobs=a.jobs,
-                       overwrite=a.overwrite, progress=not a.quiet)
+                       overwrite=a.overwrite, progress=not a.quiet, excitation=a.excitation)
     print(f"recorded {s.n_bags} bags ({s.n_steps} steps, {s.n_steps * 0.01:.0f} s of robot time) "
           f"into {s.out} in {s.wall_s:.1f} s wall with {s.jobs} process(es); "
           f"{s.realtime_factor_per_core:.1f}x real time per core (CPU time)")
@@ -234,6 +234,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--robot", choices=["measured", "nominal"], default="measured", help="robot configuration")
     r.add_argument("--effects", type=str, default=None, metavar="FILE.yaml",
                    help="effects to switch on while recording (never written into the dataset)")
+    r.add_argument("--excitation", type=float, default=0.0, metavar="RAD",
+                   help="std of white noise added to every joint command, for system identification "
+                        "(default 0: the plain trot; at most 0.2)")
     r.add_argument("--storage", choices=["mcap", "sqlite3"], default="mcap", help="rosbag2 storage plugin")
     r.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     r.add_argument("--overwrite", action="store_true", help="replace an existing dataset directory")

@@ -58,17 +58,18 @@ class RecordSummary:
 
 
 def _record_one(job: MoveJob, bag_path: str, robot: str, effects_file: str | None,
-                storage: str) -> tuple[str, int, float]:
+                storage: str, excitation: float = 0.0) -> tuple[str, int, float]:
     """Worker: simulate one move and write its bag. Returns (name, n_steps, CPU seconds)."""
     from .data.bags import write_bag
-    from .gait.trot import sample_trot_params, trot_commands
+    from .gait.trot import excite_commands, sample_trot_params, trot_commands
     from .robot.effects import load_effects
     from .robot.sim import simulate_move
 
     t0 = time.process_time()
     gait_seed, robot_seed = job.seeds()
-    params = sample_trot_params(job.move_type, np.random.default_rng(gait_seed))
-    commands = trot_commands(params)
+    gait_rng = np.random.default_rng(gait_seed)
+    params = sample_trot_params(job.move_type, gait_rng)
+    commands = excite_commands(trot_commands(params), excitation, gait_rng)
     effects = load_effects(effects_file) if effects_file else ()
     rec = simulate_move(commands, robot=robot, effects=effects, seed=robot_seed,
                         name=job.name, move_type=job.move_type)
@@ -89,8 +90,12 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    types: Sequence[str] = MOVE_TYPES, seed: int = 0, robot: str = "measured",
                    effects_file: str | None = None, storage: str = "mcap",
                    jobs: int | None = None, overwrite: bool = False,
-                   progress: bool = True) -> RecordSummary:
-    """Record ``moves_per_type`` moves of each type into the dataset directory ``out``."""
+                   progress: bool = True, excitation: float = 0.0) -> RecordSummary:
+    """Record ``moves_per_type`` moves of each type into the dataset directory ``out``.
+
+    ``excitation`` [rad]: standard deviation of white noise added to every joint command
+    (:func:`~littledog_mlsim.gait.trot.excite_commands`); 0 records the plain trot.
+    """
     from .data.dataset import dataset_entries, write_index
     from .robot.effects import load_effects
     from .robot.sim import robot_config
@@ -98,6 +103,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     out = Path(out)
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} already exists; pass --overwrite to replace it")
+    if not np.isfinite(excitation) or not 0.0 <= excitation <= 0.2:
+        raise ValueError(f"--excitation must be between 0 and 0.2 rad, got {excitation}")
     if storage not in ("mcap", "sqlite3"):
         raise ValueError(f"--storage must be mcap or sqlite3, got {storage!r}")
     robot_config(robot)                      # fails early on an unknown robot
@@ -113,7 +120,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     t0 = time.perf_counter()
     try:
         results = []
-        args = [(j, str(tmp / j.name), robot, effects_file, storage) for j in plan]
+        args = [(j, str(tmp / j.name), robot, effects_file, storage, excitation) for j in plan]
         bar = tqdm(total=len(plan), desc=f"record {out.name}", unit="move", disable=not progress)
         if jobs == 1:
             for a in args:
@@ -131,6 +138,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                 "moves_per_type": moves_per_type, "types": list(types),
                 "steps_per_move": STEPS_PER_MOVE, "control_dt_ns": CONTROL_DT_NS,
                 "recorded_by": f"littledog_mlsim {__version__}"}
+        if excitation:
+            info["command_excitation_rad"] = float(excitation)
         write_index(tmp, entries, info)
         if out.exists():                     # overwrite: swap in only after success
             old = out.parent / f".{out.name}.old-{os.getpid()}"

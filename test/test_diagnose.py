@@ -25,7 +25,7 @@ from littledog_mlsim.data.dataset import features_responses
 from littledog_mlsim.diagnose import (SearchModel, default_library, diagnose,
                                       measured_robot_features)
 from littledog_mlsim.diagnose.selection import move_folds
-from littledog_mlsim.layout import N_FEATURE, N_STATE
+from littledog_mlsim.layout import N_FEATURE, N_STATE, STATE_NAMES
 from littledog_mlsim.models.features import (
     CommandLag, FeatureSet, FeatureSetError, Heading, Play, StateLag, augmentation_from_dict,
 )
@@ -210,7 +210,8 @@ def test_search_model_closed_form_candidate_equals_refit():
 FAST_SEARCH = dict(n_gp_points=300, gp_max_iter=40)  # M = 1000 random features (the default)
 
 
-def _record(root: Path, name: str, seed: int, effects: str | None = None) -> Path:
+def _record(root: Path, name: str, seed: int, effects: str | None = None,
+            excitation: float = 0.0) -> Path:
     from littledog_mlsim.record import record_dataset
     out = root / name
     effects_file = None
@@ -219,7 +220,7 @@ def _record(root: Path, name: str, seed: int, effects: str | None = None) -> Pat
         effects_file.write_text(effects)
     record_dataset(out, moves_per_type=4, seed=seed,
                    effects_file=None if effects_file is None else str(effects_file),
-                   jobs=2, progress=False)
+                   jobs=2, progress=False, excitation=excitation)
     return out
 
 
@@ -253,6 +254,33 @@ def test_command_delay_is_found_with_its_delay(delay_report):
     cuts = [first["nmse_cut"][n] for n in joints]
     assert np.mean(cuts) > 0.05, cuts
     assert first["after"]["nmse_mean"] < first["before"]["nmse_mean"]
+
+
+# White noise of this size [rad] on every command (record --excitation): the system-identification
+# regime in which a command delay is identifiable from one-step data (benchmarks/diagnose.md).
+EXCITATION = 0.03
+JOINT_ELEMENTS = [n for n in STATE_NAMES if n.startswith(("q_", "dq_"))]
+
+
+def test_command_delay_on_excited_commands_halves_the_joint_error(recorded):
+    """The issue's target, in the regime where it can be met: with the trot's commands excited
+    by white noise the delayed command is no longer predictable from the state, and adding it
+    must halve the one-step TestPool nMSE of the joint elements it acts on."""
+    data = _record(recorded, "delay_excited", 107, "- class: littledog_mlsim.robot.effects:CommandDelay\n"
+                                                   "  params: {steps: 2}\n", excitation=EXCITATION)
+    report = _diagnose(data, recorded / "delay_excited_out")
+    first = report["effects"][0]
+    assert first["family"] == "command delay" and first["params"]["lag"] == 2
+    before, after = report["before"]["nmse"], report["after"]["nmse"]
+    cuts = [1.0 - after[n] / before[n] for n in JOINT_ELEMENTS]
+    assert np.mean(cuts) >= 0.5, cuts
+    assert min(cuts) > 0.3, cuts
+
+
+def test_clean_excited_data_raises_no_alarm(recorded):
+    data = _record(recorded, "clean_excited", 108, excitation=EXCITATION)
+    report = _diagnose(data, recorded / "clean_excited_out")
+    assert report["significant"] is False and report["effects"] == []
 
 
 def test_report_files_and_schema(delay_report):

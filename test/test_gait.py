@@ -11,8 +11,8 @@ import pybullet as p
 import pytest
 
 from littledog_mlsim.gait.ik import forward_kinematics, inverse_kinematics
-from littledog_mlsim.gait.trot import (DEFAULT_RANGES, LEG_PHASE_OFFSET, TrotParams, foot_trajectories,
-                                       sample_trot_params, trot_commands)
+from littledog_mlsim.gait.trot import (DEFAULT_RANGES, LEG_PHASE_OFFSET, TrotParams, excite_commands,
+                                       foot_trajectories, sample_trot_params, trot_commands)
 from littledog_mlsim.layout import (HOME_BODY_HEIGHT, HOME_POSE, JOINT_LOWER, JOINT_NAMES, JOINT_UPPER,
                                     LEGS, MOVE_TYPES, STEPS_PER_MOVE)
 from littledog_mlsim.robot.config import URDF_PATH
@@ -152,3 +152,22 @@ def test_trot_in_place_returns_to_home():
     feet = foot_trajectories(prm)
     home = forward_kinematics(HOME_POSE)
     np.testing.assert_allclose(feet[..., :2], np.broadcast_to(home[:, :2], feet[..., :2].shape), atol=1e-12)
+
+
+def test_excitation_is_white_noise_of_the_given_size_inside_the_limits():
+    u = trot_commands(sample_trot_params("F", np.random.default_rng(0)))
+    rng = np.random.default_rng(1)
+    assert excite_commands(u, 0.0, rng) is u                      # 0: unchanged, nothing drawn
+    assert rng.bit_generator.state == np.random.default_rng(1).bit_generator.state
+    noisy = excite_commands(u, 0.03, rng)
+    n = noisy - u
+    assert np.all(noisy >= JOINT_LOWER) and np.all(noisy <= JOINT_UPPER)
+    inside = (noisy > JOINT_LOWER) & (noisy < JOINT_UPPER)        # not clipped
+    assert abs(n[inside].std() - 0.03) < 0.002 and abs(n[inside].mean()) < 0.002
+    lag1 = np.mean(n[1:] * n[:-1]) / np.mean(n * n)              # white: no step-to-step correlation
+    assert abs(lag1) < 0.05
+    again = excite_commands(u, 0.03, np.random.default_rng(1))
+    np.testing.assert_array_equal(again, noisy)
+    for bad in (-0.01, float("nan")):
+        with pytest.raises(ValueError, match="excitation"):
+            excite_commands(u, bad, rng)

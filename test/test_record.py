@@ -120,6 +120,7 @@ def test_bad_move_type_is_a_usage_error(capsys):
 @pytest.mark.parametrize("argv, fragment", [
     (["record", "--out", "X", "--moves-per-type", "0"], "at least 1"),
     (["record", "--out", "X", "--effects", "missing.yaml"], "missing.yaml"),
+    (["record", "--out", "X", "--excitation", "0.5"], "--excitation"),
     (["info", "--data", "/nonexistent/ds"], "/nonexistent/ds"),
 ])
 def test_bad_input_gives_one_line_and_writes_nothing(tmp_path: Path, argv, fragment, capsys,
@@ -161,3 +162,16 @@ def test_integrating_recorded_states_reproduces_odometry_of_a_noise_free_bag(tmp
     np.testing.assert_allclose(path[:, :2], rec.position[1:, :2], rtol=0, atol=1e-9)
     yaw_err = np.angle(np.exp(1j * (path[:, 2] - quat_to_rpy(rec.orientation[1:])[:, 2])))
     assert np.abs(yaw_err).max() < 1e-9
+
+
+def test_excitation_changes_the_recorded_commands_and_is_noted(tmp_path: Path, dataset: Path):
+    out = tmp_path / "exc"
+    assert main(["record", "--out", str(out), "--moves-per-type", "1", "--types", "F",
+                 "--excitation", "0.03", "--jobs", "1", "--quiet"]) == 0
+    excited = load_moves(out, split="all")[0]
+    plain = [m for m in load_moves(dataset, split="all") if m.name == "F_00"][0]
+    noise = excited.cmd - plain.cmd                   # same gait parameters, plus the noise
+    assert 0.02 < noise.std() < 0.035
+    assert move_problems(excited) == []               # still a trot that goes forward
+    assert read_index(out).info["command_excitation_rad"] == 0.03
+    assert "command_excitation_rad" not in read_index(dataset).info

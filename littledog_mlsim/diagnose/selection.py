@@ -431,15 +431,18 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
                 + f" -> delay {d_hat}")
             by_lag = {s.augmentation.lag: s for s in members
                       if s.augmentation.name == "command_lag"}
-            if d_hat in by_lag:
+            if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
                 picked = by_lag[d_hat]
                 ccf = _command_ccf(m.residual_, X, move_index, picked)
                 break
-            # the replacement scan sees no delay: the command columns' gain is not a delay
+            # the replacement scan sees no delay, or a delay whose own column is not significant
+            # and material (e.g. already in the model): the command columns' gain is not a delay
             scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
+            why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
+                   f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}) column is not "
+                   "significant and material by itself")
             notes.append("command-delay candidates were significant and material, but the "
-                         "delay scan puts the fall-off at d = 0 (no delay): not accepted; scan "
-                         + scan)
+                         f"delay scan {why}: not accepted; scan " + scan)
             say(notes[-1])
             picked, delay_profile = None, None
         corr = m.candidate_fit(columns[picked.label])[1] if picked is not None else None

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import CONTROL_DT, HOME_POSE, MOVE_TYPES, STEPS_PER_MOVE
+from ..layout import CONTROL_DT, HOME_POSE, JOINT_LOWER, JOINT_UPPER, MOVE_TYPES, STEPS_PER_MOVE
 from .ik import forward_kinematics, inverse_kinematics
 
 # Diagonal pairs in LEGS order (front_left, front_right, back_left, back_right).
@@ -146,3 +146,19 @@ def foot_trajectories(params: TrotParams) -> np.ndarray:
 def trot_commands(params: TrotParams) -> np.ndarray:
     """Joint commands (n_steps, 12), contract order, inside the joint limits."""
     return inverse_kinematics(foot_trajectories(params), clip=True)
+
+
+def excite_commands(commands: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
+    """Commands plus independent N(0, sigma^2) noise per joint and step [rad], kept in the limits.
+
+    Persistent excitation for system identification: on a smooth open-loop trot the command at
+    step t is almost a function of the state it produced, so effects that act through the command
+    (a delay, say) barely show in one-step residuals; white noise on the command makes them
+    identifiable. ``sigma = 0`` returns the commands unchanged and draws nothing from ``rng``.
+    """
+    if not np.isfinite(sigma) or sigma < 0:
+        raise ValueError(f"command excitation must be a finite non-negative angle [rad], got {sigma!r}")
+    if sigma == 0:
+        return commands
+    noisy = commands + rng.normal(0.0, sigma, size=commands.shape)
+    return np.clip(noisy, JOINT_LOWER, JOINT_UPPER)
