@@ -39,7 +39,13 @@ def summarise(name: str, report: dict) -> dict:
                   "after": report["after"]["rollout"][lab]["final_xy_error_m"]}
             for lab in report["before"]["rollout"]}
     last = report["rounds"][-1]
-    return {"name": name, "data": report.get("data"), "significant": report["significant"],
+    before, after = report["before"]["nmse"], report["after"]["nmse"]
+    joints = [n for n in before if n.startswith(("q_", "dq_"))
+              and before[n] is not None and after[n] is not None and before[n] > 0]
+    return {"name": name,
+            # TestPool one-step nMSE cut of the 24 joint elements, first model -> final model
+            "joint_nmse_cut_mean": (sum(1.0 - after[n] / before[n] for n in joints) / len(joints)
+                                    if joints else None), "data": report.get("data"), "significant": report["significant"],
             "effects": effects, "nmse_mean_before": report["before"]["nmse_mean"],
             "nmse_mean_after": report["after"]["nmse_mean"], "final_xy_error_m": roll,
             "last_round": {"n_significant": last["n_significant"],
