@@ -120,9 +120,11 @@ def _replay_config(config: RobotConfig) -> RobotConfig:
     return config if not config.sensor_noise else dataclasses.replace(config, sensor_noise=False)
 
 
-def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int) -> np.ndarray:
-    """States s_{k+1}..s_{k+n} of the robot started in measurement k and fed u_k..u_{k+n-1}."""
-    obs = [sim.reset(initial=InitialState.from_recording(rec, k))]
+def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
+            effects: Sequence[Any] = ()) -> np.ndarray:
+    """States s_{k+1}..s_{k+n} of the robot started in measurement k and fed u_k..u_{k+n-1}
+    (with the effect plug-ins ``effects`` switched on, reset at the start)."""
+    obs = [sim.reset(initial=InitialState.from_recording(rec, k), effects=effects)]
     for u in rec.cmd[k:k + n]:
         obs.append(sim.step(u))
     arrays = {f: np.array([o[f] for o in obs], dtype=float) for f in OBS_FIELDS}
@@ -131,19 +133,21 @@ def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int) -> np.ndarray
     return states_from_recording(sim_rec)
 
 
-def physics_rollout(rec: MoveRecording, config: RobotConfig) -> np.ndarray:
+def physics_rollout(rec: MoveRecording, config: RobotConfig,
+                    effects: Sequence[Any] = ()) -> np.ndarray:
     """Predicted s_2..s_N (N - 1, 33) of the pybullet robot ``config`` replaying ``rec``.
 
     Aligned with ``prepare_test_move(rec)`` (module doc): starts in the state measured at k = 1,
     replays the recorded u_1..u_{N-1}. Motion-capture noise is off; the rollout is deterministic.
+    ``effects``: plug-ins (``robot.effects``) the physics robot carries, e.g. joint friction.
     """
     if rec.n_steps < 2:
         raise ValueError(f"{rec.name}: a rollout needs at least 2 commands, got {rec.n_steps}")
-    return _replay(_sim_for(_replay_config(config)), rec, 1, rec.n_steps - 1)
+    return _replay(_sim_for(_replay_config(config)), rec, 1, rec.n_steps - 1, effects)
 
 
-def one_step_predictions(rec: MoveRecording, config: RobotConfig,
-                         stride: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 1,
+                         effects: Sequence[Any] = ()) -> tuple[np.ndarray, np.ndarray]:
     """One physics step from each measured state: (Y_true, Y_pred), each (n, 33).
 
     For t = 1, 1 + stride, ... <= N - 1 (the samples of ``features_responses``): the robot is put
@@ -153,7 +157,7 @@ def one_step_predictions(rec: MoveRecording, config: RobotConfig,
     sim = _sim_for(_replay_config(config))
     s = states_from_recording(rec)              # row j = s_{j+1}
     ts = np.arange(1, rec.n_steps, stride)
-    pred = np.stack([_replay(sim, rec, int(t), 1)[0] for t in ts])
+    pred = np.stack([_replay(sim, rec, int(t), 1, effects)[0] for t in ts])
     return s[ts], pred
 
 
@@ -168,12 +172,13 @@ def _init_worker(recs: Sequence[MoveRecording]) -> None:
     _RECS = recs
 
 
-def _rollout_task(config: RobotConfig, i: int) -> np.ndarray:
-    return physics_rollout(_RECS[i], config)
+def _rollout_task(config: RobotConfig, effects: Sequence[Any], i: int) -> np.ndarray:
+    return physics_rollout(_RECS[i], config, effects)
 
 
-def _one_step_task(config: RobotConfig, stride: int, i: int) -> tuple[np.ndarray, np.ndarray]:
-    return one_step_predictions(_RECS[i], config, stride)
+def _one_step_task(config: RobotConfig, effects: Sequence[Any], stride: int,
+                   i: int) -> tuple[np.ndarray, np.ndarray]:
+    return one_step_predictions(_RECS[i], config, stride, effects)
 
 
 class _MovePool:
@@ -205,10 +210,10 @@ class _MovePool:
 
 
 def physics_rollouts(recs: Sequence[MoveRecording], config: RobotConfig,
-                     jobs: int = 2) -> list[np.ndarray]:
+                     jobs: int = 2, effects: Sequence[Any] = ()) -> list[np.ndarray]:
     """``physics_rollout`` of each recording, in order, over ``jobs`` processes."""
     with _MovePool(recs, jobs) as pool:
-        return pool.map(_rollout_task, config)
+        return pool.map(_rollout_task, config, tuple(effects))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -326,7 +331,7 @@ def tune_nominal(train_recs: Sequence[MoveRecording], base: RobotConfig | None =
             if len(cache) >= budget:
                 raise _BudgetExhausted
             t0 = time.perf_counter()
-            pred = pool.map(_rollout_task, config)
+            pred = pool.map(_rollout_task, config, ())
             row = {"eval": len(trail) + 1, "phase": phase,
                    **{p: getattr(config, p) for p in params},
                    **tuning_objective(moves, pred, d_ref, q_ref),
@@ -382,7 +387,7 @@ def tune_nominal(train_recs: Sequence[MoveRecording], base: RobotConfig | None =
 
 def evaluate_baseline(test_recs: Sequence[MoveRecording], config: RobotConfig, *,
                       one_step: bool = True, one_step_stride: int = 1,
-                      jobs: int = 2) -> dict[str, Any]:
+                      jobs: int = 2, effects: Sequence[Any] = ()) -> dict[str, Any]:
     """Score the physics robot ``config`` on TestPool moves like the learned simulator.
 
     Returns ``rollout_metrics`` of the physics rollouts (the contract's ``final_xy_error_m`` etc.)
@@ -393,14 +398,14 @@ def evaluate_baseline(test_recs: Sequence[MoveRecording], config: RobotConfig, *
     t0 = time.perf_counter()
     moves = prepare_test_moves(test_recs)
     with _MovePool(test_recs, jobs) as pool:
-        predicted = pool.map(_rollout_task, config)
+        predicted = pool.map(_rollout_task, config, tuple(effects))
         t_roll = time.perf_counter() - t0
         out = rollout_metrics(moves, predicted)
         out["config"] = config_to_dict(config)
         out["rollout_wall_s"] = round(t_roll, 2)
         if one_step:
             t1 = time.perf_counter()
-            pairs = pool.map(_one_step_task, config, one_step_stride)
+            pairs = pool.map(_one_step_task, config, tuple(effects), one_step_stride)
             Y_true = np.concatenate([a for a, _ in pairs])
             Y_pred = np.concatenate([b for _, b in pairs])
             var = features_responses(list(test_recs))[1].var(axis=0)
