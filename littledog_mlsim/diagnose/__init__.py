@@ -5,7 +5,10 @@
 - :mod:`.selection`: cross-fitted residuals, held-out screening with a grouped significance
   test, forward selection;
 - :mod:`.run`: :func:`diagnose`, the loop end to end (the ``diagnose`` verb);
-- :mod:`.report`: ``report.json`` (schema in its docstring) and ``report.md`` with figures.
+- :mod:`.report`: ``report.json`` (schema in its docstring) and ``report.md`` with figures;
+- :mod:`.physics`: the same loop pointed at the physics baseline (``diagnose_physics``: its
+  residual traced to a missing parameter by re-simulation, calibrated; imported on its own, it
+  needs pybullet: ``benchmarks/physics_diagnosis.py``).
 """
 from .candidates import BASELINES, default_library, measured_robot_features, paper_features
 from .run import diagnose
