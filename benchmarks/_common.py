@@ -37,3 +37,26 @@ def time_calls(fn, inputs, pace_s: float = 0.0):
         if pace_s > 0:
             time.sleep(max(0.0, pace_s - (time.perf_counter_ns() - t0) / 1e9))
     return wall / 1e6, cpu / 1e6
+
+
+def run_record(script: str, argv) -> dict:
+    """The provenance a benchmark's JSON starts with: command line, code and date."""
+    import sys
+    import time
+    return {"command": " ".join([f"benchmarks/{script}", *(argv or sys.argv[1:])]),
+            "git": git_state(), "date": time.strftime("%Y-%m-%d %H:%M")}
+
+
+def command_line(doc: dict) -> str:
+    """The Markdown line naming the command (with the BLAS thread setting it ran under)."""
+    import os
+    return (f"Command: `OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')} "
+            f".venv/bin/python {doc['command']}`")
+
+
+def write_results(out: Path, doc: dict, lines: list) -> None:
+    """Write ``out``.json (``doc``) and ``out``.md (``lines``) and print the Markdown."""
+    import json
+    out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
+    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))

@@ -29,7 +29,7 @@ Method (and why)
    values cannot by itself produce a gain. Per element j the held-out gain is
    ``gain_j = 1 - sum_m SSE1_mj / sum_m SSE0_mj`` (the cut of the element's one-step nMSE); the
    moves are the independent unit: per-move contributions d_mj = M (SSE0_mj - SSE1_mj) / SSE0_j
-   are t-tested across moves (one-sided, M - 1 d.o.f., :func:`.selection._t_test_greater`), per
+   are t-tested across moves (one-sided, M - 1 d.o.f., :func:`.selection.sse_decision`), per
    element and pooled over the 33 elements, Bonferroni-adjusted over the two tests, the 33
    elements and the number of candidates, exactly as the learned diagnosis decides
    (significant: adjusted p < ``alpha``; material: also some element with p < alpha and gain >=
@@ -80,7 +80,7 @@ from ..layout import N_STATE, STATE_NAMES
 from ..robot.config import RobotConfig
 from ..robot.effects import JointFriction
 from ..rollout.simulate import prepare_test_moves
-from .selection import DEFAULT_ALPHA, DEFAULT_MIN_GAIN, _t_test_greater, move_folds
+from .selection import DEFAULT_ALPHA, DEFAULT_MIN_GAIN, move_folds, sse_decision
 
 __all__ = ["PhysicsModel", "Parameter", "PARAMETERS", "diagnose_physics", "shifted_recording",
            "one_step_sse", "screen_parameters", "evaluate_model"]
@@ -134,7 +134,6 @@ class Parameter:
 
     ``values(model)`` gives the screening values (absolute), ``bounds`` the calibration range,
     ``log`` whether the calibration searches log(value), ``integer`` a grid-only parameter.
-    ``off`` is the value meaning "effect absent" (reported as such).
     """
 
     name: str
@@ -217,10 +216,6 @@ def _sse_task(model: PhysicsModel, stride: int, i: int) -> np.ndarray:
     return np.where(np.isfinite(sse), sse, np.inf)
 
 
-def _pairs_task(model: PhysicsModel, stride: int, i: int) -> tuple[np.ndarray, np.ndarray]:
-    return _one_step_model(_bl._RECS[i], model, stride)
-
-
 def _rollout_task(model: PhysicsModel, i: int) -> np.ndarray:
     return _rollout_model(_bl._RECS[i], model)
 
@@ -249,42 +244,35 @@ def _num(v: float) -> float | None:
 
 def _score(S0: np.ndarray, S1: np.ndarray, n_cand: int, alpha: float,
            min_gain: float) -> dict[str, Any]:
-    """Held-out gains, move-grouped t-tests and the decision (as ``selection._score_from_sse``)."""
-    M = S0.shape[0]
-    tot0 = S0.sum(axis=0)
-    tot0 = np.where(tot0 > 0, tot0, 1.0)
-    finite = np.all(np.isfinite(S1))
-    if not finite:
-        gain = np.full(N_STATE, -np.inf)
-        p_el = np.ones(N_STATE)
-        p_pool = 1.0
+    """Held-out gains, move-grouped t-tests and the decision (``selection.sse_decision``); a
+    candidate whose re-simulation diverged on some move gains nothing and is not significant."""
+    if np.all(np.isfinite(S1)):
+        r = sse_decision(S0, S1, n_cand, alpha, min_gain)
+        gain, p_el, gain_sum = r.gain, r.p_element, float(r.gain.sum())
+        p_cand, p_pool, significant, material, outputs = (r.p_value, r.p_pooled, r.significant,
+                                                          r.material, r.outputs)
     else:
-        gain = 1.0 - S1.sum(axis=0) / tot0
-        d = M * (S0 - S1) / tot0
-        p_el = _t_test_greater(d)
-        p_pool = float(_t_test_greater(d.sum(axis=1, keepdims=True))[0])
-    p_cand = min(1.0, n_cand * 2.0 * min(p_pool, N_STATE * float(p_el.min())))
-    significant = p_cand < alpha
-    nominal = p_el < alpha
-    material = bool(significant and np.any(nominal & (gain >= min_gain)))
-    out_mask = nominal & (gain >= 0.5 * min_gain) if significant else np.zeros(N_STATE, bool)
+        gain, p_el, gain_sum = np.full(N_STATE, -np.inf), np.ones(N_STATE), None
+        p_cand, p_pool, significant, material, outputs = 1.0, 1.0, False, False, []
     return {"gain": {n: (float(g) if np.isfinite(g) else None) for n, g in zip(STATE_NAMES, gain)},
             "p": {n: float(v) for n, v in zip(STATE_NAMES, p_el)},
-            "gain_sum": float(gain.sum()) if finite else None,
-            "p_value": p_cand, "p_pooled": p_pool, "significant": bool(significant),
-            "material": material,
-            "outputs": [STATE_NAMES[j] for j in np.flatnonzero(out_mask)]}
+            "gain_sum": gain_sum, "p_value": p_cand, "p_pooled": p_pool,
+            "significant": significant, "material": material, "outputs": outputs}
 
 
 def screen_parameters(pool: Any, model: PhysicsModel, params: Sequence[str], S0: np.ndarray,
                       folds: np.ndarray, stride: int, *, alpha: float = DEFAULT_ALPHA,
                       min_gain: float = DEFAULT_MIN_GAIN,
-                      progress: Callable[[str], None] | None = None
+                      progress: Callable[[str], None] | None = None,
+                      sse: Callable[[PhysicsModel], np.ndarray] | None = None
                       ) -> tuple[list[dict[str, Any]], dict[tuple[str, float], np.ndarray]]:
     """Score each parameter of ``params`` by the held-out one-step SSE cut (module doc, 3).
 
+    ``sse(model)``: per-move one-step SSE of a robot (default :func:`one_step_sse` on ``pool``;
+    the loop passes a memoised one, so a robot is never simulated twice).
     Returns (one row per parameter, {(param, value): per-move SSE (M, 33)}).
     """
+    sse = sse or (lambda m: one_step_sse(pool, m, stride))
     rows, cache = [], {}
     for name in params:
         par = PARAMETERS[name]
@@ -292,26 +280,26 @@ def screen_parameters(pool: Any, model: PhysicsModel, params: Sequence[str], S0:
         values = [v for v in par.values(model) if current is None or abs(v - current) > 1e-9]
         if not values:
             continue
-        sse = {}
+        by_value = {}
         for v in values:
             t0 = time.perf_counter()
-            sse[v] = cache[(name, v)] = one_step_sse(pool, par.set(model, v), stride)
+            by_value[v] = cache[(name, v)] = sse(par.set(model, v))
             if progress is not None:
                 progress(f"  {name}={v:g}: summed SSE cut on TrainPool "
-                         f"{_relative_cut(S0, sse[v], np.arange(len(S0))):+.3f} "
+                         f"{_relative_cut(S0, by_value[v], np.arange(len(S0))):+.3f} "
                          f"({time.perf_counter() - t0:.1f} s)")
         S1 = np.empty_like(S0)
         chosen = []
         for f in np.unique(folds):
             fit, held = folds != f, folds == f
-            best = max(values, key=lambda v: _relative_cut(S0, sse[v], fit))
-            S1[held] = sse[best][held]
+            best = max(values, key=lambda v: _relative_cut(S0, by_value[v], fit))
+            S1[held] = by_value[best][held]
             chosen.append(best)
         row = {"param": name, "family": par.family, "unit": par.unit, "current": current,
                "values": values, "fold_choices": chosen,
-               "estimate": max(values, key=lambda v: _relative_cut(S0, sse[v],
+               "estimate": max(values, key=lambda v: _relative_cut(S0, by_value[v],
                                                                    np.arange(len(S0)))),
-               "train_cut": {str(v): _num(_relative_cut(S0, sse[v], np.arange(len(S0))))
+               "train_cut": {str(v): _num(_relative_cut(S0, by_value[v], np.arange(len(S0))))
                              for v in values}}
         row.update(_score(S0, S1, len(params), alpha, min_gain))
         rows.append(row)
@@ -322,8 +310,8 @@ def screen_parameters(pool: Any, model: PhysicsModel, params: Sequence[str], S0:
 # calibration
 
 
-def _calibrate(pool: Any, model: PhysicsModel, name: str, S0: np.ndarray,
-               grid: Mapping[float, np.ndarray], stride: int, max_evals: int,
+def _calibrate(sse: Callable[[PhysicsModel], np.ndarray], model: PhysicsModel, name: str,
+               S0: np.ndarray, grid: Mapping[float, np.ndarray], max_evals: int,
                progress: Callable[[str], None] | None) -> tuple[PhysicsModel, dict[str, Any]]:
     """Set ``name`` to its TrainPool one-step optimum (module doc, 4)."""
     from scipy.optimize import minimize_scalar
@@ -349,7 +337,7 @@ def _calibrate(pool: Any, model: PhysicsModel, name: str, S0: np.ndarray,
         def cost(x: float) -> float:
             v = float(round(min(max(from_x(x), lo), hi), 6))
             t0 = time.perf_counter()
-            cut = _relative_cut(S0, one_step_sse(pool, par.set(model, v), stride), allrows)
+            cut = _relative_cut(S0, sse(par.set(model, v)), allrows)
             trail.append({"value": v, "train_cut": _num(cut)})
             if progress is not None:
                 progress(f"  calibrate {name}={v:.4g}: summed SSE cut {cut:+.4f} "
@@ -461,6 +449,13 @@ def diagnose_physics(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     train_moves = prepare_test_moves(train_recs)
     d_ref, q_ref = _bl._references(train_recs)
     with _bl._MovePool(train_recs, jobs) as pool:
+        memo: dict[PhysicsModel, np.ndarray] = {}   # a robot rejected in a round is not re-run
+
+        def sse(m: PhysicsModel) -> np.ndarray:
+            if m not in memo:
+                memo[m] = one_step_sse(pool, m, stride)
+            return memo[m]
+
         J = _train_objective(pool, train_moves, model, d_ref, q_ref)
         say(f"TrainPool rollout objective J of the starting robot: {J['objective']:.4f}")
         for r in range(1, max_rounds + 1):
@@ -469,11 +464,12 @@ def diagnose_physics(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
                 break
             t_round = time.perf_counter()
             say(f"round {r}: residual of the current robot on TrainPool (stride {stride})")
-            S0 = one_step_sse(pool, model, stride)
+            S0 = sse(model)
             if not np.all(np.isfinite(S0)):
                 raise ValueError("the starting physics robot's one-step prediction is not finite")
             screen, cache = screen_parameters(pool, model, active, S0, folds, stride,
-                                              alpha=alpha, min_gain=min_gain, progress=say)
+                                              alpha=alpha, min_gain=min_gain, progress=say,
+                                              sse=sse)
             material = [row for row in screen if row["material"]]
             entry: dict[str, Any] = {"round": r, "model": model.to_dict(), "screen": screen,
                                      "residual_sse_train": {n: float(v) for n, v in
@@ -494,8 +490,7 @@ def diagnose_physics(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
             current = PARAMETERS[name].get(model)
             if current is not None:
                 grid[current] = S0
-            candidate, calib = _calibrate(pool, model, name, S0, grid, stride, calibration_evals,
-                                          say)
+            candidate, calib = _calibrate(sse, model, name, S0, grid, calibration_evals, say)
             J_new = _train_objective(pool, train_moves, candidate, d_ref, q_ref)
             accepted = bool(np.isfinite(J_new["objective"])
                             and J_new["objective"] <= J["objective"] + 1e-12)

@@ -261,9 +261,24 @@ def _t_test_greater(d: np.ndarray) -> np.ndarray:
     return stats.t.sf(t, df=M - 1)
 
 
-def _score_from_sse(aug: Augmentation, S0: np.ndarray, S1: np.ndarray, n_library: int,
-                    alpha: float, min_gain: float) -> CandidateScore:
-    """Gains, tests and the decision for one candidate from per-move held-out SSEs (M, 33)."""
+@dataclass
+class SSEDecision:
+    """What held-out per-move SSEs say about one candidate (module doc, 3-4)."""
+
+    gain: np.ndarray          # (33,) held-out nMSE cut per element
+    d: np.ndarray             # (M, 33) per-move contributions (mean over moves = gain)
+    p_element: np.ndarray     # (33,) one-sided t-test p per element (unadjusted)
+    p_pooled: float           # unadjusted p of the pooled (all-element) test
+    p_value: float            # Bonferroni over the two tests, the elements and n_candidates
+    significant: bool
+    material: bool
+    outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2
+
+
+def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
+                 min_gain: float) -> SSEDecision:
+    """Gains, move-grouped tests and the decision from per-move held-out SSEs (M, 33) without
+    (S0) and with (S1) a candidate; shared by the learned and the physics diagnosis."""
     M = S0.shape[0]
     tot0 = S0.sum(axis=0)
     tot0 = np.where(tot0 > 0, tot0, 1.0)
@@ -271,16 +286,23 @@ def _score_from_sse(aug: Augmentation, S0: np.ndarray, S1: np.ndarray, n_library
     d = M * (S0 - S1) / tot0                       # (M, 33); mean over moves = gain
     p_el = _t_test_greater(d)                      # per element
     p_pool = float(_t_test_greater(d.sum(axis=1, keepdims=True))[0])  # all elements pooled
-    # Bonferroni: two tests (pooled, best element of 33) per candidate, n_library candidates
-    p_cand = min(1.0, n_library * 2.0 * min(p_pool, N_STATE * float(p_el.min())))
+    # Bonferroni: two tests (pooled, best element of 33) per candidate, n_candidates candidates
+    p_cand = min(1.0, n_candidates * 2.0 * min(p_pool, N_STATE * float(p_el.min())))
     significant = p_cand < alpha
     nominal = p_el < alpha
     material = bool(significant and np.any(nominal & (gain >= min_gain)))
     out_mask = nominal & (gain >= 0.5 * min_gain) if significant else np.zeros(N_STATE, bool)
-    outputs = [STATE_NAMES[j] for j in np.flatnonzero(out_mask)]
-    p_adj = np.minimum(1.0, p_el * n_library * 2.0 * N_STATE)
-    return CandidateScore(aug, gain, p_el, p_adj, (d > 0).sum(axis=0), significant, material,
-                          outputs, float(gain.sum()), p_cand, p_pool)
+    return SSEDecision(gain, d, p_el, p_pool, p_cand, bool(significant), material,
+                       [STATE_NAMES[j] for j in np.flatnonzero(out_mask)])
+
+
+def _score_from_sse(aug: Augmentation, S0: np.ndarray, S1: np.ndarray, n_library: int,
+                    alpha: float, min_gain: float) -> CandidateScore:
+    """Gains, tests and the decision for one candidate from per-move held-out SSEs (M, 33)."""
+    r = sse_decision(S0, S1, n_library, alpha, min_gain)
+    p_adj = np.minimum(1.0, r.p_element * n_library * 2.0 * N_STATE)
+    return CandidateScore(aug, r.gain, r.p_element, p_adj, (r.d > 0).sum(axis=0), r.significant,
+                          r.material, r.outputs, float(r.gain.sum()), r.p_value, r.p_pooled)
 
 
 def candidate_columns(recs: Sequence[MoveRecording], library: Sequence[Augmentation]
