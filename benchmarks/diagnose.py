@@ -87,7 +87,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--baseline", default="measured", choices=["measured", "paper"])
     p.add_argument("--projections", default="alpha,none")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--gp-points", type=int, default=None,
+                   help="search model's GP subset (default SearchModel's; the CI tests use 300)")
+    p.add_argument("--gp-max-iter", type=int, default=None,
+                   help="search model's GP optimiser iterations (the CI tests use 40)")
     a = p.parse_args(argv)
+    search_opts = {k: v for k, v in (("n_gp_points", a.gp_points),
+                                     ("gp_max_iter", a.gp_max_iter)) if v is not None}
     options = {k: json.loads(v) for k, v in (o.split("=", 1) for o in a.option)} or None
     a.out.mkdir(parents=True, exist_ok=True)
     summary_path = a.out / "summary.json"
@@ -97,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         report = diagnose(d, a.out / name, baseline=a.baseline, method=a.method, options=options,
                           projections=[x for x in a.projections.split(",") if x],
-                          search=SearchModel(seed=a.seed), seed=a.seed, progress=True)
+                          search=SearchModel(seed=a.seed, **search_opts), seed=a.seed, progress=True)
         row = summarise(name, report)
         row["wall_s"] = time.perf_counter() - t0
         rows = [r for r in rows if r["name"] != name] + [row]
