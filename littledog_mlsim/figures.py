@@ -1,17 +1,25 @@
 """The paper's rollout figures on our data (issue 4): Figs 5-7 and the side-by-side animation.
 
-``rollout_figures(data, out, models_dir)`` rolls the best available learned model (LGPR, else the
-next in ``PREFERENCE``) out over every TestPool move with each projection (none, BOUND, alpha in
+``rollout_figures(data, out, models_dir)`` rolls every learned model found in ``models_dir``
+(``PREFERENCE`` order) out over every TestPool move with each projection (none, BOUND, alpha in
 {0.25, 0.5, 0.75, 1}) and, when a tuned physics baseline is available, replays the same commands
 on the ``nominal`` pybullet robot, then writes:
 
 - ``fig5.png`` / ``fig6.png``: cumulative (x, y) error vs time for a forward (F) and a
-  backward-left (BL) TestPool move, one curve per projection plus the physics baseline;
+  backward-left (BL) TestPool move, one curve per projection plus the physics baseline, for the
+  primary model (the first of ``PREFERENCE`` found: LGPR when trained);
 - ``fig5_6_mean.png``: the same curves averaged over all TestPool moves, with a p10-p90 band;
 - ``fig7.png``: element-wise non-cumulative error sums (mean over TestPool moves) for none,
   BOUND and alpha = 0.5 (and the physics baseline);
-- ``rollouts.json``: per projection the contract's rollout summary (final (x, y) error mean,
-  median, p90, nMSE at horizons, NaN moves) and the rollout speed;
+- ``fig5_6_mean_by_method.png``: the mean curves for every model, one panel each;
+- ``fig_projection_by_method.png``: mean final (x, y) error per model and projection, the
+  physics baseline as a line;
+- ``rollouts.md``: that table, with alpha = 0.5 against none and BOUND, and how far the fed-back
+  states drift from the TrainPool (median normalised distance to the nearest TrainPool state at
+  the last step: whether a model leaves the feasible data region, the paper's premise);
+- ``rollouts.json``: for the primary model per projection the contract's rollout summary (final
+  (x, y) error mean, median, p90, nMSE at horizons, NaN moves) and the rollout speed, and the
+  same for every model under ``by_method``;
 - ``animation.gif``: one move, measured vs learned vs physics, rendered by pybullet.
 """
 from __future__ import annotations
@@ -65,39 +73,39 @@ def _plot_curves(ax, t: np.ndarray, curves: dict[str, np.ndarray], band: bool) -
     ax.legend(fontsize=8)
 
 
-def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir: str | os.PathLike,
-                    physics_config: Any | None = None, animate: bool = True,
-                    progress: bool = True) -> dict[str, Any]:
-    """Figs 5-7, rollouts.json and the animation for the best model found in ``models_dir``."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+SUMMARY_KEYS = ("final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m_p90",
+                "nmse_at_horizon", "n_nan_moves")
+DRIFT_STEPS = (100, 399)
 
-    from .data.dataset import load_moves
-    from .evaluate import write_json
-    from .models.onestep import OneStepModel
+
+def drift(nn, predicted, steps: tuple[int, ...] = DRIFT_STEPS) -> dict[str, float | None]:
+    """Median over the moves of the normalised distance of the fed-back state ``k`` steps after
+    s_1 to its nearest TrainPool state (``nn``: an alpha projection on the TrainPool); None when a
+    move is no longer finite there. Applied to the measured TestPool states it gives the distance
+    real held-out states keep (``drift_measured`` in rollouts.json)."""
+    out: dict[str, float | None] = {}
+    for k in steps:
+        s = np.array([p[min(k, p.shape[0]) - 1] for p in predicted])
+        ok = np.isfinite(s).all(axis=1)
+        out[f"step{k}"] = float(np.median(nn.distance(s))) if ok.all() else None
+    return out
+
+
+def roll_projections(model, moves, nn=None, say=lambda text: None):
+    """Roll ``model`` out over ``moves`` with every projection of ``PROJECTIONS``.
+
+    Returns ``(summary, curves, sums, preds)``, each keyed by the projection's label: the rollout
+    summary (``SUMMARY_KEYS``, wall time, real-time factor, drift from the TrainPool when ``nn``
+    is given), the (n_moves, T) cumulative (x, y) errors, the (n_moves, 33) element-wise error
+    sums and the predicted states."""
     from .rollout.metrics import rollout_metrics
-    from .rollout.simulate import prepare_test_moves, rollout_moves
+    from .rollout.simulate import rollout_moves
 
-    def say(text: str) -> None:
-        if progress:
-            print(f"figures: {text}", file=sys.stderr, flush=True)
-
-    out, models_dir = Path(out), Path(models_dir)
-    method = next((m for m in PREFERENCE if (models_dir / m).is_dir()), None)
-    if method is None:
-        raise ValueError(f"no trained model under {models_dir}")
-    model = OneStepModel.load(models_dir / method)
-    recs = load_moves(data, "test")
-    moves = prepare_test_moves(recs)
-    T = min(m.n_steps for m in moves)
-    moves = [m for m in moves if m.n_steps == T]
-    recs = [r for r in recs if r.n_steps - 1 == T]
-    t = np.arange(1, T + 1) * CONTROL_DT
+    summary: dict[str, Any] = {}
     curves: dict[str, np.ndarray] = {}
     sums: dict[str, np.ndarray] = {}
     preds: dict[str, list[np.ndarray]] = {}
-    summary: dict[str, Any] = {"method": method, "n_moves": len(moves), "projections": {}}
+    n_steps = sum(m.n_steps for m in moves)
     for kind, alpha in PROJECTIONS:
         label = _label(kind, alpha)
         proj = model.projection(kind, alpha=alpha)
@@ -105,23 +113,76 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
         pred = rollout_moves(model, moves, proj)
         wall = time.perf_counter() - t0
         res = rollout_metrics(moves, pred, projection=proj)
-        summary["projections"][label] = {
-            k: res.get(k) for k in ("final_xy_error_m", "final_xy_error_m_median",
-                                    "final_xy_error_m_p90", "nmse_at_horizon", "n_nan_moves")}
-        summary["projections"][label].update(rollout_wall_s=wall,
-                                             realtime_factor=len(moves) * T * CONTROL_DT / wall)
-        curves[label], sums[label], preds[label] = xy_error_curves(moves, pred), element_sums(moves, pred), pred
-        say(f"{label}: final (x,y) error {res.get('final_xy_error_m')} m, {wall:.1f} s")
+        summary[label] = {k: res.get(k) for k in SUMMARY_KEYS}
+        summary[label].update(rollout_wall_s=wall, realtime_factor=n_steps * CONTROL_DT / wall)
+        if nn is not None:
+            summary[label]["drift_nn_distance_median"] = drift(nn, pred)
+        curves[label], sums[label], preds[label] = (xy_error_curves(moves, pred),
+                                                    element_sums(moves, pred), pred)
+        say(f"{model.method} {label}: final (x,y) error {res.get('final_xy_error_m')} m, "
+            f"{wall:.1f} s")
+    return summary, curves, sums, preds
+
+
+def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir: str | os.PathLike,
+                    physics_config: Any | None = None, animate: bool = True,
+                    progress: bool = True) -> dict[str, Any]:
+    """Figs 5-7, the by-model comparison, rollouts.json/md and the animation for the models
+    found in ``models_dir``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .data.dataset import load_moves
+    from .evaluate import write_json
+    from .fileio import atomic_write_text
+    from .models.onestep import OneStepModel
+    from .rollout.metrics import rollout_metrics
+    from .rollout.projection import make_projection
+    from .rollout.simulate import prepare_test_moves
+
+    def say(text: str) -> None:
+        if progress:
+            print(f"figures: {text}", file=sys.stderr, flush=True)
+
+    out, models_dir = Path(out), Path(models_dir)
+    methods = [m for m in PREFERENCE if (models_dir / m).is_dir()]
+    if not methods:
+        raise ValueError(f"no trained model under {models_dir}")
+    method = methods[0]
+    recs = load_moves(data, "test")
+    moves = prepare_test_moves(recs)
+    T = min(m.n_steps for m in moves)
+    moves = [m for m in moves if m.n_steps == T]
+    recs = [r for r in recs if r.n_steps - 1 == T]
+    t = np.arange(1, T + 1) * CONTROL_DT
+    by_method: dict[str, dict[str, Any]] = {}
+    mean_curves: dict[str, dict[str, np.ndarray]] = {}
+    nn, nn_states = None, None
+    for m in methods:
+        model = OneStepModel.load(models_dir / m)
+        if nn is None or not np.array_equal(model.train_states, nn_states):
+            nn_states = model.train_states
+            nn = make_projection("alpha", nn_states)
+        summ, cur, sm, pr = roll_projections(model, moves, nn, say)
+        by_method[m] = summ
+        mean_curves[m] = cur
+        if m == method:
+            curves, sums, preds = dict(cur), dict(sm), dict(pr)
+    summary: dict[str, Any] = {"method": method, "n_moves": len(moves),
+                               "projections": dict(by_method[method]), "by_method": by_method,
+                               "drift_measured": drift(nn, [m.states for m in moves])}
     if physics_config is not None:
         from .baseline import physics_rollouts
         t0 = time.perf_counter()
         pred = physics_rollouts(recs, physics_config, jobs=2)
         res = rollout_metrics(moves, pred)
-        summary["projections"][PHYSICS] = {
-            k: res.get(k) for k in ("final_xy_error_m", "final_xy_error_m_median",
-                                    "final_xy_error_m_p90", "nmse_at_horizon", "n_nan_moves")}
-        summary["projections"][PHYSICS]["rollout_wall_s"] = time.perf_counter() - t0
-        curves[PHYSICS], sums[PHYSICS], preds[PHYSICS] = xy_error_curves(moves, pred), element_sums(moves, pred), pred
+        phys = {k: res.get(k) for k in SUMMARY_KEYS}
+        phys["rollout_wall_s"] = time.perf_counter() - t0
+        phys["drift_nn_distance_median"] = drift(nn, pred)
+        summary["projections"][PHYSICS] = phys
+        curves[PHYSICS], sums[PHYSICS], preds[PHYSICS] = (xy_error_curves(moves, pred),
+                                                          element_sums(moves, pred), pred)
         say(f"physics: final (x,y) error {res.get('final_xy_error_m')} m")
 
     figs = {"fig5.png": "F", "fig6.png": "BL"}
@@ -158,6 +219,12 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
     fig.tight_layout()
     fig.savefig(out / "fig7.png", dpi=120)
     plt.close(fig)
+
+    phys_curve = curves.get(PHYSICS)
+    _plot_by_method(plt, t, mean_curves, phys_curve, len(moves), out / "fig5_6_mean_by_method.png")
+    _plot_final_by_method(plt, by_method, summary["projections"].get(PHYSICS),
+                          out / "fig_projection_by_method.png")
+    atomic_write_text(out / "rollouts.md", rollouts_report(summary))
     summary["figure_moves"] = picked
     summary["element_error_sum_mean"] = {k: dict(zip(STATE_NAMES, np.nanmean(v, axis=0).tolist()))
                                          for k, v in sums.items()}
@@ -173,3 +240,88 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
         summary["animation_s"] = time.perf_counter() - t0
     write_json(out / "rollouts.json", summary)
     return summary
+
+
+def _plot_by_method(plt, t, mean_curves, phys_curve, n_moves, path: Path) -> None:
+    n = len(mean_curves)
+    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.6), sharey=True, squeeze=False)
+    for ax, (m, cur) in zip(axes[0], mean_curves.items()):
+        show = dict(cur)
+        if phys_curve is not None:
+            show[PHYSICS] = phys_curve
+        _plot_curves(ax, t, {k: np.nanmean(v, axis=0) for k, v in show.items()}, band=False)
+        ax.set_yscale("log")
+        ax.set_title(m.upper())
+        if ax is not axes[0][0]:
+            ax.set_ylabel("")
+            ax.get_legend().remove()
+    fig.suptitle(f"Mean cumulative (x, y) error over {n_moves} TestPool moves, every model")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_final_by_method(plt, by_method, phys, path: Path) -> None:
+    methods = list(by_method)
+    labels = list(next(iter(by_method.values())))
+    width = 0.8 / len(labels)
+    x = np.arange(len(methods))
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for i, lab in enumerate(labels):
+        v = [by_method[m][lab]["final_xy_error_m"] for m in methods]
+        ax.bar(x + (i - (len(labels) - 1) / 2) * width,
+               [np.nan if e is None else e for e in v], width, label=lab)
+    if phys is not None and phys.get("final_xy_error_m") is not None:
+        ax.axhline(phys["final_xy_error_m"], color="k", ls="--", lw=1, label=PHYSICS)
+    ax.set_yscale("log")
+    ax.set_xticks(x, [m.upper() for m in methods])
+    ax.set_ylabel("mean final (4 s) (x, y) error [m]")
+    ax.set_title("Projections per learned model (TestPool mean)")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _m(v: float | None, nd: int = 4) -> str:
+    return "NaN" if v is None else f"{v:.{nd}f}"
+
+
+def rollouts_report(summary: dict[str, Any]) -> str:
+    """Markdown: every model x projection, mean final (x, y) error; alpha 0.5 against none and
+    BOUND; drift of the fed-back state from the TrainPool; the physics baseline."""
+    by_method = summary["by_method"]
+    labels = list(next(iter(by_method.values())))
+    phys = summary["projections"].get(PHYSICS)
+    a5 = "alpha-PROJ 0.5"
+    lines = [f"# Rollouts per learned model ({summary['n_moves']} TestPool moves)", "",
+             "Mean final (4 s) cumulative (x, y) error [m] over the TestPool moves. `a0.5 / none`: "
+             "alpha-PROJ 0.5 over no projection (target: at most 0.5); `a0.5 <= BOUND`: whether "
+             "alpha-PROJ 0.5 is at least as good as BOUND. `drift`: median over the moves of the "
+             "normalised distance of the last fed-back state to its nearest TrainPool state; "
+             "the measured TestPool states' own is "
+             f"{_m(summary['drift_measured'][f'step{DRIFT_STEPS[-1]}'], 2)}. A model whose "
+             "unprojected rollout drifts far beyond that leaves the feasible data region, which "
+             "is what alpha-PROJ is for.", "",
+             "| model | " + " | ".join(labels) + " | a0.5 / none | a0.5 <= BOUND | "
+             "drift none | drift a0.5 |",
+             "|---|" + "---|" * (len(labels) + 4)]
+    for m, summ in by_method.items():
+        e = {lab: summ[lab]["final_xy_error_m"] for lab in labels}
+        ratio = (e[a5] / e["none"] if None not in (e[a5], e["none"]) and e["none"] > 0 else None)
+        better = ("" if None in (e[a5], e["BOUND"]) else "yes" if e[a5] <= e["BOUND"] else "no")
+        dn = summ["none"].get("drift_nn_distance_median", {}).get(f"step{DRIFT_STEPS[-1]}")
+        da = summ[a5].get("drift_nn_distance_median", {}).get(f"step{DRIFT_STEPS[-1]}")
+        lines.append(f"| {m.upper()} | " + " | ".join(_m(e[lab]) for lab in labels)
+                     + f" | {_m(ratio, 2)} | {better} | {_m(dn, 2)} | {_m(da, 2)} |")
+    if phys is not None:
+        dp = phys.get("drift_nn_distance_median", {}).get(f"step{DRIFT_STEPS[-1]}")
+        lines += ["", f"Physics baseline (nominal pybullet, tuned on TrainPool): "
+                  f"{_m(phys['final_xy_error_m'])} m (drift {_m(dp, 2)}).", ""]
+        best = min(((summ[lab]["final_xy_error_m"], m, lab) for m, summ in by_method.items()
+                    for lab in labels if summ[lab]["final_xy_error_m"] is not None), default=None)
+        if best is not None:
+            lines.append(f"Best learned rollout: {best[1].upper()} with {best[2]}, "
+                         f"{_m(best[0])} m ({best[0] / phys['final_xy_error_m']:.2f} x physics).")
+    return "\n".join(lines) + "\n"

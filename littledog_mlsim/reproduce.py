@@ -121,6 +121,16 @@ def _pin_blas() -> None:
     threadpool_limits(1)
 
 
+def _stop_loky_workers() -> None:
+    """Shut down joblib's reusable loky workers (LGPR's parallel cluster fits) in this process.
+
+    A worker of our ProcessPoolExecutor joins its non-daemonic children before it exits, and
+    idle loky workers only leave after their 300 s timeout: without this, every process that
+    fitted an LGPR kept the pipeline waiting 5 minutes."""
+    from joblib.externals.loky import get_reusable_executor
+    get_reusable_executor().shutdown(wait=True)
+
+
 # ---------------------------------------------------------------------------------------------
 # workers (module level: they run in fresh processes)
 
@@ -155,6 +165,7 @@ def fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int
     if model_out:
         model.save(model_out)
     per = nmse(Yt, pred)
+    _stop_loky_workers()
     return {"method": method, "n_train": int(rows.size), "fit_s": fit_s,
             "hyperparameter_pilot_s": hyper_s,
             "predict_us_per_sample": 1e6 * predict_s / Xt.shape[0],

@@ -73,7 +73,24 @@ def test_reproduce_small_writes_table1_and_figures(data: Path, tmp_path: Path):
     for r in rows:
         assert 0 <= float(r["nmse_mean"]) < 2 and float(r["fit_s"]) >= 0 and float(r["peak_rss_mb"]) > 0
     for name in ("table1.md", "fig4.png", "fig5.png", "fig6.png", "fig5_6_mean.png", "fig7.png",
+                 "fig5_6_mean_by_method.png", "fig_projection_by_method.png", "rollouts.md",
                  "rollouts.json"):
         assert (out / name).stat().st_size > 0, name
     summary = json.loads((out / "rollouts.json").read_text())
+    assert summary["method"] == "lgpr"
     assert summary["projections"]["none"]["n_nan_moves"] == 0
+    # every trained model is rolled out with every projection, with its drift from the TrainPool
+    labels = ["none", "BOUND", "alpha-PROJ 0.25", "alpha-PROJ 0.5", "alpha-PROJ 0.75",
+              "alpha-PROJ 1"]
+    assert list(summary["by_method"]) == ["lgpr", "sor", "gpr", "lwpr", "lr"]
+    for method, rollouts in summary["by_method"].items():
+        assert list(rollouts) == labels, method
+        for label, r in rollouts.items():
+            assert r["final_xy_error_m"] >= 0 and r["n_nan_moves"] == 0, (method, label)
+            d = r["drift_nn_distance_median"]["step399"]
+            assert d >= 0, (method, label)
+        # alpha-PROJ 1 replaces each state by a TrainPool state: no distance left
+        assert rollouts["alpha-PROJ 1"]["drift_nn_distance_median"]["step399"] == 0.0
+    assert summary["by_method"]["lgpr"] == summary["projections"]
+    report = (out / "rollouts.md").read_text()
+    assert all(f"| {m.upper()} |" in report for m in summary["by_method"])
