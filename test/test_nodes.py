@@ -681,6 +681,37 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
         assert proc.stop() == 0
 
 
+def test_sim_node_gated_alpha_proj_equals_the_core(ros, work, model_path, test_move):
+    """`radius` gates alpha-PROJ in the node exactly as in the core rollout."""
+    model = OneStepModel.load(model_path)
+    gated = model.projection("alpha", 0.5, radius=1.0)
+    ref = rollout(model, test_move.s0, test_move.actions[:20], gated)
+    assert not np.allclose(ref, rollout(model, test_move.s0, test_move.actions[:20],
+                                        model.projection("alpha", 0.5)))   # the gate matters
+    proc = Proc("sim_node", {"model_path": model_path, "step_mode": "lockstep", "radius": 1.0,
+                             "initial_state": [float(x) for x in test_move.s0]}, work)
+    probe = Probe(ros)
+    try:
+        probe.connect(proc)
+        for k, u in enumerate(test_move.actions[:20]):
+            probe.send(u)
+            t = (k + 1) * CONTROL_DT_NS
+            probe.wait(lambda t=t: t in probe.state, what=f"state {k + 1}")
+        got = np.array([probe.state[(k + 1) * CONTROL_DT_NS] for k in range(20)])
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
+    finally:
+        probe.close()
+        assert proc.stop() == 0
+
+
+@pytest.mark.parametrize("params", [{"radius": -1.0}, {"radius": 1.0, "projection": "bound"}])
+def test_sim_node_refuses_bad_radius(work, model_path, params):
+    rc, err = run("sim_node", {"model_path": model_path, **params}, work, timeout=60)
+    assert rc != 0
+    line = _one_fatal_line(err)
+    assert "FATAL" in line and "radius" in line
+
+
 def test_trainer_corrupt_bag_leaves_model_untouched(work, dataset, model_path):
     data = work / "corrupt_data"
     shutil.rmtree(data, ignore_errors=True)

@@ -190,12 +190,15 @@ class OneStepModel:
 
     # -- projection data
 
-    def projection(self, kind: str = "alpha", alpha: float = 0.5, nn_method: str = "auto"):
-        """The rollout projection ``kind`` (none/bound/alpha) built from the TrainPool states."""
+    def projection(self, kind: str = "alpha", alpha: float = 0.5, nn_method: str = "auto",
+                   radius: float = 0.0):
+        """The rollout projection ``kind`` (none/bound/alpha) built from the TrainPool states;
+        ``radius`` > 0 gates alpha-PROJ (``rollout.projection.make_projection``)."""
         from ..rollout.projection import make_projection
         if kind != "none" and self.train_states is None:
             raise ValueError("this model holds no TrainPool states for a projection")
-        return make_projection(kind, self.train_states, alpha=alpha, nn_method=nn_method)
+        return make_projection(kind, self.train_states, alpha=alpha, nn_method=nn_method,
+                               radius=radius)
 
     # -- files
 

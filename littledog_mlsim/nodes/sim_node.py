@@ -46,6 +46,10 @@ class SimNode(SimulatorNode):
               "none | bound | alpha"),
         Param("alpha", 0.5, "alpha of alpha-PROJ: s := (1 - alpha) s + alpha q, q the nearest "
               "TrainPool state", "0 <= alpha <= 1"),
+        Param("radius", 0.0, "gated alpha-PROJ: leave a predicted state within this normalised "
+              "distance of its nearest TrainPool state alone and pull only the excess (0: plain "
+              "alpha-PROJ; `littledog-mlsim rollout --radius-quantile 0.9` prints the radius of a "
+              "quantile of the TrainPool's own distances)", ">= 0, finite; projection alpha only"),
         Param("nn_method", "auto", "alpha-PROJ nearest-neighbour search (rollout.projection."
               "NearestNeighbour; exact either way)", "auto | pca | brute | kdtree"),
         Param("initial_state", Parameter.Type.DOUBLE_ARRAY, "initial state s_0, 33 values in "
@@ -88,9 +92,12 @@ class SimNode(SimulatorNode):
         if kind not in PROJECTIONS:
             raise StartupError(f"parameter projection must be one of {', '.join(PROJECTIONS)}, "
                                f"got {kind!r}")
+        radius = float(self.param("radius"))
+        if not 0.0 <= radius < float("inf"):
+            raise StartupError(f"parameter radius must be finite and >= 0, got {radius}")
         try:
             projection = model.projection(kind, alpha=self.param("alpha"),
-                                          nn_method=self.param("nn_method"))
+                                          nn_method=self.param("nn_method"), radius=radius)
         except ValueError as e:
             raise StartupError(f"projection {kind}: {e}") from None
         s0 = self.param("initial_state")
