@@ -40,6 +40,7 @@ sys.path.insert(0, str(ROOT))
 from _common import git_state  # noqa: E402  (benchmarks/ is the script directory)
 from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
 from littledog_mlsim.evaluate import projection_label  # noqa: E402
+from littledog_mlsim.figures import drift  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.rollout.projection import (  # noqa: E402
     leave_move_out_distances, make_projection,
@@ -68,11 +69,8 @@ def run(model: OneStepModel, moves, kind: str, alpha: float, radius: float, nn) 
         "final_xy_error_m_finite", "n_nan_moves")}
     out.update(rollout_wall_s=wall, realtime_factor=sum(m.n_steps for m in moves) * 0.01 / wall)
     out["per_move_final_xy_error_m"] = [p["final_xy_error_m"] for p in full["per_move"]]
-    for k in (100, 399):
-        s = np.array([p[min(k, p.shape[0]) - 1] for p in pred])
-        ok = np.isfinite(s).all(axis=1)
-        out[f"nn_dist_step{k}_median"] = (float(np.median(nn.distance(s[ok])))
-                                          if ok.all() else None)
+    for k, d in drift(nn, pred, (100, 399)).items():
+        out[f"nn_dist_{k}_median"] = d
     return out
 
 
