@@ -266,7 +266,7 @@ def _plot_final_by_method(plt, by_method, phys, path: Path) -> None:
     labels = list(next(iter(by_method.values())))
     width = 0.8 / len(labels)
     x = np.arange(len(methods))
-    fig, ax = plt.subplots(figsize=(8, 4))
+    fig, ax = plt.subplots(figsize=(9.5, 4))
     for i, lab in enumerate(labels):
         v = [by_method[m][lab]["final_xy_error_m"] for m in methods]
         ax.bar(x + (i - (len(labels) - 1) / 2) * width,
@@ -277,7 +277,7 @@ def _plot_final_by_method(plt, by_method, phys, path: Path) -> None:
     ax.set_xticks(x, [m.upper() for m in methods])
     ax.set_ylabel("mean final (4 s) (x, y) error [m]")
     ax.set_title("Projections per learned model (TestPool mean)")
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(True, axis="y", alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
