@@ -41,17 +41,20 @@ def time_calls(fn, inputs, pace_s: float = 0.0):
 
 def run_record(script: str, argv) -> dict:
     """The provenance a benchmark's JSON starts with: command line, code and date."""
+    import os
     import sys
     import time
     return {"command": " ".join([f"benchmarks/{script}", *(argv or sys.argv[1:])]),
+            "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
             "git": git_state(), "date": time.strftime("%Y-%m-%d %H:%M")}
 
 
 def command_line(doc: dict) -> str:
-    """The Markdown line naming the command (with the BLAS thread setting it ran under)."""
+    """The Markdown line naming the command (with the BLAS thread setting it ran under: the one
+    ``run_record`` recorded, else this process's)."""
     import os
-    return (f"Command: `OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')} "
-            f".venv/bin/python {doc['command']}`")
+    threads = doc.get("openblas_num_threads", os.environ.get("OPENBLAS_NUM_THREADS"))
+    return f"Command: `OPENBLAS_NUM_THREADS={threads} .venv/bin/python {doc['command']}`"
 
 
 def write_results(out: Path, doc: dict, lines: list) -> None:

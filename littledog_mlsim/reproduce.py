@@ -138,6 +138,14 @@ def _stop_loky_workers() -> None:
 def fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int | None,
                   seed: int, gpr_hyper_points: int | None, model_out: str | None) -> dict[str, Any]:
     """Fit one method on the cached TrainPool, score one-step nMSE on the whole TestPool."""
+    try:
+        return _fit_and_score(cache, method, options, n_train, seed, gpr_hyper_points, model_out)
+    finally:   # also when the fit fails: the worker must be able to exit
+        _stop_loky_workers()
+
+
+def _fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int | None,
+                   seed: int, gpr_hyper_points: int | None, model_out: str | None) -> dict[str, Any]:
     _pin_blas()
     from .models.onestep import OneStepModel
     from .models.persistence import fingerprint_arrays
@@ -165,7 +173,6 @@ def fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int
     if model_out:
         model.save(model_out)
     per = nmse(Yt, pred)
-    _stop_loky_workers()
     return {"method": method, "n_train": int(rows.size), "fit_s": fit_s,
             "hyperparameter_pilot_s": hyper_s,
             "predict_us_per_sample": 1e6 * predict_s / Xt.shape[0],

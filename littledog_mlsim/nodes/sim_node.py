@@ -92,12 +92,10 @@ class SimNode(SimulatorNode):
         if kind not in PROJECTIONS:
             raise StartupError(f"parameter projection must be one of {', '.join(PROJECTIONS)}, "
                                f"got {kind!r}")
-        radius = float(self.param("radius"))
-        if not 0.0 <= radius < float("inf"):
-            raise StartupError(f"parameter radius must be finite and >= 0, got {radius}")
-        try:
+        try:   # the projection checks radius (finite, >= 0, alpha only)
             projection = model.projection(kind, alpha=self.param("alpha"),
-                                          nn_method=self.param("nn_method"), radius=radius)
+                                          nn_method=self.param("nn_method"),
+                                          radius=self.param("radius"))
         except ValueError as e:
             raise StartupError(f"projection {kind}: {e}") from None
         s0 = self.param("initial_state")
