@@ -219,6 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--clean-seeds", default="1,2,3")
     ap.add_argument("--jobs", type=int, default=2, help="diagnoses run side by side")
     ap.add_argument("--only", default="", help="comma-separated effect ids (default: all)")
+    ap.add_argument("--record-only", action="store_true",
+                    help="only record the datasets (they are reused by a later run)")
     ap.add_argument("--no-follow-up", action="store_true",
                     help="do not make the recordings the reports recommend")
     ap.add_argument("--diagnose-arg", action="append", default=[],
@@ -242,6 +244,8 @@ def main(argv: list[str] | None = None) -> int:
     for ds in clean_sets + effect_sets:
         print(f"record {ds.name}", flush=True)
         record(ds, a.moves_per_type, 2, logs)
+    if a.record_only:
+        return 0
 
     def run(ds: Dataset) -> Dataset:
         diagnose(ds, work, a.diagnose_arg, logs)
