@@ -216,7 +216,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="results directory (results.json, table.md)")
     ap.add_argument("--moves-per-type", type=int, default=10)
     ap.add_argument("--seed", type=int, default=1, help="seed of every effect dataset")
-    ap.add_argument("--clean-seeds", default="1,2,3")
+    ap.add_argument("--clean-seeds", default="1,2,3", help="clean seeds without excitation")
+    ap.add_argument("--clean-seeds-excited", default="1",
+                    help="clean seeds under each excitation the zoo uses (the effect seed "
+                         "is needed for the clean reference)")
     ap.add_argument("--jobs", type=int, default=2, help="diagnoses run side by side")
     ap.add_argument("--only", default="", help="comma-separated effect ids (default: all)")
     ap.add_argument("--record-only", action="store_true",
@@ -240,7 +243,9 @@ def main(argv: list[str] | None = None) -> int:
                            (zoo / t.get("file", f"{t['id']}.yaml")).resolve()) for t in truth]
     excitations = sorted({0.0} | {d.excitation for d in effect_sets})
     clean_sets = [Dataset(f"clean_s{s}_e{e:g}", work / "clean" / f"s{s}_e{e:g}", s, e)
-                  for e in excitations for s in (int(x) for x in a.clean_seeds.split(","))]
+                  for e in excitations
+                  for s in (int(x) for x in (a.clean_seeds if e == 0 else
+                                             a.clean_seeds_excited).split(","))]
     for ds in clean_sets + effect_sets:
         print(f"record {ds.name}", flush=True)
         record(ds, a.moves_per_type, 2, logs)
