@@ -33,13 +33,12 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
-import tempfile
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from ..fileio import atomic_directory
 from ..layout import (
     BASE_FRAME,
     CONTROL_DT_NS,
@@ -135,7 +134,8 @@ def write_bag(path: str | os.PathLike, rec: MoveRecording, storage: str = "mcap"
     The bag's name is the directory name (``layout.bag_name``), not ``rec.name``. The parent
     directory must exist; ``path`` must not (FileExistsError). The bag is written into a hidden
     temporary sibling directory and renamed into place, so a failure leaves nothing behind
-    (only a hard kill can leave a ``.<name>.*.partial`` directory). ValueError if ``rec`` is
+    (:func:`..fileio.atomic_directory`; only a hard kill can leave a ``.<name>.partial-*``
+    directory). ValueError if ``rec`` is
     inconsistent (shapes, NaN/inf, stamps not on one 100 Hz clock, non-unit quaternions) or
     ``storage`` is not ``mcap``/``sqlite3``.
     """
@@ -151,16 +151,10 @@ def write_bag(path: str | os.PathLike, rec: MoveRecording, storage: str = "mcap"
     stamps = _check_writable(rec)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
 
-    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
-    try:
-        staged = staging / path.name  # so the storage file inside is named after the bag
+    # staged is named after the bag, so the storage file the Writer creates inside is too
+    with atomic_directory(path, create=False) as staged:
         with Writer(staged, version=9, storage_plugin=plugin) as writer:
             _write_messages(writer, rec, stamps)
-        if path.exists() or path.is_symlink():
-            raise FileExistsError(f"{path} appeared while writing, not overwriting")
-        os.rename(staged, path)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _write_messages(writer, rec: MoveRecording, stamps: np.ndarray) -> None:

@@ -166,8 +166,8 @@ use the same NumPy/BLAS build, as ``test/test_lgpr.py`` checks on one machine).
 """
 from __future__ import annotations
 
+import logging
 import math
-import sys
 import time
 from collections import OrderedDict
 from typing import Any, Callable, Iterable, Sequence
@@ -175,7 +175,8 @@ from typing import Any, Callable, Iterable, Sequence
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
+from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
+                   expect_array, standardise_targets)
 from .gp import (
     DEFAULT_INIT_NOISE_RATIO,
     DEFAULT_JITTER,
@@ -198,6 +199,8 @@ HYPERPARAMETER_MODES = ("shared", "per_output")
 INIT_MODES = ("warm", "cold")
 BLEND_WEIGHTS = ("precision", "relative")
 DASK_CONNECT_TIMEOUT = "30s"
+
+log = logging.getLogger(__name__)
 
 
 # ----------------------------------------------------------------------------- clustering
@@ -293,13 +296,6 @@ def _nearest_rows(X: np.ndarray, centres: np.ndarray, block: int = 2048) -> np.n
 
 # ----------------------------------------------------------------------------- worker tasks
 
-def _standardise(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    mean = Y.mean(axis=0)
-    sd = Y.std(axis=0)
-    sd = np.where(sd > 0, sd, 1.0)
-    return (Y - mean) / sd, mean, sd
-
-
 def _gp_options(X: np.ndarray, Yn: np.ndarray, shared: bool, init: np.ndarray | None,
                 options: dict[str, Any]) -> dict[str, Any]:
     """fit_gp_hyperparameters keyword arguments, as :class:`.gp.GPR` builds them."""
@@ -324,7 +320,7 @@ def fit_hyperparameters_task(X: np.ndarray, Y: np.ndarray, shared: bool,
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         with threadpool_limits(limits=1):
-            Yn, _, sd = _standardise(np.asarray(Y, dtype=np.float64))
+            Yn, _, sd = standardise_targets(np.asarray(Y, dtype=np.float64))
             res = fit_gp_hyperparameters(X, Yn, **_gp_options(X, Yn, shared, None, options))
     except ValueError as e:
         raise _one_line_error(e, f"LGPR global GP of the warm start ({X.shape[0]} points)"
@@ -390,7 +386,7 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
     nh = min(m, int(options["n_hyperparameter_points"]))
     try:
         with threadpool_limits(limits=1):
-            Yn, y_mean, y_std = _standardise(np.asarray(Y, dtype=np.float64))
+            Yn, y_mean, y_std = standardise_targets(np.asarray(Y, dtype=np.float64))
             rows = (np.arange(m) if nh == m else
                     np.sort(np.random.default_rng(seed).choice(m, size=nh, replace=False)))
             start = (None if init is None else
@@ -476,8 +472,8 @@ class LGPR(Regressor):
       doc, "Predictive std and output_scale"). False: the plain kernel's std.
     - ``blend``, ``n_blend``, ``blend_weights``: the blend of the nearest local models.
     - ``n_jobs``, ``dask_scheduler``: where the fits run; ``variance_cache_mb`` the Cholesky cache
-      budget; ``random_state`` seeds k-means and the subsets; ``verbose`` prints progress to
-      stderr.
+      budget; ``random_state`` seeds k-means and the subsets; ``verbose`` logs progress (logger
+      ``littledog_mlsim.models.lgpr``, INFO).
 
     Fitted attributes: ``centers_`` (k, d); ``offsets_`` (k + 1,): cluster c's rows of
     ``X_train_`` (n, d) and ``alpha_`` (n, p) are ``offsets_[c]:offsets_[c+1]``; ``train_index_``
@@ -489,8 +485,9 @@ class LGPR(Regressor):
     """
 
     method = "lgpr"
+    supports_std = True
 
-    def __init__(self, n_clusters: int | None = None, cluster_size: int = 1000,
+    def __init__(self, *, n_clusters: int | None = None, cluster_size: int = 1000,
                  max_cluster_factor: float = 1.5, min_cluster_factor: float = 0.25,
                  hyperparameters: str = "shared", init: str = "warm",
                  n_hyperparameter_points: int = 500, n_global_points: int = 1000,
@@ -528,20 +525,6 @@ class LGPR(Regressor):
         self.random_state = random_state
         self.verbose = verbose
 
-    _PARAM_NAMES = ("n_clusters", "cluster_size", "max_cluster_factor", "min_cluster_factor",
-                    "hyperparameters", "init", "n_hyperparameter_points", "n_global_points",
-                    "max_iter", "jitter", "init_noise_ratio", "length_scale_bounds",
-                    "signal_variance_bounds", "noise_variance_bounds", "output_scale",
-                    "blend", "n_blend",
-                    "blend_weights", "n_jobs", "dask_scheduler", "variance_cache_mb",
-                    "random_state", "verbose")
-
-    def get_params(self) -> dict[str, Any]:
-        out = {k: getattr(self, k) for k in self._PARAM_NAMES}
-        for k in ("length_scale_bounds", "signal_variance_bounds", "noise_variance_bounds"):
-            out[k] = [float(v) for v in out[k]]
-        return out
-
     # -- fitting
 
     def _check_params(self) -> None:
@@ -570,7 +553,7 @@ class LGPR(Regressor):
 
     def _log(self, text: str) -> None:
         if self.verbose:
-            print(f"lgpr: {text}", file=sys.stderr, flush=True)
+            log.info("%s", text)
 
     def _global_init(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator
                      ) -> dict[str, np.ndarray]:
@@ -808,6 +791,7 @@ class LGPR(Regressor):
     def predict(self, X: np.ndarray, return_std: bool = False):
         """X (ns, d) -> mean (ns, p); with return_std also the noisy-observation std (ns, p)
         (scaled per output by sqrt(``output_scale_``) when ``output_scale`` is on)."""
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         if not self.blend or int(self.n_blend) == 1 or self.n_clusters_ == 1:
             labels = _nearest_rows(X, self.centers_)
@@ -840,6 +824,7 @@ class LGPR(Regressor):
     # -- persistence
 
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_is_fitted(self)
         arrays = {"centers": self.centers_, "offsets": self.offsets_,
                   "train_index": self.train_index_, "X_train": self.X_train_,
                   "alpha": self.alpha_, "log_params": self.log_params_, "y_mean": self.y_mean_,
@@ -857,7 +842,7 @@ class LGPR(Regressor):
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "LGPR":
-        m = cls(**params)
+        m = cls.from_params(params)
         m._check_params()
         d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
         k, n = int(meta["n_clusters"]), int(meta["n_train"])

@@ -169,9 +169,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from littledog_mlsim.models.base import (Regressor, check_fit_inputs, check_predict_inputs,
-                                          expect_array)
-from littledog_mlsim.models.persistence import register
+from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
+                   expect_array, standardise_targets)
+from .persistence import register
 
 log = logging.getLogger(__name__)
 
@@ -386,8 +386,8 @@ class LWPR(Regressor):
         speed/accuracy knob, see "Cost").
     n_epochs : passes over the training data (each in a fresh random order if ``shuffle``).
     shuffle : present the samples in random order each epoch.
-    seed : seed of the shuffling.
-    verbose : log one line per epoch (RF counts, training nMSE, time).
+    random_state : seed of the shuffling (``seed``, the old name, is still accepted).
+    verbose : log one line per epoch (RF counts, training nMSE, time) at INFO level.
 
     Fitted attributes (RFs of all outputs, sorted by output; K in total): ``centres_`` (K, d),
     ``M_``/``D_`` (K, d) diagonal or (K, d, d), ``mean_x_`` (K, d), ``beta0_`` (K,),
@@ -397,8 +397,10 @@ class LWPR(Regressor):
     """
 
     method: ClassVar[str] = "lwpr"
+    supports_std: ClassVar[bool] = False
+    _renamed_params: ClassVar[dict[str, str]] = {"seed": "random_state"}
 
-    def __init__(self, init_D: Any = 0.2, w_gen: float = 0.2, w_prune: float = 0.9,
+    def __init__(self, *, init_D: Any = 0.2, w_gen: float = 0.2, w_prune: float = 0.9,
                  init_alpha: float = 10.0, penalty: float = 1e-6, meta: bool = False,
                  meta_rate: float = 250.0, update_D: bool = True, diag_only: bool = True,
                  init_lambda: float = 0.999, final_lambda: float = 0.99999,
@@ -406,7 +408,8 @@ class LWPR(Regressor):
                  max_projections: int = 10, init_S2: float = 1e-10,
                  max_rfs: int | None = 400, cutoff: float = 0.001, w_update: float = 0.02,
                  n_epochs: int = 1,
-                 shuffle: bool = True, seed: int = 0, verbose: bool = False):
+                 shuffle: bool = True, random_state: int | None = 0, verbose: bool = False,
+                 seed: int | None = None):
         self.init_D = init_D
         self.w_gen = w_gen
         self.w_prune = w_prune
@@ -427,24 +430,8 @@ class LWPR(Regressor):
         self.w_update = w_update
         self.n_epochs = n_epochs
         self.shuffle = shuffle
-        self.seed = seed
+        self.random_state = random_state if seed is None else seed
         self.verbose = verbose
-
-    # ------------------------------------------------------------------ parameters
-    _PARAM_NAMES: ClassVar[tuple[str, ...]] = (
-        "init_D", "w_gen", "w_prune", "init_alpha", "penalty", "meta", "meta_rate", "update_D",
-        "diag_only", "init_lambda", "final_lambda", "tau_lambda", "add_threshold",
-        "max_projections", "init_S2", "max_rfs", "cutoff", "w_update", "n_epochs", "shuffle",
-        "seed", "verbose")
-
-    def get_params(self) -> dict[str, Any]:
-        params = {name: getattr(self, name) for name in self._PARAM_NAMES}
-        init_D = params["init_D"]
-        if isinstance(init_D, np.ndarray):
-            params["init_D"] = init_D.tolist()
-        elif isinstance(init_D, np.generic):
-            params["init_D"] = init_D.item()
-        return params
 
     def _init_D_matrix(self, d: int, n_out: int) -> np.ndarray:
         """init_D as (n_out, d) diagonals."""
@@ -468,12 +455,9 @@ class LWPR(Regressor):
             raise ValueError("max_projections must be >= 1 and n_epochs >= 0")
         n, d = X.shape
         n_out = Y.shape[1]
-        y_mean = Y.mean(axis=0)
-        y_std = Y.std(axis=0)
-        y_std = np.where(y_std > 0, y_std, 1.0)
-        Yn = (Y - y_mean) / y_std
+        Yn, y_mean, y_std = standardise_targets(Y)
         self._start_training(d, n_out, float(np.max(np.einsum("ij,ij->i", X, X))))
-        rng = np.random.default_rng(self.seed)
+        rng = np.random.default_rng(self.random_state)
         history: dict[str, list] = {"n_rfs": [], "train_nmse": [], "seconds": [],
                                     "rf_updates": []}
         for epoch in range(self.n_epochs):
@@ -494,7 +478,6 @@ class LWPR(Regressor):
                        f"{self._n_rf_updates / ((epoch + 1) * n):.0f} RF updates per sample, "
                        f"training nMSE (during the pass) mean {np.mean(sq_err / n):.4f}")
                 log.info(msg)
-                print(msg, flush=True)
         self.history_ = history
         self.n_pruned_ = self._n_pruned.copy()
         self._set_prediction_state(self._export_arrays(y_mean, y_std))
@@ -892,10 +875,8 @@ class LWPR(Regressor):
 
     def predict(self, X: np.ndarray, return_std: bool = False) -> np.ndarray:
         """X (m, d) -> (m, n_out): activation-weighted mean of the local linear models."""
-        if return_std:
-            raise NotImplementedError("LWPR confidence bounds are not implemented")
-        if not hasattr(self, "centres_"):
-            raise RuntimeError("LWPR is not fitted")
+        self._check_std(return_std)
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         out = np.empty((X.shape[0], self.n_outputs_))
         chunk = max(1, 2_000_000 // max(1, self.centres_.shape[0]))
@@ -934,8 +915,7 @@ class LWPR(Regressor):
     # ------------------------------------------------------------------ persistence
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Prediction state: per-RF arrays (K = sum of n_rfs, sorted by output) + scaling."""
-        if not hasattr(self, "centres_"):
-            raise RuntimeError("LWPR is not fitted")
+        check_is_fitted(self)
         arrays = {
             "centres": self.centres_, "M": self.M_, "mean_x": self.mean_x_,
             "beta0": self.beta0_, "slope": self.slope_, "trustworthy": self.trustworthy_,
@@ -972,7 +952,7 @@ class LWPR(Regressor):
             ("n_projections", (K,)), ("y_mean", (p,)), ("y_std", (p,)))}
         if np.any(np.bincount(state["output"].astype(np.int64), minlength=p) != n_rfs):
             raise ValueError("array 'output' does not match n_rfs")
-        est = cls(**params)
+        est = cls.from_params(params)
         est._set_prediction_state(state)
         if meta.get("history") is not None:
             est.history_ = meta["history"]

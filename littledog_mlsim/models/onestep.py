@@ -51,7 +51,7 @@ import numpy as np
 
 from ..data.dataset import Normalizer
 from ..layout import N_STATE, STATE_NAMES
-from .base import Regressor
+from .base import Regressor, StdNotSupportedError
 from .features import FeatureSet, FeatureSetError
 from .persistence import ModelError, fingerprint_arrays, read_model, save_model
 
@@ -139,6 +139,11 @@ class OneStepModel:
         return self.estimator.method
 
     @property
+    def supports_std(self) -> bool:
+        """Whether ``predict(..., return_std=True)`` works (the regressor's declared capability)."""
+        return bool(getattr(self.estimator, "supports_std", False))
+
+    @property
     def feature_names(self) -> tuple[str, ...]:
         return self.feature_set.names
 
@@ -149,8 +154,9 @@ class OneStepModel:
 
         (n, ``feature_set.n_features``) for a model with an augmented feature set.
 
-        ``return_std=True`` also returns the predictive std of s_{t+1}, same shape (estimators
-        without a variance raise ValueError).
+        ``return_std=True`` also returns the predictive std of s_{t+1}, same shape (an
+        estimator whose ``supports_std`` is False raises :class:`.base.StdNotSupportedError`,
+        a ValueError).
         """
         X = np.asarray(X, dtype=np.float64)
         single = X.ndim == 1
@@ -162,10 +168,9 @@ class OneStepModel:
         fn, rn = self.feature_normalizer, self.response_normalizer
         Xn = (X - fn.mean_) / fn.std_
         if return_std:
-            try:
-                Z, Zs = self.estimator.predict(Xn, return_std=True)
-            except (TypeError, NotImplementedError) as e:
-                raise ValueError(f"{self.method} gives no predictive std: {e}") from e
+            if not self.supports_std:
+                raise StdNotSupportedError(f"{self.method} gives no predictive std")
+            Z, Zs = self.estimator.predict(Xn, return_std=True)
         else:
             Z, Zs = self.estimator.predict(Xn), None
         out = Z * rn.std_ + rn.mean_
