@@ -882,6 +882,9 @@ class LWPR(Regressor):
         chunk = max(1, 2_000_000 // max(1, self.centres_.shape[0]))
         for start in range(0, X.shape[0], chunk):
             out[start:start + chunk] = self._predict_chunk(X[start:start + chunk])
+        # a non-finite query (a diverged rollout) has no activation: say so instead of the
+        # nearest-RF fallback, which would hand back a finite, made-up state
+        out[~np.isfinite(X).all(axis=1)] = np.nan
         return out
 
     def _predict_chunk(self, X: np.ndarray) -> np.ndarray:
