@@ -49,6 +49,7 @@ from ..layout import (
     TOPIC_CMD,
     TOPIC_JOINT_STATES,
     TOPIC_ODOM,
+    joint_permutation,
 )
 from .recording import MoveRecording
 
@@ -65,7 +66,6 @@ STORAGES: tuple[str, ...] = ("mcap", "sqlite3")
 QUATERNION_NORM_TOL = 1e-6
 _MAX_STAMP_NS = (2**31 - 1) * 1_000_000_000  # builtin_interfaces/Time.sec is int32
 _BAG_NAME_RE = re.compile(r"^(?P<type>[A-Z]+)_(?P<index>\d+)$")
-_JOINT_INDEX = {n: i for i, n in enumerate(JOINT_NAMES)}
 
 
 class BagError(ValueError):
@@ -366,22 +366,8 @@ _FIELDS: dict[str, tuple[str, ...]] = {
 }
 
 
-@lru_cache(maxsize=64)
-def _joint_permutation(names: tuple[str, ...]) -> np.ndarray | str:
-    """Index into ``names`` for each contract joint, or a reason why ``names`` is unusable."""
-    if len(names) != N_JOINTS:
-        return f"{len(names)} joint names, expected {N_JOINTS}"
-    unknown = [n for n in names if n not in _JOINT_INDEX]
-    if unknown:
-        return f"unknown joint name(s) {', '.join(unknown)}"
-    if len(set(names)) != N_JOINTS:
-        return "duplicated joint names"
-    where = {n: i for i, n in enumerate(names)}
-    return np.array([where[n] for n in JOINT_NAMES])
-
-
 def _decode_joint_state(msg, bag: str, topic: str, k: int) -> tuple:
-    perm = _joint_permutation(tuple(msg.name))
+    perm = joint_permutation(tuple(msg.name))
     if isinstance(perm, str):
         raise BagError(bag, topic, f"message {k}: {perm}")
     pos = np.asarray(msg.position, dtype=np.float64)
