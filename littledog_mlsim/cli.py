@@ -1,4 +1,4 @@
-"""The ``littledog-mlsim`` console script: one verb per job (``docs/interface.md``, "Command line").
+"""The ``littledog-mlsim`` console script: one verb per job (``docs/interface.md`` §5).
 
 Every verb prints ``--help``, shows progress on long work, and on bad input exits non-zero with a
 one-line reason on stderr.

@@ -1,7 +1,7 @@
 """The robot's names and the paper's state/action/feature layout, defined once.
 
 Everything in the project imports joint names, state names and index ranges from here
-(``docs/interface.md``, "Names and order" and "State layout"). Arrays of 12 joint values are
+(``docs/interface.md`` §1 and §4). Arrays of 12 joint values are
 always in ``JOINT_NAMES`` order; :func:`joint_permutation` maps a message's or a bag's joint
 order onto it.
 """
@@ -67,7 +67,7 @@ N_FEATURE = len(FEATURE_NAMES)  # 45
 
 
 class StateLayout:
-    """Index ranges into the 33-element state vector (CONTRACT.md section 4)."""
+    """Index ranges into the 33-element state vector (docs/interface.md §4)."""
 
     z_w = 0
     d_b = slice(1, 4)         # dx_b, dy_b, dz_b

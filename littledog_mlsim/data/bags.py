@@ -1,4 +1,4 @@
-"""One move as one rosbag2 bag (CONTRACT.md section 3), written and read with ``rosbags``.
+"""One move as one rosbag2 bag (docs/interface.md §3), written and read with ``rosbags``.
 
 A bag is a directory ``<TYPE>_<NN>`` (``layout.bag_name``) in rosbag2 format version 9, storage
 ``mcap`` (default) or ``sqlite3``, holding three topics stamped on one 100 Hz clock, with
@@ -12,7 +12,7 @@ A bag is a directory ``<TYPE>_<NN>`` (``layout.bag_name``) in rosbag2 format ver
   child ``base_link``, pose = measured position/orientation in odom, twist in base_link; both
   covariances are "unknown" (all zero except ``covariance[0] = -1``).
 
-Offered QoS recorded in the metadata: reliable, volatile, keep-last 10 (CONTRACT.md section 2).
+Offered QoS recorded in the metadata: reliable, volatile, keep-last 10 (docs/interface.md §2).
 
 ``read_bag`` is strict, because a silently mangled move poisons a regression data set: every
 problem raises ``BagError`` with one line naming the bag and the topic. It accepts what the
@@ -129,7 +129,7 @@ def _check_writable(rec: MoveRecording) -> np.ndarray:
 
 
 def write_bag(path: str | os.PathLike, rec: MoveRecording, storage: str = "mcap") -> None:
-    """Write one move as a rosbag2 bag directory at ``path`` (CONTRACT.md section 3).
+    """Write one move as a rosbag2 bag directory at ``path`` (docs/interface.md §3).
 
     The bag's name is the directory name (``layout.bag_name``), not ``rec.name``. The parent
     directory must exist; ``path`` must not (FileExistsError). The bag is written into a hidden

@@ -15,7 +15,7 @@ LR, LWPR, GPR, SoR and LGPR alike, without asking which one they hold. The rules
 - Calling ``predict`` or ``get_state`` before ``fit`` raises :class:`NotFittedError`.
 - Bad input (NaN, wrong shapes, no rows) raises ValueError with one line
   (:func:`check_fit_inputs`, :func:`check_predict_inputs`).
-- Persistence (``docs/interface.md``, "Model files") goes through ``get_state``/``from_state``:
+- Persistence (``docs/interface.md`` §7) goes through ``get_state``/``from_state``:
   the learned state as a flat dict of NumPy arrays (saved to .npz, read with
   ``allow_pickle=False``) plus JSON-serialisable metadata (sizes).
 

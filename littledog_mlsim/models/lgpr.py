@@ -10,9 +10,8 @@ fit, O(m d) per query; the block-diagonal view of the paper.
 Clustering (:func:`balanced_clusters`)
 --------------------------------------
 scikit-learn ``KMeans`` (Lloyd, k-means++ init, seeded, ``n_init=1``) on the training inputs.
-k-means on trot data is lopsided (on a recorded 61k-sample TrainPool with k = 61 the largest
-cluster held 3.4 n/k points: standing and slow moves pile up), and a GP's cost is cubic in its
-size, so the partition is balanced afterwards:
+k-means on trot data is lopsided (standing and slow moves pile up), and a GP's cost is cubic in
+its size, so the partition is balanced afterwards:
 
 - a cluster larger than ``max_cluster_factor * n/k`` is split by k-means into
   ``ceil(size / (n/k))`` parts; a part that is still too large (k-means fails on near-duplicate
@@ -49,30 +48,15 @@ the cluster's points. ``hyperparameters``:
   mean over outputs when shared), clipped to the cluster's bounds.
 - ``"cold"``: :func:`.gp.default_init` on the cluster's subset (median heuristic).
 
-Defaults, measured in ``benchmarks/lgpr_ablation.md`` (recorded pybullet dataset, 5000 TrainPool
-points in 5 clusters, nMSE on the whole TestPool):
-
-- ``hyperparameters="shared"``: per-output kernels (same 300-point subsets) were worse (mean
-  nMSE 0.065 vs 0.048, joint angles 6x worse: 45 ARD length scales per output overfit a few
-  hundred points, while shared ones pool the evidence of 33 outputs), cost 20x the fit CPU time
-  (39 vs 2 s), and made a single-query ``return_std`` 30x slower in CPU time (12 vs 0.4 ms;
-  33 factors per cluster, 1.3 GB of them at 5k points).
-- ``max_iter=30``: the same nMSE as 100 iterations (to 4 digits, warm or cold start) for half
-  the fit CPU time (cold: 3.8 vs 8.1 s). ``n_hyperparameter_points=500``: 300, 500 and 1000
-  points gave mean nMSE 0.0475, 0.0476, 0.0482 (median 0.0074, 0.0068, 0.0065) for 2.0, 10
-  and 20 s of fit CPU time (warm start included).
-- ``init="warm"``: at 30+ iterations warm and cold starts reach the same nMSE; warm makes the
-  result insensitive to the iteration cap (10 iterations: 0.0480 warm vs 0.0535 cold) for a fixed
-  cost (a 1000-point global GP, about 6 s of CPU).
-- nearest-centre prediction (``blend=False``): the blend of the 2 nearest models lowers the mean
-  nMSE by 5 % on the whole TrainPool (0.0426 vs 0.0450; 1.7 % on the 5k subset) and is
-  continuous, but costs about 1.3 ms per single query (two variance solves) against 0.1-0.4 ms.
+The defaults (shared kernels, 30 L-BFGS-B iterations on 500 points per cluster, warm start,
+nearest-centre prediction) were chosen on ``benchmarks/lgpr_ablation.md``; the measurements are
+summarised in ``benchmarks/lgpr_design.md``.
 
 If a kernel matrix is not positive definite (at an L-BFGS-B start, or the cluster's full matrix
 with hyperparameters from a subset) the jitter is raised along :func:`.gp.jitter_schedule` (up to
 1e-2 x sf2 + sn2, in standardised units); the jitter used is stored per cluster (``jitter_``).
 Columns that are constant up to rounding inside a cluster (a saturated tanh of the friction
-features, std 3e-15) get the unit scale for the length-scale bounds and start (see
+features) get the unit scale for the length-scale bounds and start (see
 :func:`.gp.degenerate_columns`), so the warm start no longer meets bounds of ~1e-14. A cluster
 that still cannot be fitted raises a one-line ValueError naming the cluster, its size, the start
 and the reason.
@@ -90,26 +74,9 @@ predictive variance is multiplied by c_j. Scaling K by c leaves the mean K*^T K^
 (predictions with and without the option are bit-identical, except in a precision-weighted
 blend, whose weights are variances) and c_j is a by-product of the fit (the alpha already
 computed: no extra Cholesky, no extra prediction cost). It corrects each output's overall level,
-not the shape (signal vs noise share) of its variance. Measured calibration, mean(z^2) per
-output, z = (y - mean) / std (1 = calibrated):
-
-- generated data (6 inputs, 8 outputs with noise variance 1e-4..1e-1 of their variance, 2000
-  points, 2 clusters, 3000 test points; ``test/test_lgpr.py`` has a smaller version): shared
-  0.13-4.16 (median 0.52; the fitted sn2 was 187x the true noise of the cleanest output, 0.19x
-  that of the noisiest), shared + ``output_scale`` 0.48-1.31 (median 0.74; c_j 0.24-3.3),
-  ``"per_output"`` 0.96-1.07 (median 1.03; there c_j is 0.94-1.11 and the option is neutral,
-  0.94-1.09). With equal noise fractions: 0.81-1.30 without, 0.96-1.19 with the option. A full
-  :class:`.gp.GPR` with shared hyperparameters behaves like shared LGPR (median 0.57) and has no
-  such option.
-- the recorded dataset (``bags/default``: the whole TrainPool, 61446 samples, default model, 70
-  clusters; all 26334 TestPool samples; z of s_{t+1} in raw units; 33 state elements): without
-  the option 0.06-5.29 (median 0.35; 4 of 33 in [0.5, 2]: the base height and body velocities
-  over-confident, 2.0-5.3, the joint angles conservative, 0.06-0.19), with it 0.70-1.06
-  (median 0.93; 33 of 33 in [0.5, 2]; the joint angles 0.70-0.94, the rest 0.87-1.06). c_j over
-  clusters and outputs 0.001-6.7 (median 0.26). The nearest-centre mean is bit-identical (mean
-  nMSE 0.0450 either way). Blend of 2 with ``"precision"`` weights: mean nMSE 0.0426 without,
-  0.0430 with the option (the weights follow the calibrated variances); ``"relative"``: 0.0433
-  either way.
+not the shape (signal vs noise share) of its variance. How well the std is calibrated with and
+without the option (mean(z^2) per output on generated and recorded data) is measured in
+``benchmarks/lgpr_calibration.md`` and summarised in ``benchmarks/lgpr_design.md``.
 
 ``output_scale=False`` restores the plain shared-kernel std. Model files written before the
 option have no ``output_scale`` array and load with c = 1 (their old std).
@@ -133,11 +100,8 @@ with ``output_scale`` the calibrated one, c_j v_r, and the prior variance of ``"
 scaled by the same c_j (so those weights, ratios of the two, do not depend on the option, while
 ``"precision"`` weights and the mixture variance use the calibrated variances). The blend's std
 is conservative, because of the mixture's spread term sum_r w_r mu_r^2 - mean^2 (the local
-models' disagreement, while the blended mean is better than either): on the recorded dataset
-(below) mean(z^2) per output was 0.45-0.88 (median 0.64) with precision weights, 0.40-0.88
-(median 0.54) with relative ones; without the spread term (precision weights: sum_r w_r v_r,
-which then equals the weighted harmonic mean sum_r g_r / sum_r (g_r / v_r)) 0.75-1.35 (median
-1.00). Not changed here.
+models' disagreement, while the blended mean is better than either); measured in
+``benchmarks/lgpr_design.md``.
 
 Prediction cost and memory
 --------------------------
@@ -149,10 +113,9 @@ no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the cl
 they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
 each) but built by the first call that needs them, for all clusters at once (as many as fit in
 ``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
-inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (3.9 s for the 70-cluster
-model of the whole TrainPool in the ablation). Shared hyperparameters: one m x m factor per
-cluster (k m^2 8 bytes: 465 MB for that model); per-output: p of them per cluster, so only a
-few clusters fit in the cache.
+inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly. Shared hyperparameters:
+one m x m factor per cluster (k m^2 8 bytes); per-output: p of them per cluster, so only a few
+clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design.md``).
 
 Parallel fitting
 ----------------

@@ -45,7 +45,8 @@ samples, RF creation and pruning exclusive per sample.  Deviations, all document
 * Far from every RF (no trustworthy RF above ``cutoff``) the library returns 0; here an output
   falls back to the offset ``beta0`` of its RF nearest in its own metric (smallest
   ``(x-c)^T D (x-c)``), so a rollout that leaves the data gets a bounded, data-derived value
-  instead of 0 or an extrapolated line (no NaN either way).
+  instead of 0 or an extrapolated line. A non-finite query (a diverged rollout) predicts NaN,
+  so the divergence is reported rather than hidden.
 * Outputs are standardised internally (zero mean, unit variance per output) so that
   ``penalty``, ``add_threshold`` and the meta rate mean the same for every state element; the
   inputs are NOT rescaled: ``init_D`` is in the units of ``X`` (the project feeds features
@@ -77,24 +78,17 @@ offsets, slopes, trust flags, output index, projection counts, output scaling): 
 predicts identically but cannot continue incremental training (``fit`` always restarts from
 scratch, as in scikit-learn).
 
-Cost
-----
+Cost and defaults
+-----------------
 A sample costs ~O(K d) for the activations (K RFs over all outputs, one float32 GEMV) plus
-~O(A R d) for the A RFs it activates above ``w_update`` (R projections).  A dominates: RFs are
+~O(A R d) for the A RFs it activates above ``w_update`` (R projections). A dominates: RFs are
 created where no RF reaches ``w_gen`` but updated down to ``w_update``, so on an m-dimensional
 data manifold each sample updates roughly ``(log(1/w_update) / log(1/w_gen))^(m/2)`` RFs per
-output.  On the simulated LittleDog data (locally ~5-6-dimensional in the 45 normalised
-features), counted over samples 5000-6000 with all 33 outputs, ``init_D = 0.2``,
-``w_gen = 0.2``: A = 540 at the default ``w_update = 0.02`` (3.6 ms CPU per sample, K = 13200)
-and A = 1220 at the library's 0.001.  Measured fits, 1 epoch, all 33 outputs, one core of a
-shared 2-core machine (load 2-3), ``OPENBLAS_NUM_THREADS=1``:
-
-* 20k LittleDog samples: 62 s CPU at the defaults; 193 s at ``w_update = 0.001``.
-* all 61,446 LittleDog training samples (paper scale): 192 s CPU, 203 s wall.
-* synthetic 45-D / 33-output problem, 20k samples: 64 s CPU.
-
-Memory: the pool holds ~(8 + 4 R) d + 9 R doubles per RF while training (~7.5 MB per 1000
-RFs at d = 45, R = 3); the saved prediction state ~4 d doubles per RF (~19 MB for 13200 RFs).
+output; this is why ``w_update`` is the speed/accuracy knob. The library's defaults are kept
+except ``init_D`` (the features are normalised, not in [-1, 1]), ``w_gen``, ``w_update``,
+``add_threshold``, ``w_prune``, ``init_alpha``, ``max_projections``/``max_rfs`` (bounds) and
+``n_epochs``; the measurements behind each choice, the fit times and the paper-scale accuracy
+are in ``benchmarks/lwpr_design.md``.
 
 Distance metric from GP length-scales (paper Section III)
 --------------------------------------------------------
@@ -107,58 +101,6 @@ as ``init_D``.  ``factor`` > 1 gives narrower RFs than the GP's correlation leng
 local models); the RFs must be small enough that the function is locally linear, so try
 ``factor`` in [1, 4] on a validation split.  Irrelevant features get large ``l_i`` and hence
 ``D_ii ~ 0``: the RFs do not localise along them, which is what makes LWPR workable in 45-D.
-
-Tuning (defaults and why)
--------------------------
-Measured on the simulated LittleDog data: the CLI's recording (11 move types x 20 moves,
-pybullet) split into 61,446 training and 26,334 test pairs, features normalised to unit
-variance; "20k" is a random 20,000-row training subset tested on 5,000 test rows; nMSE is
-averaged over the 33 outputs; LR is the least-squares baseline.  The library's
-defaults are kept (penalty 1e-6, init_lambda 0.999, final_lambda 0.99999, tau_lambda 0.9999,
-diagonal metric, no meta learning, cutoff 0.001) except:
-
-* ``init_D = 0.2`` (library: 25 for inputs in [-1, 1]).  The median squared distance from a
-  sample to its 10th / 50th / 200th nearest of 20k training samples is 5.3 / 9.3 / 16.5
-  (random pairs: 92); a new RF appears at ``q = D |dx|^2 > 2 ln(1/w_gen) = 3.2``, i.e. beyond
-  squared distance 16 for D = 0.2, so an RF spans ~200 neighbours.  20k, all outputs (LR
-  0.098): D = 0.2, w_gen 0.2, w_update 0.02, add_threshold 0.5, 1 epoch: 0.080; D = 0.1,
-  w_gen 0.1, w_update 0.01, add_threshold 0.9, 2 epochs: 0.089; D = 0.05, w_gen 0.1,
-  w_update 0.05, add_threshold 0.9, 2 epochs: 0.091.  Prefer the GP-derived diagonal (above)
-  when GP length-scales are available.
-* ``w_gen = 0.2`` (library 0.1; the LWPR paper's examples use 0.2): denser coverage was more
-  accurate here (above).
-* ``w_update = 0.02`` (library 0.001), see "Cost".  20k, all outputs: 0.079 at 0.02 vs 0.093
-  at 0.001 (angles better at 0.001: 3.6-5.7x LR vs 4.6-7.0x; body states worse: 0.215 vs
-  0.174); on 9 outputs 0.1 was clearly worse on the joint angles (8.8-10x LR).
-* ``add_threshold = 0.9`` (library 0.5): a projection is added whenever it cuts the
-  cross-validated error by 10%; in 45-D two projections rarely halve it, and the joint angles
-  (a near-identity map s_{t+1} ~ s_t + dt ds_t) need more directions.  On 6 outputs (3 angles,
-  3 velocities; 20k, 1 epoch) the LWPR/LR ratios went from 5.2-6.9 to 4.8-5.9 (angles) and
-  0.55-0.76 to 0.51-0.72 (velocities).
-* ``w_prune = 0.9`` (library documentation; the Matlab default 1.0 never prunes).
-* ``init_alpha = 10`` (library 50 for init_D = 25; not tuned further): the metric is ~100x
-  smaller here, and the ``0.1 max|M|`` safety halves a too large rate anyway.
-* ``max_projections = 10``, ``max_rfs = 400`` per output: bound memory and time; 400 is
-  reached on the LittleDog data.
-* ``n_epochs = 1``: one pass over ~60k samples takes ~3 minutes.  More passes let RFs add
-  projections (each new one needs ~ln(100)/(1-lambda) further updates of its RF before the next
-  can be added): 20k, 2 epochs: 0.077 (1 epoch 0.079), joint angles 0.0091 (0.0111), joint
-  velocities 0.031 (0.034), at twice the time.
-
-The tuning above used the paper's literal response s_{t+1} (``OneStepModel`` target
-``"next"``); the features, hence init_D / w_gen / w_update, are the same for ``"delta"``.
-
-Result at paper scale (all 61,446 training pairs, defaults, 1 epoch, ~3 min; test nMSE):
-
-* target s_{t+1}: mean 0.073 (LR 0.096); body states 0.164 (LR 0.233); joint velocities
-  0.029 (LR 0.053, 0.48-0.60x LR); joint angles 0.0083 (LR 0.0021, 3.4-5.4x); roll 1.2x,
-  pitch 2.8x LR.  Local PLS models with few projections cannot match LR on outputs that are
-  an almost exact global linear map of the inputs (q_{t+1} ~ q_t + dt dq_t).
-* target s_{t+1} - s_t (the project default): better than LR on 25 of 33 elements; joint
-  angles 0.46-0.63x LR, roll 0.60x, pitch 0.74x, dx/dy/dz_b 0.85-0.95x, but angular rates
-  1.14-1.27x and joint velocities 0.73-1.25x.  LR's predictions (hence errors) are the same
-  for both targets, so the ratios compare the targets directly: for LWPR "delta" is far better
-  on the angles, "next" on the joint velocities and angular rates.
 """
 from __future__ import annotations
 

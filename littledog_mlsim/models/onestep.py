@@ -13,12 +13,8 @@ representation chosen by ``target``:
 - ``"delta"`` (default): r = s_{t+1} - s_t, normalised to unit variance per element; the
   prediction is s_t + r. The state changes little in 10 ms, so the regressor only models the
   change (the GP prior mean, zero, is then "the state stays", not "the state is the TrainPool
-  mean"). Measured with LGPR (``benchmarks/lgpr_ablation.md``, 5000 points): better than
-  ``"next"`` on 27 of 33 elements (joint angles 0.00037 vs 0.00064 mean nMSE, joint rates 0.0120
-  vs 0.0132, roll, pitch, dpitch, dyaw) and in the median (0.0068 vs 0.0071); ``"next"`` is
-  2-5 % better on z_w, dx_b, dy_b, dz_b and droll, which are nearly uncorrelated from one step
-  to the next, and so in the mean over elements (0.0465 vs 0.0476), which those noisy
-  elements dominate.
+  mean"). On the recorded data it is the better target for most state elements, ``"next"``
+  for a few nearly uncorrelated ones (``benchmarks/lgpr_ablation.md``).
 - ``"next"``: the paper's literal response r = s_{t+1}, normalised to unit variance.
 
 The standard deviation is that of s_{t+1} given x_t (s_t is known, so the same for both

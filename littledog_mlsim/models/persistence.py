@@ -1,4 +1,4 @@
-"""Model files (``docs/interface.md``, "Model files") and the registry of regression methods.
+"""Model files (``docs/interface.md`` §7) and the registry of regression methods.
 
 A model is a directory holding two files, nothing executable::
 
