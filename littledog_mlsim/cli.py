@@ -146,6 +146,15 @@ def _add_radius_options(p: argparse.ArgumentParser) -> None:
                         "states to the nearest state of another TrainPool move (e.g. 0.9)")
 
 
+def _add_scoring_options(p: argparse.ArgumentParser) -> None:
+    """What ``evaluate`` and ``rollout`` share: model, data, output, alpha and the gate."""
+    p.add_argument("--model", required=True, type=Path, help="model directory")
+    p.add_argument("--data", required=True, type=Path, help="dataset directory")
+    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    _add_radius_options(p)
+
+
 def cmd_evaluate(a: argparse.Namespace) -> int:
     from .evaluate import evaluate
 
@@ -286,24 +295,16 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("evaluate", help="one-step nMSE and rollout errors of a model on the TestPool",
                        description="Score a model on a dataset's TestPool: metrics.json with nmse "
                                    "(state name -> one-step nMSE) and the rollout errors.")
-    e.add_argument("--model", required=True, type=Path, help="model directory")
-    e.add_argument("--data", required=True, type=Path, help="dataset directory")
-    e.add_argument("--out", required=True, type=Path, help="output directory")
+    _add_scoring_options(e)
     e.add_argument("--projections", type=lambda t: [x for x in t.split(",") if x],
                    default=["none", "bound", "alpha"], help="comma-separated: none,bound,alpha")
-    e.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
-    _add_radius_options(e)
     e.set_defaults(func=cmd_evaluate)
 
     o = sub.add_parser("rollout", help="roll a model out over every TestPool move",
                        description="Roll every TestPool move out from its measured initial state "
                                    "with its recorded commands: rollout.json.")
-    o.add_argument("--model", required=True, type=Path, help="model directory")
-    o.add_argument("--data", required=True, type=Path, help="dataset directory")
+    _add_scoring_options(o)
     o.add_argument("--projection", choices=["none", "bound", "alpha"], default="alpha")
-    o.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
-    _add_radius_options(o)
-    o.add_argument("--out", required=True, type=Path, help="output directory")
     o.set_defaults(func=cmd_rollout)
 
     rp = sub.add_parser("reproduce", help="the paper's Table I and Figs 4-7 on a dataset",

@@ -1,6 +1,7 @@
 """Atomic writes: a reader sees the old file or directory or the complete new one, never a part.
 
 - :func:`atomic_write_text`: one text file, through a fsynced temporary sibling and a rename.
+- :func:`to_plain`: NumPy values, tuples and paths as the plain values JSON and YAML write.
 - :func:`atomic_directory`: a context manager that yields an empty temporary sibling directory;
   when the block succeeds the directory is fsynced and put in place of the target (replacing
   an existing one only if allowed), when it fails it is removed. Model files, recorded datasets
@@ -17,9 +18,28 @@ import secrets
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator, Mapping
 
-__all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory"]
+__all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory", "to_plain"]
+
+
+def to_plain(obj: Any) -> Any:
+    """``obj`` with NumPy scalars/arrays, tuples, mappings and paths turned into plain values
+    (numbers, lists, dicts with string keys, strings); anything else is returned as it is, for
+    the writer (json, yaml) to accept or refuse."""
+    import numpy as np
+
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Mapping):
+        return {str(k): to_plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_plain(v) for v in obj]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    return obj
 
 
 def atomic_write_text(path: str | os.PathLike, text: str, mode: int = 0o644) -> Path:

@@ -58,7 +58,7 @@ from typing import Any, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from ..fileio import atomic_write_text
+from ..fileio import atomic_write_text, to_plain
 from ..layout import (
     MOVE_TYPES,
     N_ACTION,
@@ -175,19 +175,7 @@ def _effect_keys(obj: Any, where: str = "info") -> list[str]:
     return found
 
 
-def _plain(obj: Any) -> Any:
-    """NumPy scalars/arrays and tuples to plain YAML types (others are left to yaml to refuse)."""
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
+_plain = to_plain   # the one converter (fileio)
 
 
 def _counts(entries: Sequence[BagEntry]) -> dict[str, int]:

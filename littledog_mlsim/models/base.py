@@ -28,8 +28,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..fileio import to_plain
+
 __all__ = ["Regressor", "NotFittedError", "StdNotSupportedError", "check_fit_inputs",
-           "check_predict_inputs", "check_is_fitted", "expect_array", "standardise_targets"]
+           "check_predict_inputs", "check_is_fitted", "sizes_from_meta", "expect_array", "standardise_targets"]
 
 
 class NotFittedError(ValueError, AttributeError):
@@ -45,17 +47,7 @@ class StdNotSupportedError(NotImplementedError, ValueError):
 
 def _json_value(v: Any) -> Any:
     """A constructor argument as JSON would give it back (arrays and tuples -> lists)."""
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, tuple):
-        return [_json_value(x) for x in v]
-    if isinstance(v, list):
-        return [_json_value(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _json_value(x) for k, x in v.items()}
-    return v
+    return to_plain(v)
 
 
 class Regressor:
@@ -112,6 +104,11 @@ class Regressor:
         """Rebuild a fitted estimator from ``get_params()`` and ``get_state()`` output."""
         raise NotImplementedError
 
+    def _size_meta(self, **extra: Any) -> dict[str, Any]:
+        """``get_state`` metadata: the input and output sizes plus ``extra``."""
+        return {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
+                **extra}
+
     def _check_std(self, return_std: bool) -> None:
         if return_std and not self.supports_std:
             raise StdNotSupportedError(f"{self.method or type(self).__name__} gives no "
@@ -120,6 +117,11 @@ class Regressor:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
+
+
+def sizes_from_meta(meta: dict[str, Any]) -> tuple[int, int]:
+    """(n_features_in, n_outputs) from ``get_state`` metadata (``Regressor._size_meta``)."""
+    return int(meta["n_features_in"]), int(meta["n_outputs"])
 
 
 def check_is_fitted(estimator: Regressor) -> None:

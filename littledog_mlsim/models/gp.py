@@ -49,7 +49,7 @@ import scipy.linalg as sla
 from scipy.optimize import minimize
 
 from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
-                   expect_array, standardise_targets)
+                   expect_array, sizes_from_meta, standardise_targets)
 
 DEFAULT_JITTER = 1e-10
 # Bounds on hyperparameters, relative to the data: length scales as multiples of each input
@@ -770,15 +770,14 @@ class GPR(Regressor):
         arrays = {"X_train": self.X_train_, "alpha": self.alpha_, "log_params": self.log_params_,
                   "y_mean": self.y_mean_, "y_std": self.y_std_, "lml": self.lml_,
                   "jitter": np.asarray(self.jitter_, dtype=np.float64)}
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "n_train": int(self.X_train_.shape[0])}
+        meta = self._size_meta(n_train=int(self.X_train_.shape[0]))
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "GPR":
         m = cls.from_params(params)
-        d, p, n = int(meta["n_features_in"]), int(meta["n_outputs"]), int(meta["n_train"])
+        (d, p), n = sizes_from_meta(meta), int(meta["n_train"])
         m.X_train_ = expect_array(arrays, "X_train", (n, d)).astype(np.float64)
         m.alpha_ = expect_array(arrays, "alpha", (n, p)).astype(np.float64)
         m.log_params_ = expect_array(arrays, "log_params", (p, d + 2)).astype(np.float64)

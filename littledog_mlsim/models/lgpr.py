@@ -139,7 +139,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
-                   expect_array, standardise_targets)
+                   expect_array, sizes_from_meta, standardise_targets)
 from .gp import (
     DEFAULT_INIT_NOISE_RATIO,
     DEFAULT_JITTER,
@@ -796,10 +796,10 @@ class LGPR(Regressor):
                   "fit_cpu_seconds": self.fit_cpu_seconds_}
         if self.global_log_params_ is not None:
             arrays["global_log_params"] = self.global_log_params_
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "n_clusters": int(self.n_clusters_), "n_train": int(self.X_train_.shape[0]),
-                "has_global": self.global_log_params_ is not None,
-                "global_cpu_seconds": float(self.global_cpu_seconds_)}
+        meta = self._size_meta(n_clusters=int(self.n_clusters_),
+                               n_train=int(self.X_train_.shape[0]),
+                               has_global=self.global_log_params_ is not None,
+                               global_cpu_seconds=float(self.global_cpu_seconds_))
         return arrays, meta
 
     @classmethod
@@ -807,7 +807,7 @@ class LGPR(Regressor):
                    meta: dict[str, Any]) -> "LGPR":
         m = cls.from_params(params)
         m._check_params()
-        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        d, p = sizes_from_meta(meta)
         k, n = int(meta["n_clusters"]), int(meta["n_train"])
         f64 = np.float64
         m.centers_ = expect_array(arrays, "centers", (k, d)).astype(f64)

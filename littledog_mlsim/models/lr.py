@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
-                   expect_array)
+                   expect_array, sizes_from_meta)
 
 
 class LinearRegression(Regressor):
@@ -60,15 +60,14 @@ class LinearRegression(Regressor):
         check_is_fitted(self)
         arrays = {"coef": self.coef_, "intercept": self.intercept_,
                   "residual_std": self.residual_std_}
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "rank": int(self.rank_)}
+        meta = self._size_meta(rank=int(self.rank_))
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "LinearRegression":
         m = cls.from_params(params)
-        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        d, p = sizes_from_meta(meta)
         m.coef_ = expect_array(arrays, "coef", (d, p)).astype(np.float64)
         m.intercept_ = expect_array(arrays, "intercept", (p,)).astype(np.float64)
         m.residual_std_ = expect_array(arrays, "residual_std", (p,)).astype(np.float64)

@@ -112,7 +112,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
-                   expect_array, standardise_targets)
+                   expect_array, sizes_from_meta, standardise_targets)
 from .persistence import register
 
 log = logging.getLogger(__name__)
@@ -885,7 +885,7 @@ class LWPR(Regressor):
         if meta.get("format") != STATE_FORMAT:
             raise ValueError(f"unknown LWPR state format {meta.get('format')!r} "
                              f"(this version reads {STATE_FORMAT!r})")
-        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        d, p = sizes_from_meta(meta)
         n_rfs = [int(k) for k in meta["n_rfs"]]
         if len(n_rfs) != p:
             raise ValueError(f"n_rfs lists {len(n_rfs)} outputs, expected {p}")

@@ -46,7 +46,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..fileio import atomic_directory
+from ..fileio import atomic_directory, to_plain
 from .base import Regressor
 from .gp import GPR
 from .lr import LinearRegression
@@ -117,15 +117,6 @@ def fingerprint_arrays(*arrays: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
-
 
 def save_model(path: str | os.PathLike, model: Regressor,
                extra_meta: Mapping[str, Any] | None = None,
@@ -178,7 +169,7 @@ def save_model(path: str | os.PathLike, model: Regressor,
         "versions": {"numpy": np.__version__},
     }
     try:
-        text = json.dumps(doc, indent=1, allow_nan=False, default=_json_default)
+        text = json.dumps(to_plain(doc), indent=1, allow_nan=False)
     except (TypeError, ValueError) as e:
         raise ModelError(f"cannot save model metadata as JSON: {e}") from e
     with atomic_directory(path, replace=True, tag="tmp") as tmp:

@@ -34,7 +34,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from .base import (Regressor, StdNotSupportedError, check_fit_inputs, check_is_fitted,
-                   check_predict_inputs, expect_array, standardise_targets)
+                   check_predict_inputs, expect_array, sizes_from_meta,
+                   standardise_targets)
 from .gp import (DEFAULT_JITTER, GPR, fit_gp_hyperparameters, gp_posterior, gp_predict,
                  kernel_cross, kernel_matrix, n_log_params, unpack_log_params)
 
@@ -254,15 +255,15 @@ class SoR(Regressor):
                   "y_mean": self.y_mean_, "y_std": self.y_std_}
         if self.chol_ is not None:
             arrays["chol"] = self.chol_
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "n_support": int(self.weights_.shape[1]), "has_variance": self.chol_ is not None}
+        meta = self._size_meta(n_support=int(self.weights_.shape[1]),
+                               has_variance=self.chol_ is not None)
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "SoR":
         s = cls.from_params(params)
-        d, p, m = int(meta["n_features_in"]), int(meta["n_outputs"]), int(meta["n_support"])
+        (d, p), m = sizes_from_meta(meta), int(meta["n_support"])
         s.support_X_ = expect_array(arrays, "support_X", (p, m, d)).astype(np.float64)
         s.support_index_ = expect_array(arrays, "support_index", (p, m)).astype(np.int64)
         s.weights_ = expect_array(arrays, "weights", (p, m)).astype(np.float64)
