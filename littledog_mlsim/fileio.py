@@ -1,6 +1,8 @@
 """Atomic writes: a reader sees the old file or directory or the complete new one, never a part.
 
 - :func:`atomic_write_text`: one text file, through a fsynced temporary sibling and a rename.
+- :func:`format_problem`: the one check of a versioned document's ``format`` and
+  ``format_version`` (model files, dataset indexes, robot configs).
 - :func:`to_plain`: NumPy values, tuples and paths as the plain values JSON and YAML write.
 - :func:`atomic_directory`: a context manager that yields an empty temporary sibling directory;
   when the block succeeds the directory is fsynced and put in place of the target (replacing
@@ -20,7 +22,20 @@ import tempfile
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
-__all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory", "to_plain"]
+__all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory", "to_plain",
+           "format_problem"]
+
+
+def format_problem(doc: Any, fmt: str, version: int, what: str) -> str | None:
+    """Why ``doc`` is not a ``fmt`` document of ``version`` (one line), or None if it is.
+
+    ``what`` names the document for the reader ("a dataset index")."""
+    if not isinstance(doc, dict) or doc.get("format") != fmt:
+        return f"not {what} (format is not {fmt!r})"
+    got = doc.get("format_version")
+    if got != version:
+        return f"unsupported format_version {got!r} (this build reads {version})"
+    return None
 
 
 def to_plain(obj: Any) -> Any:

@@ -58,7 +58,7 @@ from typing import Any, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from ..fileio import atomic_write_text, to_plain
+from ..fileio import atomic_write_text, format_problem, to_plain
 from ..layout import (
     MOVE_TYPES,
     N_ACTION,
@@ -243,12 +243,9 @@ def read_index(directory: str | os.PathLike) -> DatasetIndex:
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise fail(f"unreadable: {type(exc).__name__}: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("format") != INDEX_FORMAT:
-        raise fail(f"not a dataset index (format is not {INDEX_FORMAT!r})")
-    version = doc.get("format_version")
-    if version != INDEX_FORMAT_VERSION:
-        raise fail(f"unknown format_version {version!r}; this reader knows "
-                   f"{INDEX_FORMAT_VERSION}")
+    problem = format_problem(doc, INDEX_FORMAT, INDEX_FORMAT_VERSION, "a dataset index")
+    if problem:
+        raise fail(problem)
     info = doc.get("info") or {}
     if not isinstance(info, dict):
         raise fail("info is not a mapping")
@@ -270,7 +267,7 @@ def read_index(directory: str | os.PathLike) -> DatasetIndex:
     counts = doc.get("counts")
     if counts is not None and counts != _counts(entries):
         raise fail(f"counts {counts} do not match the bags listed {_counts(entries)}")
-    return DatasetIndex(entries=entries, info=info, format_version=version)
+    return DatasetIndex(entries=entries, info=info, format_version=INDEX_FORMAT_VERSION)
 
 
 def _select(entries: Iterable[BagEntry], split: str, types: Iterable[str] | None) -> list[BagEntry]:

@@ -46,7 +46,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..fileio import atomic_directory, to_plain
+from ..fileio import atomic_directory, format_problem, to_plain
 from .base import Regressor
 from .gp import GPR
 from .lr import LinearRegression
@@ -195,12 +195,9 @@ def read_model_json(path: str | os.PathLike) -> dict[str, Any]:
         doc = json.loads(meta_path.read_text(encoding="utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise ModelError(f"{meta_path}: not valid JSON (truncated or corrupt?): {e}") from e
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise ModelError(f"{meta_path}: not a {FORMAT} file")
-    version = doc.get("format_version")
-    if version != FORMAT_VERSION:
-        raise ModelError(f"{meta_path}: unsupported format_version {version!r} "
-                         f"(this build reads {FORMAT_VERSION})")
+    problem = format_problem(doc, FORMAT, FORMAT_VERSION, "a model file")
+    if problem:
+        raise ModelError(f"{meta_path}: {problem}")
     for key, typ in (("method", str), ("params", dict), ("state", dict), ("meta", dict),
                      ("arrays", dict), ("arrays_sha256", str)):
         if not isinstance(doc.get(key), typ):
