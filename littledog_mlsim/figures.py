@@ -128,8 +128,15 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
                     physics_config: Any | None = None, animate: bool = True,
                     progress: bool = True) -> dict[str, Any]:
     """Figs 5-7, the by-model comparison, rollouts.json/md and the animation for the models
-    found in ``models_dir``. Progress goes to this module's logger (``progress`` is kept for
-    callers; the CLI decides what is shown)."""
+    found in ``models_dir``. ``progress``: progress lines on stderr unless the program
+    configured logging."""
+    from .logs import progress_to_stderr
+
+    with progress_to_stderr(progress):
+        return _rollout_figures(data, out, models_dir, physics_config, animate)
+
+
+def _rollout_figures(data, out, models_dir, physics_config, animate) -> dict[str, Any]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -5,14 +5,20 @@ WARNING) and never print. A program (the ``littledog-mlsim`` verbs, the benchmar
 calls :func:`setup_logging` once; it shows the package's records on stderr as
 ``<module>: <message>`` (``train: ...``, ``lgpr: ...``, ``reproduce: ...``), the form the
 progress lines had before. Progress bars over many items (recording) use tqdm on stderr.
+
+Library functions with a ``progress`` argument (``train_from_dataset``, ``reproduce``) wrap
+their work in :func:`progress_to_stderr`: when the program configured nothing, progress still
+reaches the *current* ``sys.stderr`` in the same form, so a caller that redirects stderr
+(trainer_node forwards it to the ROS log) or a script that configured nothing keeps seeing it.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import sys
-from typing import TextIO
+from typing import Iterator, TextIO
 
-__all__ = ["setup_logging", "teardown_logging", "PACKAGE_LOGGER"]
+__all__ = ["setup_logging", "teardown_logging", "progress_to_stderr", "PACKAGE_LOGGER"]
 
 PACKAGE_LOGGER = "littledog_mlsim"
 
@@ -49,3 +55,38 @@ def teardown_logging(handler: logging.Handler) -> None:
     """Remove a handler :func:`setup_logging` installed (e.g. at the end of a CLI call)."""
     logging.getLogger(PACKAGE_LOGGER).removeHandler(handler)
     handler.flush()
+
+
+class _CurrentStderr(logging.StreamHandler):
+    """A handler writing to whatever ``sys.stderr`` is when a record is emitted."""
+
+    def __init__(self) -> None:
+        super().__init__()
+
+    @property
+    def stream(self) -> TextIO:  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: TextIO) -> None:
+        pass
+
+
+@contextlib.contextmanager
+def progress_to_stderr(enabled: bool = True) -> Iterator[None]:
+    """Show the package's INFO records on the current ``sys.stderr`` while the block runs, if
+    ``enabled`` and no handler is configured on the package logger (else do nothing)."""
+    logger = logging.getLogger(PACKAGE_LOGGER)
+    if not enabled or logger.handlers:
+        yield
+        return
+    handler = _CurrentStderr()
+    handler.setFormatter(_ShortNameFormatter("%(short_name)s: %(message)s"))
+    old_level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(old_level)

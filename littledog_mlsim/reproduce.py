@@ -35,6 +35,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .layout import STATE_INDEX, STATE_NAMES
+from .logs import progress_to_stderr
 from .models.train import METHOD_NAMES, subset_rows
 
 METHODS = METHOD_NAMES   # Table I rows (the registry's paper methods, in the paper's order)
@@ -260,7 +261,16 @@ def reproduce(data: str | os.PathLike, out: str | os.PathLike, scale: str = "sma
               methods: Sequence[str] = METHODS, seed: int = 0, fig4: bool = True,
               rollouts: bool = True, jobs: int = 2, physics_config: str | os.PathLike | None = None,
               progress: bool = True) -> dict[str, Any]:
-    """Run Table I and Fig. 4 (and the rollout figures) into ``out``; returns a summary dict."""
+    """Run Table I and Fig. 4 (and the rollout figures) into ``out``; returns a summary dict.
+
+    ``progress``: progress lines on stderr unless the program configured logging."""
+    with progress_to_stderr(progress):
+        return _reproduce(data, out, scale, methods, seed, fig4, rollouts, jobs, physics_config,
+                          progress)
+
+
+def _reproduce(data, out, scale, methods, seed, fig4, rollouts, jobs, physics_config,
+               progress) -> dict[str, Any]:
     if scale not in SCALES:
         raise ValueError(f"--scale must be one of {', '.join(SCALES)}, got {scale!r}")
     bad = [m for m in methods if m not in METHODS]

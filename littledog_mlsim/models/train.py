@@ -30,6 +30,7 @@ import numpy as np
 
 from ..data.dataset import features_responses, load_moves, read_index
 from ..data.recording import MoveRecording
+from ..logs import progress_to_stderr
 from .base import Regressor
 from .features import FeatureSet
 from .onestep import TARGETS, OneStepModel
@@ -157,14 +158,21 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
 
     :func:`fit_onestep` on the TrainPool with ``n_train`` = ``max_train_samples``, default
     :data:`DEFAULT_MAX_TRAIN` for the method (else all). ``seed`` seeds the subset and the
-    regressor. ``progress`` turns on the regressor's own progress log (``verbose``); progress
-    goes to the ``littledog_mlsim`` loggers. ``feature_set``: the inputs (default: the paper's
+    regressor. ``progress``: log progress, the regressor's own too (``verbose``), shown on
+    stderr unless the program configured logging (:func:`..logs.progress_to_stderr`). ``feature_set``: the inputs (default: the paper's
     45). Returns the fitted model (not saved). ValueError (one line) on bad input,
     DatasetError/BagError for an unusable dataset.
     """
     if max_train_samples is not None and int(max_train_samples) < 2:
         raise ValueError(f"max_train_samples must be >= 2; got {max_train_samples}")
     make_estimator(method, {k: v for k, v in (options or {}).items() if k != "target"})  # early
+    with progress_to_stderr(progress):
+        return _train_from_dataset(data_dir, method, options, max_train_samples, seed, progress,
+                                   target, feature_set)
+
+
+def _train_from_dataset(data_dir, method, options, max_train_samples, seed, progress, target,
+                        feature_set) -> OneStepModel:
     t0 = time.perf_counter()
     index = read_index(data_dir)
     log.info("loading the TrainPool of %s (%d bags)", data_dir, len(index.names("train")))
