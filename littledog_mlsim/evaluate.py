@@ -27,8 +27,7 @@ from .fileio import atomic_write_text
 from .models.onestep import OneStepModel
 from .rollout.projection import radius_from_quantile
 from .rollout.simulate import prepare_test_moves
-from .scoring import (ROLLOUT_SUMMARY_KEYS, RolloutSpec, one_step_scores, rollout_scores,
-                      score_model)
+from .scoring import ROLLOUT_SUMMARY_KEYS, RolloutSpec, rollout_scores, score_model
 
 PROJECTIONS = ("none", "bound", "alpha")
 
@@ -75,12 +74,6 @@ def write_json(path: str | os.PathLike, obj: Any) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     return atomic_write_text(path, json.dumps(obj, indent=1, allow_nan=False) + "\n")
-
-
-def one_step_nmse(model: OneStepModel, recs: Sequence[MoveRecording]) -> dict[str, Any]:
-    """One-step nMSE per state name on the recordings' samples, plus the mean and timing
-    (:func:`..scoring.one_step_scores`)."""
-    return one_step_scores(model, recs)
 
 
 def rollout_results(model: OneStepModel, recs: Sequence[MoveRecording], kind: str = "alpha",
