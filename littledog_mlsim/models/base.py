@@ -45,11 +45,6 @@ class StdNotSupportedError(NotImplementedError, ValueError):
     """``predict(..., return_std=True)`` on an estimator whose ``supports_std`` is False."""
 
 
-def _json_value(v: Any) -> Any:
-    """A constructor argument as JSON would give it back (arrays and tuples -> lists)."""
-    return to_plain(v)
-
-
 class Regressor:
     """Base class: subclasses set ``method`` and implement fit/predict/get_state/from_state."""
 
@@ -86,7 +81,7 @@ class Regressor:
 
     def get_params(self) -> dict[str, Any]:
         """Constructor arguments, JSON-serialisable (arrays and tuples as lists)."""
-        return {name: _json_value(getattr(self, name)) for name in self.param_names()}
+        return {name: to_plain(getattr(self, name)) for name in self.param_names()}
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> "Regressor":
         raise NotImplementedError

@@ -83,13 +83,6 @@ def n_log_params(n_features: int) -> int:
     return n_features + 2
 
 
-def pack_log_params(signal_variance: float, length_scales: np.ndarray,
-                    noise_variance: float) -> np.ndarray:
-    """(sf2, l (d,), sn2) -> log_params (d + 2,)."""
-    ls = np.asarray(length_scales, dtype=np.float64).ravel()
-    return np.log(np.concatenate([[signal_variance], ls, [noise_variance]]))
-
-
 def unpack_log_params(log_params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """log_params (..., d + 2) -> (sf2 (...,), l (..., d), sn2 (...,)) in natural units."""
     p = np.exp(np.asarray(log_params, dtype=np.float64))

@@ -7,7 +7,7 @@ cluster, and a query is predicted by the local GP whose cluster centre is neares
 distance (= the normalised Euclidean distance of the raw features). Cost O(k m^3) = O(n m^2) to
 fit, O(m d) per query; the block-diagonal view of the paper.
 
-Clustering (:func:`balanced_clusters`)
+Clustering (:func:`.clustering.balanced_clusters`)
 --------------------------------------
 scikit-learn ``KMeans`` (Lloyd, k-means++ init, seeded, ``n_init=1``) on the training inputs.
 k-means on trot data is lopsided (standing and slow moves pile up), and a GP's cost is cubic in
@@ -119,7 +119,8 @@ clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design.md``).
 
 Parallel fitting
 ----------------
-The per-cluster fits (and the per-output global fits of the warm start) run through joblib:
+The per-cluster fits (and the per-output global fits of the warm start) run through joblib
+(:func:`.parallel.run_tasks`):
 ``n_jobs`` local processes (loky), or, with ``dask_scheduler="tcp://host:port"``, the workers of
 that Dask cluster (``distributed.Client`` + joblib's ``dask`` backend; the workers need this
 package importable). Every task's result depends only on its data and its seed (derived from
@@ -130,10 +131,9 @@ use the same NumPy/BLAS build, as ``test/test_lgpr.py`` checks on one machine).
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections import OrderedDict
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -156,105 +156,15 @@ from .gp import (
     noisy_variance,
     unpack_log_params,
 )
+from .clustering import _sqdist_to_centres, balanced_clusters, nearest_rows
+from .parallel import run_tasks
 from .persistence import register
 
 HYPERPARAMETER_MODES = ("shared", "per_output")
 INIT_MODES = ("warm", "cold")
 BLEND_WEIGHTS = ("precision", "relative")
-DASK_CONNECT_TIMEOUT = "30s"
 
 log = logging.getLogger(__name__)
-
-
-# ----------------------------------------------------------------------------- clustering
-
-def _kmeans(X: np.ndarray, k: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Seeded k-means (Lloyd, k-means++, one init) -> (labels (n,), centres (k, d))."""
-    from sklearn.cluster import KMeans
-    km = KMeans(n_clusters=k, n_init=1, random_state=seed).fit(X)
-    return km.labels_.astype(np.int64), km.cluster_centers_
-
-
-def _chunks_along_principal_axis(X: np.ndarray, n_parts: int) -> np.ndarray:
-    """Labels (n,) cutting X (n, d) into ``n_parts`` equal-count chunks along its first PC."""
-    Z = X - X.mean(axis=0)
-    _, _, vt = np.linalg.svd(Z, full_matrices=False)
-    order = np.argsort(Z @ vt[0], kind="stable")
-    labels = np.empty(X.shape[0], dtype=np.int64)
-    for part, rows in enumerate(np.array_split(order, n_parts)):
-        labels[rows] = part
-    return labels
-
-
-def balanced_clusters(X: np.ndarray, n_clusters: int, *, max_cluster_factor: float = 1.5,
-                      min_cluster_factor: float = 0.25, random_state: int = 0
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """k-means partition of X (n, d) with oversized clusters split and tiny ones dissolved.
-
-    Returns (labels (n,) int64 in 0..k'-1, centres (k', d) = the cluster means), clusters
-    numbered by their first member's row. See the module docstring for the rules. Seeded and
-    deterministic; BLAS/OpenMP limited to one thread meanwhile.
-    """
-    X = np.asarray(X, dtype=np.float64)
-    n = X.shape[0]
-    k = int(n_clusters)
-    if not 1 <= k <= n:
-        raise ValueError(f"n_clusters must be in [1, n={n}]; got {n_clusters}")
-    if max_cluster_factor < 1.0:
-        raise ValueError(f"max_cluster_factor must be >= 1; got {max_cluster_factor}")
-    if k == 1:
-        return np.zeros(n, dtype=np.int64), X.mean(axis=0, keepdims=True)
-    target = n / k
-    max_size = max(1, int(math.floor(max_cluster_factor * target)))
-    min_size = int(math.ceil(min_cluster_factor * target))
-    with threadpool_limits(limits=1):
-        labels, _ = _kmeans(X, k, random_state)
-        groups = [np.flatnonzero(labels == c) for c in range(k)]
-        final: list[np.ndarray] = []
-        while groups:
-            g = groups.pop()
-            if g.size <= max_size:
-                final.append(g)
-                continue
-            parts = int(math.ceil(g.size / target))
-            sub, _ = _kmeans(X[g], parts, random_state)
-            pieces = [g[sub == j] for j in range(parts)]
-            for piece in pieces:
-                if piece.size > max_size:  # k-means could not split it evenly: equal chunks
-                    cut = _chunks_along_principal_axis(X[piece], int(math.ceil(piece.size
-                                                                             / target)))
-                    final.extend(piece[cut == j] for j in range(cut.max() + 1))
-                elif piece.size:
-                    final.append(piece)
-    # dissolve tiny clusters into the nearest remaining centre (smallest first)
-    final.sort(key=lambda g: (g.size, g[0]))
-    while len(final) > 1 and final[0].size < min_size:
-        small = final.pop(0)
-        centres = np.stack([X[g].mean(axis=0) for g in final])
-        near = _nearest_rows(X[small], centres)
-        for j in np.unique(near):
-            final[j] = np.sort(np.concatenate([final[j], small[near == j]]))
-        final.sort(key=lambda g: (g.size, g[0]))
-    final.sort(key=lambda g: g[0])
-    labels = np.empty(n, dtype=np.int64)
-    for c, g in enumerate(final):
-        labels[g] = c
-    centres = np.stack([X[g].mean(axis=0) for g in final])
-    return labels, centres
-
-
-def _sqdist_to_centres(X: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """Exact squared distances (n, k) (direct differences: no cancellation)."""
-    diff = X[:, None, :] - centres[None, :, :]
-    return np.einsum("nkd,nkd->nk", diff, diff)
-
-
-def _nearest_rows(X: np.ndarray, centres: np.ndarray, block: int = 2048) -> np.ndarray:
-    """Index (n,) of the nearest centre of each row (first of equal minima)."""
-    out = np.empty(X.shape[0], dtype=np.int64)
-    for a in range(0, X.shape[0], block):
-        out[a:a + block] = np.argmin(_sqdist_to_centres(X[a:a + block], centres), axis=1)
-    return out
 
 
 # ----------------------------------------------------------------------------- worker tasks
@@ -365,51 +275,6 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
     return {"log_params": res.log_params, "alpha": alpha, "lml": lml, "y_mean": y_mean,
             "y_std": y_std, "output_scale": scale, "n_iter": res.n_iter, "jitter": jitter,
             "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
-
-
-def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
-              dask_scheduler: str | None = None,
-              on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
-    """Run ``func(*args)`` for every tuple, in order, through joblib; results in input order.
-
-    ``n_jobs`` local loky processes (1: in this process), or the workers of the Dask cluster at
-    ``dask_scheduler`` (joblib's ``dask`` backend through a ``distributed.Client``).
-    ``on_result(i, result)`` is called as results arrive (in order), e.g. for progress.
-    """
-    from joblib import Parallel, delayed
-
-    tasks = [delayed(func)(*a) for a in arg_tuples]
-    results: list[Any] = []
-
-    def collect(it: Iterable[Any]) -> None:
-        for i, r in enumerate(it):
-            results.append(r)
-            if on_result is not None:
-                on_result(i, r)
-
-    if dask_scheduler:
-        try:
-            from distributed import Client
-        except ImportError as e:  # pragma: no cover - distributed is a dependency
-            raise ValueError(f"dask_scheduler needs the 'distributed' package: {e}") from e
-        from joblib import parallel_config
-        try:
-            client = Client(dask_scheduler, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, ValueError, TypeError) as e:
-            raise ValueError(f"cannot connect to the Dask scheduler {dask_scheduler}: "
-                             f"{str(e).splitlines()[0] if str(e) else type(e).__name__}"
-                             ) from e
-        try:
-            with parallel_config(backend="dask", client=client, wait_for_workers_timeout=60):
-                collect(Parallel(n_jobs=-1, return_as="generator")(tasks))
-        finally:
-            client.close()
-        return results
-    if n_jobs == 1 or len(tasks) <= 1:
-        collect(t[0](*t[1], **t[2]) for t in tasks)
-        return results
-    collect(Parallel(n_jobs=n_jobs, return_as="generator")(tasks))
-    return results
 
 
 # ----------------------------------------------------------------------------- estimator
@@ -618,7 +483,7 @@ class LGPR(Regressor):
     def nearest_cluster(self, X: np.ndarray) -> np.ndarray:
         """Index (n,) of the centre nearest to each row of X (n, d) (first of equal minima)."""
         X = check_predict_inputs(X, self.n_features_in_)
-        return _nearest_rows(X, self.centers_)
+        return nearest_rows(X, self.centers_)
 
     def _factors(self, c: int) -> list[np.ndarray]:
         """Cholesky factors of cluster c (one per distinct kernel), LRU-cached."""
@@ -757,7 +622,7 @@ class LGPR(Regressor):
         check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         if not self.blend or int(self.n_blend) == 1 or self.n_clusters_ == 1:
-            labels = _nearest_rows(X, self.centers_)
+            labels = nearest_rows(X, self.centers_)
             mean, var = self._by_cluster(X, labels, return_std)
             if not return_std:
                 return mean
