@@ -63,7 +63,7 @@ import numpy as np
 
 from .data.dataset import features_responses, load_moves, states_from_recording
 from .data.recording import MoveRecording
-from .fileio import atomic_write_text, format_problem
+from .fileio import atomic_write_text, read_document
 from .layout import MOVE_TYPES, S, STATE_NAMES
 from .robot.config import RobotConfig, robot_config
 from .robot.sim import OBS_FIELDS, InitialState, LittleDogSim
@@ -458,12 +458,9 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
     """Read a RobotConfig written by :func:`save_robot_config`; ValueError if it is not one."""
     path = Path(path)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: unreadable robot config: {exc}") from None
-    problem = format_problem(doc, CONFIG_FORMAT, CONFIG_FORMAT_VERSION, "a robot config")
-    if problem:
-        raise ValueError(f"{path}: {problem}")
+        doc = read_document(path, CONFIG_FORMAT, CONFIG_FORMAT_VERSION, "a robot config")
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     try:
         return config_from_dict(doc["config"])
     except (KeyError, TypeError, ValueError) as exc:

@@ -1,8 +1,9 @@
 """Atomic writes: a reader sees the old file or directory or the complete new one, never a part.
 
 - :func:`atomic_write_text`: one text file, through a fsynced temporary sibling and a rename.
-- :func:`format_problem`: the one check of a versioned document's ``format`` and
-  ``format_version`` (model files, dataset indexes, robot configs).
+- :func:`read_document` / :func:`format_problem`: the one way to read a versioned JSON or
+  YAML document (model files, dataset indexes, robot configs) and check its ``format`` and
+  ``format_version``.
 - :func:`to_plain`: NumPy values, tuples and paths as the plain values JSON and YAML write.
 - :func:`atomic_directory`: a context manager that yields an empty temporary sibling directory;
   when the block succeeds the directory is fsynced and put in place of the target (replacing
@@ -23,7 +24,7 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 __all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory", "to_plain",
-           "format_problem"]
+           "format_problem", "read_document"]
 
 
 def format_problem(doc: Any, fmt: str, version: int, what: str) -> str | None:
@@ -36,6 +37,32 @@ def format_problem(doc: Any, fmt: str, version: int, what: str) -> str | None:
     if got != version:
         return f"unsupported format_version {got!r} (this build reads {version})"
     return None
+
+
+def read_document(path: str | os.PathLike, fmt: str, version: int, what: str,
+                  syntax: str = "json") -> dict:
+    """The document at ``path`` (``syntax`` "json" or "yaml"), checked to be a ``fmt`` document
+    of ``version``; ValueError with a one-line reason (without the path) otherwise."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ValueError(f"unreadable: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not text (truncated or corrupt?): {exc}") from None
+    try:
+        if syntax == "yaml":
+            import yaml
+            doc = yaml.safe_load(text)
+        else:
+            import json
+            doc = json.loads(text)
+    except Exception as exc:   # json.JSONDecodeError, yaml.YAMLError
+        detail = " ".join(str(exc).split())
+        raise ValueError(f"not valid {syntax.upper()} (truncated or corrupt?): {detail}") from None
+    problem = format_problem(doc, fmt, version, what)
+    if problem:
+        raise ValueError(problem)
+    return doc
 
 
 def to_plain(obj: Any) -> Any:

@@ -58,7 +58,7 @@ from typing import Any, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from ..fileio import atomic_write_text, format_problem, to_plain
+from ..fileio import atomic_write_text, read_document, to_plain
 from ..layout import (
     MOVE_TYPES,
     N_ACTION,
@@ -240,12 +240,9 @@ def read_index(directory: str | os.PathLike) -> DatasetIndex:
     if not path.is_file():
         raise fail("no dataset index (not a dataset directory?)")
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise fail(f"unreadable: {type(exc).__name__}: {exc}") from None
-    problem = format_problem(doc, INDEX_FORMAT, INDEX_FORMAT_VERSION, "a dataset index")
-    if problem:
-        raise fail(problem)
+        doc = read_document(path, INDEX_FORMAT, INDEX_FORMAT_VERSION, "a dataset index", "yaml")
+    except ValueError as exc:
+        raise fail(str(exc)) from None
     info = doc.get("info") or {}
     if not isinstance(info, dict):
         raise fail("info is not a mapping")

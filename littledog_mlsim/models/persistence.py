@@ -46,7 +46,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..fileio import atomic_directory, format_problem, to_plain
+from ..fileio import atomic_directory, read_document, to_plain
 from .base import Regressor
 from .gp import GPR
 from .lr import LinearRegression
@@ -192,12 +192,9 @@ def read_model_json(path: str | os.PathLike) -> dict[str, Any]:
     if not meta_path.is_file():
         raise ModelError(f"{path} is not a model: no {META_FILE}")
     try:
-        doc = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ModelError(f"{meta_path}: not valid JSON (truncated or corrupt?): {e}") from e
-    problem = format_problem(doc, FORMAT, FORMAT_VERSION, "a model file")
-    if problem:
-        raise ModelError(f"{meta_path}: {problem}")
+        doc = read_document(meta_path, FORMAT, FORMAT_VERSION, "a model file")
+    except ValueError as e:
+        raise ModelError(f"{meta_path}: {e}") from None
     for key, typ in (("method", str), ("params", dict), ("state", dict), ("meta", dict),
                      ("arrays", dict), ("arrays_sha256", str)):
         if not isinstance(doc.get(key), typ):
