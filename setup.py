@@ -1,9 +1,39 @@
-"""ament_python package: builds with colcon in a ROS 2 Jazzy install and with pip in a venv."""
+"""ament_python package: builds with colcon in a ROS 2 Jazzy install and with pip in a venv.
+
+The pip route declares every run-time dependency: ``install_requires`` is read from
+``requirements.txt`` (one list of pins for ``make``, ``pip install .`` and the wheel), without
+the test and build tools, which go to the ``test`` extra. In a sourced ROS 2 environment
+(``AMENT_PREFIX_PATH`` set, the colcon route) rclpy and the message packages come from the ROS
+install, so the ``ros-jazzy-*`` wheels are left out there.
+"""
+import os
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
 PACKAGE = "littledog_mlsim"
+_TOOLS = ("pytest", "setuptools", "wheel")   # test and build tools: not run-time dependencies
+
+
+def _requirements() -> tuple[list[str], list[str]]:
+    """(run-time requirements, tool requirements) from requirements.txt."""
+    run, tools = [], []
+    for line in (Path(__file__).parent / "requirements.txt").read_text().splitlines():
+        req = line.split("#", 1)[0].strip()
+        if not req:
+            continue
+        name = req.split("[", 1)[0].split("=", 1)[0].split("<", 1)[0].split(">", 1)[0].strip()
+        if name.lower() in _TOOLS:
+            tools.append(req)
+        elif name.startswith("ros-") and os.environ.get("AMENT_PREFIX_PATH"):
+            continue
+        else:
+            run.append(req)
+    return run, tools
+
+
+INSTALL_REQUIRES, TOOLS_REQUIRE = _requirements()
 
 setup(
     name=PACKAGE,
@@ -18,7 +48,8 @@ setup(
         (f"share/{PACKAGE}/urdf", glob(f"{PACKAGE}/robot/*.urdf")),
     ],
     python_requires=">=3.10",
-    install_requires=["setuptools"],
+    install_requires=INSTALL_REQUIRES,
+    extras_require={"test": [r for r in TOOLS_REQUIRE if r.lower().startswith("pytest")]},
     zip_safe=True,
     maintainer="littledog_mlsim maintainers",
     maintainer_email="maintainers@littledog-mlsim.invalid",

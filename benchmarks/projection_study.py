@@ -9,7 +9,7 @@ Usage (from the repo root, in the venv; models trained beforehand with ``littled
 
 For each model: every TestPool move rolled out from its measured s_1 with its recorded commands
 (all moves batched, with the calls of ``littledog-mlsim rollout``/``evaluate``,
-``evaluate.rollout_results``: the same projection, ``rollout_moves`` and ``rollout_metrics``)
+``scoring.rollout_scores``, what ``evaluate`` runs)
 with each projection of ``--alphas`` (plain alpha-PROJ), none, BOUND, and the gated alpha-PROJ
 (``--gate-alphas`` x ``--quantiles``; radius = that quantile of the TrainPool's leave-move-out
 nearest-neighbour distances, ``evaluate.trainpool_radius``, computed on the TrainPool only).
@@ -45,8 +45,8 @@ from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.rollout.projection import (  # noqa: E402
     leave_move_out_distances, make_projection,
 )
-from littledog_mlsim.rollout.metrics import rollout_metrics  # noqa: E402
-from littledog_mlsim.rollout.simulate import prepare_test_moves, rollout_moves  # noqa: E402
+from littledog_mlsim.rollout.simulate import prepare_test_moves  # noqa: E402
+from littledog_mlsim.scoring import RolloutSpec, rollout_scores  # noqa: E402
 
 QUANTILES_REPORTED = (0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99)
 
@@ -56,18 +56,15 @@ def _q(d: np.ndarray) -> dict[str, float]:
 
 
 def run(model: OneStepModel, moves, kind: str, alpha: float, radius: float, nn) -> dict:
-    """``evaluate.rollout_results``' rollout and metrics (same calls), plus the median over the
-    moves of the normalised distance of the fed-back state to the TrainPool at steps 100, 399."""
-    projection = (model.projection(kind, alpha=alpha) if kind != "alpha" or radius == 0
-                  else make_projection(kind, model.train_states, alpha=alpha, radius=radius))
-    t0 = time.perf_counter()
-    pred = rollout_moves(model, moves, projection)
-    wall = time.perf_counter() - t0
-    full = rollout_metrics(moves, pred, projection=projection)
+    """The rollout and metrics of ``scoring.rollout_scores`` (what ``evaluate`` runs), plus the
+    median over the moves of the normalised distance of the fed-back state to the TrainPool at
+    steps 100, 399."""
+    spec = RolloutSpec(kind, alpha, radius if kind == "alpha" else 0.0)
+    results, preds = rollout_scores(model, moves, [spec], keep_predictions=True)
+    full, pred = results[spec.label], preds[spec.label]
     out = {k: full.get(k) for k in (
         "final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m_p90",
-        "final_xy_error_m_finite", "n_nan_moves")}
-    out.update(rollout_wall_s=wall, realtime_factor=sum(m.n_steps for m in moves) * 0.01 / wall)
+        "final_xy_error_m_finite", "n_nan_moves", "rollout_wall_s", "realtime_factor")}
     out["per_move_final_xy_error_m"] = [p["final_xy_error_m"] for p in full["per_move"]]
     for k, d in drift(nn, pred, (100, 399)).items():
         out[f"nn_dist_{k}_median"] = d

@@ -63,7 +63,7 @@ import numpy as np
 
 from .data.dataset import features_responses, load_moves, states_from_recording
 from .data.recording import MoveRecording
-from .fileio import atomic_write_text
+from .fileio import atomic_write_text, read_document
 from .layout import MOVE_TYPES, S, STATE_NAMES
 from .robot.config import RobotConfig, robot_config
 from .robot.sim import OBS_FIELDS, InitialState, LittleDogSim
@@ -458,13 +458,9 @@ def load_robot_config(path: str | os.PathLike) -> RobotConfig:
     """Read a RobotConfig written by :func:`save_robot_config`; ValueError if it is not one."""
     path = Path(path)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: unreadable robot config: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("format") != CONFIG_FORMAT:
-        raise ValueError(f"{path}: not a robot config (format is not {CONFIG_FORMAT!r})")
-    if doc.get("format_version") != CONFIG_FORMAT_VERSION:
-        raise ValueError(f"{path}: unknown format_version {doc.get('format_version')!r}")
+        doc = read_document(path, CONFIG_FORMAT, CONFIG_FORMAT_VERSION, "a robot config")
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     try:
         return config_from_dict(doc["config"])
     except (KeyError, TypeError, ValueError) as exc:

@@ -1,4 +1,4 @@
-"""The ``littledog-mlsim`` console script: one verb per job (CONTRACT.md section 5).
+"""The ``littledog-mlsim`` console script: one verb per job (``docs/interface.md`` §5).
 
 Every verb prints ``--help``, shows progress on long work, and on bad input exits non-zero with a
 one-line reason on stderr.
@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from .layout import MOVE_TYPES
+from .logs import setup_logging, teardown_logging
 
 
 class CliError(Exception):
@@ -145,6 +146,15 @@ def _add_radius_options(p: argparse.ArgumentParser) -> None:
                         "states to the nearest state of another TrainPool move (e.g. 0.9)")
 
 
+def _add_scoring_options(p: argparse.ArgumentParser) -> None:
+    """What ``evaluate`` and ``rollout`` share: model, data, output, alpha and the gate."""
+    p.add_argument("--model", required=True, type=Path, help="model directory")
+    p.add_argument("--data", required=True, type=Path, help="dataset directory")
+    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
+    _add_radius_options(p)
+
+
 def cmd_evaluate(a: argparse.Namespace) -> int:
     from .evaluate import evaluate
 
@@ -221,6 +231,9 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .models.train import METHOD_NAMES   # the registry's methods, in the paper's order
+
+    methods = list(METHOD_NAMES)
     p = argparse.ArgumentParser(prog="littledog-mlsim",
                                 description="Learned rigid-body simulator of the LittleDog quadruped.")
     sub = p.add_subparsers(dest="verb", required=True, metavar="VERB")
@@ -244,10 +257,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=cmd_record)
 
     t = sub.add_parser("train", help="fit a one-step model on a dataset's TrainPool",
-                       description="Fit a one-step model (lr, lwpr, gpr, sor or lgpr) on the TrainPool "
+                       description=f"Fit a one-step model ({', '.join(methods)}) on the TrainPool "
                                    "of a dataset and write it atomically to MODEL.")
     t.add_argument("--data", required=True, type=Path, help="dataset directory")
-    t.add_argument("--method", required=True, choices=["lr", "lwpr", "gpr", "sor", "lgpr"], help="regressor")
+    t.add_argument("--method", required=True, choices=methods, help="regressor")
     t.add_argument("--out", required=True, type=Path, metavar="MODEL", help="model directory to write")
     t.add_argument("--n-train", type=int, default=None, metavar="N",
                    help="use a random subset of N TrainPool samples (default: all; gpr 2000, sor 10000)")
@@ -282,24 +295,16 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("evaluate", help="one-step nMSE and rollout errors of a model on the TestPool",
                        description="Score a model on a dataset's TestPool: metrics.json with nmse "
                                    "(state name -> one-step nMSE) and the rollout errors.")
-    e.add_argument("--model", required=True, type=Path, help="model directory")
-    e.add_argument("--data", required=True, type=Path, help="dataset directory")
-    e.add_argument("--out", required=True, type=Path, help="output directory")
+    _add_scoring_options(e)
     e.add_argument("--projections", type=lambda t: [x for x in t.split(",") if x],
                    default=["none", "bound", "alpha"], help="comma-separated: none,bound,alpha")
-    e.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
-    _add_radius_options(e)
     e.set_defaults(func=cmd_evaluate)
 
     o = sub.add_parser("rollout", help="roll a model out over every TestPool move",
                        description="Roll every TestPool move out from its measured initial state "
                                    "with its recorded commands: rollout.json.")
-    o.add_argument("--model", required=True, type=Path, help="model directory")
-    o.add_argument("--data", required=True, type=Path, help="dataset directory")
+    _add_scoring_options(o)
     o.add_argument("--projection", choices=["none", "bound", "alpha"], default="alpha")
-    o.add_argument("--alpha", type=_alpha, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
-    _add_radius_options(o)
-    o.add_argument("--out", required=True, type=Path, help="output directory")
     o.set_defaults(func=cmd_rollout)
 
     rp = sub.add_parser("reproduce", help="the paper's Table I and Figs 4-7 on a dataset",
@@ -309,7 +314,7 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--out", required=True, type=Path, help="output directory")
     rp.add_argument("--scale", choices=["small", "paper"], default="small")
     rp.add_argument("--methods", type=lambda t: [x for x in t.split(",") if x],
-                   default=["lr", "lwpr", "gpr", "sor", "lgpr"], help="comma-separated subset")
+                   default=methods, help=f"comma-separated subset of {','.join(methods)}")
     rp.add_argument("--seed", type=int, default=0)
     rp.add_argument("--jobs", type=int, default=2, help="processes for the Fig. 4 fits")
     rp.add_argument("--no-fig4", action="store_true", help="skip Fig. 4")
@@ -333,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--baseline", choices=["measured", "paper"], default="measured",
                     help="without --model: start from the default model's features (measured, "
                          "the paper's 45 plus the measured robot's own structure) or the paper's 45")
-    dg.add_argument("--method", choices=["lr", "lwpr", "gpr", "sor", "lgpr"], default=None,
+    dg.add_argument("--method", choices=methods, default=None,
                     help="report model fitted before/after each effect (default lgpr)")
     dg.add_argument("--option", type=_option, action="append", metavar="KEY=VALUE",
                     help="report model constructor argument (VALUE parsed as JSON); repeatable")
@@ -366,6 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     func: Callable[[argparse.Namespace], int] = args.func
+    handler = setup_logging(quiet=bool(getattr(args, "quiet", False)))
     try:
         return func(args)
     except KeyboardInterrupt:
@@ -377,6 +383,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as e:  # e.g. a user's effect plug-in failing inside a worker
         print(f"littledog-mlsim {args.verb}: error: {type(e).__name__}: {_one_line(e)}", file=sys.stderr)
         return 1
+    finally:
+        teardown_logging(handler)
 
 
 def _one_line(e: BaseException) -> str:

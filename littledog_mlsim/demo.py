@@ -6,7 +6,7 @@
    --quiet`` (33 bags, about 15 s on 2 cores) and ``littledog-mlsim train --data DATA --method
    lgpr --out MODEL`` (about 30 s).
 2. Two simulators as separate processes, each alone in its own ROS domain (so both keep the
-   contract's topic names, CONTRACT.md section 2, without remapping, and their outputs cannot
+   contract's topic names, docs/interface.md §2, without remapping, and their outputs cannot
    mix), with localhost discovery: ``sim_node`` (the learned model, lockstep) in domain D and
    ``pybullet_node`` (measured robot, lockstep) in domain D + 1. D is derived from the process
    id unless ``--domain`` is given. sim_node runs with ``projection:=none`` unless

@@ -1,13 +1,13 @@
-"""Score a one-step model on a dataset's TestPool: the ``evaluate`` and ``rollout`` verbs.
+"""The ``evaluate`` and ``rollout`` verbs: score a model file on a dataset's TestPool.
 
-- ``one_step_nmse``: nMSE per state element of s_{t+1} predicted from the measured (s_t, u_t)
-  over all TestPool samples (the paper's Table I metric; variance of the TestPool response).
-- ``rollout_results``: every TestPool move rolled out from its measured s_1 with its recorded
-  commands and a projection (none / bound / alpha), scored by ``rollout.metrics.rollout_metrics``
-  (cumulative (x, y) error, per-element non-cumulative errors, nMSE at horizons). alpha-PROJ
-  may be gated (``radius``, normalised units; or ``radius_quantile``: that quantile of the
-  TrainPool's leave-move-out nearest-neighbour distances, ``trainpool_radius``).
-- ``evaluate``: both, for each of ``projections``, into ``metrics.json``.
+The scoring itself is :mod:`.scoring` (one-step nMSE, rollouts per projection, one result
+schema); this module reads the model and the moves, resolves the gate radius of alpha-PROJ
+(``radius``, normalised units; or ``radius_quantile``: that quantile of the TrainPool's
+leave-move-out nearest-neighbour distances, :func:`trainpool_radius`) and writes the files:
+
+- ``rollout``: ``OUT/rollout.json``, the full result of one projection;
+- ``evaluate``: ``OUT/metrics.json`` (one-step nMSE and a summary per projection) and
+  ``OUT/rollout_<label>.json`` per projection.
 
 Outputs are written atomically (temporary file, then rename).
 """
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import time
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -25,9 +24,9 @@ from .data.dataset import features_responses, load_moves
 from .data.recording import MoveRecording
 from .fileio import atomic_write_text
 from .models.onestep import OneStepModel
-from .rollout.metrics import nmse, rollout_metrics
-from .rollout.projection import make_projection, radius_from_quantile
-from .rollout.simulate import prepare_test_moves, rollout_moves
+from .rollout.projection import radius_from_quantile
+from .rollout.simulate import prepare_test_moves
+from .scoring import ROLLOUT_SUMMARY_KEYS, RolloutSpec, rollout_scores, score_model
 
 PROJECTIONS = ("none", "bound", "alpha")
 
@@ -76,44 +75,14 @@ def write_json(path: str | os.PathLike, obj: Any) -> Path:
     return atomic_write_text(path, json.dumps(obj, indent=1, allow_nan=False) + "\n")
 
 
-def one_step_nmse(model: OneStepModel, recs: Sequence[MoveRecording]) -> dict[str, Any]:
-    """One-step nMSE per state name on the recordings' samples, plus the mean and timing.
-
-    The features are the model's own (``model.feature_set``: the paper's 45 plus any
-    augmentations it carries, computed from the recordings)."""
-    fs = getattr(model, "feature_set", None)
-    X, Y, _ = features_responses(recs) if fs is None else fs.features_responses(recs)
-    t0 = time.perf_counter()
-    pred = model.predict(X)
-    dt = time.perf_counter() - t0
-    per = nmse(Y, pred)
-    finite = [v for v in per.values() if v is not None and np.isfinite(v)]
-    return {"nmse": per, "nmse_mean": float(np.mean(finite)) if finite else None,
-            "n_samples": int(X.shape[0]), "predict_seconds_per_sample": dt / max(X.shape[0], 1)}
-
-
 def rollout_results(model: OneStepModel, recs: Sequence[MoveRecording], kind: str = "alpha",
                     alpha: float = 0.5, radius: float = 0.0) -> dict[str, Any]:
-    """Roll every recording out with the model and projection; the contract's rollout.json.
+    """Roll every recording out with the model and projection; the rollout.json document
+    (:func:`..scoring.rollout_scores`).
 
     ``radius`` > 0 (alpha only): gated alpha-PROJ with that radius (normalised units)."""
-    moves = prepare_test_moves(recs)
-    if kind != "alpha" or radius == 0:
-        projection = model.projection(kind, alpha=alpha)
-    else:
-        if model.train_states is None:
-            raise ValueError("this model holds no TrainPool states for a projection")
-        projection = make_projection(kind, model.train_states, alpha=alpha, radius=radius)
-    t0 = time.perf_counter()
-    predicted = rollout_moves(model, moves, projection)
-    wall = time.perf_counter() - t0
-    out = rollout_metrics(moves, predicted, projection=projection)
-    robot_time = sum(m.n_steps for m in moves) * 0.01
-    out.update(projection=kind, alpha=alpha if kind == "alpha" else None, method=model.method,
-               rollout_wall_s=wall, realtime_factor=robot_time / wall if wall > 0 else None)
-    if kind == "alpha" and radius > 0:
-        out["radius"] = float(radius)
-    return out
+    spec = RolloutSpec(kind, alpha, radius if kind == "alpha" else 0.0)
+    return rollout_scores(model, prepare_test_moves(recs), [spec])[spec.label]
 
 
 def _load(model_path: str | os.PathLike, data: str | os.PathLike, split: str
@@ -164,20 +133,20 @@ def evaluate(model_path: str | os.PathLike, data: str | os.PathLike, out: str | 
     model, recs = _load(model_path, data, split)
     r = (_resolve_radius(model, data, radius, radius_quantile) if "alpha" in projections
          else 0.0)
+    specs = [RolloutSpec(kind, alpha, r if kind == "alpha" else 0.0,
+                         name=projection_label(kind, alpha, r if kind == "alpha" else 0.0,
+                                               radius_quantile if kind == "alpha" else None))
+             for kind in projections]
+    scores = score_model(model, recs, specs)
     res: dict[str, Any] = {"model": str(model_path), "method": model.method, "data": str(data),
                            "split": split}
-    res.update(one_step_nmse(model, recs))
+    res.update({k: v for k, v in scores.items() if k not in ("method", "rollout")})
     res["rollout"] = {}
-    keep = ("final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m_p90",
-            "nmse_at_horizon", "element_error_sum_mean", "n_nan_moves", "rollout_wall_s",
-            "realtime_factor", "radius")
-    for kind in projections:
-        full = rollout_results(model, recs, kind, alpha, radius=r if kind == "alpha" else 0.0)
-        label = projection_label(kind, alpha, r if kind == "alpha" else 0.0,
-                                 radius_quantile if kind == "alpha" else None)
-        if kind == "alpha" and radius_quantile is not None:
+    for spec in specs:
+        full = scores["rollout"][spec.label]
+        if spec.kind == "alpha" and radius_quantile is not None:
             full["radius_quantile"] = float(radius_quantile)
-        write_json(Path(out) / f"rollout_{label}.json", full)
-        res["rollout"][label] = {k: full.get(k) for k in keep if k in full}
+        write_json(Path(out) / f"rollout_{spec.label}.json", full)
+        res["rollout"][spec.label] = {k: full.get(k) for k in ROLLOUT_SUMMARY_KEYS if k in full}
     write_json(Path(out) / "metrics.json", res)
     return res

@@ -24,8 +24,8 @@ on the ``nominal`` pybullet robot, then writes:
 """
 from __future__ import annotations
 
+import logging
 import os
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -34,10 +34,15 @@ import numpy as np
 
 from .layout import CONTROL_DT, STATE_NAMES
 
-PREFERENCE = ("lgpr", "sor", "gpr", "lwpr", "lr")
+from .models.train import METHOD_NAMES
+
+# primary model first: the paper's methods from the most to the least capable
+PREFERENCE: tuple[str, ...] = tuple(reversed(METHOD_NAMES))
 PROJECTIONS: tuple[tuple[str, float], ...] = (("none", 0.0), ("bound", 0.0), ("alpha", 0.25),
                                               ("alpha", 0.5), ("alpha", 0.75), ("alpha", 1.0))
 PHYSICS = "physics (pybullet nominal)"
+
+log = logging.getLogger(__name__)
 
 
 def _label(kind: str, alpha: float) -> str:
@@ -91,36 +96,31 @@ def drift(nn, predicted, steps: tuple[int, ...] = DRIFT_STEPS) -> dict[str, floa
     return out
 
 
-def roll_projections(model, moves, nn=None, say=lambda text: None):
-    """Roll ``model`` out over ``moves`` with every projection of ``PROJECTIONS``.
+def roll_projections(model, moves, nn=None):
+    """Roll ``model`` out over ``moves`` with every projection of ``PROJECTIONS``
+    (:func:`..scoring.rollout_scores`).
 
     Returns ``(summary, curves, sums, preds)``, each keyed by the projection's label: the rollout
     summary (``SUMMARY_KEYS``, wall time, real-time factor, drift from the TrainPool when ``nn``
     is given), the (n_moves, T) cumulative (x, y) errors, the (n_moves, 33) element-wise error
     sums and the predicted states."""
-    from .rollout.metrics import rollout_metrics
-    from .rollout.simulate import rollout_moves
+    from .scoring import RolloutSpec, rollout_scores
 
+    specs = [RolloutSpec(kind, alpha, name=_label(kind, alpha)) for kind, alpha in PROJECTIONS]
+    full, preds = rollout_scores(model, moves, specs, keep_predictions=True)
     summary: dict[str, Any] = {}
     curves: dict[str, np.ndarray] = {}
     sums: dict[str, np.ndarray] = {}
-    preds: dict[str, list[np.ndarray]] = {}
-    n_steps = sum(m.n_steps for m in moves)
-    for kind, alpha in PROJECTIONS:
-        label = _label(kind, alpha)
-        proj = model.projection(kind, alpha=alpha)
-        t0 = time.perf_counter()
-        pred = rollout_moves(model, moves, proj)
-        wall = time.perf_counter() - t0
-        res = rollout_metrics(moves, pred, projection=proj)
+    for label, res in full.items():
+        pred = preds[label]
         summary[label] = {k: res.get(k) for k in SUMMARY_KEYS}
-        summary[label].update(rollout_wall_s=wall, realtime_factor=n_steps * CONTROL_DT / wall)
+        summary[label].update(rollout_wall_s=res["rollout_wall_s"],
+                              realtime_factor=res["realtime_factor"])
         if nn is not None:
             summary[label]["drift_nn_distance_median"] = drift(nn, pred)
-        curves[label], sums[label], preds[label] = (xy_error_curves(moves, pred),
-                                                    element_sums(moves, pred), pred)
-        say(f"{model.method} {label}: final (x,y) error {res.get('final_xy_error_m')} m, "
-            f"{wall:.1f} s")
+        curves[label], sums[label] = xy_error_curves(moves, pred), element_sums(moves, pred)
+        log.info("%s %s: final (x,y) error %s m, %.1f s", model.method, label,
+                 res.get("final_xy_error_m"), res["rollout_wall_s"])
     return summary, curves, sums, preds
 
 
@@ -128,7 +128,15 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
                     physics_config: Any | None = None, animate: bool = True,
                     progress: bool = True) -> dict[str, Any]:
     """Figs 5-7, the by-model comparison, rollouts.json/md and the animation for the models
-    found in ``models_dir``."""
+    found in ``models_dir``. ``progress``: progress lines on stderr unless the program
+    configured logging."""
+    from .logs import progress_to_stderr
+
+    with progress_to_stderr(progress):
+        return _rollout_figures(data, out, models_dir, physics_config, animate)
+
+
+def _rollout_figures(data, out, models_dir, physics_config, animate) -> dict[str, Any]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -140,10 +148,6 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
     from .rollout.metrics import rollout_metrics
     from .rollout.projection import make_projection
     from .rollout.simulate import prepare_test_moves
-
-    def say(text: str) -> None:
-        if progress:
-            print(f"figures: {text}", file=sys.stderr, flush=True)
 
     out, models_dir = Path(out), Path(models_dir)
     methods = [m for m in PREFERENCE if (models_dir / m).is_dir()]
@@ -164,7 +168,7 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
         if nn is None or not np.array_equal(model.train_states, nn_states):
             nn_states = model.train_states
             nn = make_projection("alpha", nn_states)
-        summ, cur, sm, pr = roll_projections(model, moves, nn, say)
+        summ, cur, sm, pr = roll_projections(model, moves, nn)
         by_method[m] = summ
         mean_curves[m] = cur
         if m == method:
@@ -183,7 +187,7 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
         summary["projections"][PHYSICS] = phys
         curves[PHYSICS], sums[PHYSICS], preds[PHYSICS] = (xy_error_curves(moves, pred),
                                                           element_sums(moves, pred), pred)
-        say(f"physics: final (x,y) error {res.get('final_xy_error_m')} m")
+        log.info("physics: final (x,y) error %s m", res.get("final_xy_error_m"))
 
     figs = {"fig5.png": "F", "fig6.png": "BL"}
     picked = {}

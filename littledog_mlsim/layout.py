@@ -1,9 +1,13 @@
 """The robot's names and the paper's state/action/feature layout, defined once.
 
 Everything in the project imports joint names, state names and index ranges from here
-(CONTRACT.md sections 1 and 4). Arrays of 12 joint values are always in ``JOINT_NAMES`` order.
+(``docs/interface.md`` §1 and §4). Arrays of 12 joint values are
+always in ``JOINT_NAMES`` order; :func:`joint_permutation` maps a message's or a bag's joint
+order onto it.
 """
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -11,6 +15,26 @@ LEGS: tuple[str, ...] = ("front_left", "front_right", "back_left", "back_right")
 LEG_JOINTS: tuple[str, ...] = ("hip_roll", "hip_pitch", "knee")
 JOINT_NAMES: tuple[str, ...] = tuple(f"{leg}_{j}" for leg in LEGS for j in LEG_JOINTS)
 N_JOINTS = len(JOINT_NAMES)  # 12
+_JOINT_INDEX = {n: i for i, n in enumerate(JOINT_NAMES)}
+
+
+@lru_cache(maxsize=64)
+def joint_permutation(names: tuple[str, ...]) -> np.ndarray | str:
+    """Index into ``names`` of each joint of ``JOINT_NAMES`` (``values[perm]`` reorders a
+    JointState's arrays to the project's order), or a one-line reason why ``names`` is not
+    usable: unknown names, duplicates, or not all 12. Cached: the order rarely changes."""
+    unknown = [n for n in names if n not in _JOINT_INDEX]
+    if unknown:
+        return f"unknown joint name(s) {', '.join(repr(n) for n in unknown[:3])}"
+    if len(set(names)) != len(names):
+        return "duplicated joint names"
+    if len(names) != N_JOINTS:
+        missing = [n for n in JOINT_NAMES if n not in names]
+        return f"{len(names)} joint names, missing {', '.join(missing[:3])}"
+    where = {n: i for i, n in enumerate(names)}
+    perm = np.array([where[n] for n in JOINT_NAMES])
+    perm.flags.writeable = False   # shared by the cache
+    return perm
 
 MOVE_TYPES: tuple[str, ...] = ("F", "FL", "FR", "B", "BL", "BR", "L", "R", "DL", "DR", "S")
 
@@ -43,7 +67,7 @@ N_FEATURE = len(FEATURE_NAMES)  # 45
 
 
 class StateLayout:
-    """Index ranges into the 33-element state vector (CONTRACT.md section 4)."""
+    """Index ranges into the 33-element state vector (docs/interface.md §4)."""
 
     z_w = 0
     d_b = slice(1, 4)         # dx_b, dy_b, dz_b

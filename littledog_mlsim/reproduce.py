@@ -24,8 +24,8 @@ import csv
 import json
 import multiprocessing as mp
 import os
+import logging
 import resource
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -35,8 +35,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from .layout import STATE_INDEX, STATE_NAMES
+from .logs import progress_to_stderr
+from .models.train import METHOD_NAMES, subset_rows
 
-METHODS: tuple[str, ...] = ("lr", "lwpr", "gpr", "sor", "lgpr")
+METHODS = METHOD_NAMES   # Table I rows (the registry's paper methods, in the paper's order)
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -106,12 +109,6 @@ def _load_cache(path: str) -> dict[str, np.ndarray]:
         return {k: z[k] for k in z.files}
 
 
-def _subset(n_pool: int, n: int | None, seed: int) -> np.ndarray:
-    if n is None or n >= n_pool:
-        return np.arange(n_pool)
-    return np.sort(np.random.default_rng(seed).choice(n_pool, size=n, replace=False))
-
-
 def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: kB
 
@@ -147,39 +144,26 @@ def fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int
 def _fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int | None,
                    seed: int, gpr_hyper_points: int | None, model_out: str | None) -> dict[str, Any]:
     _pin_blas()
-    from .models.onestep import OneStepModel
-    from .models.persistence import fingerprint_arrays
-    from .models.train import make_estimator
-    from .rollout.metrics import nmse
+    from .models.train import fit_onestep
+    from .scoring import one_step_scores
 
     d = _load_cache(cache)
     X, Y, Xt, Yt = d["X"], d["Y"], d["Xt"], d["Yt"]
-    rows = _subset(X.shape[0], n_train, seed)
-    opts = dict(options)
     t0 = time.perf_counter()
-    hyper_s = 0.0
-    if method == "gpr" and gpr_hyper_points and rows.size > gpr_hyper_points:
-        sub = rows[_subset(rows.size, gpr_hyper_points, seed + 1)]
-        pilot = OneStepModel.fit(make_estimator("gpr", opts, seed=seed), X[sub], Y[sub])
-        hyper_s = time.perf_counter() - t0
-        opts.update(optimize=False, init_log_params=pilot.estimator.log_params_.tolist())
-    model = OneStepModel.fit(make_estimator(method, opts, seed=seed), X[rows], Y[rows],
-                             train_states=Y, data_fingerprint=fingerprint_arrays(X, Y),
-                             info={"n_train_pool": int(X.shape[0])})
+    model = fit_onestep((X, Y), method, options=options, random_state=seed, n_train=n_train,
+                        gpr_pilot_points=gpr_hyper_points)
     fit_s = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    pred = model.predict(Xt)
-    predict_s = time.perf_counter() - t1
+    scores = one_step_scores(model, (Xt, Yt))
     if model_out:
         model.save(model_out)
-    per = nmse(Yt, pred)
-    return {"method": method, "n_train": int(rows.size), "fit_s": fit_s,
-            "hyperparameter_pilot_s": hyper_s,
-            "predict_us_per_sample": 1e6 * predict_s / Xt.shape[0],
-            "peak_rss_mb": _peak_rss_mb(), "nmse": per,
-            "nmse_mean": float(np.nanmean([np.nan if v is None else v for v in per.values()])),
-            "options": opts if method != "gpr" else {k: v for k, v in opts.items()
-                                                     if k != "init_log_params"}}
+    opts = dict(options)
+    if "hyperparameter_pilot_s" in model.info:
+        opts["optimize"] = False   # conditioned on the pilot's hyperparameters
+    return {"method": method, "n_train": int(model.info["n_train"]), "fit_s": fit_s,
+            "hyperparameter_pilot_s": float(model.info.get("hyperparameter_pilot_s", 0.0)),
+            "predict_us_per_sample": 1e6 * scores["predict_seconds_per_sample"],
+            "peak_rss_mb": _peak_rss_mb(), "nmse": scores["nmse"],
+            "nmse_mean": scores["nmse_mean"], "options": opts}
 
 
 def fig4_point(cache: str, curve: str, n: int, seed: int, scale_name: str) -> dict[str, Any]:
@@ -193,7 +177,7 @@ def fig4_point(cache: str, curve: str, n: int, seed: int, scale_name: str) -> di
     d = _load_cache(cache)
     X, Y, Xt, Yt = d["X"], d["Y"], d["Xt"], d["Yt"]
     j = STATE_INDEX["droll"]
-    rows = _subset(X.shape[0], n, seed)
+    rows = subset_rows(X.shape[0], n, seed)
     fn = Normalizer().fit(X[rows])
     method = {"gpr": "gpr", "sor_random": "sor", "sor_cv": "sor", "lgpr": "lgpr"}[curve]
     opts = dict(sc.options[method])
@@ -202,7 +186,7 @@ def fig4_point(cache: str, curve: str, n: int, seed: int, scale_name: str) -> di
     if curve.startswith("sor"):
         opts.update(support=curve.split("_")[1],
                     n_support=int(min(sc.fig4_support_max, sc.fig4_support_fraction * rows.size)))
-    est = make_estimator(method, opts, seed=seed)
+    est = make_estimator(method, opts, random_state=seed)
     y = Y[rows, j:j + 1] - X[rows, j:j + 1]                     # delta target, as OneStepModel
     t0 = time.perf_counter()
     est.fit(fn.transform(X[rows]), y)
@@ -277,7 +261,16 @@ def reproduce(data: str | os.PathLike, out: str | os.PathLike, scale: str = "sma
               methods: Sequence[str] = METHODS, seed: int = 0, fig4: bool = True,
               rollouts: bool = True, jobs: int = 2, physics_config: str | os.PathLike | None = None,
               progress: bool = True) -> dict[str, Any]:
-    """Run Table I and Fig. 4 (and the rollout figures) into ``out``; returns a summary dict."""
+    """Run Table I and Fig. 4 (and the rollout figures) into ``out``; returns a summary dict.
+
+    ``progress``: progress lines on stderr unless the program configured logging."""
+    with progress_to_stderr(progress):
+        return _reproduce(data, out, scale, methods, seed, fig4, rollouts, jobs, physics_config,
+                          progress)
+
+
+def _reproduce(data, out, scale, methods, seed, fig4, rollouts, jobs, physics_config,
+               progress) -> dict[str, Any]:
     if scale not in SCALES:
         raise ValueError(f"--scale must be one of {', '.join(SCALES)}, got {scale!r}")
     bad = [m for m in methods if m not in METHODS]
@@ -287,9 +280,7 @@ def reproduce(data: str | os.PathLike, out: str | os.PathLike, scale: str = "sma
     out = Path(out)
     (out / "models").mkdir(parents=True, exist_ok=True)
 
-    def say(text: str) -> None:
-        if progress:
-            print(f"reproduce: {text}", file=sys.stderr, flush=True)
+    say = log.info
 
     t_start = time.perf_counter()
     cache = out / ".features.npz"

@@ -1,4 +1,4 @@
-"""Dataset index, state/feature extraction (CONTRACT.md section 4), path integration, Normalizer.
+"""Dataset index, state/feature extraction (docs/interface.md §4), path integration, Normalizer.
 
 Geometry is checked against scipy's Rotation (an independent implementation), and the frame
 integration against the recorded odometry.

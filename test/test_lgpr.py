@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from littledog_mlsim.models import lgpr
+from littledog_mlsim.models import lgpr, parallel
 from littledog_mlsim.models.gp import GPR, kernel_matrix
 from littledog_mlsim.models.lgpr import LGPR, balanced_clusters
 from littledog_mlsim.models.persistence import load_model, save_model
@@ -252,7 +252,7 @@ def test_dask_cluster_gives_the_same_model(parallel_data, serial_model):
 
 
 def test_dask_scheduler_unreachable_is_one_line(parallel_data, monkeypatch):
-    monkeypatch.setattr(lgpr, "DASK_CONNECT_TIMEOUT", "2s")
+    monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", "2s")
     with pytest.raises(ValueError, match="Dask scheduler") as e:
         LGPR(n_clusters=2, max_iter=2, dask_scheduler="tcp://127.0.0.1:9",
              init="cold").fit(*parallel_data)

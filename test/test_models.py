@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from littledog_mlsim import fileio
 from littledog_mlsim.models import persistence
 from littledog_mlsim.models.base import Regressor
 from littledog_mlsim.models.gp import GPR
@@ -264,7 +265,7 @@ def test_failed_save_leaves_the_old_model_untouched(saved: Path, monkeypatch) ->
 @pytest.mark.parametrize("exchange", [True, False])
 def test_save_replaces_an_existing_model(saved: Path, monkeypatch, exchange: bool) -> None:
     if not exchange:  # the fallback for kernels/file systems without renameat2
-        monkeypatch.setattr(persistence, "_exchange", lambda a, b: False)
+        monkeypatch.setattr(fileio, "_exchange", lambda a, b: False)
     save_model(saved, fitted("gpr"), {"run": 2})
     model, meta = load_model(saved)
     assert type(model) is GPR and meta == {"run": 2}

@@ -1,4 +1,4 @@
-"""One move as one rosbag2 bag (CONTRACT.md section 3), written and read with ``rosbags``.
+"""One move as one rosbag2 bag (docs/interface.md §3), written and read with ``rosbags``.
 
 A bag is a directory ``<TYPE>_<NN>`` (``layout.bag_name``) in rosbag2 format version 9, storage
 ``mcap`` (default) or ``sqlite3``, holding three topics stamped on one 100 Hz clock, with
@@ -12,7 +12,7 @@ A bag is a directory ``<TYPE>_<NN>`` (``layout.bag_name``) in rosbag2 format ver
   child ``base_link``, pose = measured position/orientation in odom, twist in base_link; both
   covariances are "unknown" (all zero except ``covariance[0] = -1``).
 
-Offered QoS recorded in the metadata: reliable, volatile, keep-last 10 (CONTRACT.md section 2).
+Offered QoS recorded in the metadata: reliable, volatile, keep-last 10 (docs/interface.md §2).
 
 ``read_bag`` is strict, because a silently mangled move poisons a regression data set: every
 problem raises ``BagError`` with one line naming the bag and the topic. It accepts what the
@@ -33,13 +33,12 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
-import tempfile
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from ..fileio import atomic_directory
 from ..layout import (
     BASE_FRAME,
     CONTROL_DT_NS,
@@ -50,6 +49,7 @@ from ..layout import (
     TOPIC_CMD,
     TOPIC_JOINT_STATES,
     TOPIC_ODOM,
+    joint_permutation,
 )
 from .recording import MoveRecording
 
@@ -66,7 +66,6 @@ STORAGES: tuple[str, ...] = ("mcap", "sqlite3")
 QUATERNION_NORM_TOL = 1e-6
 _MAX_STAMP_NS = (2**31 - 1) * 1_000_000_000  # builtin_interfaces/Time.sec is int32
 _BAG_NAME_RE = re.compile(r"^(?P<type>[A-Z]+)_(?P<index>\d+)$")
-_JOINT_INDEX = {n: i for i, n in enumerate(JOINT_NAMES)}
 
 
 class BagError(ValueError):
@@ -130,12 +129,13 @@ def _check_writable(rec: MoveRecording) -> np.ndarray:
 
 
 def write_bag(path: str | os.PathLike, rec: MoveRecording, storage: str = "mcap") -> None:
-    """Write one move as a rosbag2 bag directory at ``path`` (CONTRACT.md section 3).
+    """Write one move as a rosbag2 bag directory at ``path`` (docs/interface.md §3).
 
     The bag's name is the directory name (``layout.bag_name``), not ``rec.name``. The parent
     directory must exist; ``path`` must not (FileExistsError). The bag is written into a hidden
     temporary sibling directory and renamed into place, so a failure leaves nothing behind
-    (only a hard kill can leave a ``.<name>.*.partial`` directory). ValueError if ``rec`` is
+    (:func:`..fileio.atomic_directory`; only a hard kill can leave a ``.<name>.partial-*``
+    directory). ValueError if ``rec`` is
     inconsistent (shapes, NaN/inf, stamps not on one 100 Hz clock, non-unit quaternions) or
     ``storage`` is not ``mcap``/``sqlite3``.
     """
@@ -151,16 +151,10 @@ def write_bag(path: str | os.PathLike, rec: MoveRecording, storage: str = "mcap"
     stamps = _check_writable(rec)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
 
-    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
-    try:
-        staged = staging / path.name  # so the storage file inside is named after the bag
+    # staged is named after the bag, so the storage file the Writer creates inside is too
+    with atomic_directory(path, create=False) as staged:
         with Writer(staged, version=9, storage_plugin=plugin) as writer:
             _write_messages(writer, rec, stamps)
-        if path.exists() or path.is_symlink():
-            raise FileExistsError(f"{path} appeared while writing, not overwriting")
-        os.rename(staged, path)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _write_messages(writer, rec: MoveRecording, stamps: np.ndarray) -> None:
@@ -372,22 +366,8 @@ _FIELDS: dict[str, tuple[str, ...]] = {
 }
 
 
-@lru_cache(maxsize=64)
-def _joint_permutation(names: tuple[str, ...]) -> np.ndarray | str:
-    """Index into ``names`` for each contract joint, or a reason why ``names`` is unusable."""
-    if len(names) != N_JOINTS:
-        return f"{len(names)} joint names, expected {N_JOINTS}"
-    unknown = [n for n in names if n not in _JOINT_INDEX]
-    if unknown:
-        return f"unknown joint name(s) {', '.join(unknown)}"
-    if len(set(names)) != N_JOINTS:
-        return "duplicated joint names"
-    where = {n: i for i, n in enumerate(names)}
-    return np.array([where[n] for n in JOINT_NAMES])
-
-
 def _decode_joint_state(msg, bag: str, topic: str, k: int) -> tuple:
-    perm = _joint_permutation(tuple(msg.name))
+    perm = joint_permutation(tuple(msg.name))
     if isinstance(perm, str):
         raise BagError(bag, topic, f"message {k}: {perm}")
     pos = np.asarray(msg.position, dtype=np.float64)

@@ -12,7 +12,7 @@ A dataset is a directory of bags (``bags.write_bag``; one per move, named ``<TYP
       seed: 0                           #   types, steps_per_move, control_dt_ns, created, ...
       storage: mcap                     #   No key anywhere in `info` may contain "effect":
       moves_per_type: 20                #   nothing in a dataset names the effects that were
-    counts:                             #   active (CONTRACT.md section 3). Written by
+    counts:                             #   active (docs/interface.md §3). Written by
       total: 220                        #   write_index from `bags`, checked by read_index.
       train: 154
       test: 66
@@ -31,7 +31,7 @@ Bad bags (``load_moves``): by default the first bag that fails to load raises it
 ``SkippedBagWarning`` naming it and the reason is issued (``warnings.warn``; collect them with
 ``warnings.catch_warnings(record=True)``); if nothing loads at all the call still raises.
 
-State, action, features (CONTRACT.md section 4)
+State, action, features (docs/interface.md §4)
 -----------------------------------------------
 From a recording with measurements k = 0..N (N + 1 of them) and commands u_0..u_{N-1}:
 
@@ -58,7 +58,7 @@ from typing import Any, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 import yaml
 
-from ..fileio import atomic_write_text
+from ..fileio import atomic_write_text, read_document, to_plain
 from ..layout import (
     MOVE_TYPES,
     N_ACTION,
@@ -175,19 +175,7 @@ def _effect_keys(obj: Any, where: str = "info") -> list[str]:
     return found
 
 
-def _plain(obj: Any) -> Any:
-    """NumPy scalars/arrays and tuples to plain YAML types (others are left to yaml to refuse)."""
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
+_plain = to_plain   # the one converter (fileio)
 
 
 def _counts(entries: Sequence[BagEntry]) -> dict[str, int]:
@@ -225,7 +213,7 @@ def write_index(directory: str | os.PathLike, entries: Iterable[BagEntry | Mappi
     info = _plain(dict(info or {}))
     leaked = _effect_keys(info)
     if leaked:
-        raise ValueError(f"dataset info must not name effects (CONTRACT.md section 3): {leaked}")
+        raise ValueError(f"dataset info must not name effects (docs/interface.md §3): {leaked}")
     doc = {
         "format": INDEX_FORMAT,
         "format_version": INDEX_FORMAT_VERSION,
@@ -252,21 +240,15 @@ def read_index(directory: str | os.PathLike) -> DatasetIndex:
     if not path.is_file():
         raise fail("no dataset index (not a dataset directory?)")
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise fail(f"unreadable: {type(exc).__name__}: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("format") != INDEX_FORMAT:
-        raise fail(f"not a dataset index (format is not {INDEX_FORMAT!r})")
-    version = doc.get("format_version")
-    if version != INDEX_FORMAT_VERSION:
-        raise fail(f"unknown format_version {version!r}; this reader knows "
-                   f"{INDEX_FORMAT_VERSION}")
+        doc = read_document(path, INDEX_FORMAT, INDEX_FORMAT_VERSION, "a dataset index", "yaml")
+    except ValueError as exc:
+        raise fail(str(exc)) from None
     info = doc.get("info") or {}
     if not isinstance(info, dict):
         raise fail("info is not a mapping")
     leaked = _effect_keys(info) + _effect_keys({k: v for k, v in doc.items() if k != "info"}, "")
     if leaked:
-        raise fail(f"names effects, which a dataset must not (CONTRACT.md section 3): {leaked}")
+        raise fail(f"names effects, which a dataset must not (docs/interface.md §3): {leaked}")
     bags = doc.get("bags")
     if not isinstance(bags, list) or not bags:
         raise fail("bags is missing or empty")
@@ -282,7 +264,7 @@ def read_index(directory: str | os.PathLike) -> DatasetIndex:
     counts = doc.get("counts")
     if counts is not None and counts != _counts(entries):
         raise fail(f"counts {counts} do not match the bags listed {_counts(entries)}")
-    return DatasetIndex(entries=entries, info=info, format_version=version)
+    return DatasetIndex(entries=entries, info=info, format_version=INDEX_FORMAT_VERSION)
 
 
 def _select(entries: Iterable[BagEntry], split: str, types: Iterable[str] | None) -> list[BagEntry]:
@@ -335,7 +317,7 @@ def load_moves(directory: str | os.PathLike, split: str = "train",
 
 
 def states_from_recording(rec: MoveRecording) -> np.ndarray:
-    """s_1..s_N of a recording, (N, 33) in ``layout.STATE_NAMES`` order (CONTRACT.md section 4)."""
+    """s_1..s_N of a recording, (N, 33) in ``layout.STATE_NAMES`` order (docs/interface.md §4)."""
     pos = np.asarray(rec.position, dtype=np.float64)
     rpy = quat_to_rpy(rec.orientation)                         # (N+1, 3)
     n = pos.shape[0] - 1
@@ -398,7 +380,7 @@ def initial_pose(rec: MoveRecording, t: int = 0) -> InitialPose:
 
 
 def integrate_path(states: np.ndarray, x0, y0, yaw0, roll_pitch0) -> np.ndarray:
-    """Recover x_w, y_w, yaw from a state sequence (CONTRACT.md section 4).
+    """Recover x_w, y_w, yaw from a state sequence (docs/interface.md §4).
 
     ``states``: (T, 33) or batched (B, T, 33): s_1..s_T, recorded or predicted. The initial
     condition is the pose at t = 0: ``x0, y0, yaw0`` (scalars or (B,)) and ``roll_pitch0`` =

@@ -1,7 +1,7 @@
 """The raw record of one move: what the sensors reported and what was commanded.
 
 This is the hand-over between the robot simulation (which produces it), the bag writer (which
-serialises it per CONTRACT.md section 3) and the bag reader (which recovers it). Shapes, with
+serialises it per docs/interface.md §3) and the bag reader (which recovers it). Shapes, with
 N = number of commands (400 for a 4 s move):
 
 - ``stamps_ns``        (N+1,)  int64, one 100 Hz clock; measurement k is at stamps_ns[k]

@@ -53,7 +53,7 @@ def move_motion(rec: MoveRecording) -> tuple[float, float, float]:
     return float(c * d[0] + s * d[1]), float(-s * d[0] + c * d[1]), float(yaw[-1] - yaw[0])
 
 
-# Where each move type must go (CONTRACT.md section 3): sign of forward, left and yaw motion.
+# Where each move type must go (docs/interface.md §3): sign of forward, left and yaw motion.
 _FORWARD = {"F": 1, "FL": 1, "FR": 1, "DL": 1, "DR": 1, "B": -1, "BL": -1, "BR": -1}
 _LEFT = {"L": 1, "DL": 1, "R": -1, "DR": -1}
 _TURN = {"FL": 1, "BL": 1, "FR": -1, "BR": -1}

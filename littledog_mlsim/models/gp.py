@@ -48,7 +48,8 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import minimize
 
-from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
+from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
+                   expect_array, sizes_from_meta, standardise_targets)
 
 DEFAULT_JITTER = 1e-10
 # Bounds on hyperparameters, relative to the data: length scales as multiples of each input
@@ -80,13 +81,6 @@ _FEW_QUERIES = 8
 def n_log_params(n_features: int) -> int:
     """Length of one output's log-hyperparameter vector: d + 2."""
     return n_features + 2
-
-
-def pack_log_params(signal_variance: float, length_scales: np.ndarray,
-                    noise_variance: float) -> np.ndarray:
-    """(sf2, l (d,), sn2) -> log_params (d + 2,)."""
-    ls = np.asarray(length_scales, dtype=np.float64).ravel()
-    return np.log(np.concatenate([[signal_variance], ls, [noise_variance]]))
 
 
 def unpack_log_params(log_params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -667,8 +661,9 @@ class GPR(Regressor):
     """
 
     method = "gpr"
+    supports_std = True
 
-    def __init__(self, shared_hyperparameters: bool = False, normalize_y: bool = True,
+    def __init__(self, *, shared_hyperparameters: bool = False, normalize_y: bool = True,
                  optimize: bool = True, init_log_params: list | None = None,
                  max_iter: int = 200, n_restarts: int = 0, restart_log_std: float = 1.0,
                  jitter: float = DEFAULT_JITTER,
@@ -692,19 +687,6 @@ class GPR(Regressor):
         self.random_state = random_state
         self.n_jobs = n_jobs
 
-    _PARAM_NAMES = ("shared_hyperparameters", "normalize_y", "optimize", "init_log_params",
-                    "max_iter", "n_restarts", "restart_log_std", "jitter", "init_noise_ratio",
-                    "length_scale_bounds", "signal_variance_bounds", "noise_variance_bounds",
-                    "random_state", "n_jobs")
-
-    def get_params(self) -> dict[str, Any]:
-        out = {k: getattr(self, k) for k in self._PARAM_NAMES}
-        if out["init_log_params"] is not None:
-            out["init_log_params"] = np.asarray(out["init_log_params"], dtype=float).tolist()
-        for k in ("length_scale_bounds", "signal_variance_bounds", "noise_variance_bounds"):
-            out[k] = [float(v) for v in out[k]]
-        return out
-
     # -- fitting
 
     def hyperparameter_options(self, X: np.ndarray, Yn: np.ndarray) -> dict[str, Any]:
@@ -722,14 +704,8 @@ class GPR(Regressor):
                     jitter=self.jitter, n_jobs=self.n_jobs)
 
     def _normalise_targets(self, Y: np.ndarray) -> np.ndarray:
-        if self.normalize_y:
-            self.y_mean_ = Y.mean(axis=0)
-            sd = Y.std(axis=0)
-            self.y_std_ = np.where(sd > 0, sd, 1.0)
-        else:
-            self.y_mean_ = np.zeros(Y.shape[1])
-            self.y_std_ = np.ones(Y.shape[1])
-        return (Y - self.y_mean_) / self.y_std_
+        Yn, self.y_mean_, self.y_std_ = standardise_targets(Y, bool(self.normalize_y))
+        return Yn
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> "GPR":
         """X (n, d), Y (n, p) or (n,) -> self."""
@@ -771,6 +747,7 @@ class GPR(Regressor):
 
     def predict(self, X: np.ndarray, return_std: bool = False):
         """X (m, d) -> mean (m, p); with return_std also std (m, p) (noisy-observation std)."""
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         chol = self._cholesky_factors() if return_std else None
         mean, var = gp_predict(X, self.X_train_, self.alpha_, self.log_params_, chol)
@@ -782,18 +759,18 @@ class GPR(Regressor):
     # -- persistence
 
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_is_fitted(self)
         arrays = {"X_train": self.X_train_, "alpha": self.alpha_, "log_params": self.log_params_,
                   "y_mean": self.y_mean_, "y_std": self.y_std_, "lml": self.lml_,
                   "jitter": np.asarray(self.jitter_, dtype=np.float64)}
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "n_train": int(self.X_train_.shape[0])}
+        meta = self._size_meta(n_train=int(self.X_train_.shape[0]))
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "GPR":
-        m = cls(**params)
-        d, p, n = int(meta["n_features_in"]), int(meta["n_outputs"]), int(meta["n_train"])
+        m = cls.from_params(params)
+        (d, p), n = sizes_from_meta(meta), int(meta["n_train"])
         m.X_train_ = expect_array(arrays, "X_train", (n, d)).astype(np.float64)
         m.alpha_ = expect_array(arrays, "alpha", (n, p)).astype(np.float64)
         m.log_params_ = expect_array(arrays, "log_params", (p, d + 2)).astype(np.float64)

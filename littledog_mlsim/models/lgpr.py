@@ -7,12 +7,11 @@ cluster, and a query is predicted by the local GP whose cluster centre is neares
 distance (= the normalised Euclidean distance of the raw features). Cost O(k m^3) = O(n m^2) to
 fit, O(m d) per query; the block-diagonal view of the paper.
 
-Clustering (:func:`balanced_clusters`)
+Clustering (:func:`.clustering.balanced_clusters`)
 --------------------------------------
 scikit-learn ``KMeans`` (Lloyd, k-means++ init, seeded, ``n_init=1``) on the training inputs.
-k-means on trot data is lopsided (on a recorded 61k-sample TrainPool with k = 61 the largest
-cluster held 3.4 n/k points: standing and slow moves pile up), and a GP's cost is cubic in its
-size, so the partition is balanced afterwards:
+k-means on trot data is lopsided (standing and slow moves pile up), and a GP's cost is cubic in
+its size, so the partition is balanced afterwards:
 
 - a cluster larger than ``max_cluster_factor * n/k`` is split by k-means into
   ``ceil(size / (n/k))`` parts; a part that is still too large (k-means fails on near-duplicate
@@ -49,30 +48,15 @@ the cluster's points. ``hyperparameters``:
   mean over outputs when shared), clipped to the cluster's bounds.
 - ``"cold"``: :func:`.gp.default_init` on the cluster's subset (median heuristic).
 
-Defaults, measured in ``benchmarks/lgpr_ablation.md`` (recorded pybullet dataset, 5000 TrainPool
-points in 5 clusters, nMSE on the whole TestPool):
-
-- ``hyperparameters="shared"``: per-output kernels (same 300-point subsets) were worse (mean
-  nMSE 0.065 vs 0.048, joint angles 6x worse: 45 ARD length scales per output overfit a few
-  hundred points, while shared ones pool the evidence of 33 outputs), cost 20x the fit CPU time
-  (39 vs 2 s), and made a single-query ``return_std`` 30x slower in CPU time (12 vs 0.4 ms;
-  33 factors per cluster, 1.3 GB of them at 5k points).
-- ``max_iter=30``: the same nMSE as 100 iterations (to 4 digits, warm or cold start) for half
-  the fit CPU time (cold: 3.8 vs 8.1 s). ``n_hyperparameter_points=500``: 300, 500 and 1000
-  points gave mean nMSE 0.0475, 0.0476, 0.0482 (median 0.0074, 0.0068, 0.0065) for 2.0, 10
-  and 20 s of fit CPU time (warm start included).
-- ``init="warm"``: at 30+ iterations warm and cold starts reach the same nMSE; warm makes the
-  result insensitive to the iteration cap (10 iterations: 0.0480 warm vs 0.0535 cold) for a fixed
-  cost (a 1000-point global GP, about 6 s of CPU).
-- nearest-centre prediction (``blend=False``): the blend of the 2 nearest models lowers the mean
-  nMSE by 5 % on the whole TrainPool (0.0426 vs 0.0450; 1.7 % on the 5k subset) and is
-  continuous, but costs about 1.3 ms per single query (two variance solves) against 0.1-0.4 ms.
+The defaults (shared kernels, 30 L-BFGS-B iterations on 500 points per cluster, warm start,
+nearest-centre prediction) were chosen on ``benchmarks/lgpr_ablation.md``; the measurements are
+summarised in ``benchmarks/lgpr_design.md``.
 
 If a kernel matrix is not positive definite (at an L-BFGS-B start, or the cluster's full matrix
 with hyperparameters from a subset) the jitter is raised along :func:`.gp.jitter_schedule` (up to
 1e-2 x sf2 + sn2, in standardised units); the jitter used is stored per cluster (``jitter_``).
 Columns that are constant up to rounding inside a cluster (a saturated tanh of the friction
-features, std 3e-15) get the unit scale for the length-scale bounds and start (see
+features) get the unit scale for the length-scale bounds and start (see
 :func:`.gp.degenerate_columns`), so the warm start no longer meets bounds of ~1e-14. A cluster
 that still cannot be fitted raises a one-line ValueError naming the cluster, its size, the start
 and the reason.
@@ -90,26 +74,9 @@ predictive variance is multiplied by c_j. Scaling K by c leaves the mean K*^T K^
 (predictions with and without the option are bit-identical, except in a precision-weighted
 blend, whose weights are variances) and c_j is a by-product of the fit (the alpha already
 computed: no extra Cholesky, no extra prediction cost). It corrects each output's overall level,
-not the shape (signal vs noise share) of its variance. Measured calibration, mean(z^2) per
-output, z = (y - mean) / std (1 = calibrated):
-
-- generated data (6 inputs, 8 outputs with noise variance 1e-4..1e-1 of their variance, 2000
-  points, 2 clusters, 3000 test points; ``test/test_lgpr.py`` has a smaller version): shared
-  0.13-4.16 (median 0.52; the fitted sn2 was 187x the true noise of the cleanest output, 0.19x
-  that of the noisiest), shared + ``output_scale`` 0.48-1.31 (median 0.74; c_j 0.24-3.3),
-  ``"per_output"`` 0.96-1.07 (median 1.03; there c_j is 0.94-1.11 and the option is neutral,
-  0.94-1.09). With equal noise fractions: 0.81-1.30 without, 0.96-1.19 with the option. A full
-  :class:`.gp.GPR` with shared hyperparameters behaves like shared LGPR (median 0.57) and has no
-  such option.
-- the recorded dataset (``bags/default``: the whole TrainPool, 61446 samples, default model, 70
-  clusters; all 26334 TestPool samples; z of s_{t+1} in raw units; 33 state elements): without
-  the option 0.06-5.29 (median 0.35; 4 of 33 in [0.5, 2]: the base height and body velocities
-  over-confident, 2.0-5.3, the joint angles conservative, 0.06-0.19), with it 0.70-1.06
-  (median 0.93; 33 of 33 in [0.5, 2]; the joint angles 0.70-0.94, the rest 0.87-1.06). c_j over
-  clusters and outputs 0.001-6.7 (median 0.26). The nearest-centre mean is bit-identical (mean
-  nMSE 0.0450 either way). Blend of 2 with ``"precision"`` weights: mean nMSE 0.0426 without,
-  0.0430 with the option (the weights follow the calibrated variances); ``"relative"``: 0.0433
-  either way.
+not the shape (signal vs noise share) of its variance. How well the std is calibrated with and
+without the option (mean(z^2) per output on generated and recorded data) is measured in
+``benchmarks/lgpr_calibration.md`` and summarised in ``benchmarks/lgpr_design.md``.
 
 ``output_scale=False`` restores the plain shared-kernel std. Model files written before the
 option have no ``output_scale`` array and load with c = 1 (their old std).
@@ -133,11 +100,8 @@ with ``output_scale`` the calibrated one, c_j v_r, and the prior variance of ``"
 scaled by the same c_j (so those weights, ratios of the two, do not depend on the option, while
 ``"precision"`` weights and the mixture variance use the calibrated variances). The blend's std
 is conservative, because of the mixture's spread term sum_r w_r mu_r^2 - mean^2 (the local
-models' disagreement, while the blended mean is better than either): on the recorded dataset
-(below) mean(z^2) per output was 0.45-0.88 (median 0.64) with precision weights, 0.40-0.88
-(median 0.54) with relative ones; without the spread term (precision weights: sum_r w_r v_r,
-which then equals the weighted harmonic mean sum_r g_r / sum_r (g_r / v_r)) 0.75-1.35 (median
-1.00). Not changed here.
+models' disagreement, while the blended mean is better than either); measured in
+``benchmarks/lgpr_design.md``.
 
 Prediction cost and memory
 --------------------------
@@ -149,14 +113,14 @@ no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the cl
 they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
 each) but built by the first call that needs them, for all clusters at once (as many as fit in
 ``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
-inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (3.9 s for the 70-cluster
-model of the whole TrainPool in the ablation). Shared hyperparameters: one m x m factor per
-cluster (k m^2 8 bytes: 465 MB for that model); per-output: p of them per cluster, so only a
-few clusters fit in the cache.
+inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly. Shared hyperparameters:
+one m x m factor per cluster (k m^2 8 bytes); per-output: p of them per cluster, so only a few
+clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design.md``).
 
 Parallel fitting
 ----------------
-The per-cluster fits (and the per-output global fits of the warm start) run through joblib:
+The per-cluster fits (and the per-output global fits of the warm start) run through joblib
+(:func:`.parallel.run_tasks`):
 ``n_jobs`` local processes (loky), or, with ``dask_scheduler="tcp://host:port"``, the workers of
 that Dask cluster (``distributed.Client`` + joblib's ``dask`` backend; the workers need this
 package importable). Every task's result depends only on its data and its seed (derived from
@@ -166,16 +130,16 @@ use the same NumPy/BLAS build, as ``test/test_lgpr.py`` checks on one machine).
 """
 from __future__ import annotations
 
-import math
-import sys
+import logging
 import time
 from collections import OrderedDict
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
+from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
+                   expect_array, sizes_from_meta, standardise_targets)
 from .gp import (
     DEFAULT_INIT_NOISE_RATIO,
     DEFAULT_JITTER,
@@ -192,113 +156,18 @@ from .gp import (
     noisy_variance,
     unpack_log_params,
 )
+from .clustering import _sqdist_to_centres, balanced_clusters, nearest_rows
+from .parallel import run_tasks
 from .persistence import register
 
 HYPERPARAMETER_MODES = ("shared", "per_output")
 INIT_MODES = ("warm", "cold")
 BLEND_WEIGHTS = ("precision", "relative")
-DASK_CONNECT_TIMEOUT = "30s"
 
-
-# ----------------------------------------------------------------------------- clustering
-
-def _kmeans(X: np.ndarray, k: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Seeded k-means (Lloyd, k-means++, one init) -> (labels (n,), centres (k, d))."""
-    from sklearn.cluster import KMeans
-    km = KMeans(n_clusters=k, n_init=1, random_state=seed).fit(X)
-    return km.labels_.astype(np.int64), km.cluster_centers_
-
-
-def _chunks_along_principal_axis(X: np.ndarray, n_parts: int) -> np.ndarray:
-    """Labels (n,) cutting X (n, d) into ``n_parts`` equal-count chunks along its first PC."""
-    Z = X - X.mean(axis=0)
-    _, _, vt = np.linalg.svd(Z, full_matrices=False)
-    order = np.argsort(Z @ vt[0], kind="stable")
-    labels = np.empty(X.shape[0], dtype=np.int64)
-    for part, rows in enumerate(np.array_split(order, n_parts)):
-        labels[rows] = part
-    return labels
-
-
-def balanced_clusters(X: np.ndarray, n_clusters: int, *, max_cluster_factor: float = 1.5,
-                      min_cluster_factor: float = 0.25, random_state: int = 0
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """k-means partition of X (n, d) with oversized clusters split and tiny ones dissolved.
-
-    Returns (labels (n,) int64 in 0..k'-1, centres (k', d) = the cluster means), clusters
-    numbered by their first member's row. See the module docstring for the rules. Seeded and
-    deterministic; BLAS/OpenMP limited to one thread meanwhile.
-    """
-    X = np.asarray(X, dtype=np.float64)
-    n = X.shape[0]
-    k = int(n_clusters)
-    if not 1 <= k <= n:
-        raise ValueError(f"n_clusters must be in [1, n={n}]; got {n_clusters}")
-    if max_cluster_factor < 1.0:
-        raise ValueError(f"max_cluster_factor must be >= 1; got {max_cluster_factor}")
-    if k == 1:
-        return np.zeros(n, dtype=np.int64), X.mean(axis=0, keepdims=True)
-    target = n / k
-    max_size = max(1, int(math.floor(max_cluster_factor * target)))
-    min_size = int(math.ceil(min_cluster_factor * target))
-    with threadpool_limits(limits=1):
-        labels, _ = _kmeans(X, k, random_state)
-        groups = [np.flatnonzero(labels == c) for c in range(k)]
-        final: list[np.ndarray] = []
-        while groups:
-            g = groups.pop()
-            if g.size <= max_size:
-                final.append(g)
-                continue
-            parts = int(math.ceil(g.size / target))
-            sub, _ = _kmeans(X[g], parts, random_state)
-            pieces = [g[sub == j] for j in range(parts)]
-            for piece in pieces:
-                if piece.size > max_size:  # k-means could not split it evenly: equal chunks
-                    cut = _chunks_along_principal_axis(X[piece], int(math.ceil(piece.size
-                                                                             / target)))
-                    final.extend(piece[cut == j] for j in range(cut.max() + 1))
-                elif piece.size:
-                    final.append(piece)
-    # dissolve tiny clusters into the nearest remaining centre (smallest first)
-    final.sort(key=lambda g: (g.size, g[0]))
-    while len(final) > 1 and final[0].size < min_size:
-        small = final.pop(0)
-        centres = np.stack([X[g].mean(axis=0) for g in final])
-        near = _nearest_rows(X[small], centres)
-        for j in np.unique(near):
-            final[j] = np.sort(np.concatenate([final[j], small[near == j]]))
-        final.sort(key=lambda g: (g.size, g[0]))
-    final.sort(key=lambda g: g[0])
-    labels = np.empty(n, dtype=np.int64)
-    for c, g in enumerate(final):
-        labels[g] = c
-    centres = np.stack([X[g].mean(axis=0) for g in final])
-    return labels, centres
-
-
-def _sqdist_to_centres(X: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """Exact squared distances (n, k) (direct differences: no cancellation)."""
-    diff = X[:, None, :] - centres[None, :, :]
-    return np.einsum("nkd,nkd->nk", diff, diff)
-
-
-def _nearest_rows(X: np.ndarray, centres: np.ndarray, block: int = 2048) -> np.ndarray:
-    """Index (n,) of the nearest centre of each row (first of equal minima)."""
-    out = np.empty(X.shape[0], dtype=np.int64)
-    for a in range(0, X.shape[0], block):
-        out[a:a + block] = np.argmin(_sqdist_to_centres(X[a:a + block], centres), axis=1)
-    return out
+log = logging.getLogger(__name__)
 
 
 # ----------------------------------------------------------------------------- worker tasks
-
-def _standardise(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    mean = Y.mean(axis=0)
-    sd = Y.std(axis=0)
-    sd = np.where(sd > 0, sd, 1.0)
-    return (Y - mean) / sd, mean, sd
-
 
 def _gp_options(X: np.ndarray, Yn: np.ndarray, shared: bool, init: np.ndarray | None,
                 options: dict[str, Any]) -> dict[str, Any]:
@@ -324,7 +193,7 @@ def fit_hyperparameters_task(X: np.ndarray, Y: np.ndarray, shared: bool,
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         with threadpool_limits(limits=1):
-            Yn, _, sd = _standardise(np.asarray(Y, dtype=np.float64))
+            Yn, _, sd = standardise_targets(np.asarray(Y, dtype=np.float64))
             res = fit_gp_hyperparameters(X, Yn, **_gp_options(X, Yn, shared, None, options))
     except ValueError as e:
         raise _one_line_error(e, f"LGPR global GP of the warm start ({X.shape[0]} points)"
@@ -390,7 +259,7 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
     nh = min(m, int(options["n_hyperparameter_points"]))
     try:
         with threadpool_limits(limits=1):
-            Yn, y_mean, y_std = _standardise(np.asarray(Y, dtype=np.float64))
+            Yn, y_mean, y_std = standardise_targets(np.asarray(Y, dtype=np.float64))
             rows = (np.arange(m) if nh == m else
                     np.sort(np.random.default_rng(seed).choice(m, size=nh, replace=False)))
             start = (None if init is None else
@@ -406,51 +275,6 @@ def fit_local_gp(X: np.ndarray, Y: np.ndarray, shared: bool, init: dict[str, Any
     return {"log_params": res.log_params, "alpha": alpha, "lml": lml, "y_mean": y_mean,
             "y_std": y_std, "output_scale": scale, "n_iter": res.n_iter, "jitter": jitter,
             "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
-
-
-def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
-              dask_scheduler: str | None = None,
-              on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
-    """Run ``func(*args)`` for every tuple, in order, through joblib; results in input order.
-
-    ``n_jobs`` local loky processes (1: in this process), or the workers of the Dask cluster at
-    ``dask_scheduler`` (joblib's ``dask`` backend through a ``distributed.Client``).
-    ``on_result(i, result)`` is called as results arrive (in order), e.g. for progress.
-    """
-    from joblib import Parallel, delayed
-
-    tasks = [delayed(func)(*a) for a in arg_tuples]
-    results: list[Any] = []
-
-    def collect(it: Iterable[Any]) -> None:
-        for i, r in enumerate(it):
-            results.append(r)
-            if on_result is not None:
-                on_result(i, r)
-
-    if dask_scheduler:
-        try:
-            from distributed import Client
-        except ImportError as e:  # pragma: no cover - distributed is a dependency
-            raise ValueError(f"dask_scheduler needs the 'distributed' package: {e}") from e
-        from joblib import parallel_config
-        try:
-            client = Client(dask_scheduler, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, ValueError, TypeError) as e:
-            raise ValueError(f"cannot connect to the Dask scheduler {dask_scheduler}: "
-                             f"{str(e).splitlines()[0] if str(e) else type(e).__name__}"
-                             ) from e
-        try:
-            with parallel_config(backend="dask", client=client, wait_for_workers_timeout=60):
-                collect(Parallel(n_jobs=-1, return_as="generator")(tasks))
-        finally:
-            client.close()
-        return results
-    if n_jobs == 1 or len(tasks) <= 1:
-        collect(t[0](*t[1], **t[2]) for t in tasks)
-        return results
-    collect(Parallel(n_jobs=n_jobs, return_as="generator")(tasks))
-    return results
 
 
 # ----------------------------------------------------------------------------- estimator
@@ -476,8 +300,8 @@ class LGPR(Regressor):
       doc, "Predictive std and output_scale"). False: the plain kernel's std.
     - ``blend``, ``n_blend``, ``blend_weights``: the blend of the nearest local models.
     - ``n_jobs``, ``dask_scheduler``: where the fits run; ``variance_cache_mb`` the Cholesky cache
-      budget; ``random_state`` seeds k-means and the subsets; ``verbose`` prints progress to
-      stderr.
+      budget; ``random_state`` seeds k-means and the subsets; ``verbose`` logs progress (logger
+      ``littledog_mlsim.models.lgpr``, INFO).
 
     Fitted attributes: ``centers_`` (k, d); ``offsets_`` (k + 1,): cluster c's rows of
     ``X_train_`` (n, d) and ``alpha_`` (n, p) are ``offsets_[c]:offsets_[c+1]``; ``train_index_``
@@ -489,8 +313,9 @@ class LGPR(Regressor):
     """
 
     method = "lgpr"
+    supports_std = True
 
-    def __init__(self, n_clusters: int | None = None, cluster_size: int = 1000,
+    def __init__(self, *, n_clusters: int | None = None, cluster_size: int = 1000,
                  max_cluster_factor: float = 1.5, min_cluster_factor: float = 0.25,
                  hyperparameters: str = "shared", init: str = "warm",
                  n_hyperparameter_points: int = 500, n_global_points: int = 1000,
@@ -528,20 +353,6 @@ class LGPR(Regressor):
         self.random_state = random_state
         self.verbose = verbose
 
-    _PARAM_NAMES = ("n_clusters", "cluster_size", "max_cluster_factor", "min_cluster_factor",
-                    "hyperparameters", "init", "n_hyperparameter_points", "n_global_points",
-                    "max_iter", "jitter", "init_noise_ratio", "length_scale_bounds",
-                    "signal_variance_bounds", "noise_variance_bounds", "output_scale",
-                    "blend", "n_blend",
-                    "blend_weights", "n_jobs", "dask_scheduler", "variance_cache_mb",
-                    "random_state", "verbose")
-
-    def get_params(self) -> dict[str, Any]:
-        out = {k: getattr(self, k) for k in self._PARAM_NAMES}
-        for k in ("length_scale_bounds", "signal_variance_bounds", "noise_variance_bounds"):
-            out[k] = [float(v) for v in out[k]]
-        return out
-
     # -- fitting
 
     def _check_params(self) -> None:
@@ -570,7 +381,7 @@ class LGPR(Regressor):
 
     def _log(self, text: str) -> None:
         if self.verbose:
-            print(f"lgpr: {text}", file=sys.stderr, flush=True)
+            log.info("%s", text)
 
     def _global_init(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator
                      ) -> dict[str, np.ndarray]:
@@ -672,7 +483,7 @@ class LGPR(Regressor):
     def nearest_cluster(self, X: np.ndarray) -> np.ndarray:
         """Index (n,) of the centre nearest to each row of X (n, d) (first of equal minima)."""
         X = check_predict_inputs(X, self.n_features_in_)
-        return _nearest_rows(X, self.centers_)
+        return nearest_rows(X, self.centers_)
 
     def _factors(self, c: int) -> list[np.ndarray]:
         """Cholesky factors of cluster c (one per distinct kernel), LRU-cached."""
@@ -808,9 +619,10 @@ class LGPR(Regressor):
     def predict(self, X: np.ndarray, return_std: bool = False):
         """X (ns, d) -> mean (ns, p); with return_std also the noisy-observation std (ns, p)
         (scaled per output by sqrt(``output_scale_``) when ``output_scale`` is on)."""
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         if not self.blend or int(self.n_blend) == 1 or self.n_clusters_ == 1:
-            labels = _nearest_rows(X, self.centers_)
+            labels = nearest_rows(X, self.centers_)
             mean, var = self._by_cluster(X, labels, return_std)
             if not return_std:
                 return mean
@@ -840,6 +652,7 @@ class LGPR(Regressor):
     # -- persistence
 
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_is_fitted(self)
         arrays = {"centers": self.centers_, "offsets": self.offsets_,
                   "train_index": self.train_index_, "X_train": self.X_train_,
                   "alpha": self.alpha_, "log_params": self.log_params_, "y_mean": self.y_mean_,
@@ -848,18 +661,18 @@ class LGPR(Regressor):
                   "fit_cpu_seconds": self.fit_cpu_seconds_}
         if self.global_log_params_ is not None:
             arrays["global_log_params"] = self.global_log_params_
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "n_clusters": int(self.n_clusters_), "n_train": int(self.X_train_.shape[0]),
-                "has_global": self.global_log_params_ is not None,
-                "global_cpu_seconds": float(self.global_cpu_seconds_)}
+        meta = self._size_meta(n_clusters=int(self.n_clusters_),
+                               n_train=int(self.X_train_.shape[0]),
+                               has_global=self.global_log_params_ is not None,
+                               global_cpu_seconds=float(self.global_cpu_seconds_))
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "LGPR":
-        m = cls(**params)
+        m = cls.from_params(params)
         m._check_params()
-        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        d, p = sizes_from_meta(meta)
         k, n = int(meta["n_clusters"]), int(meta["n_train"])
         f64 = np.float64
         m.centers_ = expect_array(arrays, "centers", (k, d)).astype(f64)

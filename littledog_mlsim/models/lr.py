@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
+from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
+                   expect_array, sizes_from_meta)
 
 
 class LinearRegression(Regressor):
@@ -23,12 +24,10 @@ class LinearRegression(Regressor):
     """
 
     method = "lr"
+    supports_std = True
 
     def __init__(self) -> None:
         pass
-
-    def get_params(self) -> dict[str, Any]:
-        return {}
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> "LinearRegression":
         """X (n, d), Y (n, p) or (n,) -> self."""
@@ -50,6 +49,7 @@ class LinearRegression(Regressor):
 
     def predict(self, X: np.ndarray, return_std: bool = False):
         """X (m, d) -> (m, p); with return_std also (m, p) residual std."""
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         mean = X @ self.coef_ + self.intercept_
         if not return_std:
@@ -57,17 +57,17 @@ class LinearRegression(Regressor):
         return mean, np.broadcast_to(self.residual_std_, mean.shape).copy()
 
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_is_fitted(self)
         arrays = {"coef": self.coef_, "intercept": self.intercept_,
                   "residual_std": self.residual_std_}
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "rank": int(self.rank_)}
+        meta = self._size_meta(rank=int(self.rank_))
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "LinearRegression":
-        m = cls(**params)
-        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        m = cls.from_params(params)
+        d, p = sizes_from_meta(meta)
         m.coef_ = expect_array(arrays, "coef", (d, p)).astype(np.float64)
         m.intercept_ = expect_array(arrays, "intercept", (p,)).astype(np.float64)
         m.residual_std_ = expect_array(arrays, "residual_std", (p,)).astype(np.float64)

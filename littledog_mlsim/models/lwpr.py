@@ -45,7 +45,8 @@ samples, RF creation and pruning exclusive per sample.  Deviations, all document
 * Far from every RF (no trustworthy RF above ``cutoff``) the library returns 0; here an output
   falls back to the offset ``beta0`` of its RF nearest in its own metric (smallest
   ``(x-c)^T D (x-c)``), so a rollout that leaves the data gets a bounded, data-derived value
-  instead of 0 or an extrapolated line (no NaN either way).
+  instead of 0 or an extrapolated line. A non-finite query (a diverged rollout) predicts NaN,
+  so the divergence is reported rather than hidden.
 * Outputs are standardised internally (zero mean, unit variance per output) so that
   ``penalty``, ``add_threshold`` and the meta rate mean the same for every state element; the
   inputs are NOT rescaled: ``init_D`` is in the units of ``X`` (the project feeds features
@@ -77,24 +78,17 @@ offsets, slopes, trust flags, output index, projection counts, output scaling): 
 predicts identically but cannot continue incremental training (``fit`` always restarts from
 scratch, as in scikit-learn).
 
-Cost
-----
+Cost and defaults
+-----------------
 A sample costs ~O(K d) for the activations (K RFs over all outputs, one float32 GEMV) plus
-~O(A R d) for the A RFs it activates above ``w_update`` (R projections).  A dominates: RFs are
+~O(A R d) for the A RFs it activates above ``w_update`` (R projections). A dominates: RFs are
 created where no RF reaches ``w_gen`` but updated down to ``w_update``, so on an m-dimensional
 data manifold each sample updates roughly ``(log(1/w_update) / log(1/w_gen))^(m/2)`` RFs per
-output.  On the simulated LittleDog data (locally ~5-6-dimensional in the 45 normalised
-features), counted over samples 5000-6000 with all 33 outputs, ``init_D = 0.2``,
-``w_gen = 0.2``: A = 540 at the default ``w_update = 0.02`` (3.6 ms CPU per sample, K = 13200)
-and A = 1220 at the library's 0.001.  Measured fits, 1 epoch, all 33 outputs, one core of a
-shared 2-core machine (load 2-3), ``OPENBLAS_NUM_THREADS=1``:
-
-* 20k LittleDog samples: 62 s CPU at the defaults; 193 s at ``w_update = 0.001``.
-* all 61,446 LittleDog training samples (paper scale): 192 s CPU, 203 s wall.
-* synthetic 45-D / 33-output problem, 20k samples: 64 s CPU.
-
-Memory: the pool holds ~(8 + 4 R) d + 9 R doubles per RF while training (~7.5 MB per 1000
-RFs at d = 45, R = 3); the saved prediction state ~4 d doubles per RF (~19 MB for 13200 RFs).
+output; this is why ``w_update`` is the speed/accuracy knob. The library's defaults are kept
+except ``init_D`` (the features are normalised, not in [-1, 1]), ``w_gen``, ``w_update``,
+``add_threshold``, ``w_prune``, ``init_alpha``, ``max_projections``/``max_rfs`` (bounds) and
+``n_epochs``; the measurements behind each choice, the fit times and the paper-scale accuracy
+are in ``benchmarks/lwpr_design.md``.
 
 Distance metric from GP length-scales (paper Section III)
 --------------------------------------------------------
@@ -107,58 +101,6 @@ as ``init_D``.  ``factor`` > 1 gives narrower RFs than the GP's correlation leng
 local models); the RFs must be small enough that the function is locally linear, so try
 ``factor`` in [1, 4] on a validation split.  Irrelevant features get large ``l_i`` and hence
 ``D_ii ~ 0``: the RFs do not localise along them, which is what makes LWPR workable in 45-D.
-
-Tuning (defaults and why)
--------------------------
-Measured on the simulated LittleDog data: the CLI's recording (11 move types x 20 moves,
-pybullet) split into 61,446 training and 26,334 test pairs, features normalised to unit
-variance; "20k" is a random 20,000-row training subset tested on 5,000 test rows; nMSE is
-averaged over the 33 outputs; LR is the least-squares baseline.  The library's
-defaults are kept (penalty 1e-6, init_lambda 0.999, final_lambda 0.99999, tau_lambda 0.9999,
-diagonal metric, no meta learning, cutoff 0.001) except:
-
-* ``init_D = 0.2`` (library: 25 for inputs in [-1, 1]).  The median squared distance from a
-  sample to its 10th / 50th / 200th nearest of 20k training samples is 5.3 / 9.3 / 16.5
-  (random pairs: 92); a new RF appears at ``q = D |dx|^2 > 2 ln(1/w_gen) = 3.2``, i.e. beyond
-  squared distance 16 for D = 0.2, so an RF spans ~200 neighbours.  20k, all outputs (LR
-  0.098): D = 0.2, w_gen 0.2, w_update 0.02, add_threshold 0.5, 1 epoch: 0.080; D = 0.1,
-  w_gen 0.1, w_update 0.01, add_threshold 0.9, 2 epochs: 0.089; D = 0.05, w_gen 0.1,
-  w_update 0.05, add_threshold 0.9, 2 epochs: 0.091.  Prefer the GP-derived diagonal (above)
-  when GP length-scales are available.
-* ``w_gen = 0.2`` (library 0.1; the LWPR paper's examples use 0.2): denser coverage was more
-  accurate here (above).
-* ``w_update = 0.02`` (library 0.001), see "Cost".  20k, all outputs: 0.079 at 0.02 vs 0.093
-  at 0.001 (angles better at 0.001: 3.6-5.7x LR vs 4.6-7.0x; body states worse: 0.215 vs
-  0.174); on 9 outputs 0.1 was clearly worse on the joint angles (8.8-10x LR).
-* ``add_threshold = 0.9`` (library 0.5): a projection is added whenever it cuts the
-  cross-validated error by 10%; in 45-D two projections rarely halve it, and the joint angles
-  (a near-identity map s_{t+1} ~ s_t + dt ds_t) need more directions.  On 6 outputs (3 angles,
-  3 velocities; 20k, 1 epoch) the LWPR/LR ratios went from 5.2-6.9 to 4.8-5.9 (angles) and
-  0.55-0.76 to 0.51-0.72 (velocities).
-* ``w_prune = 0.9`` (library documentation; the Matlab default 1.0 never prunes).
-* ``init_alpha = 10`` (library 50 for init_D = 25; not tuned further): the metric is ~100x
-  smaller here, and the ``0.1 max|M|`` safety halves a too large rate anyway.
-* ``max_projections = 10``, ``max_rfs = 400`` per output: bound memory and time; 400 is
-  reached on the LittleDog data.
-* ``n_epochs = 1``: one pass over ~60k samples takes ~3 minutes.  More passes let RFs add
-  projections (each new one needs ~ln(100)/(1-lambda) further updates of its RF before the next
-  can be added): 20k, 2 epochs: 0.077 (1 epoch 0.079), joint angles 0.0091 (0.0111), joint
-  velocities 0.031 (0.034), at twice the time.
-
-The tuning above used the paper's literal response s_{t+1} (``OneStepModel`` target
-``"next"``); the features, hence init_D / w_gen / w_update, are the same for ``"delta"``.
-
-Result at paper scale (all 61,446 training pairs, defaults, 1 epoch, ~3 min; test nMSE):
-
-* target s_{t+1}: mean 0.073 (LR 0.096); body states 0.164 (LR 0.233); joint velocities
-  0.029 (LR 0.053, 0.48-0.60x LR); joint angles 0.0083 (LR 0.0021, 3.4-5.4x); roll 1.2x,
-  pitch 2.8x LR.  Local PLS models with few projections cannot match LR on outputs that are
-  an almost exact global linear map of the inputs (q_{t+1} ~ q_t + dt dq_t).
-* target s_{t+1} - s_t (the project default): better than LR on 25 of 33 elements; joint
-  angles 0.46-0.63x LR, roll 0.60x, pitch 0.74x, dx/dy/dz_b 0.85-0.95x, but angular rates
-  1.14-1.27x and joint velocities 0.73-1.25x.  LR's predictions (hence errors) are the same
-  for both targets, so the ratios compare the targets directly: for LWPR "delta" is far better
-  on the angles, "next" on the joint velocities and angular rates.
 """
 from __future__ import annotations
 
@@ -169,9 +111,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from littledog_mlsim.models.base import (Regressor, check_fit_inputs, check_predict_inputs,
-                                          expect_array)
-from littledog_mlsim.models.persistence import register
+from .base import (Regressor, check_fit_inputs, check_is_fitted, check_predict_inputs,
+                   expect_array, sizes_from_meta, standardise_targets)
+from .persistence import register
 
 log = logging.getLogger(__name__)
 
@@ -386,8 +328,8 @@ class LWPR(Regressor):
         speed/accuracy knob, see "Cost").
     n_epochs : passes over the training data (each in a fresh random order if ``shuffle``).
     shuffle : present the samples in random order each epoch.
-    seed : seed of the shuffling.
-    verbose : log one line per epoch (RF counts, training nMSE, time).
+    random_state : seed of the shuffling (``seed``, the old name, is still accepted).
+    verbose : log one line per epoch (RF counts, training nMSE, time) at INFO level.
 
     Fitted attributes (RFs of all outputs, sorted by output; K in total): ``centres_`` (K, d),
     ``M_``/``D_`` (K, d) diagonal or (K, d, d), ``mean_x_`` (K, d), ``beta0_`` (K,),
@@ -397,8 +339,10 @@ class LWPR(Regressor):
     """
 
     method: ClassVar[str] = "lwpr"
+    supports_std: ClassVar[bool] = False
+    _renamed_params: ClassVar[dict[str, str]] = {"seed": "random_state"}
 
-    def __init__(self, init_D: Any = 0.2, w_gen: float = 0.2, w_prune: float = 0.9,
+    def __init__(self, *, init_D: Any = 0.2, w_gen: float = 0.2, w_prune: float = 0.9,
                  init_alpha: float = 10.0, penalty: float = 1e-6, meta: bool = False,
                  meta_rate: float = 250.0, update_D: bool = True, diag_only: bool = True,
                  init_lambda: float = 0.999, final_lambda: float = 0.99999,
@@ -406,7 +350,8 @@ class LWPR(Regressor):
                  max_projections: int = 10, init_S2: float = 1e-10,
                  max_rfs: int | None = 400, cutoff: float = 0.001, w_update: float = 0.02,
                  n_epochs: int = 1,
-                 shuffle: bool = True, seed: int = 0, verbose: bool = False):
+                 shuffle: bool = True, random_state: int | None = 0, verbose: bool = False,
+                 seed: int | None = None):
         self.init_D = init_D
         self.w_gen = w_gen
         self.w_prune = w_prune
@@ -427,24 +372,8 @@ class LWPR(Regressor):
         self.w_update = w_update
         self.n_epochs = n_epochs
         self.shuffle = shuffle
-        self.seed = seed
+        self.random_state = random_state if seed is None else seed
         self.verbose = verbose
-
-    # ------------------------------------------------------------------ parameters
-    _PARAM_NAMES: ClassVar[tuple[str, ...]] = (
-        "init_D", "w_gen", "w_prune", "init_alpha", "penalty", "meta", "meta_rate", "update_D",
-        "diag_only", "init_lambda", "final_lambda", "tau_lambda", "add_threshold",
-        "max_projections", "init_S2", "max_rfs", "cutoff", "w_update", "n_epochs", "shuffle",
-        "seed", "verbose")
-
-    def get_params(self) -> dict[str, Any]:
-        params = {name: getattr(self, name) for name in self._PARAM_NAMES}
-        init_D = params["init_D"]
-        if isinstance(init_D, np.ndarray):
-            params["init_D"] = init_D.tolist()
-        elif isinstance(init_D, np.generic):
-            params["init_D"] = init_D.item()
-        return params
 
     def _init_D_matrix(self, d: int, n_out: int) -> np.ndarray:
         """init_D as (n_out, d) diagonals."""
@@ -468,12 +397,9 @@ class LWPR(Regressor):
             raise ValueError("max_projections must be >= 1 and n_epochs >= 0")
         n, d = X.shape
         n_out = Y.shape[1]
-        y_mean = Y.mean(axis=0)
-        y_std = Y.std(axis=0)
-        y_std = np.where(y_std > 0, y_std, 1.0)
-        Yn = (Y - y_mean) / y_std
+        Yn, y_mean, y_std = standardise_targets(Y)
         self._start_training(d, n_out, float(np.max(np.einsum("ij,ij->i", X, X))))
-        rng = np.random.default_rng(self.seed)
+        rng = np.random.default_rng(self.random_state)
         history: dict[str, list] = {"n_rfs": [], "train_nmse": [], "seconds": [],
                                     "rf_updates": []}
         for epoch in range(self.n_epochs):
@@ -494,7 +420,6 @@ class LWPR(Regressor):
                        f"{self._n_rf_updates / ((epoch + 1) * n):.0f} RF updates per sample, "
                        f"training nMSE (during the pass) mean {np.mean(sq_err / n):.4f}")
                 log.info(msg)
-                print(msg, flush=True)
         self.history_ = history
         self.n_pruned_ = self._n_pruned.copy()
         self._set_prediction_state(self._export_arrays(y_mean, y_std))
@@ -892,15 +817,16 @@ class LWPR(Regressor):
 
     def predict(self, X: np.ndarray, return_std: bool = False) -> np.ndarray:
         """X (m, d) -> (m, n_out): activation-weighted mean of the local linear models."""
-        if return_std:
-            raise NotImplementedError("LWPR confidence bounds are not implemented")
-        if not hasattr(self, "centres_"):
-            raise RuntimeError("LWPR is not fitted")
+        self._check_std(return_std)
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         out = np.empty((X.shape[0], self.n_outputs_))
         chunk = max(1, 2_000_000 // max(1, self.centres_.shape[0]))
         for start in range(0, X.shape[0], chunk):
             out[start:start + chunk] = self._predict_chunk(X[start:start + chunk])
+        # a non-finite query (a diverged rollout) has no activation: say so instead of the
+        # nearest-RF fallback, which would hand back a finite, made-up state
+        out[~np.isfinite(X).all(axis=1)] = np.nan
         return out
 
     def _predict_chunk(self, X: np.ndarray) -> np.ndarray:
@@ -934,8 +860,7 @@ class LWPR(Regressor):
     # ------------------------------------------------------------------ persistence
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Prediction state: per-RF arrays (K = sum of n_rfs, sorted by output) + scaling."""
-        if not hasattr(self, "centres_"):
-            raise RuntimeError("LWPR is not fitted")
+        check_is_fitted(self)
         arrays = {
             "centres": self.centres_, "M": self.M_, "mean_x": self.mean_x_,
             "beta0": self.beta0_, "slope": self.slope_, "trustworthy": self.trustworthy_,
@@ -960,7 +885,7 @@ class LWPR(Regressor):
         if meta.get("format") != STATE_FORMAT:
             raise ValueError(f"unknown LWPR state format {meta.get('format')!r} "
                              f"(this version reads {STATE_FORMAT!r})")
-        d, p = int(meta["n_features_in"]), int(meta["n_outputs"])
+        d, p = sizes_from_meta(meta)
         n_rfs = [int(k) for k in meta["n_rfs"]]
         if len(n_rfs) != p:
             raise ValueError(f"n_rfs lists {len(n_rfs)} outputs, expected {p}")
@@ -972,7 +897,7 @@ class LWPR(Regressor):
             ("n_projections", (K,)), ("y_mean", (p,)), ("y_std", (p,)))}
         if np.any(np.bincount(state["output"].astype(np.int64), minlength=p) != n_rfs):
             raise ValueError("array 'output' does not match n_rfs")
-        est = cls(**params)
+        est = cls.from_params(params)
         est._set_prediction_state(state)
         if meta.get("history") is not None:
             est.history_ = meta["history"]

@@ -13,12 +13,8 @@ representation chosen by ``target``:
 - ``"delta"`` (default): r = s_{t+1} - s_t, normalised to unit variance per element; the
   prediction is s_t + r. The state changes little in 10 ms, so the regressor only models the
   change (the GP prior mean, zero, is then "the state stays", not "the state is the TrainPool
-  mean"). Measured with LGPR (``benchmarks/lgpr_ablation.md``, 5000 points): better than
-  ``"next"`` on 27 of 33 elements (joint angles 0.00037 vs 0.00064 mean nMSE, joint rates 0.0120
-  vs 0.0132, roll, pitch, dpitch, dyaw) and in the median (0.0068 vs 0.0071); ``"next"`` is
-  2-5 % better on z_w, dx_b, dy_b, dz_b and droll, which are nearly uncorrelated from one step
-  to the next, and so in the mean over elements (0.0465 vs 0.0476), which those noisy
-  elements dominate.
+  mean"). On the recorded data it is the better target for most state elements, ``"next"``
+  for a few nearly uncorrelated ones (``benchmarks/lgpr_ablation.md``).
 - ``"next"``: the paper's literal response r = s_{t+1}, normalised to unit variance.
 
 The standard deviation is that of s_{t+1} given x_t (s_t is known, so the same for both
@@ -51,7 +47,7 @@ import numpy as np
 
 from ..data.dataset import Normalizer
 from ..layout import N_STATE, STATE_NAMES
-from .base import Regressor
+from .base import Regressor, StdNotSupportedError
 from .features import FeatureSet, FeatureSetError
 from .persistence import ModelError, fingerprint_arrays, read_model, save_model
 
@@ -139,6 +135,11 @@ class OneStepModel:
         return self.estimator.method
 
     @property
+    def supports_std(self) -> bool:
+        """Whether ``predict(..., return_std=True)`` works (the regressor's declared capability)."""
+        return bool(getattr(self.estimator, "supports_std", False))
+
+    @property
     def feature_names(self) -> tuple[str, ...]:
         return self.feature_set.names
 
@@ -149,8 +150,9 @@ class OneStepModel:
 
         (n, ``feature_set.n_features``) for a model with an augmented feature set.
 
-        ``return_std=True`` also returns the predictive std of s_{t+1}, same shape (estimators
-        without a variance raise ValueError).
+        ``return_std=True`` also returns the predictive std of s_{t+1}, same shape (an
+        estimator whose ``supports_std`` is False raises :class:`.base.StdNotSupportedError`,
+        a ValueError).
         """
         X = np.asarray(X, dtype=np.float64)
         single = X.ndim == 1
@@ -162,10 +164,9 @@ class OneStepModel:
         fn, rn = self.feature_normalizer, self.response_normalizer
         Xn = (X - fn.mean_) / fn.std_
         if return_std:
-            try:
-                Z, Zs = self.estimator.predict(Xn, return_std=True)
-            except (TypeError, NotImplementedError) as e:
-                raise ValueError(f"{self.method} gives no predictive std: {e}") from e
+            if not self.supports_std:
+                raise StdNotSupportedError(f"{self.method} gives no predictive std")
+            Z, Zs = self.estimator.predict(Xn, return_std=True)
         else:
             Z, Zs = self.estimator.predict(Xn), None
         out = Z * rn.std_ + rn.mean_

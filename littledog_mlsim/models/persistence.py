@@ -1,4 +1,4 @@
-"""Model files (CONTRACT.md section 7) and the registry of regression methods.
+"""Model files (``docs/interface.md`` §7) and the registry of regression methods.
 
 A model is a directory holding two files, nothing executable::
 
@@ -10,11 +10,11 @@ A model is a directory holding two files, nothing executable::
                     "arrays": {name: {"shape": [...], "dtype": "<f8"}},
                     "arrays_sha256": "...", "created_utc": "...", "versions": {...}}
 
-Writing is atomic: both files are written and fsynced in a temporary sibling directory, which
-then replaces MODEL in one step (``renameat2(RENAME_EXCHANGE)`` where the kernel and file system
-offer it, otherwise rename-old-aside then rename-new-in, where a crash between the two renames
-leaves the old model in ``.MODEL.old-*/model``); a failed or interrupted save leaves an existing
-model untouched. A directory that is not a model is never replaced. Directory and file modes
+Writing is atomic (:func:`..fileio.atomic_directory`): both files are written and fsynced in
+a temporary sibling directory, which then replaces MODEL in one step (``renameat2
+(RENAME_EXCHANGE)`` where the kernel and file system offer it, otherwise rename-old-aside then
+rename-new-in, where a crash between the two renames leaves the old model in
+``.MODEL.old-*/old``); a failed or interrupted save leaves an existing model untouched. A directory that is not a model is never replaced. Directory and file modes
 follow the umask.
 
 Every failure to read a model raises :class:`ModelError` (a ValueError) with a one-line reason:
@@ -33,24 +33,20 @@ their module. A method named ``X`` that is not registered yet is looked up by im
 """
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import datetime as _dt
-import errno
 import hashlib
 import importlib
 import io
 import json
 import os
 import re
-import secrets
-import shutil
 import zipfile
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..fileio import atomic_directory, read_document, to_plain
 from .base import Regressor
 from .gp import GPR
 from .lr import LinearRegression
@@ -121,70 +117,6 @@ def fingerprint_arrays(*arrays: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
-
-
-def _fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-_RENAME_EXCHANGE = 2
-_AT_FDCWD = -100
-
-
-def _exchange(a: Path, b: Path) -> bool:
-    """Atomically swap two paths with renameat2(RENAME_EXCHANGE); False if unsupported."""
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-        fn = libc.renameat2
-    except (OSError, AttributeError):
-        return False
-    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    fn.restype = ctypes.c_int
-    if fn(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EPERM):
-        return False
-    raise OSError(err, f"renameat2 {a} <-> {b}: {os.strerror(err)}")
-
-
-def _make_sibling_dir(path: Path, tag: str) -> Path:
-    """A new empty directory ``.NAME.<tag>-XXXXXXXX`` next to ``path`` (mode from the umask)."""
-    for _ in range(100):
-        d = path.parent / f".{path.name}.{tag}-{secrets.token_hex(4)}"
-        try:
-            os.mkdir(d)  # 0o777 & ~umask, unlike tempfile.mkdtemp's 0o700
-            return d
-        except FileExistsError:
-            continue
-    raise ModelError(f"cannot create a temporary directory next to {path}")
-
-
-def _replace_dir(tmp: Path, path: Path) -> None:
-    """Put the finished directory ``tmp`` at ``path``, replacing an existing model there."""
-    if not path.exists():
-        os.rename(tmp, path)
-        return
-    if _exchange(tmp, path):
-        shutil.rmtree(tmp, ignore_errors=True)  # tmp now holds the old model
-        return
-    old = _make_sibling_dir(path, "old")
-    os.rename(path, old / "model")  # a crash before the next rename leaves it here
-    os.rename(tmp, path)
-    shutil.rmtree(old, ignore_errors=True)
-
 
 def save_model(path: str | os.PathLike, model: Regressor,
                extra_meta: Mapping[str, Any] | None = None,
@@ -225,39 +157,27 @@ def save_model(path: str | os.PathLike, model: Regressor,
                              f"numeric nor a 0-d string")
         arrays[EXTRA_PREFIX + str(k)] = v
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _make_sibling_dir(path, "tmp")
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    blob = buf.getvalue()
+    doc = {
+        "format": FORMAT, "format_version": FORMAT_VERSION, "method": model.method,
+        "params": params, "state": state, "meta": dict(extra_meta or {}),
+        "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype.str} for k, v in arrays.items()},
+        "arrays_sha256": hashlib.sha256(blob).hexdigest(),
+        "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "versions": {"numpy": np.__version__},
+    }
     try:
-        buf = io.BytesIO()
-        np.savez(buf, **arrays)
-        blob = buf.getvalue()
-        doc = {
-            "format": FORMAT, "format_version": FORMAT_VERSION, "method": model.method,
-            "params": params, "state": state, "meta": dict(extra_meta or {}),
-            "arrays": {k: {"shape": list(v.shape), "dtype": v.dtype.str}
-                       for k, v in arrays.items()},
-            "arrays_sha256": hashlib.sha256(blob).hexdigest(),
-            "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "versions": {"numpy": np.__version__},
-        }
-        try:
-            text = json.dumps(doc, indent=1, allow_nan=False, default=_json_default)
-        except (TypeError, ValueError) as e:
-            raise ModelError(f"cannot save model metadata as JSON: {e}") from e
-        with open(tmp / ARRAYS_FILE, "wb") as f:
-            f.write(blob)
-            f.flush()
-            os.fsync(f.fileno())
-        with open(tmp / META_FILE, "w", encoding="utf-8") as f:
-            f.write(text + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-        _fsync_path(tmp)
-        _replace_dir(tmp, path)
-        _fsync_path(path.parent)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        text = json.dumps(to_plain(doc), indent=1, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise ModelError(f"cannot save model metadata as JSON: {e}") from e
+    with atomic_directory(path, replace=True, tag="tmp") as tmp:
+        for name, data in ((ARRAYS_FILE, blob), (META_FILE, (text + "\n").encode("utf-8"))):
+            with open(tmp / name, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
     return path
 
 
@@ -272,15 +192,9 @@ def read_model_json(path: str | os.PathLike) -> dict[str, Any]:
     if not meta_path.is_file():
         raise ModelError(f"{path} is not a model: no {META_FILE}")
     try:
-        doc = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ModelError(f"{meta_path}: not valid JSON (truncated or corrupt?): {e}") from e
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise ModelError(f"{meta_path}: not a {FORMAT} file")
-    version = doc.get("format_version")
-    if version != FORMAT_VERSION:
-        raise ModelError(f"{meta_path}: unsupported format_version {version!r} "
-                         f"(this build reads {FORMAT_VERSION})")
+        doc = read_document(meta_path, FORMAT, FORMAT_VERSION, "a model file")
+    except ValueError as e:
+        raise ModelError(f"{meta_path}: {e}") from None
     for key, typ in (("method", str), ("params", dict), ("state", dict), ("meta", dict),
                      ("arrays", dict), ("arrays_sha256", str)):
         if not isinstance(doc.get(key), typ):

@@ -33,7 +33,9 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from .base import Regressor, check_fit_inputs, check_predict_inputs, expect_array
+from .base import (Regressor, StdNotSupportedError, check_fit_inputs, check_is_fitted,
+                   check_predict_inputs, expect_array, sizes_from_meta,
+                   standardise_targets)
 from .gp import (DEFAULT_JITTER, GPR, fit_gp_hyperparameters, gp_posterior, gp_predict,
                  kernel_cross, kernel_matrix, n_log_params, unpack_log_params)
 
@@ -145,7 +147,7 @@ class SoR(Regressor):
 
     method = "sor"
 
-    def __init__(self, n_support: int = 1000, support: str = "cv", n_folds: int = 10,
+    def __init__(self, *, n_support: int = 1000, support: str = "cv", n_folds: int = 10,
                  cv_error: str = "absolute", n_hyperparameter_points: int = 1000,
                  predict_variance: bool = True, jitter: float = 1e-8, normalize_y: bool = True,
                  gp_params: dict[str, Any] | None = None, random_state: int | None = 0) -> None:
@@ -160,14 +162,10 @@ class SoR(Regressor):
         self.gp_params = gp_params
         self.random_state = random_state
 
-    def get_params(self) -> dict[str, Any]:
-        gp = None if self.gp_params is None else GPR(**self.gp_params).get_params()
-        return {"n_support": int(self.n_support), "support": self.support,
-                "n_folds": int(self.n_folds), "cv_error": self.cv_error,
-                "n_hyperparameter_points": int(self.n_hyperparameter_points),
-                "predict_variance": bool(self.predict_variance), "jitter": float(self.jitter),
-                "normalize_y": bool(self.normalize_y), "gp_params": gp,
-                "random_state": self.random_state}
+    @property
+    def supports_std(self) -> bool:  # type: ignore[override]
+        """True unless built with ``predict_variance=False`` (then no m x m factors are kept)."""
+        return bool(self.predict_variance)
 
     def _hyperparameters(self, X: np.ndarray, Yn: np.ndarray, rng: np.random.Generator
                          ) -> np.ndarray:
@@ -193,13 +191,7 @@ class SoR(Regressor):
         X, Y = check_fit_inputs(X, Y)
         n, d = X.shape
         p = Y.shape[1]
-        if self.normalize_y:
-            self.y_mean_ = Y.mean(axis=0)
-            sd = Y.std(axis=0)
-            self.y_std_ = np.where(sd > 0, sd, 1.0)
-        else:
-            self.y_mean_, self.y_std_ = np.zeros(p), np.ones(p)
-        Yn = (Y - self.y_mean_) / self.y_std_
+        Yn, self.y_mean_, self.y_std_ = standardise_targets(Y, bool(self.normalize_y))
         rng = np.random.default_rng(self.random_state)
         lp = self._hyperparameters(X, Yn, rng)
         m = min(int(self.n_support), n)
@@ -237,9 +229,10 @@ class SoR(Regressor):
 
     def predict(self, X: np.ndarray, return_std: bool = False):
         """X (m, d) -> mean (m, p); with return_std also std (m, p) (noisy-observation std)."""
+        check_is_fitted(self)
         X = check_predict_inputs(X, self.n_features_in_)
         if return_std and self.chol_ is None:
-            raise ValueError("this SoR was fitted with predict_variance=False")
+            raise StdNotSupportedError("this SoR was fitted with predict_variance=False")
         p = self.n_outputs_
         mean = np.empty((X.shape[0], p))
         std = np.empty((X.shape[0], p)) if return_std else None
@@ -256,20 +249,21 @@ class SoR(Regressor):
         return mean, std * self.y_std_
 
     def get_state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_is_fitted(self)
         arrays = {"support_X": self.support_X_, "support_index": self.support_index_,
                   "weights": self.weights_, "log_params": self.log_params_,
                   "y_mean": self.y_mean_, "y_std": self.y_std_}
         if self.chol_ is not None:
             arrays["chol"] = self.chol_
-        meta = {"n_features_in": int(self.n_features_in_), "n_outputs": int(self.n_outputs_),
-                "n_support": int(self.weights_.shape[1]), "has_variance": self.chol_ is not None}
+        meta = self._size_meta(n_support=int(self.weights_.shape[1]),
+                               has_variance=self.chol_ is not None)
         return arrays, meta
 
     @classmethod
     def from_state(cls, params: dict[str, Any], arrays: dict[str, np.ndarray],
                    meta: dict[str, Any]) -> "SoR":
-        s = cls(**params)
-        d, p, m = int(meta["n_features_in"]), int(meta["n_outputs"]), int(meta["n_support"])
+        s = cls.from_params(params)
+        (d, p), m = sizes_from_meta(meta), int(meta["n_support"])
         s.support_X_ = expect_array(arrays, "support_X", (p, m, d)).astype(np.float64)
         s.support_index_ = expect_array(arrays, "support_index", (p, m)).astype(np.int64)
         s.weights_ = expect_array(arrays, "weights", (p, m)).astype(np.float64)

@@ -1,4 +1,4 @@
-"""bag_recorder: record a simulator's live topics into one contract bag (CONTRACT.md section 3).
+"""bag_recorder: record a simulator's live topics into one contract bag (docs/interface.md §3).
 
     bag_recorder --ros-args -p out:=/tmp/run/F_00 [-p max_steps:=400] [-p storage:=mcap]
 

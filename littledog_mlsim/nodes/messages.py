@@ -1,7 +1,7 @@
 """Message conversion shared by the nodes: arrays <-> ROS messages, and the command rule.
 
 Everything here translates; the numbers come from the core. Topics and frames are those of
-CONTRACT.md section 2; arrays of 12 joint values are in ``layout.JOINT_NAMES`` order.
+docs/interface.md §2; arrays of 12 joint values are in ``layout.JOINT_NAMES`` order.
 
 Command rule (``check_command``), applied by both simulators to every ``/littledog/cmd``:
 

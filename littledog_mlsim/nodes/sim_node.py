@@ -1,4 +1,4 @@
-"""sim_node: the learned LittleDog simulator behind the contract topics (CONTRACT.md sections 2, 6).
+"""sim_node: the learned LittleDog simulator behind the contract topics (docs/interface.md §2, §6).
 
     sim_node --ros-args -p model_path:=/path/to/model [-p step_mode:=lockstep] ...
 

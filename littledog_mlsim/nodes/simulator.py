@@ -4,7 +4,7 @@
 say how to reset, step and read their robot (:class:`Backend`), so a controller sees the same
 topics, message shapes and behaviour from either.
 
-Topics (CONTRACT.md section 2; publishers reliable, keep-last 10, transient-local so that a
+Topics (docs/interface.md §2; publishers reliable, keep-last 10, transient-local so that a
 late-joining transient-local subscriber such as bag_recorder gets the last 10 messages):
 
 - subscribes ``/littledog/cmd`` (JointState; reliable, keep-last ``cmd_queue_depth``);

@@ -1,4 +1,4 @@
-"""trainer_node: build a one-step model from a dataset of bags, one shot (CONTRACT.md section 6).
+"""trainer_node: build a one-step model from a dataset of bags, one shot (docs/interface.md §6).
 
     trainer_node --ros-args -p data:=bags/default -p out:=/tmp/model -p method:=lr
     trainer_node --ros-args --params-file config/trainer.yaml -p method:=lgpr \

@@ -1,4 +1,4 @@
-"""Effect plug-ins: unmodelled physics switched on while recording (CONTRACT.md section 5).
+"""Effect plug-ins: unmodelled physics switched on while recording (docs/interface.md §5).
 
 An effect is any object implementing some of
 

@@ -1,6 +1,6 @@
 """The pybullet LittleDog: one simulated robot per pybullet DIRECT client.
 
-Timing (CONTRACT.md section 2): measurement k is taken at t = k * 10 ms, then command k is held
+Timing (docs/interface.md §2): measurement k is taken at t = k * 10 ms, then command k is held
 for 10 ms = ``config.substeps`` physics steps. Per physics step: effects' ``substep`` hooks, one
 servo update, ``stepSimulation``, one encoder sample.
 
@@ -84,7 +84,7 @@ class InitialState:
 class LittleDogSim:
     """One LittleDog in its own pybullet DIRECT client.
 
-    Attributes for effects (CONTRACT.md section 5): ``client``, ``robot`` (body id),
+    Attributes for effects (docs/interface.md §5): ``client``, ``robot`` (body id),
     ``joint_indices`` (12 pybullet joint indices, contract order), ``physics_dt``, ``control_dt``,
     ``rng`` (numpy Generator of the current move). Also ``config``, ``time`` [s since reset],
     ``foot_links`` (4 link indices, LEGS order), ``plane`` (ground body id).
@@ -220,7 +220,7 @@ class LittleDogSim:
         Args:
             initial: state to start from; None = the settled home stance.
             seed: seeds the sensor noise and ``self.rng`` (given to effects), independently.
-            effects: plug-ins (CONTRACT.md section 5), any of reset/command/substep/measure.
+            effects: plug-ins (docs/interface.md §5), any of reset/command/substep/measure.
         """
         state = self._home if initial is None else initial.validated()
         sensor_seed, effect_seed = np.random.SeedSequence(seed).spawn(2)

@@ -186,7 +186,7 @@ def rollout_metrics(moves: Sequence[TestMove], predicted: Sequence[np.ndarray],
                     horizons_s: Sequence[float] = HORIZONS_S,
                     state_var: np.ndarray | None = None,
                     projection: Projection | None = None) -> dict[str, Any]:
-    """The JSON-ready rollout results (CONTRACT.md section 5, ``rollout.json``).
+    """The JSON-ready rollout results (docs/interface.md §5, ``rollout.json``).
 
     ``moves`` and ``predicted`` (T_i, 33) per move (``rollout_moves`` output). Keys:
     ``final_xy_error_m`` (mean over moves of the cumulative (x, y) error at the end of the move),

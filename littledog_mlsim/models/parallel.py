@@ -1,0 +1,54 @@
+"""Running independent fitting tasks in parallel: local processes (joblib/loky) or a Dask
+cluster, with results in input order. LGPR fits its clusters through :func:`run_tasks`."""
+from __future__ import annotations
+
+from typing import Any, Callable, Iterable, Sequence
+
+__all__ = ["run_tasks", "DASK_CONNECT_TIMEOUT"]
+
+DASK_CONNECT_TIMEOUT = "30s"
+
+
+def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
+              dask_scheduler: str | None = None,
+              on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+    """Run ``func(*args)`` for every tuple, in order, through joblib; results in input order.
+
+    ``n_jobs`` local loky processes (1: in this process), or the workers of the Dask cluster at
+    ``dask_scheduler`` (joblib's ``dask`` backend through a ``distributed.Client``).
+    ``on_result(i, result)`` is called as results arrive (in order), e.g. for progress.
+    """
+    from joblib import Parallel, delayed
+
+    tasks = [delayed(func)(*a) for a in arg_tuples]
+    results: list[Any] = []
+
+    def collect(it: Iterable[Any]) -> None:
+        for i, r in enumerate(it):
+            results.append(r)
+            if on_result is not None:
+                on_result(i, r)
+
+    if dask_scheduler:
+        try:
+            from distributed import Client
+        except ImportError as e:  # pragma: no cover - distributed is a dependency
+            raise ValueError(f"dask_scheduler needs the 'distributed' package: {e}") from e
+        from joblib import parallel_config
+        try:
+            client = Client(dask_scheduler, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
+        except (OSError, ValueError, TypeError) as e:
+            raise ValueError(f"cannot connect to the Dask scheduler {dask_scheduler}: "
+                             f"{str(e).splitlines()[0] if str(e) else type(e).__name__}"
+                             ) from e
+        try:
+            with parallel_config(backend="dask", client=client, wait_for_workers_timeout=60):
+                collect(Parallel(n_jobs=-1, return_as="generator")(tasks))
+        finally:
+            client.close()
+        return results
+    if n_jobs == 1 or len(tasks) <= 1:
+        collect(t[0](*t[1], **t[2]) for t in tasks)
+        return results
+    collect(Parallel(n_jobs=n_jobs, return_as="generator")(tasks))
+    return results
