@@ -29,7 +29,7 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 # absent, then replay a TestPool move through sim_node and pybullet_node over ROS 2 and report
 # the learned simulator's error against pybullet.
 run: $(STAMP)
-	$(PY) -m littledog_mlsim.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)
+	$(PY) -m littledog_mlsim.apps.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)
 
 test: $(STAMP)
 	$(PY) -m pytest -q test

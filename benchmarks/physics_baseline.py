@@ -31,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-from littledog_mlsim.baseline import (evaluate_baseline, load_robot_config, physics_rollout,
+from littledog_mlsim.robot.baseline import (evaluate_baseline, load_robot_config, physics_rollout,
                                       save_robot_config, tune_nominal, tuning_moves)
 from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.layout import MOVE_TYPES, STATE_NAMES
@@ -95,7 +95,7 @@ def main() -> int:
     # 3. animation of one TestPool F move
     anim = None
     if not a.no_animation:
-        from littledog_mlsim.animate import animate_move
+        from littledog_mlsim.apps.animate import animate_move
         rec = next(r for r in test if r.move_type == "F")
         t0 = time.perf_counter()
         pred = physics_rollout(rec, tuned)

@@ -29,7 +29,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import ROOT, git_state  # noqa: E402
 
-from littledog_mlsim.baseline import load_robot_config  # noqa: E402
+from littledog_mlsim.robot.baseline import load_robot_config  # noqa: E402
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.diagnose.physics import diagnose_physics  # noqa: E402
 from littledog_mlsim.fileio import atomic_write_text  # noqa: E402

@@ -63,7 +63,7 @@ BATCH = 66
 def simulated_moves(moves_per_type: int, split_at: int, seed: int = 0):
     """(train recordings, test recordings) of the default dataset, simulated in memory."""
     from littledog_mlsim.gait.trot import sample_trot_params, trot_commands
-    from littledog_mlsim.record import plan_jobs
+    from littledog_mlsim.apps.record import plan_jobs
     from littledog_mlsim.robot.sim import simulate_move
 
     train, test = [], []

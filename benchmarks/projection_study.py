@@ -39,8 +39,8 @@ sys.path.insert(0, str(ROOT))
 
 from _common import command_line, run_record  # noqa: E402  (benchmarks/ is the script directory)
 from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
-from littledog_mlsim.evaluate import projection_label  # noqa: E402
-from littledog_mlsim.figures import drift  # noqa: E402
+from littledog_mlsim.apps.evaluate import projection_label  # noqa: E402
+from littledog_mlsim.apps.figures import drift  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.rollout.projection import (  # noqa: E402
     leave_move_out_distances, make_projection,

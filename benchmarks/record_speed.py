@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from littledog_mlsim.record import record_dataset
+from littledog_mlsim.apps.record import record_dataset
 
 HERE = Path(__file__).resolve().parent
 

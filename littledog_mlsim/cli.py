@@ -32,7 +32,7 @@ def _types(text: str) -> list[str]:
 
 
 def cmd_record(a: argparse.Namespace) -> int:
-    from .record import record_dataset
+    from .apps.record import record_dataset
 
     s = record_dataset(a.out, moves_per_type=a.moves_per_type, types=a.types, seed=a.seed,
                        robot=a.robot, effects_file=a.effects, storage=a.storage, jobs=a.jobs,
@@ -156,7 +156,7 @@ def _add_scoring_options(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_evaluate(a: argparse.Namespace) -> int:
-    from .evaluate import evaluate
+    from .apps.evaluate import evaluate
 
     r = evaluate(a.model, a.data, a.out, projections=a.projections, alpha=a.alpha,
                  radius=a.radius, radius_quantile=a.radius_quantile)
@@ -169,7 +169,7 @@ def cmd_evaluate(a: argparse.Namespace) -> int:
 
 
 def cmd_rollout(a: argparse.Namespace) -> int:
-    from .evaluate import rollout_verb
+    from .apps.evaluate import rollout_verb
 
     r = rollout_verb(a.model, a.data, a.out, kind=a.projection, alpha=a.alpha,
                      radius=a.radius, radius_quantile=a.radius_quantile)
@@ -181,7 +181,7 @@ def cmd_rollout(a: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(a: argparse.Namespace) -> int:
-    from .reproduce import reproduce
+    from .apps.reproduce import reproduce
 
     s = reproduce(a.data, a.out, scale=a.scale, methods=a.methods, seed=a.seed, fig4=not a.no_fig4,
                   rollouts=not a.no_rollouts, jobs=a.jobs, physics_config=a.physics_config,

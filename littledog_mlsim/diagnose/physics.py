@@ -9,7 +9,7 @@ Method (and why)
 ----------------
 1. **Residual.** One physics step of the robot from each measured TrainPool state
    (every ``stride``-th sample t = 1, 1 + stride, ... of ``features_responses``, as
-   :func:`littledog_mlsim.baseline.one_step_predictions`), r = s_{t+1}(measured) -
+   :func:`littledog_mlsim.robot.baseline.one_step_predictions`), r = s_{t+1}(measured) -
    s_{t+1}(physics), per state element; summed per move as SSE_mj (move m, element j).
 2. **Trace by re-simulation (route (i) of the brief), not by regression on r.** Each candidate is
    a physical parameter the simulator lacks or may have wrong, with a few values
@@ -39,7 +39,7 @@ Method (and why)
    relative one-step SSE on all TrainPool moves: the best grid value for the integer delay, the
    best grid value refined by a bounded scalar search (log space where the parameter is scale-like)
    for the others. The one-step residual is used, not the rollout objective J of
-   :func:`~littledog_mlsim.baseline.tune_nominal`, because it is what the screening measured and it
+   :func:`~littledog_mlsim.robot.baseline.tune_nominal`, because it is what the screening measured and it
    isolates the parameter (J mixes the parameter with the drift of a 4 s rollout).
    **Acceptance on the rollout objective.** A one-step cut can come from a proxy (a parameter at
    an unphysical value absorbing another mismatch) that makes the 4 s rollouts worse, so the
@@ -49,7 +49,7 @@ Method (and why)
    screened in later rounds. The loop then screens again from the (possibly) calibrated robot, up
    to ``max_rounds`` rounds, stopping earlier when no candidate is material.
 5. **Report on TestPool** (never used to choose or calibrate): before the first round and after
-   each kept calibration, :func:`~littledog_mlsim.baseline.evaluate_baseline` (rollout final (x, y) error and
+   each kept calibration, :func:`~littledog_mlsim.robot.baseline.evaluate_baseline` (rollout final (x, y) error and
    one-step nMSE per element). A command delay d is applied by replaying the recordings with the
    commands shifted by d steps (u'_k = u_{max(k - d, 0)}: the servo receives at step k the command
    sent d steps before; before the move, the first command), which is exact for a whole-step
@@ -74,7 +74,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from .. import baseline as _bl
+from ..robot import baseline as _bl
 from ..data.recording import MoveRecording
 from ..layout import N_STATE, STATE_NAMES
 from ..robot.config import RobotConfig

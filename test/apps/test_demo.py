@@ -25,13 +25,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from littledog_mlsim.data.bags import read_bag  # noqa: E402
 from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
-from littledog_mlsim.demo import DemoError, main, run_demo  # noqa: E402
+from littledog_mlsim.apps.demo import DemoError, main, run_demo  # noqa: E402
 from littledog_mlsim.layout import HOME_POSE, JOINT_NAMES  # noqa: E402
 from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.nodes import messages as m  # noqa: E402
 from littledog_mlsim.nodes.topic_echo import message_to_dict, message_to_yaml  # noqa: E402
-from littledog_mlsim.record import record_dataset  # noqa: E402
+from littledog_mlsim.apps.record import record_dataset  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
 
 BIN = Path(sys.executable).parent

@@ -11,16 +11,13 @@ import pytest
 
 from littledog_mlsim.cli import main
 from littledog_mlsim.layout import STATE_NAMES
-from littledog_mlsim.record import record_dataset
 
 CLI = [sys.executable, "-m", "littledog_mlsim.cli"]
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("rep") / "ds"
-    record_dataset(out, moves_per_type=2, types=["F", "BL", "S"], jobs=2, progress=False)
-    return out
+def data(small_dataset: Path) -> Path:
+    return small_dataset
 
 
 @pytest.fixture(scope="module")

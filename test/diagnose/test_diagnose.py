@@ -212,7 +212,7 @@ FAST_SEARCH = dict(n_gp_points=300, gp_max_iter=40)  # M = 1000 random features 
 
 def _record(root: Path, name: str, seed: int, effects: str | None = None,
             excitation: float = 0.0) -> Path:
-    from littledog_mlsim.record import record_dataset
+    from littledog_mlsim.apps.record import record_dataset
     out = root / name
     effects_file = None
     if effects is not None:

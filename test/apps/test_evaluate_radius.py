@@ -9,18 +9,15 @@ import pytest
 
 from littledog_mlsim.cli import main
 from littledog_mlsim.data.dataset import features_responses, load_moves
-from littledog_mlsim.evaluate import projection_label, trainpool_radius
+from littledog_mlsim.apps.evaluate import projection_label, trainpool_radius
 from littledog_mlsim.models.onestep import OneStepModel
 from littledog_mlsim.models.train import train_from_dataset
-from littledog_mlsim.record import record_dataset
 from littledog_mlsim.rollout.projection import leave_move_out_distances
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("rad") / "ds"
-    record_dataset(out, moves_per_type=2, types=["F", "BL"], jobs=2, progress=False)
-    return out
+def data(small_dataset: Path) -> Path:
+    return small_dataset
 
 
 @pytest.fixture(scope="module")

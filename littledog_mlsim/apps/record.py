@@ -17,9 +17,9 @@ from typing import Sequence
 import numpy as np
 from tqdm import tqdm
 
-from . import __version__
-from .fileio import atomic_directory
-from .layout import CONTROL_DT_NS, MOVE_TYPES, STEPS_PER_MOVE, bag_name
+from .. import __version__
+from ..fileio import atomic_directory
+from ..layout import CONTROL_DT_NS, MOVE_TYPES, STEPS_PER_MOVE, bag_name
 
 
 @dataclass(frozen=True)
@@ -60,10 +60,10 @@ class RecordSummary:
 def _record_one(job: MoveJob, bag_path: str, robot: str, effects_file: str | None,
                 storage: str, excitation: float = 0.0) -> tuple[str, int, float]:
     """Worker: simulate one move and write its bag. Returns (name, n_steps, CPU seconds)."""
-    from .data.bags import write_bag
-    from .gait.trot import excite_commands, sample_trot_params, trot_commands
-    from .robot.effects import load_effects
-    from .robot.sim import simulate_move
+    from ..data.bags import write_bag
+    from ..gait.trot import excite_commands, sample_trot_params, trot_commands
+    from ..robot.effects import load_effects
+    from ..robot.sim import simulate_move
 
     t0 = time.process_time()
     gait_seed, robot_seed = job.seeds()
@@ -96,9 +96,9 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     ``excitation`` [rad]: standard deviation of white noise added to every joint command
     (:func:`~littledog_mlsim.gait.trot.excite_commands`); 0 records the plain trot.
     """
-    from .data.dataset import dataset_entries, write_index
-    from .robot.effects import load_effects
-    from .robot.sim import robot_config
+    from ..data.dataset import dataset_entries, write_index
+    from ..robot.effects import load_effects
+    from ..robot.sim import robot_config
 
     out = Path(out)
     if out.exists() and not overwrite:

@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from littledog_mlsim.baseline import physics_rollout
+from littledog_mlsim.robot.baseline import physics_rollout
 from littledog_mlsim.diagnose.physics import (PhysicsModel, diagnose_physics, evaluate_model,
                                               shifted_recording)
 from littledog_mlsim.gait.trot import sample_trot_params, trot_commands

@@ -10,7 +10,7 @@ the whole TestPool:
 - ``fig4.png`` / ``fig4.csv``: nMSE of ``droll`` (the paper's hardest element) against the
   training-set size for GPR, SoR with random and with CV-sampled support points, and LGPR
   (single-output models of ``droll``).
-- the rollout figures and animation (see :mod:`littledog_mlsim.figures`), when asked.
+- the rollout figures and animation (see :mod:`littledog_mlsim.apps.figures`), when asked.
 
 Scales: ``small`` runs the whole pipeline in minutes (tests, CI); ``paper`` uses the paper's
 sizes (LR, LWPR, LGPR on the whole TrainPool; GPR on 4500 samples; SoR n = 10000, m = 2000).
@@ -34,9 +34,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .layout import STATE_INDEX, STATE_NAMES
-from .logs import progress_to_stderr
-from .models.train import METHOD_NAMES, subset_rows
+from ..layout import STATE_INDEX, STATE_NAMES
+from ..logs import progress_to_stderr
+from ..models.train import METHOD_NAMES, subset_rows
 
 METHODS = METHOD_NAMES   # Table I rows (the registry's paper methods, in the paper's order)
 log = logging.getLogger(__name__)
@@ -93,7 +93,7 @@ SCALES: dict[str, Scale] = {
 
 
 def _cache_dataset(data: str | os.PathLike, path: Path) -> dict[str, Any]:
-    from .data.dataset import features_responses, load_moves
+    from ..data.dataset import features_responses, load_moves
     train, test = load_moves(data, "train"), load_moves(data, "test")
     X, Y, _ = features_responses(train)
     Xt, Yt, _ = features_responses(test)
@@ -144,8 +144,8 @@ def fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int
 def _fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: int | None,
                    seed: int, gpr_hyper_points: int | None, model_out: str | None) -> dict[str, Any]:
     _pin_blas()
-    from .models.train import fit_onestep
-    from .scoring import one_step_scores
+    from ..models.train import fit_onestep
+    from ..scoring import one_step_scores
 
     d = _load_cache(cache)
     X, Y, Xt, Yt = d["X"], d["Y"], d["Xt"], d["Yt"]
@@ -169,9 +169,9 @@ def _fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: in
 def fig4_point(cache: str, curve: str, n: int, seed: int, scale_name: str) -> dict[str, Any]:
     """nMSE of droll for one (curve, training size): a single-output model of droll."""
     _pin_blas()
-    from .data.dataset import Normalizer
-    from .models.train import make_estimator
-    from .rollout.metrics import nmse_array
+    from ..data.dataset import Normalizer
+    from ..models.train import make_estimator
+    from ..rollout.metrics import nmse_array
 
     sc = SCALES[scale_name]
     d = _load_cache(cache)
@@ -321,7 +321,7 @@ def _reproduce(data, out, scale, methods, seed, fig4, rollouts, jobs, physics_co
             from .figures import rollout_figures
             physics = None
             if physics_config is not None:
-                from .baseline import load_robot_config
+                from ..robot.baseline import load_robot_config
                 physics = load_robot_config(physics_config)
             say("rollout figures" + (f" (physics baseline {physics_config})" if physics else ""))
             summary["rollouts"] = rollout_figures(data, out, out / "models", physics_config=physics,

@@ -31,12 +31,12 @@ import numpy as np
 import pybullet as p
 from PIL import Image, ImageDraw, ImageFont
 
-from .data.dataset import initial_pose, integrate_path
-from .data.recording import MoveRecording
-from .layout import CONTROL_DT, JOINT_NAMES, N_STATE, S
-from .robot.config import URDF_PATH
-from .rotations import rpy_to_quat
-from .rollout.simulate import prepare_test_move
+from ..data.dataset import initial_pose, integrate_path
+from ..data.recording import MoveRecording
+from ..layout import CONTROL_DT, JOINT_NAMES, N_STATE, S
+from ..robot.config import URDF_PATH
+from ..rotations import rpy_to_quat
+from ..rollout.simulate import prepare_test_move
 
 __all__ = ["animate_move", "panel_poses", "MEASURED_LABEL"]
 

@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from .layout import CONTROL_DT, STATE_NAMES
+from ..layout import CONTROL_DT, STATE_NAMES
 
-from .models.train import METHOD_NAMES
+from ..models.train import METHOD_NAMES
 
 # primary model first: the paper's methods from the most to the least capable
 PREFERENCE: tuple[str, ...] = tuple(reversed(METHOD_NAMES))
@@ -51,15 +51,15 @@ def _label(kind: str, alpha: float) -> str:
 
 def xy_error_curves(moves, predicted) -> np.ndarray:
     """(n_moves, T) cumulative (x, y) error of each move (moves share T)."""
-    from .rollout.metrics import xy_error
-    from .rollout.simulate import predicted_paths
+    from ..rollout.metrics import xy_error
+    from ..rollout.simulate import predicted_paths
     paths = predicted_paths(moves, predicted)
     return np.stack([xy_error(p, m.xy) for p, m in zip(paths, moves)])
 
 
 def element_sums(moves, predicted) -> np.ndarray:
     """(n_moves, 33) sum over the move of |s_t^i - s_t^i*|."""
-    from .rollout.metrics import element_error_sum
+    from ..rollout.metrics import element_error_sum
     return np.stack([element_error_sum(m.states, p) for m, p in zip(moves, predicted)])
 
 
@@ -104,7 +104,7 @@ def roll_projections(model, moves, nn=None):
     summary (``SUMMARY_KEYS``, wall time, real-time factor, drift from the TrainPool when ``nn``
     is given), the (n_moves, T) cumulative (x, y) errors, the (n_moves, 33) element-wise error
     sums and the predicted states."""
-    from .scoring import RolloutSpec, rollout_scores
+    from ..scoring import RolloutSpec, rollout_scores
 
     specs = [RolloutSpec(kind, alpha, name=_label(kind, alpha)) for kind, alpha in PROJECTIONS]
     full, preds = rollout_scores(model, moves, specs, keep_predictions=True)
@@ -130,7 +130,7 @@ def rollout_figures(data: str | os.PathLike, out: str | os.PathLike, models_dir:
     """Figs 5-7, the by-model comparison, rollouts.json/md and the animation for the models
     found in ``models_dir``. ``progress``: progress lines on stderr unless the program
     configured logging."""
-    from .logs import progress_to_stderr
+    from ..logs import progress_to_stderr
 
     with progress_to_stderr(progress):
         return _rollout_figures(data, out, models_dir, physics_config, animate)
@@ -141,13 +141,13 @@ def _rollout_figures(data, out, models_dir, physics_config, animate) -> dict[str
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .data.dataset import load_moves
+    from ..data.dataset import load_moves
     from .evaluate import write_json
-    from .fileio import atomic_write_text
-    from .models.onestep import OneStepModel
-    from .rollout.metrics import rollout_metrics
-    from .rollout.projection import make_projection
-    from .rollout.simulate import prepare_test_moves
+    from ..fileio import atomic_write_text
+    from ..models.onestep import OneStepModel
+    from ..rollout.metrics import rollout_metrics
+    from ..rollout.projection import make_projection
+    from ..rollout.simulate import prepare_test_moves
 
     out, models_dir = Path(out), Path(models_dir)
     methods = [m for m in PREFERENCE if (models_dir / m).is_dir()]
@@ -177,7 +177,7 @@ def _rollout_figures(data, out, models_dir, physics_config, animate) -> dict[str
                                "projections": dict(by_method[method]), "by_method": by_method,
                                "drift_measured": drift(nn, [m.states for m in moves])}
     if physics_config is not None:
-        from .baseline import physics_rollouts
+        from ..robot.baseline import physics_rollouts
         t0 = time.perf_counter()
         pred = physics_rollouts(recs, physics_config, jobs=2)
         res = rollout_metrics(moves, pred)

@@ -873,7 +873,7 @@ def test_parameters_declared_documented_and_in_config():
     from littledog_mlsim.nodes.simulator import COMMON_PARAMS
     from littledog_mlsim.nodes.trainer_node import PARAMS as TRAINER_PARAMS
 
-    config = Path(__file__).resolve().parents[1] / "config"
+    config = Path(__file__).resolve().parents[2] / "config"
     for file, node, params in (("sim.yaml", "sim_node", SimNode.PARAMS + COMMON_PARAMS),
                                ("pybullet.yaml", "pybullet_node",
                                 PybulletNode.PARAMS + COMMON_PARAMS),

@@ -1,6 +1,6 @@
 """The main job end to end (``make run``): the learned simulator against pybullet over ROS 2.
 
-    python -m littledog_mlsim.demo [--data bags/demo] [--model bags/demo_lgpr] [--move F_02]
+    python -m littledog_mlsim.apps.demo [--data bags/demo] [--model bags/demo_lgpr] [--move F_02]
 
 1. Data and model, built only if absent: ``littledog-mlsim record --out DATA --moves-per-type 3
    --quiet`` (33 bags, about 15 s on 2 cores) and ``littledog-mlsim train --data DATA --method
@@ -98,7 +98,7 @@ def ensure_model(data: Path, model: Path, method: str = DEMO_METHOD,
                  log: Log = _print) -> float | None:
     """Train ``method`` on ``data`` into ``model`` unless a model is there already.
     Returns the training's wall time, or None."""
-    from .models.persistence import META_FILE
+    from ..models.persistence import META_FILE
 
     if (model / META_FILE).is_file() or model.is_file():
         return None
@@ -197,8 +197,8 @@ class _Link:
         from rclpy.signals import SignalHandlerOptions
         from sensor_msgs.msg import JointState
 
-        from .layout import TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM
-        from .nodes.simulator import QOS
+        from ..layout import TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM
+        from ..nodes.simulator import QOS
 
         self.label, self.domain, self.cond = label, domain, cond
         self.js: dict[int, Any] = {}
@@ -230,7 +230,7 @@ class _Link:
             pass
 
     def _add(self, store: dict[int, Any], msg: Any) -> None:
-        from .nodes.messages import stamp_ns
+        from ..nodes.messages import stamp_ns
 
         with self.cond:
             store[stamp_ns(msg.header.stamp)] = msg
@@ -244,7 +244,7 @@ class _Link:
         return ns in self.js and ns in self.odom and ns in self.state
 
     def send(self, u: np.ndarray) -> None:
-        from .nodes.messages import joint_state_msg
+        from ..nodes.messages import joint_state_msg
 
         self.cmd.publish(joint_state_msg(0, u))
 
@@ -320,7 +320,7 @@ def pick_domains(domain: int | None = None) -> tuple[int, int]:
 
 
 def _choose_move(data: Path, move: str | None):
-    from .data.dataset import read_index
+    from ..data.dataset import read_index
 
     try:
         index = read_index(data)
@@ -360,13 +360,13 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
     parameters (module doc). Stops every process it started."""
     import rclpy  # noqa: F401  (fail early and plainly if the ROS wheels are missing)
 
-    from .data.bags import read_bag
-    from .layout import CONTROL_DT, CONTROL_DT_NS, S
-    from .models.persistence import META_FILE
-    from .nodes import messages as m
-    from .nodes.topic_echo import message_to_yaml
-    from .rollout.simulate import prepare_test_move
-    from .rotations import quat_to_rpy
+    from ..data.bags import read_bag
+    from ..layout import CONTROL_DT, CONTROL_DT_NS, S
+    from ..models.persistence import META_FILE
+    from ..nodes import messages as m
+    from ..nodes.topic_echo import message_to_yaml
+    from ..rollout.simulate import prepare_test_move
+    from ..rotations import quat_to_rpy
 
     data, model = Path(data), Path(model)
     if not (model.is_file() or (model / META_FILE).is_file()):
@@ -510,7 +510,7 @@ def _restore_env(saved: str | None) -> None:
 
 def _model_method(model: Path) -> str:
     """The model's method from its metadata (for the report), without loading its arrays."""
-    from .models.persistence import META_FILE
+    from ..models.persistence import META_FILE
 
     try:
         doc = json.loads((model / META_FILE).read_text())
@@ -583,7 +583,7 @@ def _interrupt(signum: int, frame: Any) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        prog="python -m littledog_mlsim.demo",
+        prog="python -m littledog_mlsim.apps.demo",
         description="The main job end to end: build the demo dataset and LGPR model if absent, "
                     "then run sim_node and pybullet_node as ROS 2 processes, replay a TestPool "
                     "move's commands into both and report the learned simulator's error.")

@@ -18,7 +18,7 @@ from littledog_mlsim.cli import main
 from littledog_mlsim.data.dataset import load_moves, read_index
 from littledog_mlsim.data.summary import move_problems, summarise_dataset
 from littledog_mlsim.layout import MOVE_TYPES, STEPS_PER_MOVE, TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM
-from littledog_mlsim.record import MoveJob, record_dataset
+from littledog_mlsim.apps.record import MoveJob, record_dataset
 
 CONTRACT_TYPES = {TOPIC_CMD: "sensor_msgs/msg/JointState",
                   TOPIC_JOINT_STATES: "sensor_msgs/msg/JointState",
@@ -132,7 +132,7 @@ def test_bad_input_gives_one_line_and_writes_nothing(tmp_path: Path, argv, fragm
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("effects", sorted((Path(__file__).parents[1] / "config" / "effects").glob("*.yaml")),
+@pytest.mark.parametrize("effects", sorted((Path(__file__).parents[2] / "config" / "effects").glob("*.yaml")),
                          ids=lambda p: p.stem)
 def test_shipped_effect_files_change_the_data_but_leave_no_trace(tmp_path: Path, dataset: Path, effects):
     out = tmp_path / "fx"

@@ -1,4 +1,4 @@
-"""Physics baseline (littledog_mlsim.baseline) and the side-by-side animation (animate).
+"""Physics baseline (littledog_mlsim.robot.baseline) and the side-by-side animation (animate).
 
 Independent references: the recording itself (a replay by the robot that recorded it, from its
 own noise-free measurements, must reproduce it; a one-step shift must not pass the same
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from littledog_mlsim.animate import animate_move, panel_poses
-from littledog_mlsim.baseline import (
+from littledog_mlsim.apps.animate import animate_move, panel_poses
+from littledog_mlsim.robot.baseline import (
     config_from_dict, config_to_dict, evaluate_baseline, load_robot_config, physics_rollout,
     physics_rollouts, save_robot_config, tune_nominal, tuning_moves,
 )

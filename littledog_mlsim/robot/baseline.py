@@ -61,14 +61,14 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from .data.dataset import features_responses, load_moves, states_from_recording
-from .data.recording import MoveRecording
-from .fileio import atomic_write_text, read_document
-from .layout import MOVE_TYPES, S, STATE_NAMES
-from .robot.config import RobotConfig, robot_config
-from .robot.sim import OBS_FIELDS, InitialState, LittleDogSim
-from .rollout.metrics import nmse_array, rollout_metrics, xy_error
-from .rollout.simulate import prepare_test_moves, predicted_paths
+from ..data.dataset import features_responses, load_moves, states_from_recording
+from ..data.recording import MoveRecording
+from ..fileio import atomic_write_text, read_document
+from ..layout import MOVE_TYPES, S, STATE_NAMES
+from .config import RobotConfig, robot_config
+from .sim import OBS_FIELDS, InitialState, LittleDogSim
+from ..rollout.metrics import nmse_array, rollout_metrics, xy_error
+from ..rollout.simulate import prepare_test_moves, predicted_paths
 
 __all__ = [
     "TUNED_PARAMS", "PARAM_BOUNDS", "LOG_PARAMS", "DEFAULT_GRID", "CONFIG_FORMAT",
@@ -367,7 +367,7 @@ def tune_nominal(train_recs: Sequence[MoveRecording], base: RobotConfig | None =
     best = min(trail, key=lambda r: r["objective"])
     tuned = dataclasses.replace(base, name=name, **{p: best[p] for p in params})
     report = {
-        "objective": "J = mean_final_xy / D_ref + rms_q / Q_ref (littledog_mlsim.baseline)",
+        "objective": "J = mean_final_xy / D_ref + rms_q / Q_ref (littledog_mlsim.robot.baseline)",
         "D_ref_m": d_ref, "Q_ref_rad": q_ref,
         "params": list(params), "bounds": {p: list(PARAM_BOUNDS[p]) for p in params},
         "log_params": sorted(LOG_PARAMS & set(params)),

@@ -1,0 +1,23 @@
+"""Fixtures shared across the test tree (which mirrors the package: ``test/<subpackage>/``).
+
+``synthetic.py`` (hand-made recordings with known dynamics) sits beside this file; the test
+directory is put on ``sys.path`` so every test module imports it as ``synthetic``.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+@pytest.fixture(scope="session")
+def small_dataset(tmp_path_factory) -> Path:
+    """A recorded contract dataset: move types F, BL and S, 2 moves each (1 TrainPool + 1
+    TestPool per type), default seed. Shared read-only by every module that asks for it."""
+    from littledog_mlsim.apps.record import record_dataset
+    out = tmp_path_factory.mktemp("small") / "ds"
+    record_dataset(out, moves_per_type=2, types=["F", "BL", "S"], jobs=2, progress=False)
+    return out
