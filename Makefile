@@ -25,7 +25,7 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	for f in $(VENV)/lib/littledog_mlsim/*; do ln -sf ../lib/littledog_mlsim/$$(basename $$f) $(VENV)/bin/; done
 	touch $(STAMP)
 
-# The main job (littledog_mlsim/demo.py): record a small dataset and train an LGPR model if
+# The main job (littledog_mlsim/apps/demo.py): record a small dataset and train an LGPR model if
 # absent, then replay a TestPool move through sim_node and pybullet_node over ROS 2 and report
 # the learned simulator's error against pybullet.
 run: $(STAMP)
