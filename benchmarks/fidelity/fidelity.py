@@ -556,7 +556,7 @@ def cmd_open_loop(a, soak: bool = False) -> int:
                   title="error vs distance from the data")
         ax[0].legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(HERE / f"{a.out.name}_{sc}.png", dpi=90)
+        fig.savefig(a.out.parent / f"{a.out.name}_{sc}.png", dpi=90)
         plt.close(fig)
     # json: drop per-second lists' bulk? keep them (small)
     write_results(a.out, doc, lines)
@@ -687,7 +687,7 @@ def cmd_closed_loop(a) -> int:
         ax.set(xlabel="x [m]", ylabel="y [m]", title=f"{kind}, seed {seed}", aspect="equal")
         ax.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(HERE / f"{a.out.name}_{kind}.png", dpi=90)
+        fig.savefig(a.out.parent / f"{a.out.name}_{kind}.png", dpi=90)
         plt.close(fig)
     write_results(a.out, doc, lines)
     return 0
