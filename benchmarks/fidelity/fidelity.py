@@ -330,8 +330,7 @@ def compare(learned: dict, ref: dict, n: int, z_range) -> dict:
     path = path_length(ref["position"][:, :2])
     path_l = path_length(learned["position"][:, :2])
     done = learned["steps_done"]
-    per_s = err[::100]                 # error at 1 s, 2 s, ... (index 99, 199 is close enough)
-    per_s = err[99::100]
+    per_s = err[99::100]               # error at 1 s, 2 s, ...
     final = float(err[n - 1]) if done >= n else float("nan")
     dyaw = np.abs(np.angle(np.exp(1j * (learned["yaw"] - ref["yaw"]))))
     d = learned["dist"]
@@ -558,7 +557,6 @@ def cmd_open_loop(a, soak: bool = False) -> int:
         fig.tight_layout()
         fig.savefig(a.out.parent / f"{a.out.name}_{sc}.png", dpi=90)
         plt.close(fig)
-    # json: drop per-second lists' bulk? keep them (small)
     write_results(a.out, doc, lines)
     return 0
 
