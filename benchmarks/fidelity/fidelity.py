@@ -40,7 +40,6 @@ Run from the repo root (see README.md in this directory for the exact commands).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
