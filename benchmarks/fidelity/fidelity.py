@@ -368,7 +368,7 @@ def windows(learned: dict, ref: dict, n: int, win: int = 100) -> dict:
 
 
 def _common_setup(a) -> tuple[dict, float, tuple[float, float]]:
-    from littledog_mlsim.evaluate import trainpool_radius
+    from littledog_mlsim.apps.evaluate import trainpool_radius
     from littledog_mlsim.models.onestep import OneStepModel
     lgpr = OneStepModel.load(a.lgpr)
     radius = float(trainpool_radius(lgpr, a.data, a.quantile)) if a.radius is None else a.radius
