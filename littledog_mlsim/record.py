@@ -8,7 +8,6 @@ Moves run in parallel across processes (one pybullet world per process).
 from __future__ import annotations
 
 import os
-import shutil
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -19,6 +18,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import __version__
+from .fileio import atomic_directory
 from .layout import CONTROL_DT_NS, MOVE_TYPES, STEPS_PER_MOVE, bag_name
 
 
@@ -113,12 +113,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     plan = plan_jobs(moves_per_type, types, seed)
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(plan)))
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir()
     t0 = time.perf_counter()
-    try:
+    with atomic_directory(out, overwrite=overwrite) as tmp:
         results = []
         args = [(j, str(tmp / j.name), robot, effects_file, storage, excitation) for j in plan]
         bar = tqdm(total=len(plan), desc=f"record {out.name}", unit="move", disable=not progress)
@@ -141,16 +137,6 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
         if excitation:
             info["command_excitation_rad"] = float(excitation)
         write_index(tmp, entries, info)
-        if out.exists():                     # overwrite: swap in only after success
-            old = out.parent / f".{out.name}.old-{os.getpid()}"
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     per_type = {t: moves_per_type for t in types}
     return RecordSummary(out=out, n_bags=len(plan), n_steps=sum(r[1] for r in results),
                          wall_s=time.perf_counter() - t0, cpu_s=sum(r[2] for r in results),
