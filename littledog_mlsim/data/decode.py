@@ -195,12 +195,20 @@ def _layout(raw: bytes, msgtype: str) -> _Layout | None:
         w.done()
     except (ValueError, UnicodeDecodeError, struct.error, KeyError):
         return None
-    key = b"".join(raw[a:b] for a, b in w.struct)
-    return _Layout(len(raw), w.struct, key, w.fields, info)
+    blocks: list[tuple[int, int]] = []
+    for a, b in sorted(w.struct):          # contiguous structural ranges -> a few blocks
+        if blocks and blocks[-1][1] == a:
+            blocks[-1] = (blocks[-1][0], b)
+        else:
+            blocks.append((a, b))
+    key = b"".join(raw[a:b] for a, b in blocks)
+    return _Layout(len(raw), blocks, key, w.fields, info)
 
 
 def _columns(buf: np.ndarray, off: int, count: int) -> np.ndarray:
     """(n, count) float64 from byte columns off..off+8*count of the (n, L) uint8 buffer."""
+    if count == 0:
+        return np.zeros((buf.shape[0], 0))
     return np.ascontiguousarray(buf[:, off:off + 8 * count]).view("<f8").reshape(-1, count)
 
 

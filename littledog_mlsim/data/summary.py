@@ -135,7 +135,10 @@ def summarise_dataset(path: str | os.PathLike, check_bags: bool = True) -> Datas
 
 
 def format_summary(s: DatasetSummary) -> str:
-    info = ", ".join(f"{k}={v}" for k, v in s.info.items() if k != "types")
+    def short(v):   # long lists (an import's bag list) as a count; mappings left out below
+        return f"[{len(v)} items]" if isinstance(v, list) and len(v) > 3 else v
+    info = ", ".join(f"{k}={short(v)}" for k, v in s.info.items()
+                     if k != "types" and not isinstance(v, dict))
     n_train = sum(t.n_train for t in s.types.values())
     lines = [f"dataset {s.path}: {s.n_bags} bags ({n_train} TrainPool / {s.n_bags - n_train} TestPool)"
              + (f", {s.n_samples} samples (features 45 -> responses 33)" if s.bags_checked else ""),
