@@ -402,7 +402,9 @@ def _assign_time(s: Stream, opts: ImportOptions) -> None:
     r, h = s.recv_ns, s.header_ns
     rep = s.report
     no_header = s.msgtype == FLOAT64_ARRAY
-    zero = int(((h == 0) & (np.abs(r) > opts.clock_tolerance_s * _NS)).sum())
+    # one message at stamp 0 is a clock starting at 0 (sim time); more are unset stamps
+    zero = int((h == 0).sum())
+    zero = zero if zero > 1 else 0
     d = (r - h).astype(np.float64)
     rep["clock_offset_s"] = None if no_header or zero == len(h) else float(np.median(d) / _NS)
     mode, why = "receive", ""
@@ -585,6 +587,7 @@ def segment_recording(rs: RecordingStreams, opts: ImportOptions) -> tuple[list[S
     report = {"breaks": [{"from_s": a / _NS, "to_s": b / _NS, "why": w} for a, b, w in cut],
               "dropped_segments": []}
     min_steps = max(2, int(round(opts.min_segment_s / CONTROL_DT)))
+    phase = _grid_phase(js, cmd, report)
     cutoff = int(opts.cmd_cutoff_s * _NS)
     segs: list[Segment] = []
     for a, b, why in stretches:
@@ -600,6 +603,8 @@ def segment_recording(rs: RecordingStreams, opts: ImportOptions) -> tuple[list[S
         if k0 >= len(js.t_ns):
             continue
         t0 = int(js.t_ns[k0])
+        if phase is not None:   # joint states not at 100 Hz: the grid avoids the commands
+            t0 = start_min + (phase - start_min) % CONTROL_DT_NS
         n = (b - t0) // CONTROL_DT_NS if b > t0 else -1
         if n < min_steps:
             report["dropped_segments"].append({
@@ -612,6 +617,27 @@ def segment_recording(rs: RecordingStreams, opts: ImportOptions) -> tuple[list[S
     report["commands"] = {"superseded": int(sum(s.superseded_cmds for s in segs)),
                           "held_steps": int(sum(s.held_steps for s in segs))}
     return segs, report
+
+
+def _grid_phase(js: Stream, cmd: Stream, report: dict) -> int | None:
+    """Phase (ns mod 10 ms) of the grid, or None to start it at a joint-state sample.
+
+    With joint states at 100 Hz (a simulator's or robot's control clock) the grid is their
+    clock. Otherwise (e.g. 500 Hz encoders) the grid points go in the middle of the largest gap
+    between the arrival phases of the commands, so that which command a step gets does not
+    depend on jitter.
+    """
+    dt = np.diff(js.t_ns)
+    if dt.size and abs(np.median(dt) - CONTROL_DT_NS) <= 0.1 * CONTROL_DT_NS:
+        report["grid"] = "on the joint-state samples (100 Hz)"
+        return None
+    ph = np.sort(cmd.t_ns % CONTROL_DT_NS)
+    gaps = np.diff(np.r_[ph, ph[0] + CONTROL_DT_NS])
+    k = int(np.argmax(gaps))
+    phase = int((ph[k] + gaps[k] // 2) % CONTROL_DT_NS)
+    report["grid"] = (f"phase {phase / 1e6:.2f} ms (mod 10 ms): in the middle of the largest "
+                      f"gap ({gaps[k] / 1e6:.2f} ms) between command arrival phases")
+    return phase
 
 
 def _resample(rs: RecordingStreams, opts: ImportOptions, index: int, grid: np.ndarray,
