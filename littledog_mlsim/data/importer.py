@@ -332,8 +332,9 @@ def _fill_values(s: Stream, dec, opts: ImportOptions, bag: str) -> None:
         dropped["nonfinite"] = int(bad.sum())
         dropped["not_unit_quaternion"] = int((degenerate & ~bad).sum())
         bad |= degenerate
-        with np.errstate(invalid="ignore", divide="ignore"):
-            s.values["orientation"] = quat / norm[:, None]
+        with np.errstate(invalid="ignore", divide="ignore"):   # unit to 1e-6 (bags.py): kept
+            s.values["orientation"] = np.where(np.abs(norm - 1.0)[:, None] > 1e-7,
+                                               quat / norm[:, None], quat)
         s.report["has_twist"] = dec.linear is not None
         if dec.linear is not None:
             s.values["linear"] = np.asarray(dec.linear)
@@ -549,7 +550,10 @@ def _slerp(q: np.ndarray, i: np.ndarray, w: np.ndarray) -> np.ndarray:
     wa = np.where(small, 1.0 - w, np.sin((1.0 - w) * theta) / st)
     wb = np.where(small, w, np.sin(w * theta) / st)
     out = a * wa[:, None] + b * wb[:, None]
-    return out / np.linalg.norm(out, axis=1, keepdims=True)
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    out[w == 0.0] = a[w == 0.0]                 # on a sample: the sample itself, bit for bit
+    out[w == 1.0] = q[i + 1][w == 1.0]
+    return out
 
 
 def _twist_from_poses(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
