@@ -463,12 +463,16 @@ def _assign_time(s: Stream, opts: ImportOptions) -> None:
 def _align(h: np.ndarray, r: np.ndarray, gap_s: float) -> tuple[np.ndarray | None, int]:
     """Header stamps of another clock shifted onto the receive clock, one offset per piece.
 
-    A new piece starts where the stamps go backwards or jump, or where receive - stamp changes by
-    more than ``gap_s`` (a pause of one clock, not the other).
+    A new piece starts where the stamps go backwards or jump forward by more than ``gap_s``
+    (a reset of that clock, or lost messages). Within a piece the stamps are the time base:
+    their spacing is the truth of the clock that made them, and receive delays that vary (a
+    simulator falling behind real time and catching up in bursts) do not cut the recording;
+    ``receive_minus_aligned_ms`` in the report shows how much they varied.
     """
     d = r - h
     gap = int(gap_s * _NS)
-    cut = np.flatnonzero((np.diff(h) <= 0) | (np.abs(np.diff(d)) > gap)) + 1
+    dh = np.diff(h)
+    cut = np.flatnonzero((dh <= 0) | (dh > gap)) + 1
     if cut.size > max(10, len(h) // 50):
         return None, 0
     t = np.empty_like(h)
