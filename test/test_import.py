@@ -88,8 +88,8 @@ def test_reimport_contract_bags_exactly(contract, sources, tmp_path):
 
 
 # Joint states on the grid exactly; the pose stream's clock offset is estimated on its own (5th
-# percentile of its receive delays), a fraction of a ms off the joint states': 1e-5 m/rad.
-EXACT = dict(q=0, dq=0, cmd=0, position=1e-5, orientation=1e-5)
+# percentile of its receive delays), a fraction of a ms off the joint states': 1e-4 m/rad.
+EXACT = dict(q=0, dq=0, cmd=0, position=1e-4, orientation=1e-4)
 # receive times with jitter, 500 Hz / 120 Hz: interpolation errors of ~1 ms of motion
 JITTERY = dict(q=0.035, dq=2.5, cmd=0, position=2e-3, orientation=6e-3)
 

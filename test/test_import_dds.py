@@ -233,7 +233,7 @@ def test_dds_recording_imports(recording):
         d = np.abs(m.q[:, None, :] - pub_q[None][:, :, perm]).max(axis=2).min(axis=1)
         assert d.max() == 0.0
     for m in moves:
-        assert N_STEPS - 5 <= m.n_steps <= N_STEPS + 60   # plus the held stretch before reset
+        assert m.n_steps >= N_STEPS - 5    # (more: the held stretch, a reset not seen)
         # every command is one the controller sent (exact floats, back in contract order)
         d = np.abs(m.cmd[:, None, :] - sent[None]).max(axis=2).min(axis=1)
         assert d.max() == 0.0
