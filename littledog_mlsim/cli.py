@@ -233,7 +233,8 @@ def _import_options(a: argparse.Namespace):
         cmd_joint_order=order, time_source=a.time_source, clock_tolerance_s=a.clock_tolerance,
         gap_s=a.gap, reset_jump_m=a.reset_jump_m, reset_jump_rad=a.reset_jump_rad,
         joint_jump_rad=a.joint_jump_rad, min_segment_s=a.min_segment, max_move_s=a.max_move,
-        cmd_cutoff_s=a.cmd_cutoff, twist=a.twist, move_types=move_types,
+        cmd_cutoff_s=a.cmd_cutoff, twist=a.twist, dejitter=not a.no_dejitter,
+        move_types=move_types,
         infer_types=not a.no_infer, test_fraction=a.test_fraction, storage=a.storage,
         skip_bad_bags=a.skip_bad)
 
@@ -302,6 +303,9 @@ def add_import_arguments(im: argparse.ArgumentParser) -> None:
     im.add_argument("--twist", choices=TWIST_SOURCES, default=d.twist,
                     help="body twist from the message or from the poses (default auto: the "
                          "message's if it has one)")
+    im.add_argument("--no-dejitter", action="store_true",
+                    help="joint states and pose on receive time: keep the receive times (default: "
+                         "fit the sender's regular clock through the least-delayed messages)")
     im.add_argument("--move-type", action="append", metavar="TYPE",
                     help="move type of the bag's segments (F, FL, ..., S or U/unknown); give it "
                          "once for all bags or once per bag in order; empty: infer")

@@ -101,7 +101,7 @@ CASES = {
                                                cmd_type=D.FLOAT64_ARRAY, pose_type=D.POSE_STAMPED,
                                                drop_prob=0.05, seed=1),
                           {"cmd_joint_order": tuple(reversed(JOINT_NAMES)), "twist": "pose"},
-                          JITTERY, "receive"),
+                          JITTERY, "receive-dejittered"),
     "trajectory_mcap_file": ("rec.mcap", RealStyle(cmd_type=D.JOINT_TRAJECTORY, seed=2), {},
                              EXACT, "aligned"),
     # ROS 1 bag, no pause between moves: the resets are found by the pose jumps

@@ -40,7 +40,8 @@ def _plain(x: Any) -> Any:
 
 
 def write_report(directory: Path, *, bags: list[dict], entries: Sequence, opts: dict,
-                 n_messages: int, read_s: float, wall_s: float, figure: bool = True) -> dict:
+                 n_messages: int, read_s: float, wall_s: float, read_cpu_s: float | None = None,
+                 figure: bool = True) -> dict:
     """Write the three report files into ``directory``; return the JSON document."""
     split = {e.name: e.split for e in entries}
     series: list[tuple[str, dict, list]] = []
@@ -66,8 +67,9 @@ def write_report(directory: Path, *, bags: list[dict], entries: Sequence, opts: 
         "format": REPORT_FORMAT, "format_version": 1,
         "options": opts,
         "moves": len(entries), "train": n_train, "test": len(entries) - n_train,
-        "messages": n_messages, "read_s": read_s, "import_s": wall_s,
+        "messages": n_messages, "read_s": read_s, "read_cpu_s": read_cpu_s, "import_s": wall_s,
         "messages_per_s": n_messages / read_s if read_s > 0 else None,
+        "messages_per_cpu_s": n_messages / read_cpu_s if read_cpu_s else None,
         "bags": doc_bags,
     }
     doc = _plain(doc)
@@ -85,8 +87,9 @@ def _fmt(v: Any, spec: str = ".1f") -> str:
 def _markdown(doc: dict) -> str:
     L = ["# Import report", "",
          f"{doc['moves']} moves ({doc['train']} TrainPool / {doc['test']} TestPool) from "
-         f"{len(doc['bags'])} bag(s); {doc['messages']} messages read and decoded in "
-         f"{doc['read_s']:.2f} s ({_fmt(doc['messages_per_s'], ',.0f')} messages/s).", ""]
+         f"{len(doc['bags'])} bag(s); {doc['messages']} messages read, decoded, segmented and "
+         f"resampled in {doc['read_s']:.2f} s ({_fmt(doc['messages_per_s'], ',.0f')} messages/s; "
+         f"{_fmt(doc['messages_per_cpu_s'], ',.0f')} per CPU second).", ""]
     for b in doc["bags"]:
         L += [f"## {b['path']}", ""]
         if b.get("skipped"):

@@ -114,6 +114,7 @@ class ImportOptions:
     max_move_s: float = 0.0            # longer segments are split into equal moves (0: never)
     cmd_cutoff_s: float = 0.001        # command must arrive this long before the measurement
     twist: str = "auto"                # auto (message if it has one) | message | pose
+    dejitter: bool = True              # receive-time measurements: fit their sending clock
     move_types: tuple[str | None, ...] = ()   # per bag (one value: all bags); None/"": infer
     infer_types: bool = True           # False: segments without move_types are U
     test_fraction: float = 0.3
@@ -437,6 +438,11 @@ def _assign_time(s: Stream, opts: ImportOptions) -> None:
         s.t_ns = h.copy()
     elif mode == "receive":
         s.t_ns = r.copy()
+        if opts.dejitter and s.role != "cmd":
+            t, note = _dejitter(r, opts.gap_s)
+            if t is not None:
+                s.t_ns, mode = t, "receive-dejittered"
+            why += f"; {note}"
     rep["time_source"], rep["time_source_reason"] = mode, why
     # sort by the assigned time; equal times keep the last message (the newest)
     order = np.argsort(s.t_ns, kind="stable")
@@ -458,6 +464,67 @@ def _assign_time(s: Stream, opts: ImportOptions) -> None:
                               (("p1", 1), ("p50", 50), ("p99", 99))} | {"max": float(dt.max())}
         rep["jitter_ms"] = float(np.std(dt))
     rep["interval_series"] = (s.t_ns, dt)
+
+
+def _dejitter(r: np.ndarray, gap_s: float) -> tuple[np.ndarray | None, str]:
+    """Receive times of a regularly sampled stream mapped onto the sender's clock.
+
+    A sensor samples on its own regular clock; the receive times add a varying delay. Per
+    stretch without a gap, each message gets its sample number (the nominal period counted
+    over lost messages) and the sending clock is fitted as a line through the least-delayed
+    messages (least squares on those at or below the median residual, twice), shifted to the
+    5th percentile of the delays. Not applied (None) when the stream is not regular: the bulk of
+    the residuals (p1 to p75; a few long stalls are normal) spread over 3/4 of a period, or too
+    few messages.
+    """
+    dt = np.diff(r)
+    if dt.size < 20:
+        return None, "too few messages to fit the sending clock"
+    period = float(np.median(dt))
+    if period <= 0:
+        return None, "no regular period"
+    out = np.empty_like(r)
+    cut = np.flatnonzero(dt > gap_s * _NS) + 1
+    spread: list[float] = []
+    fitted: list[float] = []
+    for a, b in zip(np.r_[0, cut], np.r_[cut, len(r)]):
+        x = r[a:b].astype(np.float64) - float(r[a])
+        if b - a < 10:
+            out[a:b] = r[a:b]
+            continue
+        a0, b0, med = 0.0, period, 0.0
+        n = b - a
+        # growing windows, so that an error of the period cannot pile up to a whole sample
+        for w in [k for k in (30, 100, 300, 1000, 3000, 10000) if k < n] + [n, n]:
+            xw = x[:w]
+            # sample numbers on the current clock estimate, centred on the typical delay, and
+            # strictly increasing (the messages of one connection arrive in order)
+            idx = np.round((xw - a0 - med) / b0)
+            # a late message rounds onto the next one's slot: move it back, not the rest on
+            k = np.arange(w, dtype=np.float64)    # idx_j = min(idx_j, idx_{j+1} - 1)
+            idx = np.minimum.accumulate((idx - k)[::-1])[::-1] + k
+            keep = np.ones(w, bool)
+            for _k in range(2):   # the line through the least-delayed half
+                A = np.column_stack([np.ones(keep.sum()), idx[keep]])
+                coef, *_r = np.linalg.lstsq(A, xw[keep], rcond=None)
+                res = xw - (coef[0] + coef[1] * idx)
+                keep = res <= np.median(res)
+            a0, b0 = float(coef[0]), float(coef[1])
+            med = float(np.median(xw - (a0 + b0 * idx)))
+        fit = coef[0] + coef[1] * idx
+        res = x - fit
+        spread.append(float(np.percentile(res, 75) - np.percentile(res, 1)))
+        fitted.append(b0)
+        out[a:b] = r[a] + np.round(fit + np.percentile(res, 5)).astype(np.int64)
+    worst = max(spread) if spread else 0.0
+    if worst > 0.75 * period:
+        return None, (f"receive delays spread {worst / 1e6:.1f} ms (p1-p75), over 3/4 period: "
+                      "not regular, receive times used")
+    if np.any(np.diff(out) <= 0):
+        return None, "sending clock fit not monotonic, receive times used"
+    period = float(np.median(fitted)) if fitted else period
+    return out, (f"sending clock fitted (period {period / 1e6:.4f} ms, delays spread p1-p75 "
+                 f"{worst / 1e6:.2f} ms)")
 
 
 def _align(h: np.ndarray, r: np.ndarray, gap_s: float) -> tuple[np.ndarray | None, int]:
@@ -711,7 +778,7 @@ class ImportResult:
     n_test: int
     n_messages: int
     wall_s: float
-    read_s: float
+    read_s: float          # wall time of reading, decoding, segmenting, resampling
     report: dict
 
 
@@ -744,15 +811,16 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
     moves: list[Segment] = []
     bag_reports: list[dict] = []
     n_msgs = 0
-    read_s = 0.0
+    read_s = read_cpu_s = 0.0   # reading, decoding, timing, segmenting, resampling
     for bi, path in enumerate(bags):
         given = opts.move_types[0 if len(opts.move_types) == 1 else bi] \
             if opts.move_types else None
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         try:
             rs = read_recording(path, opts)
-            read_s += time.perf_counter() - t0
             segs, seg_report = segment_recording(rs, opts)
+            read_s += time.perf_counter() - t0
+            read_cpu_s += time.process_time() - c0
         except BagError as exc:
             if not opts.skip_bad_bags:
                 raise
@@ -809,7 +877,8 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
             write_bag(tmp / m.rec.name, m.rec, storage=opts.storage)
         write_index(tmp, entries, info)
         report = write_report(tmp, bags=bag_reports, entries=entries, opts=opt_dict,
-                              n_messages=n_msgs, read_s=read_s, wall_s=wall_read,
+                              n_messages=n_msgs, read_s=read_s, read_cpu_s=read_cpu_s,
+                              wall_s=wall_read,
                               figure=figure)
     n_tr = sum(e.split == "train" for e in entries)
     return ImportResult(out, len(entries), n_tr, len(entries) - n_tr, n_msgs,
