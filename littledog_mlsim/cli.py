@@ -250,7 +250,7 @@ def cmd_import(a: argparse.Namespace) -> int:
     types = ", ".join(f"{t} {n}" for t, n in _type_counts(r.report).items())
     rate = r.report.get("messages_per_s") or 0.0
     print(f"imported {r.n_moves} moves ({r.n_train} TrainPool / {r.n_test} TestPool; {types}) "
-          f"from {len(a.bags)} bag(s), {r.n_messages} messages ({rate:,.0f} messages/s) into "
+          f"from {len(r.report['bags'])} bag(s), {r.n_messages} messages ({rate:,.0f} messages/s) into "
           f"{r.out} in {r.wall_s:.1f} s; see {Path(r.out) / 'import_report.md'}")
     return 0
 

@@ -285,6 +285,15 @@ def test_cli_import_and_unknown_types_through_the_pipeline(sources, tmp_path, ca
     p = cli(capsys, "rollout", "--model", str(model), "--data", str(data), "--out", str(tmp_path / "ro"),
             "--projection", "none")
     assert p.returncode == 0, p.stderr
+    # a plain folder of bags: its bags in name order; --move-type once per bag
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    write_realstyle_bag(folder / "a.mcap", sources[:1], RealStyle(seed=11))
+    write_realstyle_bag(folder / "b.mcap", sources[2:3], RealStyle(seed=12))
+    p = cli(capsys, "import", str(folder), "--out", str(tmp_path / "f"), "--move-type", "F",
+            "--move-type", "unknown", "--test-fraction", "0")
+    assert p.returncode == 0, p.stderr
+    assert read_index(tmp_path / "f").names() == ["F_00", "U_00"]
     # --move-type per bag and a bad option are one line
     p = cli(capsys, "import", str(bag), "--out", str(tmp_path / "x"), "--move-type", "Q")
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "unknown move type" in p.stderr

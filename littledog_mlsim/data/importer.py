@@ -78,7 +78,7 @@ from .decode import (
 )
 from .recording import MoveRecording
 
-__all__ = ["ImportOptions", "ImportResult", "import_bags", "read_recording", "segment_recording",
+__all__ = ["ImportOptions", "ImportResult", "import_bags", "expand_bag_paths", "read_recording", "segment_recording",
            "RecordingStreams", "Segment", "TIME_SOURCES", "ROLE_TYPES"]
 
 log = logging.getLogger(__name__)
@@ -782,6 +782,23 @@ def _split_long(seg: Segment, max_steps: int) -> list[Segment]:
 # the whole import
 
 
+def expand_bag_paths(paths: Sequence[str | os.PathLike]) -> list[Path]:
+    """The bags named by ``paths``: a bag itself, or a plain folder of bags (a directory without
+    ``metadata.yaml``: its rosbag2 directories and .mcap/.db3/.bag files, sorted by name)."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir() and not (p / "metadata.yaml").is_file():
+            found = sorted(c for c in p.iterdir() if not c.name.startswith(".") and (
+                (c.is_dir() and (c / "metadata.yaml").is_file())
+                or (c.is_file() and c.suffix in (".mcap", ".db3", ".bag"))))
+            if not found:
+                raise BagError(p, None, "neither a bag nor a folder of bags")
+            out += found
+        else:
+            out.append(p)
+    return out
+
+
 @dataclass
 class ImportResult:
     out: Path
@@ -810,7 +827,7 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
 
     opts = opts or ImportOptions()
     opts.check()
-    bags = [Path(b) for b in bags]
+    bags = expand_bag_paths(bags)
     if not bags:
         raise ValueError("no bags given")
     if len(opts.move_types) not in (0, 1, len(bags)):

@@ -174,7 +174,7 @@ class TrainerNode(ConfiguredNode):
                 shutil.rmtree(tmp, ignore_errors=True)
             raise
         log.info(f"imported {r.n_moves} moves ({r.n_train} TrainPool / {r.n_test} TestPool) "
-                 f"from {len(s['bags'])} bag(s), {r.n_messages} messages, into {out}")
+                 f"from {len(r.report['bags'])} bag(s), {r.n_messages} messages, into {out}")
         return str(out), tmp
 
 
