@@ -238,11 +238,18 @@ def read_recording(path: str | os.PathLike, opts: ImportOptions) -> RecordingStr
         times: dict[str, list] = {r: [] for r in conns}
         n_read = 0
         try:
-            for c, t, data in reader.messages(connections=[c for cs in conns.values() for c in cs]):
-                role = by_conn[id(c)]
-                raw[role].append(bytes(data))
-                times[role].append(t)
-                n_read += 1
+            fast = _mcap_raw(reader, {opts.topic(r): r for r in conns})
+            if fast is not None:
+                for role, (t, data) in fast.items():
+                    times[role], raw[role] = t, data
+                    n_read += len(data)
+            else:
+                for c, t, data in reader.messages(
+                        connections=[c for cs in conns.values() for c in cs]):
+                    role = by_conn[id(c)]
+                    raw[role].append(bytes(data))
+                    times[role].append(t)
+                    n_read += 1
         except Exception as exc:
             raise BagError(bag, None, f"corrupt or truncated after {n_read} messages: "
                                       f"{type(exc).__name__}: {exc}") from None
@@ -274,6 +281,65 @@ def read_recording(path: str | os.PathLike, opts: ImportOptions) -> RecordingStr
     for s in streams.values():
         _assign_time(s, opts)
     return RecordingStreams(bag, kind, streams, n_read, n_bag or n_read)
+
+
+def _mcap_raw(reader, roles: dict[str, str]) -> dict[str, tuple[list, list]] | None:
+    """All messages of the topics in ``roles`` (topic -> role) straight from the MCAP chunks.
+
+    rosbags' reader yields messages one by one through several generator layers; this walks
+    each chunk's records with ``struct.unpack_from`` instead (about ten times less time per
+    message), then sorts each topic by log time (stable). None (use rosbags' reader) for
+    anything but indexed, chunked MCAP files without file or message compression.
+    """
+    import struct as _struct
+
+    from rosbags.rosbag2.storage_mcap import McapReader, decompress
+
+    storages = []
+    for r2 in getattr(reader, "readers", []):
+        st = getattr(r2, "storage", None)
+        if isinstance(st, McapReader):
+            storages.append(st)
+        elif st is not None and hasattr(st, "storages"):
+            if getattr(getattr(st, "metadata", None), "compression_mode", None):
+                return None
+            if not all(isinstance(x, McapReader) for x in st.storages):
+                return None
+            storages += list(st.storages)
+        else:
+            return None
+    if not storages or any(not st.chunks or st.bio is None for st in storages):
+        return None
+    out: dict[str, tuple[list, list]] = {r: ([], []) for r in roles.values()}
+    unpack = _struct.Struct("<HIQ").unpack_from
+    length_of = _struct.Struct("<Q").unpack_from
+    for st in storages:
+        chan = {cid: roles[c.topic] for cid, c in st.channels.items() if c.topic in roles}
+        for ch in st.chunks:
+            if not any(ch.channel_count.get(cid, 0) for cid in chan):
+                continue
+            st.bio.seek(ch.chunk_start_offset + 9 + 24)
+            (crc,) = _struct.unpack("<I", st.bio.read(4))
+            st.bio.seek(ch.chunk_start_offset + 9 + 40 + len(ch.compression))
+            buf = decompress(st.bio.read(ch.compressed_size), ch.compression,
+                             ch.uncompressed_size, crc)
+            pos, end = 0, len(buf)
+            while pos < end:
+                op = buf[pos]
+                (n,) = length_of(buf, pos + 1)
+                if op == 0x05:
+                    cid, _, t = unpack(buf, pos + 9)
+                    role = chan.get(cid)
+                    if role is not None:
+                        o = out[role]
+                        o[0].append(t)
+                        o[1].append(buf[pos + 31:pos + 9 + n])
+                pos += 9 + n
+    for role, (t, data) in out.items():
+        order = np.argsort(np.asarray(t, dtype=np.int64), kind="stable")
+        if np.any(np.diff(order) != 1):
+            out[role] = ([t[i] for i in order], [data[i] for i in order])
+    return out
 
 
 def _joint_matrix(dec, names_for_empty: tuple[str, ...], bag: str, topic: str,
