@@ -19,7 +19,9 @@ Styles (``data.realstyle.RealStyle``):
   exponential 0.7 ms + 2 % stalls up to 4 ms, 5 % of commands sent twice (superseded);
 - ``robot``: a real robot's log: joint states at 500 Hz, motion capture PoseStamped at 120 Hz,
   every stamp zero (receive time only), 2 % of the measurements lost, Float64MultiArray
-  commands (ros2_control), twist from the poses.
+  commands (ros2_control), twist from the poses;
+- ``robot_mocap100`` (diagnostic, ``--styles sim,robot,robot_mocap100``): ``robot`` with the
+  motion capture at 100 Hz, to tell what the 120 Hz resampling of the pose costs.
 
 Targets (issue 13): nMSE of the imported model within 10 % of the contract model's; import at
 50,000 messages/s or more. Writes ``import_benchmark.json`` and ``.md`` beside this script.
@@ -56,6 +58,11 @@ STYLES = {
     "robot": (RealStyle(js_rate_hz=500, pose_rate_hz=120, stamps="zero",
                         cmd_type=D.FLOAT64_ARRAY, pose_type=D.POSE_STAMPED, drop_prob=0.02,
                         seed=1), {"cmd_joint_order": CONTROLLER_ORDER, "twist": "pose"}),
+    # diagnostic: `robot` with the motion capture at 100 Hz (which part costs the accuracy)
+    "robot_mocap100": (RealStyle(js_rate_hz=500, pose_rate_hz=100, stamps="zero",
+                                 cmd_type=D.FLOAT64_ARRAY, pose_type=D.POSE_STAMPED,
+                                 drop_prob=0.02, seed=1),
+                       {"cmd_joint_order": CONTROLLER_ORDER, "twist": "pose"}),
 }
 
 
@@ -69,7 +76,7 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, default=Path("/work/data/default"))
     ap.add_argument("--moves-per-type", type=int, default=14)
     ap.add_argument("--methods", default="lr")
-    ap.add_argument("--styles", default="sim,robot")
+    ap.add_argument("--styles", default="sim,robot,robot_mocap100")
     ap.add_argument("--work", type=Path, default=Path("/work/data/import/bench"))
     a = ap.parse_args(argv)
     doc = run_record("import/import_benchmark.py", argv)
@@ -133,7 +140,8 @@ def main(argv=None) -> int:
         doc["styles"][name] = res
         print(f"{name}: {res}", flush=True)
     doc["uptime_after"] = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-    ok_nmse = all(r <= 1.10 for s in doc["styles"].values() for r in s["ratio_to_contract"].values())
+    ok_nmse = all(r <= 1.10 for n, s in doc["styles"].items() if n in ("sim", "robot")
+                  for r in s["ratio_to_contract"].values())
     # the import is one process on one core: its rate is messages per CPU second of that process
     # (the wall-clock rate on a machine loaded with other jobs measures the load as well)
     ok_speed = all(s["messages_per_cpu_s_read_decode"] >= 50_000 for s in doc["styles"].values())
