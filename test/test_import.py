@@ -8,7 +8,6 @@ so every imported number can be checked against the contract bag it came from.
 from __future__ import annotations
 
 import json
-import shutil
 import sqlite3
 import subprocess
 from pathlib import Path
