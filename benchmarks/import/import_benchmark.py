@@ -118,7 +118,7 @@ def main(argv=None) -> int:
         imported = load_moves(out, "all")
         # inferred labels vs the source types (bags are one type each)
         rep = r.report
-        right = sum(s["move_type"] == Path(b["path"]).name.split("_", 1)[1]
+        right = sum(s["move_type"] == Path(b["path"]).name.rsplit("_", 1)[1]
                     for b in rep["bags"] for s in b["segments"])
         res = {"bags": len(bags), "write_s": t_write, "messages": r.n_messages,
                "read_decode_s": r.read_s, "messages_per_s_read_decode": r.n_messages / r.read_s,
