@@ -1,8 +1,8 @@
 """Decode whole topics of a recorded bag into arrays: a fast path for plain CDR, rosbags otherwise.
 
 ``littledog-mlsim import`` (``data.importer``) reads every message of a few topics. Decoding
-one message at a time with ``rosbags`` costs tens of microseconds each, too slow for long
-recordings (``benchmarks/import``). Messages of one topic almost always share one byte layout
+one message at a time with ``rosbags`` is too slow for long recordings
+(``benchmarks/import``). Messages of one topic almost always share one byte layout
 (the same frame ids, joint names and array lengths), so the fast path walks the CDR layout of
 one message, groups all messages whose *structural* bytes (string lengths and contents,
 sequence lengths, padding: everything except the numbers) are identical to it, and pulls the

@@ -287,8 +287,8 @@ def _mcap_raw(reader, roles: dict[str, str]) -> dict[str, tuple[list, list]] | N
     """All messages of the topics in ``roles`` (topic -> role) straight from the MCAP chunks.
 
     rosbags' reader yields messages one by one through several generator layers; this walks
-    each chunk's records with ``struct.unpack_from`` instead (about ten times less time per
-    message), then sorts each topic by log time (stable). None (use rosbags' reader) for
+    each chunk's records with ``struct.unpack_from`` instead (much faster:
+    ``benchmarks/import``), then sorts each topic by log time (stable). None (use rosbags' reader) for
     anything but indexed, chunked MCAP files without file or message compression.
     """
     import struct as _struct
