@@ -230,6 +230,106 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
     return 0
 
 
+def _import_options(a: argparse.Namespace):
+    """ImportOptions from the ``import`` options (shared with trainer_node's import_options)."""
+    from .data.importer import ImportOptions
+
+    move_types = tuple(("U" if t.strip().lower() in ("u", "unknown") else t.strip().upper())
+                       if t.strip() else None for t in (a.move_type or []))
+    order = tuple(x.strip() for x in a.cmd_joint_order.split(",")) if a.cmd_joint_order \
+        else ImportOptions().cmd_joint_order
+    return ImportOptions(
+        cmd_topic=a.cmd_topic, joint_states_topic=a.joint_states_topic, pose_topic=a.pose_topic,
+        cmd_joint_order=order, time_source=a.time_source, clock_tolerance_s=a.clock_tolerance,
+        gap_s=a.gap, reset_jump_m=a.reset_jump_m, reset_jump_rad=a.reset_jump_rad,
+        joint_jump_rad=a.joint_jump_rad, min_segment_s=a.min_segment, max_move_s=a.max_move,
+        cmd_cutoff_s=a.cmd_cutoff, twist=a.twist, dejitter=not a.no_dejitter,
+        move_types=move_types,
+        infer_types=not a.no_infer, test_fraction=a.test_fraction, storage=a.storage,
+        skip_bad_bags=a.skip_bad)
+
+
+def cmd_import(a: argparse.Namespace) -> int:
+    import logging
+
+    from .data.importer import import_bags
+
+    logging.basicConfig(level=logging.WARNING, format="littledog-mlsim import: %(message)s")
+    opts = _import_options(a)
+    r = import_bags(a.bags, a.out, opts, overwrite=a.overwrite, figure=not a.no_figure)
+    types = ", ".join(f"{t} {n}" for t, n in _type_counts(r.report).items())
+    rate = r.report.get("messages_per_s") or 0.0
+    print(f"imported {r.n_moves} moves ({r.n_train} TrainPool / {r.n_test} TestPool; {types}) "
+          f"from {len(r.report['bags'])} bag(s), {r.n_messages} messages ({rate:,.0f} messages/s) into "
+          f"{r.out} in {r.wall_s:.1f} s; see {Path(r.out) / 'import_report.md'}")
+    return 0
+
+
+def _type_counts(report: dict) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for b in report.get("bags", []):
+        for s in b.get("segments", []):
+            counts[s["move_type"]] = counts.get(s["move_type"], 0) + 1
+    return counts
+
+
+def add_import_arguments(im: argparse.ArgumentParser) -> None:
+    """The import options (also parsed by trainer_node from its import_options parameter)."""
+    from .data.importer import ImportOptions, TIME_SOURCES, TWIST_SOURCES
+
+    d = ImportOptions()
+    im.add_argument("--cmd-topic", default=d.cmd_topic,
+                    help="command topic: sensor_msgs/JointState, std_msgs/Float64MultiArray or "
+                         "trajectory_msgs/JointTrajectory (default %(default)s)")
+    im.add_argument("--joint-states-topic", default=d.joint_states_topic,
+                    help="sensor_msgs/JointState topic (default %(default)s)")
+    im.add_argument("--pose-topic", default=d.pose_topic,
+                    help="nav_msgs/Odometry or geometry_msgs/PoseStamped topic (default %(default)s)")
+    im.add_argument("--cmd-joint-order", default="", metavar="J1,J2,...",
+                    help="joint names of a Float64MultiArray command's data, in order (default: "
+                         "the contract order)")
+    im.add_argument("--time-source", choices=TIME_SOURCES, default=d.time_source,
+                    help="per topic: header stamps or receive (bag) time; auto (default) uses "
+                         "stamps on the bag clock, shifts stamps of another clock onto it and "
+                         "falls back to receive time for zero or missing stamps")
+    im.add_argument("--clock-tolerance", type=float, default=d.clock_tolerance_s, metavar="S",
+                    help="stamps within this of receive time count as the bag clock (default %(default)s)")
+    im.add_argument("--gap", type=float, default=d.gap_s, metavar="S",
+                    help="a longer gap in joint states or pose splits a segment (default %(default)s)")
+    im.add_argument("--reset-jump-m", type=float, default=d.reset_jump_m, metavar="M",
+                    help="a pose jump this much beyond 2 m/s splits a segment (default %(default)s)")
+    im.add_argument("--reset-jump-rad", type=float, default=d.reset_jump_rad, metavar="RAD",
+                    help="an orientation jump this much beyond 10 rad/s splits a segment "
+                         "(default %(default)s)")
+    im.add_argument("--joint-jump-rad", type=float, default=d.joint_jump_rad, metavar="RAD",
+                    help="a joint jump this much beyond 30 rad/s splits a segment (default %(default)s)")
+    im.add_argument("--min-segment", type=float, default=d.min_segment_s, metavar="S",
+                    help="drop shorter segments (default %(default)s)")
+    im.add_argument("--max-move", type=float, default=d.max_move_s, metavar="S",
+                    help="split longer segments into equal moves (default 0: never)")
+    im.add_argument("--cmd-cutoff", type=float, default=d.cmd_cutoff_s, metavar="S",
+                    help="the command of step k->k+1 is the newest received this long before "
+                         "measurement k+1 (default %(default)s)")
+    im.add_argument("--twist", choices=TWIST_SOURCES, default=d.twist,
+                    help="body twist from the message or from the poses (default auto: the "
+                         "message's if it has one)")
+    im.add_argument("--no-dejitter", action="store_true",
+                    help="joint states and pose on receive time: keep the receive times (default: "
+                         "fit the sender's regular clock through the least-delayed messages)")
+    im.add_argument("--move-type", action="append", metavar="TYPE",
+                    help="move type of the bag's segments (F, FL, ..., S or U/unknown); give it "
+                         "once for all bags or once per bag in order; empty: infer")
+    im.add_argument("--no-infer", action="store_true",
+                    help="do not infer move types from the motion: unlabelled segments are U")
+    im.add_argument("--test-fraction", type=float, default=d.test_fraction, metavar="F",
+                    help="TestPool share per move type, the last moves in recording order "
+                         "(default %(default)s; 0: all TrainPool)")
+    im.add_argument("--storage", choices=["mcap", "sqlite3"], default=d.storage,
+                    help="storage of the written bags")
+    im.add_argument("--skip-bad", action="store_true",
+                    help="leave out a bag that cannot be imported (reported) instead of failing")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .models.train import METHOD_NAMES   # the registry's methods, in the paper's order
 
@@ -357,6 +457,21 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     dg.add_argument("--quiet", action="store_true", help="no progress lines")
     dg.set_defaults(func=cmd_diagnose)
+
+    im = sub.add_parser("import", help="turn recorded bags (ros2 bag record, ROS 1) into a dataset",
+                        description="Import rosbag2 bags (directories, .mcap or .db3 files) or "
+                                    "ROS 1 .bag files: resample commands, joint states and pose "
+                                    "onto the 10 ms grid, cut them into moves at gaps, pauses and "
+                                    "resets, label and split them, and write a dataset (bags + "
+                                    "dataset.yaml) with import_report.md/.json/.png, atomically "
+                                    "(docs/import.md).")
+    im.add_argument("bags", nargs="+", type=Path, metavar="BAG", help="bags to import")
+    im.add_argument("--out", required=True, type=Path, metavar="DATASET",
+                    help="dataset directory to create")
+    add_import_arguments(im)
+    im.add_argument("--overwrite", action="store_true", help="replace an existing dataset directory")
+    im.add_argument("--no-figure", action="store_true", help="skip import_report.png")
+    im.set_defaults(func=cmd_import)
 
     for name in ("info", "dataset"):
         i = sub.add_parser(name, help="summarise a recorded dataset" + (" (alias of info)" if name == "dataset" else ""),

@@ -37,6 +37,10 @@ def joint_permutation(names: tuple[str, ...]) -> np.ndarray | str:
     return perm
 
 MOVE_TYPES: tuple[str, ...] = ("F", "FL", "FR", "B", "BL", "BR", "L", "R", "DL", "DR", "S")
+# A move whose type is not known (an imported recording whose motion fits none of the 11 types,
+# ``littledog-mlsim import``): bags ``U_<NN>``, usable for training and scoring like any other.
+UNKNOWN_MOVE_TYPE = "U"
+DATASET_MOVE_TYPES: tuple[str, ...] = MOVE_TYPES + (UNKNOWN_MOVE_TYPE,)
 
 CONTROL_DT = 0.01  # s, one step of the learned simulator and of the command stream
 CONTROL_RATE_HZ = 100

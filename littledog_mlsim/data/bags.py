@@ -43,7 +43,7 @@ from ..layout import (
     BASE_FRAME,
     CONTROL_DT_NS,
     JOINT_NAMES,
-    MOVE_TYPES,
+    DATASET_MOVE_TYPES,
     N_JOINTS,
     ODOM_FRAME,
     TOPIC_CMD,
@@ -100,10 +100,15 @@ def _qos():
 
 
 def move_type_from_name(name: str) -> str:
-    """The move type of a bag directory name ``<TYPE>_<NN>``; ValueError if it is not one."""
+    """The move type of a bag directory name ``<TYPE>_<NN>``; ValueError if it is not one.
+
+    TYPE is one of the 11 move types or ``U`` (``layout.UNKNOWN_MOVE_TYPE``: an imported move
+    of unknown type).
+    """
     m = _BAG_NAME_RE.match(name)
-    if m is None or m.group("type") not in MOVE_TYPES:
-        raise ValueError(f"{name!r} is not a bag name <TYPE>_<NN> with TYPE in {MOVE_TYPES}")
+    if m is None or m.group("type") not in DATASET_MOVE_TYPES:
+        raise ValueError(f"{name!r} is not a bag name <TYPE>_<NN> with TYPE in "
+                         f"{DATASET_MOVE_TYPES}")
     return m.group("type")
 
 
@@ -233,7 +238,7 @@ def read_bag(path: str | os.PathLike, move_type: str | None = None) -> MoveRecor
         except ValueError as exc:
             raise BagError(bag, None, f"cannot tell the move type ({exc}); "
                                       "pass move_type") from None
-    elif move_type not in MOVE_TYPES:
+    elif move_type not in DATASET_MOVE_TYPES:
         raise BagError(bag, None, f"unknown move type {move_type!r}")
     if not path.is_dir():
         raise BagError(bag, None, "no such bag directory")

@@ -60,6 +60,7 @@ import yaml
 
 from ..fileio import atomic_write_text, read_document, to_plain
 from ..layout import (
+    DATASET_MOVE_TYPES,
     MOVE_TYPES,
     N_ACTION,
     N_FEATURE,
@@ -103,7 +104,7 @@ class SkippedBagWarning(UserWarning):
 @dataclass(frozen=True)
 class BagEntry:
     name: str        # bag directory name <TYPE>_<NN>
-    move_type: str   # one of layout.MOVE_TYPES, equal to the name's <TYPE>
+    move_type: str   # one of layout.DATASET_MOVE_TYPES (11 types or U), equal to <TYPE>
     split: str       # "train" (TrainPool) or "test" (TestPool)
 
     def check(self) -> None:
@@ -272,9 +273,9 @@ def _select(entries: Iterable[BagEntry], split: str, types: Iterable[str] | None
         raise ValueError(f"split must be one of {SPLITS + ('all',)}, got {split!r}")
     if types is not None:
         types = list(types)
-        bad = [t for t in types if t not in MOVE_TYPES]
+        bad = [t for t in types if t not in DATASET_MOVE_TYPES]
         if bad:
-            raise ValueError(f"unknown move type(s) {bad}; known: {MOVE_TYPES}")
+            raise ValueError(f"unknown move type(s) {bad}; known: {DATASET_MOVE_TYPES}")
     return [e for e in entries
             if (split == "all" or e.split == split) and (types is None or e.move_type in types)]
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..layout import MOVE_TYPES
+from ..layout import DATASET_MOVE_TYPES
 from .dataset import load_moves, quat_to_rpy, read_index
 from .recording import MoveRecording
 
@@ -81,6 +81,13 @@ def move_problems(rec: MoveRecording) -> list[str]:
     if rec.position[:, 2].min() <= MIN_BODY_HEIGHT_M:
         out.append(f"body down to {rec.position[:, 2].min():.3f} m")
     fwd, left, dyaw = move_motion(rec)
+    return out + motion_problems(t, fwd, left, dyaw)
+
+
+def motion_problems(t: str, fwd: float, left: float, dyaw: float) -> list[str]:
+    """Why a motion (forward, left, yaw change, in the start heading frame) does not fit move
+    type ``t`` (the direction part of ``move_problems``; empty when it fits)."""
+    out: list[str] = []
     fs, ls, ts = _FORWARD.get(t, 0), _LEFT.get(t, 0), _TURN.get(t, 0)
     if t == "S":
         if np.hypot(fwd, left) >= 0.05 or abs(dyaw) >= 0.3:
@@ -123,12 +130,15 @@ def summarise_dataset(path: str | os.PathLike, check_bags: bool = True) -> Datas
             ts.max_abs_roll_pitch = max(ts.max_abs_roll_pitch, float(np.abs(rpy[:, :2]).max()))
             ts.min_height_m = min(ts.min_height_m, float(rec.position[:, 2].min()))
             ts.problems += [f"{rec.name}: {p}" for p in move_problems(rec)]
-    order = [t for t in MOVE_TYPES if t in types]
+    order = [t for t in DATASET_MOVE_TYPES if t in types]
     return DatasetSummary(str(path), dict(index.info), {t: types[t] for t in order}, check_bags)
 
 
 def format_summary(s: DatasetSummary) -> str:
-    info = ", ".join(f"{k}={v}" for k, v in s.info.items() if k != "types")
+    def short(v):   # long lists (an import's bag list) as a count; mappings left out below
+        return f"[{len(v)} items]" if isinstance(v, list) and len(v) > 3 else v
+    info = ", ".join(f"{k}={short(v)}" for k, v in s.info.items()
+                     if k != "types" and not isinstance(v, dict))
     n_train = sum(t.n_train for t in s.types.values())
     lines = [f"dataset {s.path}: {s.n_bags} bags ({n_train} TrainPool / {s.n_bags - n_train} TestPool)"
              + (f", {s.n_samples} samples (features 45 -> responses 33)" if s.bags_checked else ""),
@@ -149,3 +159,39 @@ def format_summary(s: DatasetSummary) -> str:
     else:
         lines.append("  every move stayed upright and went where its type says")
     return "\n".join(lines)
+
+
+# Nominal heading of each type's motion in the start heading frame [rad] (0 = forward, left +).
+_HEADING = {"F": 0.0, "FL": 0.0, "FR": 0.0, "B": np.pi, "BL": np.pi, "BR": np.pi,
+            "L": np.pi / 2, "R": -np.pi / 2, "DL": np.pi / 4, "DR": -np.pi / 4}
+
+
+def infer_move_type(rec: MoveRecording) -> str | None:
+    """The move type a recording's motion fits, or None when it fits none.
+
+    The motion is scaled to a move of ``layout.MOVE_DURATION_S`` (the mean body velocity and yaw
+    rate over the recording, times 4 s), so that a segment of any length is judged by the same
+    thresholds as ``move_problems`` (which defines the types). The recording must also stay
+    upright. When several types fit (e.g. a straight move with a yaw change between 0.3 and 0.4
+    rad fits F and FL), the turning type wins over the straight one, and otherwise the type
+    whose nominal direction is closest to the direction of travel.
+    """
+    from ..layout import CONTROL_DT, MOVE_DURATION_S, MOVE_TYPES
+
+    rpy = quat_to_rpy(rec.orientation)
+    if float(np.abs(rpy[:, :2]).max()) >= UPRIGHT_LIMIT_RAD or \
+            rec.position[:, 2].min() <= MIN_BODY_HEIGHT_M:
+        return None
+    duration = max(rec.n_steps, 1) * CONTROL_DT
+    k = MOVE_DURATION_S / duration
+    fwd, left, dyaw = (k * v for v in move_motion(rec))
+    fits = [t for t in MOVE_TYPES if not motion_problems(t, fwd, left, dyaw)]
+    if len(fits) <= 1:
+        return fits[0] if fits else None
+    turning = [t for t in fits if t in _TURN]
+    if turning:
+        fits = turning
+    if "S" in fits:
+        return "S"
+    heading = np.arctan2(left, fwd)
+    return min(fits, key=lambda t: abs(float(np.angle(np.exp(1j * (heading - _HEADING[t]))))))

@@ -17,6 +17,16 @@ leaves it untouched. Exit status: 0 when the model is written, 1 when training f
 FATAL line naming the cause, e.g. the bag and topic), 2 for a bad parameter, 130 when
 interrupted.
 
+Recorded bags directly: set ``bags`` (a list of rosbag2 directories, ``.mcap``/``.db3`` files or
+ROS 1 bags, as ``littledog-mlsim import`` takes them) instead of ``data``; the node imports them
+first (``data.importer.import_bags``, options in ``import_options``, a YAML mapping of the
+``ImportOptions`` fields such as ``"{cmd_topic: /ctrl/cmd, test_fraction: 0.0}"``) into
+``import_out`` (kept) or a temporary directory (removed), then trains on that dataset. A bag that
+cannot be imported is one FATAL line naming bag, topic and message (exit 1), and no model is
+written.
+
+    trainer_node --ros-args -p 'bags:=[/logs/run1, /logs/run2.mcap]' -p out:=/tmp/model
+
 One-shot: no ``~/train`` service; the node exits when the model is written. Parameters:
 ``config/trainer.yaml``.
 """
@@ -29,6 +39,8 @@ from typing import Any, Sequence
 
 import numpy as np
 import yaml
+
+from rclpy.parameter import Parameter
 
 from ._run import ConfiguredNode, Param, StartupError, one_line, run_node
 
@@ -49,6 +61,12 @@ PARAMS: tuple[Param, ...] = (
           "(0: the method's default cap, models.train.DEFAULT_MAX_TRAIN)", ">= 0"),
     Param("seed", 0, "seeds the max_samples subset and the regressor's random_state"),
     Param("heartbeat", 30.0, "seconds between 'still fitting' log lines (0: none)", ">= 0"),
+    Param("bags", Parameter.Type.STRING_ARRAY, "recorded bags to import and train on instead of "
+          "data (rosbag2 directories, .mcap/.db3 files, ROS 1 .bag files; docs/import.md)"),
+    Param("import_options", "{}", "options of the import of bags as a YAML mapping of "
+          "data.importer.ImportOptions fields, e.g. \"{cmd_topic: /ctrl/cmd, test_fraction: 0.0}\""),
+    Param("import_out", "", "dataset directory the bags are imported into (kept; must not "
+          "exist); empty: a temporary directory, removed after training"),
 )
 
 
@@ -67,9 +85,13 @@ class TrainerNode(ConfiguredNode):
         from ..models.train import METHOD_NAMES, make_estimator
 
         s = {p.name: self.param(p.name) for p in PARAMS}
-        if not s["data"] or not s["out"]:
-            raise StartupError("set the parameters data (dataset directory) and out (model "
-                               "directory)")
+        s["bags"] = list(s["bags"] or [])
+        if (not s["data"] and not s["bags"]) or not s["out"]:
+            raise StartupError("set the parameters data (dataset directory) or bags (recorded "
+                               "bags), and out (model directory)")
+        if s["data"] and s["bags"]:
+            raise StartupError("set data or bags, not both")
+        s["import_options"] = _import_options(s["import_options"])
         if s["method"] not in METHOD_NAMES:
             raise StartupError(f"method must be one of {', '.join(METHOD_NAMES)}, got "
                                f"{s['method']!r}")
@@ -104,7 +126,10 @@ class TrainerNode(ConfiguredNode):
                     log.info(f"still working on {s['method']} "
                              f"({time.perf_counter() - t0:.0f} s)")
             threading.Thread(target=beat, daemon=True).start()
+        tmp = None
         try:
+            if s["bags"]:
+                s["data"], tmp = self._import(s)
             with contextlib.redirect_stderr(_LogLines(log.info)):
                 model = train_from_dataset(
                     s["data"], s["method"], options=s["method_params"],
@@ -115,6 +140,9 @@ class TrainerNode(ConfiguredNode):
             raise TrainingError(one_line(e)) from None
         finally:
             done.set()
+            if tmp is not None:
+                import shutil
+                shutil.rmtree(tmp, ignore_errors=True)
         log.info(f"writing {s['out']}")
         try:
             model.save(s["out"])
@@ -122,6 +150,60 @@ class TrainerNode(ConfiguredNode):
             raise TrainingError(f"cannot write the model: {one_line(e)}") from None
         log.info(f"wrote {s['method']} model to {s['out']} "
                  f"({time.perf_counter() - t0:.1f} s in all)")
+
+
+    def _import(self, s: dict[str, Any]) -> tuple[str, str | None]:
+        """Import ``bags`` into a dataset; (dataset path, temporary directory to remove)."""
+        import tempfile
+        from pathlib import Path
+
+        from ..data.importer import import_bags
+
+        log = self.get_logger()
+        tmp = None
+        if s["import_out"]:
+            out = Path(s["import_out"])
+        else:
+            tmp = tempfile.mkdtemp(prefix="trainer_import.")
+            out = Path(tmp) / "data"
+        try:
+            r = import_bags(s["bags"], out, s["import_options"])
+        except BaseException:
+            if tmp is not None:
+                import shutil
+                shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        log.info(f"imported {r.n_moves} moves ({r.n_train} TrainPool / {r.n_test} TestPool) "
+                 f"from {len(r.report['bags'])} bag(s), {r.n_messages} messages, into {out}")
+        return str(out), tmp
+
+
+def _import_options(text: str):
+    """ImportOptions from the YAML mapping of the import_options parameter (StartupError)."""
+    from dataclasses import fields
+
+    from ..data.importer import ImportOptions
+
+    try:
+        d = yaml.safe_load(text) or {}
+    except yaml.YAMLError as e:
+        raise StartupError(f"import_options is not YAML: {one_line(e)}") from None
+    if not isinstance(d, dict):
+        raise StartupError("import_options must be a YAML mapping, e.g. \"{test_fraction: 0.0}\"")
+    known = {f.name for f in fields(ImportOptions)}
+    bad = sorted(set(d) - known)
+    if bad:
+        raise StartupError(f"unknown import option(s) {', '.join(bad)}; known: "
+                           f"{', '.join(sorted(known))}")
+    for k in ("cmd_joint_order", "move_types"):
+        if k in d:
+            d[k] = tuple(d[k]) if isinstance(d[k], (list, tuple)) else (d[k],)
+    try:
+        opts = ImportOptions(**d)
+        opts.check()
+    except (TypeError, ValueError) as e:
+        raise StartupError(f"import_options: {one_line(e)}") from None
+    return opts
 
 
 class _LogLines:
