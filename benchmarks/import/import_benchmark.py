@@ -44,13 +44,13 @@ sys.path.insert(0, str(HERE.parent))
 from _common import command_line, run_record, write_results  # noqa: E402
 
 from littledog_mlsim.data import decode as D  # noqa: E402
-from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
+from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.data.importer import ImportOptions, import_bags  # noqa: E402
 from littledog_mlsim.data.realstyle import RealStyle, write_realstyle_bag  # noqa: E402
 from littledog_mlsim.scoring import one_step_scores as one_step_nmse  # noqa: E402
 from littledog_mlsim.layout import JOINT_NAMES, MOVE_TYPES  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
-from littledog_mlsim.models.train import make_estimator  # noqa: E402
+from littledog_mlsim.models.train import fit_onestep  # noqa: E402
 
 CONTROLLER_ORDER = tuple(reversed(JOINT_NAMES))
 STYLES = {
@@ -67,8 +67,7 @@ STYLES = {
 
 
 def fit(method: str, moves, seed: int = 0) -> OneStepModel:
-    X, Y, _ = features_responses(moves)
-    return OneStepModel.fit(make_estimator(method, {}, seed=seed, progress=False), X, Y)
+    return fit_onestep(moves, method, random_state=seed)
 
 
 def main(argv=None) -> int:
