@@ -120,9 +120,9 @@ class RobotDrawing:
             self.handles.append(server.scene.add_batched_meshes_simple(
                 f"{base}/shape{gi}", verts, faces, batched_wxyzs=wxyz[idx],
                 batched_positions=identity_pos[idx], batched_colors=colours, lod="off",
-                opacity=opacity, cast_shadow=False, receive_shadow=False))
+                opacity=opacity, cast_shadow=False, receive_shadow=False, visible=False))
         self.text = server.scene.add_label(f"{base}/label", label, position=(0.0, 0.0, 0.3),
-                                           anchor="bottom-center")
+                                           anchor="bottom-center", visible=False)
         self.colour = colour
         self.trail = None
         self.ellipse = None
@@ -269,19 +269,30 @@ class ViewerApp:
         with self.lock:
             for i, r in enumerate(self.robots):
                 r.offset = np.array([0.0, -self.spacing * i, 0.0]) if not ghost else np.zeros(3)
-                for h in r.handles:
-                    h.visible = not (ghost and i > 0)
-                r.text.visible = not (ghost and i > 0)
-            for g in self.ghosts:
-                for h in g.handles:
-                    h.visible = ghost
-                g.text.visible = False
-            if ghost:   # the ghosts replace robots 1.. (translucent, on top of robot 0)
-                for r in self.robots[1:]:
-                    for d in (r.trail, r.ellipse):
-                        if d is not None:
-                            d.visible = False
+            self._visibility()
             self._redraw()
+
+    def _visibility(self) -> None:
+        """Robots appear with their first state; ghost layout swaps robots 1.. for ghosts."""
+        ghost = self.gui_layout.value == "ghost"
+        for i, r in enumerate(self.robots):
+            on = self._last[i] is not None and not (ghost and i > 0)
+            for h in r.handles:
+                h.visible = on
+            r.text.visible = on
+            if not on:
+                for d in (r.trail, r.ellipse):
+                    if d is not None:
+                        d.visible = False
+        for i, g in enumerate(self.ghosts, start=1):
+            on = self._last[i] is not None and ghost
+            for h in g.handles:
+                h.visible = on
+            g.text.visible = False
+            if not on:
+                for d in (g.trail, g.ellipse):
+                    if d is not None:
+                        d.visible = False
 
     def _drawings(self, i: int) -> RobotDrawing:
         if i > 0 and self.gui_layout.value == "ghost":
@@ -300,11 +311,13 @@ class ViewerApp:
         body path (n, 3) to show, or None to keep the trail collected from the drawn frames."""
         with self.lock, self.server.atomic():
             t = None
+            appeared = False
             for i, f in enumerate(frames):
                 if f is None:
                     continue
                 d = self._drawings(i)
                 d.show(f)
+                appeared = appeared or self._last[i] is None
                 self._last[i] = f
                 t = f.t if t is None else max(t, f.t)
                 if self.gui_ellipse.value:
@@ -314,6 +327,8 @@ class ViewerApp:
             if trails is not None:
                 for i, tr in enumerate(trails):
                     self._drawings(i).show_trail(tr if self.gui_trail.value else None)
+            if appeared:
+                self._visibility()
             if count and t is not None:
                 self.frames_drawn += 1
             if t is not None:
