@@ -6,8 +6,9 @@ makes), :meth:`Browser.screenshot` returns the page as an RGB array, :meth:`Brow
 runs JavaScript. WebGL is software (SwiftShader), so it works without a GPU or a display.
 
 Offline check: with ``proxy`` every non-loopback request goes to that address instead of the
-network (``<-loopback>`` keeps only loopback direct); :class:`RecordingProxy` is such an
-address on this machine that refuses everything and records what was asked of it.
+network (Chromium always sends loopback addresses direct, its implicit bypass rule);
+:class:`RecordingProxy` is such an address on this machine that refuses everything and records
+what was asked of it.
 """
 from __future__ import annotations
 
@@ -99,9 +100,11 @@ class Browser:
                 f"--user-data-dir={self.tmp}", f"--window-size={width},{height}",
                 "--no-first-run", "--no-default-browser-check", "--disable-extensions",
                 "--disable-background-networking", "--disable-component-update",
-                "--disable-sync", "--metrics-recording-only", "--mute-audio"]
+                "--disable-sync", "--metrics-recording-only", "--mute-audio",
+                "--disable-default-apps", "--no-pings", "--disable-domain-reliability",
+                "--disable-client-side-phishing-detection"]
         if proxy:
-            argv += [f"--proxy-server={proxy}", "--proxy-bypass-list=<-loopback>"]
+            argv.append(f"--proxy-server={proxy}")   # loopback stays direct (implicit bypass)
         argv.append("about:blank")
         self.proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                      stderr=subprocess.PIPE, text=True)
