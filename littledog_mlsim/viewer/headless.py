@@ -165,9 +165,15 @@ class Browser:
         return self._call(self.page_ws, method, **params)
 
     def requested_urls(self) -> list[str]:
-        """Every URL the page asked for since the last :meth:`open` (DevTools Network events)."""
-        return [e["params"]["request"]["url"] for e in self.events
-                if e.get("method") == "Network.requestWillBeSent"]
+        """Every URL the page asked for since the last :meth:`open`, websockets included
+        (DevTools Network events)."""
+        out = []
+        for e in self.events:
+            if e.get("method") == "Network.requestWillBeSent":
+                out.append(e["params"]["request"]["url"])
+            elif e.get("method") == "Network.webSocketCreated":
+                out.append(e["params"]["url"])
+        return out
 
     def open(self, url: str, settle: float = 0.0) -> str | None:
         """Navigate; wait for the load event (up to the timeout) and ``settle`` s more. Returns
