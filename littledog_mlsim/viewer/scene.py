@@ -5,9 +5,9 @@ HTML page with three.js, no external URL; the share button, which would open a t
 hidden), it has the primitives, GUI inputs and uPlot charts needed, and a robot update is a
 few small websocket messages.
 
-Drawing: each robot is the URDF's visual shapes (``urdf.RobotModel``); shapes of one size
-(4 upper-leg capsules, 4 shanks, 4 feet, the body) are one batched mesh each, so a frame of a
-robot is four instance-pose updates, sent together (``server.atomic``). Robot 0 is the reference
+Drawing: each robot is the URDF's visual shapes (``urdf.RobotModel``), each a child of its
+link's frame, so a frame of a robot is the poses of its 9 links with shapes, sent together
+(``server.atomic``). Robot 0 is the reference
 (the measured robot in a replay, the first simulator live); the others are drawn beside it
 (``layout="side"``: shifted by ``spacing`` along -y, a drawing offset only) or on top of it as
 translucent ghosts (``layout="ghost"``). Plots compare every robot with robot 0 at equal
@@ -95,32 +95,38 @@ def ellipse_points(centre_xy: np.ndarray, cov: np.ndarray, sigma: float = ELLIPS
 
 
 class RobotDrawing:
-    """One LittleDog in the scene under ``/robots/<key>``: shapes, label, trail, ellipse."""
+    """One LittleDog in the scene under ``/robots/<key>``: shapes, label, trail, ellipse.
+
+    Each link with visuals is a scene frame whose world pose is set per frame; its shapes are
+    static children (the URDF's visual origins). (viser's batched meshes, one message per shape
+    size, made the client render at about 1 frame per second under software WebGL here.)"""
 
     def __init__(self, server, model: RobotModel, key: str, label: str, colour: tuple[int, ...],
                  opacity: float | None = None) -> None:
         self.server, self.model, self.key, self.label = server, model, key, label
         self.offset = np.zeros(3)
-        groups: dict[tuple, list[int]] = {}
-        for i, v in enumerate(model.visuals):
-            groups.setdefault(v.key, []).append(i)
-        self.groups = list(groups.values())
-        self.handles = []
         base = f"/robots/{key}"
-        identity_pos, identity_rot = model.visual_poses(np.zeros(3), np.array([0, 0, 0, 1.0]),
-                                                        np.zeros(len(JOINT_NAMES)))
-        wxyz = matrix_to_wxyz(identity_rot)
-        for gi, idx in enumerate(self.groups):
-            vis = model.visuals[idx[0]]
-            verts, faces = _mesh(vis.kind, vis.size)
-            colours = np.array([colour if model.visuals[i].link == model.root
-                                else tuple(int(round(255 * c)) for c in
-                                           model.visuals[i].rgba[:3]) for i in idx],
-                               dtype=np.uint8)
-            self.handles.append(server.scene.add_batched_meshes_simple(
-                f"{base}/shape{gi}", verts, faces, batched_wxyzs=wxyz[idx],
-                batched_positions=identity_pos[idx], batched_colors=colours, lod="off",
-                opacity=opacity, cast_shadow=False, receive_shadow=False, visible=False))
+        self.links = list(dict.fromkeys(v.link for v in model.visuals))
+        self.frames = {}
+        self.handles = []            # everything that shows the robot's body (visibility)
+        meshes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        for link in self.links:
+            fr = server.scene.add_frame(f"{base}/{link}", show_axes=False, visible=False)
+            self.frames[link] = fr
+            self.handles.append(fr)
+            for i, v in enumerate(model.visuals):
+                if v.link != link:
+                    continue
+                if v.key not in meshes:
+                    meshes[v.key] = _mesh(v.kind, v.size)
+                verts, faces = meshes[v.key]
+                c = colour if link == model.root else tuple(int(round(255 * x))
+                                                             for x in v.rgba[:3])
+                server.scene.add_mesh_simple(
+                    f"{base}/{link}/shape{i}", verts, faces, color=c, opacity=opacity,
+                    position=tuple(float(x) for x in v.xyz),
+                    wxyz=tuple(float(x) for x in matrix_to_wxyz(v.rotation)),
+                    cast_shadow=False, receive_shadow=False)
         self.text = server.scene.add_label(f"{base}/label", label, position=(0.0, 0.0, 0.3),
                                            anchor="bottom-center", visible=False)
         self.colour = colour
@@ -128,13 +134,12 @@ class RobotDrawing:
         self.ellipse = None
 
     def show(self, frame: Frame) -> None:
-        """Pose the shapes (call inside ``server.atomic()`` to send them together)."""
-        pos, rot = self.model.visual_poses(frame.position + self.offset, frame.orientation,
-                                           frame.q)
-        wxyz = matrix_to_wxyz(rot)
-        for h, idx in zip(self.handles, self.groups):
-            h.batched_positions = pos[idx].astype(np.float32)
-            h.batched_wxyzs = wxyz[idx].astype(np.float32)
+        """Pose the links (call inside ``server.atomic()`` to send them together)."""
+        poses = self.model.link_poses(frame.position + self.offset, frame.orientation, frame.q)
+        for link, fr in self.frames.items():
+            R, p = poses[link]
+            fr.wxyz = matrix_to_wxyz(R)
+            fr.position = p
         self.text.position = tuple(float(x) for x in frame.position + self.offset
                                    + np.array([0.0, 0.0, 0.22]))
 
@@ -192,6 +197,8 @@ class ViewerApp:
         s = self.server
         s.gui.configure_theme(show_share_button=False, control_width="large")
         s.scene.set_up_direction("+z")
+        # no shadow pass: a third of the rendering work, which matters for software WebGL
+        s.scene.configure_default_lights(enabled=True, cast_shadow=False)
         s.scene.add_grid("/ground", width=6.0, height=6.0, plane="xy", cell_size=0.1,
                          section_size=0.5, cell_color=(210, 210, 210),
                          section_color=(150, 150, 150), shadow_opacity=0.0)

@@ -5,7 +5,8 @@ extension our URDF uses for the legs. The URDF is small and regular (revolute an
 box/capsule/sphere/cylinder visuals), so it is read here with ``xml.etree``: joints (parent,
 child, origin xyz/rpy, axis, type) and each link's visuals (geometry, origin, material colour).
 
-Forward kinematics (:meth:`RobotModel.visual_poses`) is vectorised over frames: for a base pose
+Forward kinematics (:meth:`RobotModel.link_poses`, :meth:`RobotModel.visual_poses`) is
+vectorised over frames: for a base pose
 (position, quaternion xyzw) and joint angles q in ``layout.JOINT_NAMES`` order, the world
 transform of every link is T_parent @ T_origin @ Rot(axis, q); a visual sits at
 T_link @ T_visual_origin. ``test/test_viewer.py`` checks the foot spheres against the analytic
@@ -65,9 +66,9 @@ class RobotModel:
     visuals: list[Visual]
     joint_index: dict[str, int] = field(default_factory=dict)   # joint name -> index into q
 
-    def visual_poses(self, position: np.ndarray, quat_xyzw: np.ndarray,
-                     q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World positions (..., V, 3) and rotation matrices (..., V, 3, 3) of the visuals.
+    def link_poses(self, position: np.ndarray, quat_xyzw: np.ndarray,
+                   q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """World rotation (..., 3, 3) and position (..., 3) of every link.
 
         ``position`` (..., 3), ``quat_xyzw`` (..., 4), ``q`` (..., 12) in JOINT_NAMES order."""
         position = np.asarray(position, dtype=np.float64)
@@ -86,6 +87,12 @@ class RobotModel:
                 p = p + np.einsum("...ij,j->...i", R, j.axis) * q[..., self.joint_index[j.name],
                                                                     None]
             links[j.child] = (R, p)
+        return links
+
+    def visual_poses(self, position: np.ndarray, quat_xyzw: np.ndarray,
+                     q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World positions (..., V, 3) and rotation matrices (..., V, 3, 3) of the visuals."""
+        links = self.link_poses(position, quat_xyzw, q)
         pos, rot = [], []
         for v in self.visuals:
             R_l, p_l = links[v.link]
