@@ -32,7 +32,7 @@ class ViewerNode(ConfiguredNode):
         Param("layout", "side", "side: robots side by side; ghost: overlaid, translucent",
               "side | ghost"),
         Param("spacing", 0.4, "side by side: metres between robots", ">= 0"),
-        Param("rate", 50.0, "frames per second sent to the browser", "> 0"),
+        Param("rate", 40.0, "frames per second sent to the browser", "> 0"),
         Param("reliable", False, "subscribe reliable + transient-local instead of best-effort"),
         Param("trail", True, "draw each robot's body path"),
         Param("ellipse", True, "draw the (x, y) pose covariance (2 sigma) when published"),

@@ -70,8 +70,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="robots side by side (default) or overlaid as translucent ghosts")
     v.add_argument("--spacing", type=float, default=0.4, help="side by side: metres between "
                                                               "robots (default 0.4)")
-    v.add_argument("--rate", type=float, default=50.0,
-                   help="frames per second sent to the browser (default 50)")
+    v.add_argument("--rate", type=float, default=40.0,
+                   help="frames per second sent to the browser (default 40)")
     v.add_argument("--no-trail", action="store_true", help="no body-path trails")
     v.add_argument("--no-ellipse", action="store_true", help="no pose-covariance ellipses")
     v.add_argument("--no-plots", action="store_true", help="no gap / joint-error plots")

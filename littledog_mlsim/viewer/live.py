@@ -319,7 +319,7 @@ class LiveSource:
 class LiveView:
     """Draws the newest state of every robot at up to ``rate`` frames per second."""
 
-    def __init__(self, app: ViewerApp, source: LiveSource, rate: float = 50.0) -> None:
+    def __init__(self, app: ViewerApp, source: LiveSource, rate: float = 40.0) -> None:
         self.app, self.source, self.rate = app, source, float(rate)
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, name="viewer-live", daemon=True)
@@ -332,6 +332,10 @@ class LiveView:
         while not self._stop.is_set():
             t0 = time.perf_counter()
             try:
+                if not self.app.watched():      # nobody looks: keep only the newest states
+                    self.app.draw(self.source.latest(), count=False)
+                    self._stop.wait(period)
+                    continue
                 frames = self.source.latest()
                 new = [f if f is not None and f.t != s else None for f, s in zip(frames, seen)]
                 trails = None

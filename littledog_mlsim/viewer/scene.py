@@ -127,8 +127,10 @@ class RobotDrawing:
                     position=tuple(float(x) for x in v.xyz),
                     wxyz=tuple(float(x) for x in matrix_to_wxyz(v.rotation)),
                     cast_shadow=False, receive_shadow=False)
-        self.text = server.scene.add_label(f"{base}/label", label, position=(0.0, 0.0, 0.3),
-                                           anchor="bottom-center", visible=False)
+        # the label rides on the body frame: no message of its own per frame
+        self.text = server.scene.add_label(f"{base}/{model.root}/label", label,
+                                           position=(0.0, 0.0, 0.22), anchor="bottom-center",
+                                           visible=False)
         self.colour = colour
         self.trail = None
         self.ellipse = None
@@ -140,8 +142,6 @@ class RobotDrawing:
             R, p = poses[link]
             fr.wxyz = matrix_to_wxyz(R)
             fr.position = p
-        self.text.position = tuple(float(x) for x in frame.position + self.offset
-                                   + np.array([0.0, 0.0, 0.22]))
 
     def show_trail(self, points: np.ndarray | None) -> None:
         """The body path so far, (n, 3) world points (drawn on the ground), or None to hide."""
@@ -213,6 +213,7 @@ class ViewerApp:
         self.spacing = float(spacing)
         self.frames_drawn = 0
         self._last: list[Frame | None] = [None] * len(labels)
+        self._pending_visibility = False
         self._trails: list[list[np.ndarray]] = [[] for _ in labels]
         # GUI
         self.status = s.gui.add_html(self._status_html(None))
@@ -261,6 +262,10 @@ class ViewerApp:
 
     def stop(self) -> None:
         self.server.stop()
+
+    def watched(self) -> bool:
+        """A page is connected."""
+        return bool(self.server.get_clients())
 
     # -- drawing -----------------------------------------------------------------------------------
 
@@ -315,7 +320,23 @@ class ViewerApp:
     def draw(self, frames: Sequence[Frame | None], trails: Sequence[np.ndarray | None] | None
              = None, count: bool = True) -> None:
         """Show one frame per robot (None: keep that robot as it is). ``trails``: each robot's
-        body path (n, 3) to show, or None to keep the trail collected from the drawn frames."""
+        body path (n, 3) to show, or None to keep the trail collected from the drawn frames.
+
+        With no browser connected only the newest frames are kept (a page that connects later
+        gets them on the next draw): drawing costs the process CPU that a simulator on the same
+        cores may need (benchmarks/viewer)."""
+        if not self.server.get_clients():
+            with self.lock:
+                for i, f in enumerate(frames):
+                    if f is not None:
+                        if self._last[i] is None:
+                            self._pending_visibility = True
+                        self._last[i] = f
+            return
+        if self._pending_visibility:
+            self._pending_visibility = False
+            frames = [f if f is not None else last for f, last in zip(frames, self._last)]
+            self._last = [None] * len(self._last)
         with self.lock, self.server.atomic():
             t = None
             appeared = False
