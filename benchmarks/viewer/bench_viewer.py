@@ -20,6 +20,9 @@ start-up.
    draws (= frames received and applied by the page), and (b) animation frames
    (requestAnimationFrame) in which the status differed from the previous one (= frames of new
    robot state rendered), plus all animation frames; also the view's own count of frames sent.
+   In the ``view`` scenario a Python websocket client speaks viser's protocol like the page
+   (subprotocol, zstd + msgpack windows) and counts the distinct robot frames it receives per
+   second: what a page gets, independent of how fast the machine can render it.
 3. Start-up: wall time from launching ``littledog-mlsim view`` to the page being served (HTTP
    200 on /) and to its "ready" line, for ``--live`` (one robot) and for a bag replay; 3 runs
    each, median reported.
@@ -74,6 +77,45 @@ COUNTER_JS = """
 READ_JS = ("JSON.stringify({mut: window.__ldv.mut, raf: window.__ldv.raf, rafNew: "
            "window.__ldv.rafNew, t: performance.now() - window.__ldv.t0, status: "
            "(document.getElementById('ldv-status') || {}).textContent})")
+
+
+def wire_frames(url: str, seconds: float) -> dict:
+    """Robot frames a viser client receives: connect to the view's websocket as the page does
+    (subprotocol viser-v<version>), decode its windows (zstd msgpack, module doc of viser's
+    infra) and count distinct "frame N" status updates per second (each drawn frame sends
+    one, with the robots' link poses in the same window)."""
+    import msgspec
+    import viser
+    import zstandard
+    from websockets.sync.client import connect
+
+    dec = zstandard.ZstdDecompressor()
+    frames: set[int] = set()
+    windows = 0
+    ws = connect(url.replace("http://", "ws://"), subprotocols=[f"viser-v{viser.__version__}"],
+                 max_size=None)
+    t0 = time.perf_counter()
+    try:
+        while time.perf_counter() - t0 < seconds:
+            try:
+                data = ws.recv(timeout=1.0)
+            except TimeoutError:
+                continue
+            if not isinstance(data, bytes) or len(data) < 16:
+                continue
+            n_in = int.from_bytes(data[:8], "little")
+            n_c = int.from_bytes(data[8:16], "little")
+            inner = msgspec.msgpack.decode(dec.decompress(data[16:16 + n_c],
+                                                          max_output_size=n_in))
+            windows += 1
+            for m in inner.get("messages", ()):
+                text = json.dumps(m, default=str)
+                for k in re.findall(r"frame (\d+)", text):
+                    frames.add(int(k))
+        secs = time.perf_counter() - t0
+    finally:
+        ws.close()
+    return {"client_frames_per_s": len(frames) / secs, "client_windows_per_s": windows / secs}
 
 
 def load() -> float:
@@ -136,6 +178,7 @@ def sim_run(model: str, domain: int, duration: float, watched: bool, browser_on:
                                     stderr=subprocess.STDOUT, text=True)
             url = f"http://127.0.0.1:{port}"
             wait_http(url)
+        wire: dict = {}
         if watched and not browser_on:
             time.sleep(3.0 + 5.0)
         elif watched:
@@ -146,22 +189,26 @@ def sim_run(model: str, domain: int, duration: float, watched: bool, browser_on:
             browser.evaluate(COUNTER_JS)
             # warm-up: SwiftShader compiles the shaders first (tens of seconds under load);
             # measure once the page draws at least 20 animation frames per second (or after
-            # 120 s, whatever it does then)
-            end = time.monotonic() + 120
+            # 90 s, whatever it does then)
+            end = time.monotonic() + 90
             while time.monotonic() < end:
                 browser.evaluate("window.__ldvReset()")
                 time.sleep(2.0)
                 r = json.loads(browser.evaluate(READ_JS))
                 if r["raf"] / (r["t"] / 1000) >= 20:
                     break
-            out["warmup_s"] = 120 - (end - time.monotonic())
+            out["warmup_s"] = 90 - (end - time.monotonic())
             browser.evaluate("window.__ldvReset()")
             f0 = _frame_no(browser.evaluate(READ_JS))
         else:
             time.sleep(3.0 + 8.0)                      # start-up and warm-up
         t_start = time.time_ns()
-        time.sleep(duration)
+        if watched and not browser_on:      # a websocket client stands in for the page
+            wire = wire_frames(url, duration)
+        else:
+            time.sleep(duration)
         t_end = time.time_ns()
+        out.update(wire)
         loads.append(load())
         if browser is not None:
             r = json.loads(browser.evaluate(READ_JS))
@@ -252,6 +299,8 @@ def report(doc: dict) -> str:
         pg = (f"{r['page_mutations_per_s']:.1f} | {r['page_new_state_frames_per_s']:.1f} | "
               f"{r['page_animation_frames_per_s']:.1f} | {r['view_frames_sent_per_s']:.1f}"
               if "page_mutations_per_s" in r else "- | - | - | -")
+        if "client_frames_per_s" in r:
+            pg = f"(websocket client) {r['client_frames_per_s']:.1f} | - | - | -"
         L.append(f"| {r['round']} | {r['scenario']} | {r['published_hz']:.2f} | "
                  f"{r['step_ms_p50']:.3f} / {r['step_ms_p99']:.3f} / {r['step_ms_max']:.1f} | "
                  f"{pg} | {r['load_min']:.1f}-{r['load_max']:.1f} |")

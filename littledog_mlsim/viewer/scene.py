@@ -264,8 +264,11 @@ class ViewerApp:
         self.server.stop()
 
     def watched(self) -> bool:
-        """A page is connected."""
-        return bool(self.server.get_clients())
+        """A websocket client is connected (viser lists a page under ``get_clients`` only after
+        its first camera message; the infra's connection table, viser 1.1.1, has it at once)."""
+        conns = getattr(getattr(self.server, "_websock_server", None), "_client_state_from_id",
+                        None)
+        return bool(conns) if conns is not None else bool(self.server.get_clients())
 
     # -- drawing -----------------------------------------------------------------------------------
 
@@ -325,7 +328,7 @@ class ViewerApp:
         With no browser connected only the newest frames are kept (a page that connects later
         gets them on the next draw): drawing costs the process CPU that a simulator on the same
         cores may need (benchmarks/viewer)."""
-        if not self.server.get_clients():
+        if not self.watched():
             with self.lock:
                 for i, f in enumerate(frames):
                     if f is not None:
