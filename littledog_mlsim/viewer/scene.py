@@ -9,7 +9,7 @@ Drawing: each robot is the URDF's visual shapes (``urdf.RobotModel``), each a ch
 link's frame, so a frame of a robot is the poses of its 9 links with shapes, sent together
 (``server.atomic``). Robot 0 is the reference
 (the measured robot in a replay, the first simulator live); the others are drawn beside it
-(``layout="side"``: shifted by ``spacing`` along -y, a drawing offset only) or on top of it as
+(``layout="side"``: shifted by ``spacing`` along +y, a drawing offset only) or on top of it as
 translucent ghosts (``layout="ghost"``). Plots compare every robot with robot 0 at equal
 frame index (replay) or equal stamp (live): the (x, y) gap of the bodies and the per-joint
 angle errors of one chosen robot.
@@ -202,8 +202,11 @@ class ViewerApp:
         s.scene.add_grid("/ground", width=6.0, height=6.0, plane="xy", cell_size=0.1,
                          section_size=0.5, cell_color=(210, 210, 210),
                          section_color=(150, 150, 150), shadow_opacity=0.0)
-        s.initial_camera.position = (0.9, -1.3, 0.7)
-        s.initial_camera.look_at = (0.0, -0.2 * (len(labels) - 1), 0.08)
+        # from the front right: robot 0 leftmost, the others (shifted along +y) to its right,
+        # all left of the control panel
+        mid = 0.5 * spacing * (len(labels) - 1)
+        s.initial_camera.position = (1.3, mid - 0.8, 0.75)
+        s.initial_camera.look_at = (0.15, mid + 0.35, 0.0)
         self.robots = [RobotDrawing(s, self.model, f"r{i}", lab,
                                     ROBOT_COLOURS[i % len(ROBOT_COLOURS)])
                        for i, lab in enumerate(labels)]
@@ -283,7 +286,7 @@ class ViewerApp:
         ghost = self.gui_layout.value == "ghost"
         with self.lock:
             for i, r in enumerate(self.robots):
-                r.offset = np.array([0.0, -self.spacing * i, 0.0]) if not ghost else np.zeros(3)
+                r.offset = np.array([0.0, self.spacing * i, 0.0]) if not ghost else np.zeros(3)
             self._visibility()
             self._redraw()
 
