@@ -158,7 +158,7 @@ def free_port() -> int:
 
 
 def sim_run(model: str, domain: int, duration: float, watched: bool, browser_on: bool = True,
-            size: tuple[int, int] = (800, 500)) -> dict:
+            size: tuple[int, int] = (800, 500), client: bool = True) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="bench_viewer_"))
     log = tmp / "latency.csv"
     sim = subprocess.Popen([PY, "-m", "littledog_mlsim.nodes.sim_node", "--ros-args", "-p",
@@ -166,8 +166,8 @@ def sim_run(model: str, domain: int, duration: float, watched: bool, browser_on:
                             "stats_period:=0.0"], env=env(domain), stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL)
     view = browser = None
-    out: dict = {"scenario": ("view + browser" if browser_on else "view") if watched
-                 else "alone"}
+    out: dict = {"scenario": ("view + browser" if browser_on else "view" if client
+                              else "view, no page") if watched else "alone"}
     loads = [load()]
     try:
         if watched:
@@ -203,7 +203,7 @@ def sim_run(model: str, domain: int, duration: float, watched: bool, browser_on:
         else:
             time.sleep(3.0 + 8.0)                      # start-up and warm-up
         t_start = time.time_ns()
-        if watched and not browser_on:      # a websocket client stands in for the page
+        if watched and not browser_on and client:   # a websocket client stands in for the page
             wire = wire_frames(url, duration)
         else:
             time.sleep(duration)
@@ -265,16 +265,24 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--domain", type=int, default=175)
     ap.add_argument("--out", type=Path, default=Path("benchmarks/viewer"))
+    ap.add_argument("--scenarios", default="alone,view,view+browser",
+                    help="comma-separated among alone, view-no-page, view, view+browser")
+    ap.add_argument("--no-startup", action="store_true", help="skip the start-up runs")
+    ap.add_argument("--name", default="result", help="output file stem (default result)")
     a = ap.parse_args()
+    kinds = {"alone": (False, False, False), "view-no-page": (True, False, False),
+             "view": (True, False, True), "view+browser": (True, True, True)}
     runs = []
     for r in range(a.rounds):
-        for watched, browser_on in ((False, False), (True, False), (True, True)):
-            res = sim_run(a.model, a.domain, a.duration, watched, browser_on)
+        for name in a.scenarios.split(","):
+            watched, browser_on, client = kinds[name.strip()]
+            res = sim_run(a.model, a.domain, a.duration, watched, browser_on, client=client)
             res["round"] = r
             print(json.dumps(res), flush=True)
             runs.append(res)
-    starts = {"live": [startup(["--live", f"sim={a.domain}"], a.domain) for _ in range(3)],
-              "bag": [startup(["--bag", a.bag], a.domain) for _ in range(3)]}
+    starts = {} if a.no_startup else {
+        "live": [startup(["--live", f"sim={a.domain}"], a.domain) for _ in range(3)],
+        "bag": [startup(["--bag", a.bag], a.domain) for _ in range(3)]}
     print(json.dumps(starts), flush=True)
     doc = {"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
         [str(Path(sys.argv[0]).relative_to(ROOT)) if Path(sys.argv[0]).is_absolute()
@@ -282,8 +290,8 @@ def main() -> int:
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "runs": runs,
         "startup": starts}
     a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "result.json").write_text(json.dumps(doc, indent=1) + "\n")
-    (a.out / "result.md").write_text(report(doc))
+    (a.out / f"{a.name}.json").write_text(json.dumps(doc, indent=1) + "\n")
+    (a.out / f"{a.name}.md").write_text(report(doc))
     print(report(doc))
     return 0
 
@@ -304,8 +312,11 @@ def report(doc: dict) -> str:
         L.append(f"| {r['round']} | {r['scenario']} | {r['published_hz']:.2f} | "
                  f"{r['step_ms_p50']:.3f} / {r['step_ms_p99']:.3f} / {r['step_ms_max']:.1f} | "
                  f"{pg} | {r['load_min']:.1f}-{r['load_max']:.1f} |")
-    L += ["", "Page warm-up (shader compilation) before measuring: " + ", ".join(
-        f"{r['warmup_s']:.0f} s" for r in doc["runs"] if "warmup_s" in r) + "."]
+    warm = [f"{r['warmup_s']:.0f} s" for r in doc["runs"] if "warmup_s" in r]
+    if warm:
+        L += ["", "Page warm-up (shader compilation) before measuring: " + ", ".join(warm) + "."]
+    if not doc["startup"]:
+        return "\n".join(L) + "\n"
     L += ["", "## Start-up (launch to page served; launch to the \"ready\" line)", "",
           "| mode | served s (3 runs) | median | ready line s (median) | load avg |",
           "|---|---|---|---|---|"]
