@@ -143,10 +143,12 @@ def load_recording(bag: str | os.PathLike | None = None, data: str | os.PathLike
 
     if bag is not None:
         path = Path(bag)
+        if not path.is_dir():
+            raise ValueError(f"{path}: no such bag directory")
         try:
             mt = move_type_from_name(path.name)
         except ValueError:
-            mt = None
+            mt = "S"          # a bag not named <TYPE>_<NN>: the type only labels the move
         return read_bag(path, move_type=mt)
     if data is None:
         raise ValueError("give a bag, or a dataset and a move")
