@@ -4,6 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+CHROMIUM_STAMP := $(VENV)/.chromium-tried
 DATA ?= bags/default
 # `make run`: the demo's dataset and model (built by the demo if absent)
 DEMO_DATA ?= bags/demo
@@ -28,11 +29,23 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 # The main job (littledog_mlsim/apps/demo.py): record a small dataset and train an LGPR model if
 # absent, then replay a TestPool move through sim_node and pybullet_node over ROS 2 and report
 # the learned simulator's error against pybullet.
+# `make run VIEW=1` also serves the browser view (docs/viewer.md) and keeps it up until Ctrl-C.
 run: $(STAMP)
-	$(PY) -m littledog_mlsim.apps.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)
+	$(PY) -m littledog_mlsim.apps.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)$(if $(VIEW), --view)
 
-test: $(STAMP)
+test: $(STAMP) $(CHROMIUM_STAMP)
 	$(PY) -m pytest -q test
+
+# Headless Chromium for the view's browser tests (test/test_viewer_browser.py), from Debian's
+# packages, tried once (root with apt-get only); never fatal: without it those tests skip and say why.
+$(CHROMIUM_STAMP): | $(STAMP)
+	@if command -v chromium >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing chromium (Debian package) for the browser tests"; \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
+			|| echo "chromium could not be installed: the browser tests will skip"; \
+	else echo "no chromium and no root apt-get: the browser tests will skip"; fi
+	@touch $@
 
 dataset: $(STAMP)
 	$(VENV)/bin/littledog-mlsim record --out $(DATA)

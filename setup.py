@@ -64,6 +64,7 @@ setup(
             "bag_player = littledog_mlsim.nodes.bag_player:main",
             "bag_recorder = littledog_mlsim.nodes.bag_recorder:main",
             "topic_echo = littledog_mlsim.nodes.topic_echo:main",
+            "viewer_node = littledog_mlsim.nodes.viewer_node:main",
         ],
     },
 )

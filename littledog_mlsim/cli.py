@@ -328,6 +328,16 @@ def add_import_arguments(im: argparse.ArgumentParser) -> None:
                     help="storage of the written bags")
     im.add_argument("--skip-bad", action="store_true",
                     help="leave out a bag that cannot be imported (reported) instead of failing")
+def cmd_view(a: argparse.Namespace) -> int:
+    import logging
+
+    from .viewer.app import ViewError, run
+
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    try:
+        return run(a)
+    except ViewError as e:
+        raise CliError(str(e)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -479,6 +489,15 @@ def build_parser() -> argparse.ArgumentParser:
         i.add_argument("--data", required=True, type=Path, help="dataset directory")
         i.add_argument("--index-only", action="store_true", help="read dataset.yaml only, do not open the bags")
         i.set_defaults(func=cmd_info)
+
+    from .viewer.app import add_arguments as _view_arguments
+
+    vw = sub.add_parser("view", help="watch simulators live, or replay a move, in the browser",
+                        description="A local web page with the LittleDog(s): live from ROS 2 "
+                                    "topics (--live) or a replay with a timeline (--bag, --data "
+                                    "--move, --rollout; docs/viewer.md).")
+    _view_arguments(vw)
+    vw.set_defaults(func=cmd_view)
     return p
 
 

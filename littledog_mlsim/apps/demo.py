@@ -601,9 +601,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--alpha", type=float, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
     p.add_argument("--domain", type=int, default=None, metavar="D",
                    help="ROS domain of sim_node (pybullet_node uses D + 1; default from the pid)")
+    p.add_argument("--view", action="store_true",
+                   help="also serve the browser view (docs/viewer.md): live during the replay, "
+                        "then a replay of the run, until Ctrl-C")
+    p.add_argument("--view-port", type=int, default=8080, help="port of the view (default 8080)")
     a = p.parse_args(argv)
     previous = signal.signal(signal.SIGTERM, _interrupt)
     t0 = time.perf_counter()
+    view = None
     try:
         rec_s = ensure_dataset(a.data)
         if rec_s is not None:
@@ -612,11 +617,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         train_s = ensure_model(a.data, a.model)
         if train_s is not None:
             _print(f"trained {a.model} in {train_s:.0f} s")
+        if a.view:
+            from .viewer.demo_view import DemoView
+
+            a.domain = pick_domains(a.domain)[0]
+            view = DemoView(a.domain, a.domain + 1, port=a.view_port, log=_print)
         r = run_demo(a.data, a.model, move=a.move, max_steps=a.steps, domain=a.domain,
                      projection=a.projection, alpha=a.alpha)
         _print(format_report(r))
         _print(f"\ndone in {time.perf_counter() - t0:.0f} s; to run the nodes yourself see "
                f"README.md, 'Using it from ROS 2'.")
+        if view is not None:
+            view.serve_replay()           # until Ctrl-C
         return 0
     except KeyboardInterrupt:
         print("demo: interrupted", file=sys.stderr)
@@ -625,6 +637,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"demo: error: {' '.join(str(e).split())}", file=sys.stderr)
         return 1
     finally:
+        if view is not None:
+            view.close()
         signal.signal(signal.SIGTERM, previous)
 
 

@@ -1,0 +1,160 @@
+"""The view's numerical parts (no browser): URDF shapes and kinematics against the analytic legs
+of gait.ik, quaternion conversion, covariance ellipses, robot specs, replay tracks, and the live
+message handling (bad messages counted, never a crash)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from littledog_mlsim.gait.ik import forward_kinematics
+from littledog_mlsim.layout import CONTROL_DT, HOME_POSE, JOINT_LOWER, JOINT_UPPER
+from littledog_mlsim.viewer.scene import ellipse_points
+from littledog_mlsim.viewer.tracks import Track, joint_errors, measured_track, xy_gap
+from littledog_mlsim.viewer.urdf import load_robot, matrix_to_wxyz
+from synthetic import make_recording
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot()
+
+
+def test_urdf_shapes(robot):
+    kinds = sorted(v.kind for v in robot.visuals)
+    assert kinds.count("box") == 1 and kinds.count("capsule") == 8 and kinds.count("sphere") == 4
+    body = [v for v in robot.visuals if v.kind == "box"][0]
+    assert body.size == (0.33, 0.11, 0.14) and body.link == robot.root == "body"
+
+
+def test_feet_match_the_analytic_legs(robot):
+    """Foot spheres of the URDF chain == gait.ik's closed-form legs, under a random base pose."""
+    rng = np.random.default_rng(1)
+    q = rng.uniform(JOINT_LOWER, JOINT_UPPER, (50, 12))
+    rot = Rotation.random(50, random_state=2)
+    pos = rng.normal(0, 1, (50, 3))
+    p, _ = robot.visual_poses(pos, rot.as_quat(), q)
+    feet = p[:, [i for i, v in enumerate(robot.visuals) if v.kind == "sphere"]]
+    expect = pos[:, None] + np.einsum("nij,nkj->nki", rot.as_matrix(), forward_kinematics(q))
+    np.testing.assert_allclose(feet, expect, atol=1e-12)
+
+
+def test_capsules_end_at_the_joints(robot):
+    """Each upper-leg capsule's axis runs from hip pitch to knee (URDF geometry)."""
+    p, R = robot.visual_poses(np.zeros(3), np.array([0, 0, 0, 1.0]), HOME_POSE)
+    uppers = [i for i, v in enumerate(robot.visuals) if v.kind == "capsule"
+              and v.link.endswith("upper_leg")]
+    for i in uppers:
+        axis = R[i][:, 2]
+        ends = p[i] + np.outer([-0.5, 0.5], axis) * 0.0751
+        leg = robot.visuals[i].link.replace("_upper_leg", "")
+        k = ["front_left", "front_right", "back_left", "back_right"].index(leg)
+        q = HOME_POSE.reshape(4, 3)[k]
+        hip = np.array([0.101 if k < 2 else -0.101, 0.03625 if k % 2 == 0 else -0.03625, 0.0])
+        hip_pitch = hip + np.array([0, 0.0236 if k % 2 == 0 else -0.0236, 0])
+        # the hip roll turns the pitch joint about x
+        c, s = np.cos(q[0]), np.sin(q[0])
+        hip_pitch = hip + np.array([0, c * (hip_pitch - hip)[1], s * (hip_pitch - hip)[1]])
+        assert min(np.linalg.norm(ends - hip_pitch, axis=1)) < 1e-12
+
+
+def test_matrix_to_wxyz_round_trip():
+    rot = Rotation.random(200, random_state=3)
+    wxyz = matrix_to_wxyz(rot.as_matrix())
+    back = Rotation.from_quat(np.column_stack([wxyz[:, 1:], wxyz[:, 0]]))
+    np.testing.assert_allclose(back.as_matrix(), rot.as_matrix(), atol=1e-12)
+
+
+def test_bad_urdf_is_one_clear_error(tmp_path):
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot><link name='a'/><joint name='j' type='revolute'><parent link='a'/>"
+                   "<child link='b'/><origin xyz='0 0 nope'/></joint></robot>")
+    with pytest.raises(ValueError, match=r"bad\.urdf.*origin xyz"):
+        load_robot(bad)
+    (tmp_path / "trunc.urdf").write_text("<robot><link")
+    with pytest.raises(ValueError, match="cannot read the URDF"):
+        load_robot(tmp_path / "trunc.urdf")
+
+
+def test_ellipse_is_the_two_sigma_contour():
+    cov = np.diag([0.03 ** 2, 0.01 ** 2])
+    th = 0.7
+    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    pts = ellipse_points(np.array([1.0, 2.0]), R @ cov @ R.T)
+    local = (pts - [1.0, 2.0]) @ R              # back to the principal axes
+    np.testing.assert_allclose((local[:, 0] / 0.06) ** 2 + (local[:, 1] / 0.02) ** 2, 1.0,
+                               atol=1e-9)
+    assert ellipse_points(np.zeros(2), np.array([[1.0, 0], [0, -1.0]])) is None
+    assert ellipse_points(np.zeros(2), np.full((2, 2), np.nan)) is None
+
+
+def test_specs():
+    from littledog_mlsim.viewer.live import parse_specs
+
+    a, b, c = parse_specs(["learned=40", "pybullet=41/ns", "/robot1"])
+    assert (a.label, a.domain, a.namespace) == ("learned", 40, "")
+    assert (b.label, b.domain, b.topic("/littledog/odom")) == ("pybullet", 41,
+                                                                "/ns/littledog/odom")
+    assert (c.label, c.namespace) == ("robot1", "/robot1")
+    for bad in (["x=1 2"], ["a=500"], ["a=1", "a=2"]):
+        with pytest.raises(ValueError):
+            parse_specs(bad)
+
+
+def test_tracks_and_comparison():
+    rec = make_recording(n=60)
+    m = measured_track(rec)
+    assert len(m) == 59 and m.t[0] == pytest.approx(2 * CONTROL_DT)
+    np.testing.assert_array_equal(m.position, rec.position[2:])
+    shifted = Track("b", m.t, m.position + [0.03, 0.04, 0.0], m.orientation, m.q + 0.1)
+    np.testing.assert_allclose(xy_gap(shifted, m), 0.05)
+    np.testing.assert_allclose(joint_errors(shifted, m), 0.1)
+    with pytest.raises(ValueError, match="position has shape"):
+        Track("bad", m.t, m.position[:-1], m.orientation, m.q)
+
+
+def test_learned_track_is_sim_nodes_stepping():
+    """learned_track == LearnedSimulator stepped by hand (as sim_node does) for an LR model."""
+    from littledog_mlsim.data.dataset import features_responses
+    from littledog_mlsim.models.lr import LinearRegression
+    from littledog_mlsim.models.onestep import OneStepModel
+    from littledog_mlsim.rollout.simulate import prepare_test_move, rollout
+    from littledog_mlsim.viewer.tracks import learned_track
+
+    recs = [make_recording(f"F_{i:02d}", n=80, seed=i) for i in range(3)]
+    X, Y, _ = features_responses(recs)
+    model = OneStepModel.fit(LinearRegression(), X, Y)
+    tr = learned_track(recs[0], model, "none")
+    tm = prepare_test_move(recs[0])
+    states = rollout(model, tm.s0, tm.actions)
+    np.testing.assert_allclose(tr.q, states[:, 9:21], atol=1e-9)
+    np.testing.assert_allclose(tr.position[:, 2], states[:, 0], atol=1e-9)
+    assert tr.cov_xy is not None and np.all(np.diff(tr.cov_xy[:, 0, 0]) >= -1e-15)
+
+
+def test_live_messages(monkeypatch):
+    """Complete states need joint states and odometry of one stamp; bad messages are counted."""
+    from littledog_mlsim.nodes.messages import joint_state_msg, odometry_msg
+    from littledog_mlsim.viewer.live import SimSpec, _Robot
+
+    r = _Robot(SimSpec("a", 0, ""))
+    q = HOME_POSE.copy()
+    cov = np.zeros(36)
+    cov[0], cov[7], cov[1], cov[6] = 4e-4, 1e-4, 5e-5, 5e-5
+    r.on_joint_states(joint_state_msg(10_000_000, q, q * 0))
+    assert r.latest is None
+    r.on_odom(odometry_msg(10_000_000, [1, 2, 0.15], [0, 0, 0, 1], [0] * 3, [0] * 3, cov))
+    assert r.latest is not None and r.latest.t == pytest.approx(0.01)
+    np.testing.assert_allclose(r.latest.cov_xy, [[4e-4, 5e-5], [5e-5, 1e-4]])
+    bad = joint_state_msg(20_000_000, q)
+    bad.position = [float("nan")] * 12
+    r.on_joint_states(bad)
+    worse = joint_state_msg(20_000_000, q)
+    worse.name = ["x"] * 12
+    r.on_joint_states(worse)
+    r.on_odom(odometry_msg(20_000_000, [float("inf"), 0, 0], [0, 0, 0, 1], [0] * 3, [0] * 3))
+    assert r.bad == 3 and r.latest.t == pytest.approx(0.01)
+    r.on_odom(odometry_msg(30_000_000, [1.1, 2, 0.15], [0, 0, 0, 1], [0] * 3, [0] * 3))
+    r.on_joint_states(joint_state_msg(30_000_000, q))
+    assert r.latest.t == pytest.approx(0.03) and r.latest.cov_xy is None
+    assert list(r.stamps) == [10_000_000, 30_000_000]
