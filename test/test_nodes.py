@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-DOMAIN_ID = str(1 + os.getpid() % 100)
+# LITTLEDOG_TEST_DOMAIN_ID: a fixed domain (e.g. one reserved for this checkout)
+DOMAIN_ID = os.environ.get("LITTLEDOG_TEST_DOMAIN_ID") or str(1 + os.getpid() % 100)
 os.environ["ROS_DOMAIN_ID"] = DOMAIN_ID          # before rclpy.init (read from the environment)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -217,6 +217,10 @@ class LearnedSimulator:
         twist[np.arange(3, 6), np.arange(3, 6)] = var[S.d_rpy] / self.dt**2
         self.pose_covariance, self.twist_covariance = pose.reshape(36), twist.reshape(36)
 
+    def stats(self) -> dict[str, Any]:
+        """``~/stats`` entries of this backend (``sim.backend.Backend.stats``)."""
+        return {}
+
     def outputs_finite(self) -> bool:
         """True if every value the node would publish is finite."""
         parts = [self.state, self.position, self.orientation, self.linear_velocity,
