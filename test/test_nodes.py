@@ -351,7 +351,7 @@ def lockstep_sim(ros, work, served, test_move):
     params.write_text(json.dumps({"sim_node": {"ros__parameters": {
         "model_path": str(served[0]), "step_mode": "lockstep", "initial_state": s0,
         "initial_pose": pose, "stats_period": 0.2}}}))
-    proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5}, work,
+    proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5, "radius": 0.0}, work,
                 "--params-file", str(params))
     probe = Probe(ros)
     probe.connect(proc)
@@ -674,8 +674,11 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
         probe.connect(proc)
         probe.send(HOME_POSE)
         probe.wait(lambda: CONTROL_DT_NS in probe.state, what="the first step")
-        s0 = standing_train_state(model.train_states, model.projection("alpha", 0.5))
-        ref = rollout(model, s0, HOME_POSE[None], model.projection("alpha", 0.5))
+        # ... and steps with the default projection: gated alpha-PROJ, the model's own radius
+        assert model.gate["radius"] > 0 and model.gate["quantile"] == 0.9
+        gated = model.projection("alpha", 0.5, radius=model.gate["radius"])
+        s0 = standing_train_state(model.train_states, gated)
+        ref = rollout(model, s0, HOME_POSE[None], gated)
         np.testing.assert_allclose(probe.state[CONTROL_DT_NS], ref[0], atol=1e-12)
     finally:
         probe.close()

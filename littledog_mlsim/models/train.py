@@ -25,6 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..data.dataset import features_responses, load_moves, read_index
+from ..rollout.projection import gate_radius
 from .features import FeatureSet
 from .onestep import TARGETS, OneStepModel
 from .persistence import fingerprint_arrays, get_method
@@ -91,9 +92,9 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
     say(f"loading the TrainPool of {data_dir} ({len(index.names('train'))} bags)")
     moves = load_moves(data_dir, "train")
     if feature_set is None or feature_set.is_base:
-        X, Y, _ = features_responses(moves)
+        X, Y, groups = features_responses(moves)
     else:
-        X, Y, _ = feature_set.features_responses(moves)
+        X, Y, groups = feature_set.features_responses(moves)
     n_pool = X.shape[0]
     cap = max_train_samples if max_train_samples is not None else DEFAULT_MAX_TRAIN.get(method)
     rows = np.arange(n_pool)
@@ -113,6 +114,11 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
                              data_fingerprint=fingerprint_arrays(X, Y), info=info,
                              feature_set=feature_set)
     say(f"fitted {method} in {time.perf_counter() - t1:.1f} s")
+    if np.unique(groups).size >= 2:   # the gated alpha-PROJ's default radius, from the moves
+        t2 = time.perf_counter()
+        model.gate = gate_radius(Y, groups)
+        say(f"gate radius {model.gate['radius']:.4g} (quantile {model.gate['quantile']} of the "
+            f"leave-move-out distances) in {time.perf_counter() - t2:.1f} s")
     return model
 
 

@@ -58,6 +58,7 @@ __all__ = [
     "PROJECTION_KINDS", "PROJECTION_FORMAT_VERSION", "Projection", "NoProjection",
     "BoundProjection", "AlphaProjection", "NearestNeighbour", "make_projection",
     "enforce_limits", "leave_move_out_distances", "radius_from_quantile",
+    "GATE_QUANTILE", "GATE_EVERY", "gate_radius",
 ]
 
 PROJECTION_KINDS: tuple[str, ...] = ("none", "bound", "alpha")
@@ -828,6 +829,25 @@ def radius_from_quantile(train_states: np.ndarray, groups: np.ndarray, quantile:
         raise ValueError(f"quantile must be in [0, 1], got {quantile}")
     d = leave_move_out_distances(train_states, groups, scale=scale, every=every)
     return float(np.quantile(d, quantile))
+
+
+GATE_QUANTILE = 0.9   # the default gate: this quantile of the leave-move-out distances
+GATE_EVERY = 4        # ... over every 4th TrainPool state of each move
+
+
+def gate_radius(train_states: np.ndarray, groups: np.ndarray, quantile: float = GATE_QUANTILE,
+                every: int = GATE_EVERY) -> dict[str, Any]:
+    """The default radius of the gated alpha-PROJ for a model, as a JSON-ready record:
+    ``{"radius", "quantile", "every", "n_queries", "rule": "leave-move-out"}``.
+
+    The radius is the ``quantile`` of ``leave_move_out_distances`` (every ``every``-th state):
+    real states of a move the TrainPool does not hold are that close to it in that share of
+    cases, so states as well covered as those stay untouched and only the excess is pulled.
+    ``GATE_QUANTILE`` (0.9) is the documented default (README "Which projection",
+    ``benchmarks/sim_node_10x``)."""
+    d = leave_move_out_distances(train_states, groups, every=every)
+    return {"radius": float(np.quantile(d, float(quantile))), "quantile": float(quantile),
+            "every": int(every), "n_queries": int(d.size), "rule": "leave-move-out"}
 
 
 _KINDS: dict[str, type[Projection]] = {
