@@ -300,3 +300,18 @@ def test_core_imports_no_rclpy():
     code = ("import sys, littledog_mlsim.sim, littledog_mlsim.rollout.learned_sim; "
             "sys.exit('rclpy' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def test_extrapolating_steps_are_warned_throttled():
+    r = Rig(step_mode="lockstep", log_throttle=1.0)
+    b = r.backend
+    b.extrapolating, b.nn_distance, b.trust_radius = True, 2.5, 1.7
+    for k in range(5):
+        r.cmd(u_(k))
+    lines = [ln for ln in r.lines["warning"] if ln.startswith("extrapolating")]
+    assert lines == ["extrapolating: the prediction is 2.50 from the nearest TrainPool state, "
+                     "beyond the trust radius 1.70 (covariance inflated)"]
+    b.extrapolating = False
+    r.clock.advance(2000)
+    r.cmd(u_(9))
+    assert len([ln for ln in r.lines["warning"] if ln.startswith("extrapolating")]) == 1

@@ -18,6 +18,16 @@ HOME_BODY_HEIGHT, level, at rest, joints at HOME_POSE): a real standing state fr
 the model was trained on. ``initial_state`` (33 values, ``layout.STATE_NAMES`` order) replaces
 it; ``initial_pose`` = (x, y, yaw) places it in odom.
 
+Knowing when not to trust it: ``~/stats`` also carries ``nn_distance`` (the last prediction's
+normalised distance to its nearest TrainPool state, before the projection),
+``nn_distance_max`` (over the stats period), ``trust_radius`` (the gate radius: the
+projection's, else the model's stored one; 0 = never flagged), ``extrapolating`` (true/false,
+the last step) and ``extrapolating_steps`` (since start). A step beyond the trust radius is
+warned (throttled by ``log_throttle``) and inflates that step's variances by
+``(nn_distance / trust_radius)^2`` in the odometry covariances (``rollout/learned_sim.py``), so
+a controller sees extrapolation on the topics alone: the flag in ``~/stats`` and a covariance
+that grows faster.
+
 Parameters: ``config/sim.yaml`` (every one is listed there with its default) and
 ``nodes/simulator.py`` (those shared with pybullet_node).
 """
@@ -126,7 +136,19 @@ class SimNode(SimulatorNode):
         if prepare is not None:   # one-time work (variance factors) out of the 10 ms loop
             prepare(return_std=use_var)
         self.model = model
-        return LearnedSimulator(model, projection, s0, pose, use_var)
+        # extrapolation: beyond the gate radius (the model's own if the projection has none)
+        trust = getattr(projection, "radius", 0.0) or float((model.gate or {}).get("radius", 0.0))
+        monitor = None
+        if kind != "alpha" and model.train_states is not None:
+            from ..rollout.projection import AlphaProjection
+            monitor = AlphaProjection(model.train_states, alpha=0.0,
+                                      nn_method=self.param("nn_method"))
+            monitor.nn.prepare()
+        nn = getattr(projection, "nn", None)
+        if nn is not None:
+            nn.prepare()              # the search index now, not inside the first step
+        return LearnedSimulator(model, projection, s0, pose, use_var, trust_radius=trust,
+                                monitor=monitor)
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -21,7 +21,10 @@ class Backend(Protocol):
     """One simulated LittleDog. After ``reset``/``step`` the attributes hold the outputs:
     ``q``, ``dq`` (12,); ``position`` (3,), ``orientation`` (4,) xyzw of base_link in odom;
     ``linear_velocity``, ``angular_velocity`` (3,) in base_link; ``state`` (33,) or None (not
-    known yet); ``pose_covariance``, ``twist_covariance`` (36,) row-major or None (unknown)."""
+    known yet); ``pose_covariance``, ``twist_covariance`` (36,) row-major or None (unknown).
+
+    Optional: ``extrapolating`` (bool, the last step left the data), ``nn_distance`` and
+    ``trust_radius`` (floats): the core warns (throttled) on such steps."""
 
     q: np.ndarray
     dq: np.ndarray

@@ -21,6 +21,9 @@ measurement going out, independent of the transport:
   state goes out at that stamp; the held command returns to ``stand_command``;
 - **divergence**: a step the backend cannot make finite is discarded, the backend is reset
   (time still advances one step), ``diverged`` is counted and logged (throttled);
+- **extrapolation**: a backend that says a step left the data (``extrapolating``, with
+  ``nn_distance`` and ``trust_radius``: the learned simulator) gets a warning, throttled like
+  the command warnings;
 - **counters and timing statistics** (:meth:`SimulatorCore.stats`), and the optional per-step
   latency log.
 
@@ -336,6 +339,11 @@ class SimulatorCore:
             self._error_throttle("diverged", "the simulator produced a non-finite state: "
                                              "discarded the step and reset to the initial state")
             b.reset()
+        elif getattr(b, "extrapolating", False):
+            self.throttle("extrapolating", f"extrapolating: the prediction is "
+                                           f"{b.nn_distance:.2f} from the nearest TrainPool "
+                                           f"state, beyond the trust radius "
+                                           f"{b.trust_radius:.2f} (covariance inflated)")
         self.k += 1
         self.counters.steps += 1
         self.publish(self.config.start_ns + self.k * CONTROL_DT_NS, u)
