@@ -137,3 +137,12 @@ def test_gated_projection_distance_is_the_search_distance(moves):
         assert sim.step(u)
         np.testing.assert_array_equal(sim.state, ref[t])
         assert sim.nn_distance == pytest.approx(float(gated.distance(pred)[0]), rel=1e-12)
+
+
+def test_single_pose_rotations_equal_the_vectorised_ones():
+    from littledog_mlsim.rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
+    rpy = np.random.default_rng(0).uniform(-np.pi, np.pi, (200, 3))
+    np.testing.assert_allclose(np.array([rpy_to_matrix1(*r) for r in rpy]), rpy_to_matrix(rpy),
+                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.array([rpy_to_quat1(*r) for r in rpy]), rpy_to_quat(rpy),
+                               rtol=0, atol=1e-15)

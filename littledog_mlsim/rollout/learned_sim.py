@@ -58,7 +58,7 @@ import numpy as np
 
 from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S, wrap_angle
 from ..robot.sensors import twist_from_poses
-from ..rotations import rpy_to_matrix, rpy_to_quat
+from ..rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
 from .projection import AlphaProjection, Projection
 from .simulate import _predict, model_feature_set
 
@@ -208,7 +208,8 @@ class LearnedSimulator:
             return False
         prev_state, (x0, y0, yaw0) = self.state, self._xy_yaw
         yaw = yaw0 + nxt[S.dyaw]
-        R = rpy_to_matrix(np.array([prev_state[S.roll], prev_state[S.pitch], yaw0]))[:2]
+        R = rpy_to_matrix1(float(prev_state[S.roll]), float(prev_state[S.pitch]),
+                            float(yaw0))[:2]
         dp = R @ nxt[S.d_b]
         xy_yaw = np.array([x0 + dp[0], y0 + dp[1], wrap_angle(yaw)])
         if not np.all(np.isfinite(xy_yaw)):
@@ -253,7 +254,7 @@ class LearnedSimulator:
         s = self.state
         x, y, yaw = self._xy_yaw
         self.position = np.array([x, y, s[S.z_w]])
-        self.orientation = rpy_to_quat(np.array([s[S.roll], s[S.pitch], yaw]))
+        self.orientation = rpy_to_quat1(float(s[S.roll]), float(s[S.pitch]), float(yaw))
         self.linear_velocity, self.angular_velocity = twist_from_poses(
             self._prev_pose[0], self._prev_pose[1], self.position, self.orientation, self.dt)
         if not self.use_variance:
