@@ -37,7 +37,12 @@ from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from rclpy.qos import (  # noqa: E402
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+)
 from rosgraph_msgs.msg import Clock as ClockMsg  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_srvs.srv import SetBool, Trigger  # noqa: E402
@@ -670,10 +675,24 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
     proc = Proc("sim_node", {"model_path": out, "step_mode": "lockstep", "stats_period": 0.2},
                 work)
     probe = Probe(ros)
+    # /robot_description: transient-local, so this late subscriber still gets the URDF
+    from std_msgs.msg import String
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    urdf: list[str] = []
+    probe.node.create_subscription(String, "/robot_description",
+                                   lambda msg: probe._add(lambda: urdf.append(msg.data)), latched)
     try:
         probe.connect(proc)
         probe.send(HOME_POSE)
         probe.wait(lambda: CONTROL_DT_NS in probe.state, what="the first step")
+        probe.wait(lambda: bool(urdf), what="/robot_description")
+        assert '<link name="base_link"/>' in urdf[0] and '<link name="body">' in urdf[0]
+        # ~/stats: the distance to the data and the trust radius (the model's gate radius)
+        st = probe.wait_counter("steps", 1)
+        assert float(st["trust_radius"]) == pytest.approx(model.gate["radius"], abs=1e-3)
+        assert np.isfinite(float(st["nn_distance"])) and "real_time_factor" in st
+        assert st["extrapolating"] in ("true", "false") and int(st["extrapolating_steps"]) >= 0
         # ... and steps with the default projection: gated alpha-PROJ, the model's own radius
         assert model.gate["radius"] > 0 and model.gate["quantile"] == 0.9
         gated = model.projection("alpha", 0.5, radius=model.gate["radius"])

@@ -315,3 +315,49 @@ def test_extrapolating_steps_are_warned_throttled():
     r.clock.advance(2000)
     r.cmd(u_(9))
     assert len([ln for ln in r.lines["warning"] if ln.startswith("extrapolating")]) == 1
+
+
+def test_tf_odometry_with_a_stand_in_message_type(monkeypatch):
+    """odom -> base_link on /tf where tf2_msgs exists: here a stand-in module supplies the
+    TFMessage type (the pip wheels have none), and the transform equals the odometry's pose."""
+    import sys
+    import types
+
+    from littledog_mlsim.nodes import messages as m
+
+    class TFMessage:              # what tf2_msgs.msg.TFMessage holds: a list of transforms
+        def __init__(self) -> None:
+            self.transforms = []
+
+    fake = types.ModuleType("tf2_msgs.msg")
+    fake.TFMessage = TFMessage
+    monkeypatch.setitem(sys.modules, "tf2_msgs", types.ModuleType("tf2_msgs"))
+    monkeypatch.setitem(sys.modules, "tf2_msgs.msg", fake)
+    assert m.tf_message_type() is TFMessage
+    tf = m.TfOdometry(TFMessage)
+    pos, quat = np.array([1.0, -2.0, 0.14]), np.array([0.0, 0.0, np.sin(0.3), np.cos(0.3)])
+    msg = tf(2_030_000_000, pos, quat)
+    (t,) = msg.transforms
+    assert (t.header.frame_id, t.child_frame_id) == ("odom", "base_link")
+    assert (t.header.stamp.sec, t.header.stamp.nanosec) == (2, 30_000_000)
+    tr, rot = t.transform.translation, t.transform.rotation
+    assert [tr.x, tr.y, tr.z] == pos.tolist() and [rot.x, rot.y, rot.z, rot.w] == quat.tolist()
+    monkeypatch.setitem(sys.modules, "tf2_msgs.msg", None)      # not installed
+    assert m.tf_message_type() is None
+
+
+def test_robot_description_has_a_base_link_root():
+    import xml.etree.ElementTree as ET
+
+    from littledog_mlsim.nodes import messages as m
+
+    root = ET.fromstring(m.robot_description())
+    links = {ln.get("name") for ln in root.iter("link")}
+    joints = {j.get("name"): j for j in root.iter("joint")}
+    assert "base_link" in links and "body" in links
+    fixed = joints["base_link_to_body"]
+    assert fixed.get("type") == "fixed"
+    assert fixed.find("parent").get("link") == "base_link"
+    assert fixed.find("child").get("link") == "body"
+    children = {j.find("child").get("link") for j in joints.values()}
+    assert [ln for ln in links if ln not in children] == ["base_link"]   # the one root
