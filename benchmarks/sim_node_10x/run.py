@@ -9,9 +9,9 @@ Three phases, one model (the paper-scale LGPR), gated alpha-PROJ (the model's ra
 1. ``profile`` (in this process, no subscriber): a sim_node is built here and stepped
    ``--profile-steps`` times through its command callback (lockstep: command check, model,
    projection, pose, covariance, message construction and publish), once timed per step
-   (thread CPU time), once under cProfile; the CPU per step is split into the model's
-   prediction with std, the projection (nearest-neighbour search), messages and publishing,
-   and the rest (core, pose, covariance). With ``--code-root`` another checkout's code is
+   (thread CPU time, with the model's prediction, the nearest-neighbour search and the
+   publish calls timed by wrappers: the split of the step's CPU), once under cProfile (the
+   functions with the most own time). With ``--code-root`` another checkout's code is
    profiled instead (for the before/after comparison).
 2. ``timer10x`` (sim_node in its own process, ``real_time_factor`` 10, ``latency_log`` on): a
    controller here streams a TestPool move's commands at ``--cmd-hz`` (1 kHz: one per step)
@@ -46,12 +46,6 @@ import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-CATEGORIES = {   # cProfile cumulative time of these functions (the first match wins per frame)
-    "model predict (mean + std)": ("onestep.py", "predict"),
-    "projection + nn search": ("projection.py", "project_distance"),
-    "projection (old: __call__)": ("projection.py", "__call__"),
-    "publish (serialise + DDS)": ("publisher.py", "publish"),
-}
 
 
 def uptime() -> str:
@@ -60,7 +54,7 @@ def uptime() -> str:
 
 def pct(x) -> dict:
     x = np.asarray(x, dtype=float)
-    return {"n": int(x.size), "p50": float(np.percentile(x, 50)),
+    return {"n": int(x.size), "mean": float(x.mean()), "p50": float(np.percentile(x, 50)),
             "p99": float(np.percentile(x, 99)), "max": float(x.max())}
 
 
@@ -99,11 +93,32 @@ def profile_main(a) -> dict:
     n = a.profile_steps
     for k in range(200):                           # warm up
         node._on_cmd(msgs[k % len(msgs)])
+    # the parts, timed by wrappers around the calls (thread CPU time, about 1 us each):
+    # the model's prediction (mean + std), the nearest-neighbour search, the publish calls
+    spent = {"model predict (mean + std)": 0, "nn search": 0, "publish (serialise + DDS)": 0}
+
+    def timed(fn, key):
+        def wrapper(*args, **kw):
+            c = time.thread_time_ns()
+            try:
+                return fn(*args, **kw)
+            finally:
+                spent[key] += time.thread_time_ns() - c
+        return wrapper
+    node.model.predict = timed(node.model.predict, "model predict (mean + std)")
+    nn = node.backend.projection.nn
+    nn.query = timed(nn.query, "nn search")
+    for pub in (node.pub_js, node.pub_odom, node.pub_clock):
+        if pub is not None:
+            pub.publish = timed(pub.publish, "publish (serialise + DDS)")
     cpu = np.empty(n)
     for k in range(n):
         c0 = time.thread_time_ns()
         node._on_cmd(msgs[k % len(msgs)])
         cpu[k] = time.thread_time_ns() - c0
+    parts = {key: v / 1e6 / n for key, v in spent.items()}
+    parts["rest (command check, pose, covariance, messages, core)"] = (
+        cpu.sum() / 1e6 / n - sum(parts.values()))
     prof = cProfile.Profile()
     prof.enable()
     for k in range(n):
@@ -111,11 +126,6 @@ def profile_main(a) -> dict:
     prof.disable()
     st = pstats.Stats(prof)
     total = sum(v[2] for v in st.stats.values())   # tottime over all functions
-    parts = {}
-    for label, (file, func) in CATEGORIES.items():
-        cum = sum(v[3] for (f, _, fn), v in st.stats.items() if f.endswith(file) and fn == func)
-        if cum:
-            parts[label] = 1e3 * cum / n
     top = sorted(((v[2], f"{Path(f).name}:{fn}") for (f, _, fn), v in st.stats.items()),
                  reverse=True)[:15]
     out = {"code": a.code_root or str(ROOT), "steps": n, "step_cpu_ms": pct(cpu / 1e6),
@@ -307,23 +317,23 @@ def markdown(doc: dict) -> list[str]:
              f"Command: `OPENBLAS_NUM_THREADS={doc['openblas_num_threads']} "
              f".venv/bin/python {doc['command']}`  ", f"Code: {doc['git']}; date {doc['date']}",
              ""]
+    keys = ["model predict (mean + std)", "nn search", "publish (serialise + DDS)",
+            "rest (command check, pose, covariance, messages, core)"]
     lines += ["## 1. Where a step's CPU goes (in-process node, lockstep callback, no subscriber)",
-              "", "| code | step CPU p50 [ms] | p99 [ms] | " + " | ".join(
-                  ["model predict (mean + std)", "projection + nn search", "publish"]) + " |",
-              "|---|---|---|---|---|---|"]
+              "", "| code | step CPU p50 [ms] | p99 [ms] | mean [ms] | " + " | ".join(keys) +
+              " |", "|---" * (4 + len(keys)) + "|"]
     for key in ("profile_before", "profile"):
         if key not in r:
             continue
         p = r[key]
         parts = p["parts_ms_per_step"]
-        proj = parts.get("projection + nn search", parts.get("projection (old: __call__)"))
         lines.append(f"| {'before (' + p['code'] + ')' if key == 'profile_before' else 'this'} "
                      f"| {p['step_cpu_ms']['p50']:.3f} | {p['step_cpu_ms']['p99']:.3f} | "
-                     f"{parts.get('model predict (mean + std)', float('nan')):.3f} | "
-                     f"{proj if proj is not None else float('nan'):.3f} | "
-                     f"{parts.get('publish (serialise + DDS)', float('nan')):.3f} |")
-    lines += ["", "(The parts are cProfile's cumulative times per step, inflated by the "
-              "profiler's own overhead; the p50/p99 columns are measured without it.)", ""]
+                     f"{p['step_cpu_ms']['mean']:.3f} | "
+                     + " | ".join(f"{parts.get(k, float('nan')):.3f}" for k in keys) + " |")
+    lines += ["", "(Parts: mean CPU ms per step; load: "
+              + "; ".join(f"`{r[k]['load']}`" for k in ("profile_before", "profile") if k in r)
+              + ")", ""]
     if "profile" in r:
         lines += ["Top functions by own time (this code, ms per step under cProfile):", ""]
         lines += [f"- `{name}` {ms:.3f}" for name, ms in r["profile"]["top_tottime_ms_per_step"]]
