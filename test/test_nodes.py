@@ -680,8 +680,10 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     urdf: list[str] = []
-    probe.node.create_subscription(String, "/robot_description",
-                                   lambda msg: probe._add(lambda: urdf.append(msg.data)), latched)
+    desc = Node(f"description_{time.monotonic_ns()}")   # subscribed before the executor spins it
+    desc.create_subscription(String, "/robot_description",
+                             lambda msg: probe._add(lambda: urdf.append(msg.data)), latched)
+    ros.executor.add_node(desc)
     try:
         probe.connect(proc)
         probe.send(HOME_POSE)
@@ -700,6 +702,7 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
         ref = rollout(model, s0, HOME_POSE[None], gated)
         np.testing.assert_allclose(probe.state[CONTROL_DT_NS], ref[0], atol=1e-12)
     finally:
+        ros.close(desc)
         probe.close()
         assert proc.stop() == 0
 
