@@ -234,6 +234,33 @@ BAD = {
 }
 
 
+# every case the DDS test used to send (test_nodes keeps one per reason over DDS)
+RULE_CASES = {
+    "unknown_name": (list(JOINT_NAMES[:11]) + ["tail"], HOME_POSE, "names"),
+    "missing_name": (list(JOINT_NAMES[:11]), HOME_POSE[:11], "names"),
+    "duplicated_name": (list(JOINT_NAMES[:11]) + [JOINT_NAMES[0]], HOME_POSE, "names"),
+    "short_position": (list(JOINT_NAMES), HOME_POSE[:11], "length"),
+    "long_position": (list(JOINT_NAMES), np.r_[HOME_POSE, 0.0], "length"),
+    "nan": (list(JOINT_NAMES), np.r_[np.nan, HOME_POSE[1:]], "nonfinite"),
+    "inf": (list(JOINT_NAMES), np.r_[HOME_POSE[:5], -np.inf, HOME_POSE[6:]], "nonfinite"),
+}
+
+
+@pytest.mark.parametrize("case", list(RULE_CASES))
+def test_command_rule_cases(case):
+    """Each malformed command is rejected for its reason, counted, and the held command
+    stays; a permuted good command is matched by name."""
+    names, pos, reason = RULE_CASES[case]
+    r = Rig(step_mode="lockstep")
+    perm = np.random.default_rng(1).permutation(12)
+    r.cmd(u_(1)[perm], [JOINT_NAMES[i] for i in perm])
+    np.testing.assert_array_equal(r.backend.commands[-1], u_(1))
+    r.cmd(pos, names)
+    assert getattr(r.core.counters, f"cmd_rejected_{reason}") == 1
+    assert r.core.counters.steps == 1 and r.core.counters.cmd_received == 2
+    assert f"({reason})" in r.lines["warning"][-1]
+
+
 @pytest.mark.parametrize("reason", list(BAD))
 def test_rejected_commands_counted_and_warned_throttled(reason):
     r = Rig(log_throttle=0.5)
