@@ -137,10 +137,11 @@ def _quantile(text: str) -> float:
 
 def _add_radius_options(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--radius", type=_radius, default=0.0, metavar="R",
+    g.add_argument("--radius", type=_radius, default=None, metavar="R",
                    help="gated alpha-PROJ: leave states within R (normalised units) of their "
-                        "nearest TrainPool state alone, pull only the excess (default 0: plain "
-                        "alpha-PROJ)")
+                        "nearest TrainPool state alone, pull only the excess (0: plain "
+                        "alpha-PROJ; default: the model's own radius, the 0.9 quantile of its "
+                        "TrainPool's leave-move-out distances, stored at training)")
     g.add_argument("--radius-quantile", type=_quantile, default=None, metavar="Q",
                    help="gated alpha-PROJ with R = the Q quantile of the distances of TrainPool "
                         "states to the nearest state of another TrainPool move (e.g. 0.9)")

@@ -136,3 +136,22 @@ def rotate_inverse1(q: tuple[float, ...], v: tuple[float, ...]) -> tuple[float, 
     cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx          # u x v
     ddx, ddy, ddz = y * cz - z * cy, z * cx - x * cz, x * cy - y * cx      # u x (u x v)
     return (vx - 2 * w * cx + 2 * ddx, vy - 2 * w * cy + 2 * ddy, vz - 2 * w * cz + 2 * ddz)
+
+
+def rpy_to_matrix1(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """``rpy_to_matrix`` of one pose from plain floats (the learned simulator's step)."""
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def rpy_to_quat1(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """``rpy_to_quat`` of one pose from plain floats (w >= 0)."""
+    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
+    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
+    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
+    q = np.array([sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+                  cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy])
+    return -q if q[3] < 0 else q

@@ -9,10 +9,9 @@
    contract's topic names, docs/interface.md §2, without remapping, and their outputs cannot
    mix), with localhost discovery: ``sim_node`` (the learned model, lockstep) in domain D and
    ``pybullet_node`` (measured robot, lockstep) in domain D + 1. D is derived from the process
-   id unless ``--domain`` is given. sim_node runs with ``projection:=none`` unless
-   ``--projection`` says otherwise: the most accurate setting in ``benchmarks/lgpr_evaluate``
-   (alpha-PROJ, sim_node's own default and the paper's, pulls the rollout toward TrainPool
-   states and is worse there, and much worse on the small demo dataset: the robot barely moves).
+   id unless ``--domain`` is given. sim_node runs with its own default projection, the gated
+   alpha-PROJ (alpha 0.5, the radius stored in the model; README "Which projection"), unless
+   ``--projection`` says otherwise.
 3. One TestPool move's recorded commands go to both on ``/littledog/cmd``, one command per step,
    the next one only after both simulators published that step's ``/littledog/joint_states``,
    ``/littledog/odom`` and ``~/state`` (lockstep: deterministic whatever the CPU load).
@@ -352,7 +351,7 @@ def _recording_seed(entry, info: dict) -> int:
 def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = DEFAULT_MODEL,
              *, move: str | None = None, max_steps: int | None = None,
              domain: int | None = None, robot: str = "measured",
-             projection: str = "none", alpha: float = 0.5,
+             projection: str = "alpha", alpha: float = 0.5,
              log: Log = _print) -> DemoResult:
     """Replay one move's commands through sim_node and pybullet_node (each a process in its
     own ROS domain, lockstep) and compare what they publish (module doc). ``max_steps`` cuts
@@ -493,7 +492,7 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
 
 def _projection_label(projection: str, alpha: float) -> str:
     if projection == "alpha":
-        return f"alpha-PROJ (alpha {alpha:g})"
+        return f"alpha-PROJ (alpha {alpha:g}, gated by the model's radius)"
     return {"none": "no projection", "bound": "BOUND projection"}.get(projection, projection)
 
 
@@ -595,9 +594,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--move", default=None,
                    help="bag to replay, e.g. F_02 (default: the first TestPool F move)")
     p.add_argument("--steps", type=int, default=None, help="replay only the first N commands")
-    p.add_argument("--projection", choices=["none", "bound", "alpha"], default="none",
-                   help="sim_node's projection (default none, the most accurate in "
-                        "benchmarks/lgpr_evaluate; sim_node's own default is alpha)")
+    p.add_argument("--projection", choices=["none", "bound", "alpha"], default="alpha",
+                   help="sim_node's projection (default alpha: sim_node's default, the gated "
+                        "alpha-PROJ with the model's own radius)")
     p.add_argument("--alpha", type=float, default=0.5, help="alpha of alpha-PROJ (default 0.5)")
     p.add_argument("--domain", type=int, default=None, metavar="D",
                    help="ROS domain of sim_node (pybullet_node uses D + 1; default from the pid)")

@@ -9,6 +9,9 @@ leave-move-out nearest-neighbour distances, :func:`trainpool_radius`) and writes
 - ``evaluate``: ``OUT/metrics.json`` (one-step nMSE and a summary per projection) and
   ``OUT/rollout_<label>.json`` per projection.
 
+The verbs' default (``radius`` None) is the gated alpha-PROJ with the model's own radius
+(``OneStepModel.gate_radius``; label ``alpha_<a>_q0.9``); ``radius=0`` is plain alpha-PROJ.
+
 Outputs are written atomically (temporary file, then rename).
 """
 from __future__ import annotations
@@ -56,16 +59,20 @@ def trainpool_radius(model: OneStepModel, data: str | os.PathLike, quantile: flo
     return radius_from_quantile(model.train_states, groups, quantile, every=every)
 
 
-def _resolve_radius(model: OneStepModel, data: str | os.PathLike, radius: float,
-                    radius_quantile: float | None) -> float:
+def _resolve_radius(model: OneStepModel, data: str | os.PathLike, radius: float | None,
+                    radius_quantile: float | None) -> tuple[float, float | None]:
+    """(radius, quantile it stands for or None): None = the model's default gate."""
+    if radius is None and radius_quantile is None:
+        r, _ = model.gate_radius()
+        return r, (model.gate or {}).get("quantile") if r > 0 else None
     if radius_quantile is not None:
         if radius:
             raise ValueError("give radius or radius_quantile, not both")
-        return trainpool_radius(model, data, radius_quantile)
+        return trainpool_radius(model, data, radius_quantile), radius_quantile
     radius = float(radius)
     if not (np.isfinite(radius) and radius >= 0):
         raise ValueError(f"radius must be finite and >= 0, got {radius}")
-    return radius
+    return radius, None
 
 
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
@@ -94,10 +101,12 @@ def _load(model_path: str | os.PathLike, data: str | os.PathLike, split: str
 
 def rollout_verb(model_path: str | os.PathLike, data: str | os.PathLike, out: str | os.PathLike,
                  kind: str = "alpha", alpha: float = 0.5, split: str = "test",
-                 radius: float = 0.0, radius_quantile: float | None = None) -> dict[str, Any]:
+                 radius: float | None = None, radius_quantile: float | None = None
+                 ) -> dict[str, Any]:
     """``littledog-mlsim rollout``: writes ``OUT/rollout.json``; returns the results.
 
-    ``radius``/``radius_quantile``: gated alpha-PROJ (see ``trainpool_radius``); alpha only."""
+    ``radius``/``radius_quantile``: gated alpha-PROJ (see ``trainpool_radius``); alpha only.
+    Neither (the default): the model's own radius (``OneStepModel.gate_radius``)."""
     if kind not in PROJECTIONS:
         raise ValueError(f"--projection must be one of {', '.join(PROJECTIONS)}, got {kind!r}")
     if not 0.0 <= alpha <= 1.0:
@@ -105,10 +114,11 @@ def rollout_verb(model_path: str | os.PathLike, data: str | os.PathLike, out: st
     if kind != "alpha" and (radius or radius_quantile is not None):
         raise ValueError("--radius/--radius-quantile apply to --projection alpha only")
     model, recs = _load(model_path, data, split)
-    r = _resolve_radius(model, data, radius, radius_quantile) if kind == "alpha" else 0.0
+    r, q = (_resolve_radius(model, data, radius, radius_quantile) if kind == "alpha"
+            else (0.0, None))
     res = rollout_results(model, recs, kind, alpha, radius=r)
-    if radius_quantile is not None:
-        res["radius_quantile"] = float(radius_quantile)
+    if q is not None:
+        res["radius_quantile"] = float(q)
     res.update(model=str(model_path), data=str(data), split=split)
     write_json(Path(out) / "rollout.json", res)
     return res
@@ -116,7 +126,7 @@ def rollout_verb(model_path: str | os.PathLike, data: str | os.PathLike, out: st
 
 def evaluate(model_path: str | os.PathLike, data: str | os.PathLike, out: str | os.PathLike,
              projections: Sequence[str] = PROJECTIONS, alpha: float = 0.5,
-             split: str = "test", radius: float = 0.0,
+             split: str = "test", radius: float | None = None,
              radius_quantile: float | None = None) -> dict[str, Any]:
     """``littledog-mlsim evaluate``: one-step nMSE and rollout errors into ``OUT/metrics.json``.
 
@@ -125,17 +135,18 @@ def evaluate(model_path: str | os.PathLike, data: str | os.PathLike, out: str | 
     final_xy_error_m_p90, nmse_at_horizon, element_error_sum_mean, n_nan_moves, rollout_wall_s,
     realtime_factor}}}; the full per-projection results go to ``OUT/rollout_<label>.json``.
     ``radius``/``radius_quantile`` gate the alpha projection (label ``alpha_<a>_r<r>`` or
-    ``alpha_<a>_q<quantile>``; its entry also holds ``radius``).
+    ``alpha_<a>_q<quantile>``; its entry also holds ``radius``); neither (the default): the
+    model's own radius (label ``alpha_<a>_q0.9``; ``radius=0``: plain, ``alpha_<a>``).
     """
     for kind in projections:
         if kind not in PROJECTIONS:
             raise ValueError(f"projections must be among {', '.join(PROJECTIONS)}, got {kind!r}")
     model, recs = _load(model_path, data, split)
-    r = (_resolve_radius(model, data, radius, radius_quantile) if "alpha" in projections
-         else 0.0)
+    r, q = (_resolve_radius(model, data, radius, radius_quantile) if "alpha" in projections
+            else (0.0, None))
     specs = [RolloutSpec(kind, alpha, r if kind == "alpha" else 0.0,
                          name=projection_label(kind, alpha, r if kind == "alpha" else 0.0,
-                                               radius_quantile if kind == "alpha" else None))
+                                               q if kind == "alpha" else None))
              for kind in projections]
     scores = score_model(model, recs, specs)
     res: dict[str, Any] = {"model": str(model_path), "method": model.method, "data": str(data),
@@ -144,8 +155,8 @@ def evaluate(model_path: str | os.PathLike, data: str | os.PathLike, out: str | 
     res["rollout"] = {}
     for spec in specs:
         full = scores["rollout"][spec.label]
-        if spec.kind == "alpha" and radius_quantile is not None:
-            full["radius_quantile"] = float(radius_quantile)
+        if spec.kind == "alpha" and q is not None:
+            full["radius_quantile"] = float(q)
         write_json(Path(out) / f"rollout_{spec.label}.json", full)
         res["rollout"][spec.label] = {k: full.get(k) for k in ROLLOUT_SUMMARY_KEYS if k in full}
     write_json(Path(out) / "metrics.json", res)

@@ -78,7 +78,7 @@ __all__ = [
     "BagEntry", "DatasetIndex", "DatasetError", "SkippedBagWarning",
     "n_train", "split_names", "dataset_entries", "write_index", "read_index", "load_moves",
     "quat_to_matrix", "quat_to_rpy", "rpy_to_quat", "rpy_to_matrix",
-    "states_from_recording", "actions_from_recording", "features_responses",
+    "states_from_recording", "states_from_measurements", "actions_from_recording", "features_responses",
     "InitialPose", "initial_pose", "integrate_path", "Normalizer",
 ]
 
@@ -319,8 +319,16 @@ def load_moves(directory: str | os.PathLike, split: str = "train",
 
 def states_from_recording(rec: MoveRecording) -> np.ndarray:
     """s_1..s_N of a recording, (N, 33) in ``layout.STATE_NAMES`` order (docs/interface.md §4)."""
-    pos = np.asarray(rec.position, dtype=np.float64)
-    rpy = quat_to_rpy(rec.orientation)                         # (N+1, 3)
+    return states_from_measurements(rec.position, rec.orientation, rec.q, rec.dq)
+
+
+def states_from_measurements(position, orientation, q, dq) -> np.ndarray:
+    """s_1..s_N, (N, 33), from N+1 consecutive measurements: body position (N+1, 3),
+    orientation (N+1, 4) xyzw, joint angles and rates (N+1, 12) (the first row only gives the
+    previous pose of s_1's deltas). ``states_from_recording`` without a recording, e.g. for
+    one live step from two measurements."""
+    pos = np.asarray(position, dtype=np.float64)
+    rpy = quat_to_rpy(orientation)                             # (N+1, 3)
     n = pos.shape[0] - 1
     R_prev = rpy_to_matrix(rpy[:-1])                            # (N, 3, 3), body(t-1) -> world
     states = np.empty((n, N_STATE), dtype=np.float64)
@@ -328,8 +336,8 @@ def states_from_recording(rec: MoveRecording) -> np.ndarray:
     states[:, S.d_b] = np.einsum("nji,nj->ni", R_prev, np.diff(pos, axis=0))  # R^T dp
     states[:, S.roll_pitch] = rpy[1:, :2]
     states[:, S.d_rpy] = wrap_angle(np.diff(rpy, axis=0))
-    states[:, S.q] = rec.q[1:]
-    states[:, S.dq] = rec.dq[1:]
+    states[:, S.q] = np.asarray(q)[1:]
+    states[:, S.dq] = np.asarray(dq)[1:]
     return states
 
 

@@ -28,7 +28,13 @@ compute the same columns; ``predict`` then takes (n, ``feature_set.n_features``)
 The model also carries what the rollout needs to project predicted states back to the data
 (Section VI): the TrainPool states, stored as an alpha-PROJ projection (``rollout.projection``'s
 ``to_arrays``; ``projection(kind, alpha)`` builds any kind from them), plus the feature names,
-the training data fingerprint and free-form ``info`` (how it was trained).
+the training data fingerprint and free-form ``info`` (how it was trained), and the default
+radius of the gated alpha-PROJ (``gate``: meta key ``"gate"``, a record of
+``rollout.projection.gate_radius`` computed at training time from the TrainPool's moves;
+:meth:`OneStepModel.gate_radius`). A model file without it (written before) still loads; its
+radius is then computed on first use from the stored TrainPool states when the moves can be
+told apart (``info``'s ``n_moves`` equal blocks of states), else the gate is off (radius 0,
+plain alpha-PROJ), and the log says which.
 
 Files: :meth:`OneStepModel.save` / :meth:`OneStepModel.load` go through
 :mod:`.persistence` (atomic write, checksum, ModelError on anything wrong). The one-step
@@ -68,6 +74,16 @@ def _check_xy(X: np.ndarray, Y: np.ndarray | None, n_features: int
     return X, Y
 
 
+def _check_gate(gate: Mapping[str, Any]) -> dict[str, Any]:
+    """A ``gate`` record (``rollout.projection.gate_radius``): a dict with a finite radius >= 0."""
+    if not isinstance(gate, Mapping):
+        raise ValueError("gate must be a mapping")
+    r = gate.get("radius")
+    if isinstance(r, bool) or not isinstance(r, (int, float)) or not (0 <= r < float("inf")):
+        raise ValueError(f"gate radius must be a finite number >= 0, got {r!r}")
+    return dict(gate)
+
+
 class OneStepModel:
     """A regressor plus feature normalisation, response representation and projection data.
 
@@ -84,9 +100,11 @@ class OneStepModel:
                  response_normalizer: Normalizer, target: str = "delta", *,
                  train_states: np.ndarray | None = None, data_fingerprint: str = "",
                  info: Mapping[str, Any] | None = None,
-                 feature_set: FeatureSet | None = None) -> None:
+                 feature_set: FeatureSet | None = None,
+                 gate: Mapping[str, Any] | None = None) -> None:
         if target not in TARGETS:
             raise ValueError(f"target must be one of {TARGETS}; got {target!r}")
+        self.gate = None if gate is None else _check_gate(gate)
         self.feature_set = FeatureSet() if feature_set is None else feature_set
         self.estimator = estimator
         self.feature_normalizer = feature_normalizer
@@ -201,10 +219,40 @@ class OneStepModel:
         return make_projection(kind, self.train_states, alpha=alpha, nn_method=nn_method,
                                radius=radius)
 
+    def gate_radius(self, every_on_load: int = 16) -> tuple[float, str]:
+        """The default radius of the gated alpha-PROJ and where it comes from (a phrase for
+        the log). Stored in the model (``gate``): that. A model written before the key: the
+        ``GATE_QUANTILE`` of the leave-move-out distances of its TrainPool states, computed
+        now (every ``every_on_load``-th state, to keep start-up short) if ``info`` tells the
+        moves apart (``n_moves`` blocks of equal length, as ``train`` stores them), kept in
+        ``gate`` (re-saving the model stores it); otherwise 0 (plain alpha-PROJ)."""
+        from ..rollout.projection import GATE_QUANTILE, gate_radius
+        if self.gate is not None:
+            g = self.gate
+            how = g.get("source", "stored in the model")
+            return float(g["radius"]), (f"{how} (quantile {g.get('quantile', '?')} of the "
+                                        f"TrainPool's leave-move-out distances)")
+        if self.train_states is None:
+            return 0.0, "no TrainPool states in the model: gate off (plain alpha-PROJ)"
+        n = self.train_states.shape[0]
+        n_moves = self.info.get("n_moves")
+        if not (isinstance(n_moves, int) and n_moves >= 2 and n % n_moves == 0
+                and self.info.get("n_train_pool", n) == n):
+            return 0.0, ("the model stores no gate radius and its TrainPool moves cannot be "
+                         "told apart: gate off (plain alpha-PROJ); set the radius")
+        groups = np.repeat(np.arange(n_moves), n // n_moves)
+        g = gate_radius(self.train_states, groups, GATE_QUANTILE, every=every_on_load)
+        g["source"] = "computed on load (the model file predates the stored radius)"
+        self.gate = g
+        return float(g["radius"]), (f"{g['source']}: quantile {GATE_QUANTILE} of the "
+                                    f"TrainPool's leave-move-out distances")
+
     # -- files
 
     def _meta(self) -> dict[str, Any]:
-        return {
+        gate = {} if self.gate is None else {"gate": {k: v for k, v in self.gate.items()
+                                                      if k != "source"}}
+        return {**gate,
             "feature_names": list(self.feature_names),
             "feature_set": self.feature_set.to_dict(),
             "state_names": list(self.state_names),
@@ -263,7 +311,8 @@ class OneStepModel:
                                                       ).train_states
             return cls(estimator, fn, rn, target, train_states=train_states,
                        data_fingerprint=str(meta.get("data_fingerprint", "")),
-                       info=meta.get("info") or {}, feature_set=feature_set)
+                       info=meta.get("info") or {}, feature_set=feature_set,
+                       gate=meta.get("gate"))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             msg = str(e).splitlines()[0] if str(e) else type(e).__name__
             raise ModelError(f"{path}: bad one-step metadata: {msg}") from e

@@ -31,6 +31,7 @@ import numpy as np
 from ..data.dataset import features_responses, load_moves, read_index
 from ..data.recording import MoveRecording
 from ..logs import progress_to_stderr
+from ..rollout.projection import gate_radius
 from .base import Regressor
 from .features import FeatureSet
 from .onestep import TARGETS, OneStepModel
@@ -81,22 +82,23 @@ def subset_rows(n_pool: int, n: int | None, random_state: int) -> np.ndarray:
                                                               replace=False))
 
 
-def training_arrays(moves: Sequence[MoveRecording], feature_set: FeatureSet | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Features X (n, feature_set.n_features) and next states Y (n, 33) of ``moves``."""
+def training_arrays(moves: Sequence[MoveRecording], feature_set: FeatureSet | None = None,
+                    *, groups: bool = False) -> tuple[np.ndarray, ...]:
+    """Features X (n, feature_set.n_features) and next states Y (n, 33) of ``moves``; with
+    ``groups`` also the move index of each row (n,)."""
     if feature_set is None or feature_set.is_base:
-        X, Y, _ = features_responses(moves)
+        X, Y, g = features_responses(moves)
     else:
-        X, Y, _ = feature_set.features_responses(moves)
-    return X, Y
+        X, Y, g = feature_set.features_responses(moves)
+    return (X, Y, g) if groups else (X, Y)
 
 
-def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, np.ndarray], method: str, *,
+def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, ...], method: str, *,
                 feature_set: FeatureSet | None = None,
                 options: Mapping[str, Any] | None = None, random_state: int = 0,
                 n_train: int | None = None, target: str = "delta",
                 gpr_pilot_points: int | None = None, progress: bool = False,
-                info: Mapping[str, Any] | None = None) -> OneStepModel:
+                info: Mapping[str, Any] | None = None, gate: bool = True) -> OneStepModel:
     """Fit a one-step model of ``method`` on ``train`` with ``feature_set``.
 
     ``train``: the recorded moves (the TrainPool), or their arrays ``(X, Y)`` as
@@ -108,7 +110,9 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, np.ndarray], 
     of the rows (seeded by ``random_state + 1``), then condition on all of them.
     ``info``: provenance merged into the model's ``info`` (which also gets method, options,
     target, seed, n_train_pool, fit time). The projection data are the states of all of
-    ``train``. ValueError (one line) on bad input.
+    ``train``. ``gate``: also compute the gated alpha-PROJ's default radius from the moves
+    (``rollout.projection.gate_radius``, stored in the model file as ``gate``); it needs the
+    moves or ``(X, Y, groups)`` with at least two moves. ValueError (one line) on bad input.
     """
     opts = dict(options or {})
     target = opts.pop("target", target)
@@ -117,10 +121,12 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, np.ndarray], 
     if n_train is not None and int(n_train) < 2:
         raise ValueError(f"the training subset must hold >= 2 samples; got {n_train}")
     estimator = make_estimator(method, opts, random_state=random_state, progress=progress)
+    groups = None
     if isinstance(train, tuple):
-        X, Y = train
+        X, Y = train[:2]
+        groups = train[2] if len(train) > 2 else None
     else:
-        X, Y = training_arrays(train, feature_set)
+        X, Y, groups = training_arrays(train, feature_set, groups=True)
     n_pool = X.shape[0]
     rows = subset_rows(n_pool, n_train, random_state)
     t0 = time.perf_counter()
@@ -146,6 +152,11 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, np.ndarray], 
                              data_fingerprint=fingerprint_arrays(X, Y), info=meta,
                              feature_set=feature_set)
     log.info("fitted %s in %.1f s", method, time.perf_counter() - t0)
+    if gate and groups is not None and np.unique(groups).size >= 2:
+        t1 = time.perf_counter()
+        model.gate = gate_radius(Y, groups)
+        log.info("gate radius %.4g (quantile %g of the leave-move-out distances) in %.1f s",
+                 model.gate["radius"], model.gate["quantile"], time.perf_counter() - t1)
     return model
 
 
@@ -177,14 +188,14 @@ def _train_from_dataset(data_dir, method, options, max_train_samples, seed, prog
     index = read_index(data_dir)
     log.info("loading the TrainPool of %s (%d bags)", data_dir, len(index.names("train")))
     moves = load_moves(data_dir, "train")
-    X, Y = training_arrays(moves, feature_set)
+    X, Y, groups = training_arrays(moves, feature_set, groups=True)
     log.info("%d samples from %d moves in %.1f s", X.shape[0], len(moves),
              time.perf_counter() - t0)
     cap = max_train_samples if max_train_samples is not None else DEFAULT_MAX_TRAIN.get(method)
     info = {"data_dir": os.fspath(data_dir), "n_moves": len(moves),
             "max_train_samples": None if cap is None else int(cap),
             "dataset_info": json.loads(json.dumps(index.info, default=str))}
-    return fit_onestep((X, Y), method, feature_set=feature_set, options=options,
+    return fit_onestep((X, Y, groups), method, feature_set=feature_set, options=options,
                        random_state=seed, n_train=cap, target=target, progress=progress,
                        info=info)
 

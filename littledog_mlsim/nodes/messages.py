@@ -3,22 +3,12 @@
 Everything here translates; the numbers come from the core. Topics and frames are those of
 docs/interface.md §2; arrays of 12 joint values are in ``layout.JOINT_NAMES`` order.
 
-Command rule (``check_command``), applied by both simulators to every ``/littledog/cmd``:
-
-- ``name`` must hold each of the 12 contract joint names exactly once (any order). Anything else
-  (unknown, missing or duplicated names) rejects the command (reason ``names``).
-- ``position`` must have one value per name (reason ``length``). ``velocity``/``effort`` are
-  ignored (the contract leaves them empty).
-- every position must be finite (reason ``nonfinite``): NaN or +-inf rejects the command.
-- positions outside ``layout.JOINT_LOWER``/``JOINT_UPPER`` are clipped to the limits and the
-  command is used (reason ``clipped``; the pybullet servo clips the same way).
-
-A rejected command is not used at all: the simulator keeps holding the previous valid command.
+The command rule (``check_command``) lives in ``sim/command.py`` (no ROS types) and is
+re-exported here.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import lru_cache
+from array import array
 from typing import Mapping
 
 import numpy as np
@@ -28,28 +18,20 @@ from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ..layout import (
-    BASE_FRAME,
-    JOINT_LOWER,
-    JOINT_NAMES,
-    JOINT_UPPER,
-    N_JOINTS,
-    N_STATE,
-    ODOM_FRAME,
-    STATE_NAMES,
-)
+from ..layout import BASE_FRAME, CONTROL_DT_NS, JOINT_NAMES, N_STATE, ODOM_FRAME, STATE_NAMES
+from ..sim.command import REJECT_REASONS, CommandCheck, check_command
+from ..sim.command import joint_permutation as _permutation
 
 __all__ = [
     "REJECT_REASONS", "CommandCheck", "check_command", "stamp", "stamp_ns", "clock_msg",
     "joint_state_msg", "odometry_msg", "state_msg", "state_array", "status_msg",
     "joint_state_arrays",
-    "odometry_arrays", "status_values", "UNKNOWN_COVARIANCE",
+    "odometry_arrays", "status_values", "UNKNOWN_COVARIANCE", "CONTROL_DT_NS",
+    "JointStateWriter", "OdometryWriter", "TfOdometry", "tf_message_type", "robot_description",
 ]
 
-REJECT_REASONS: tuple[str, ...] = ("names", "length", "nonfinite")
 _JOINT_LIST = list(JOINT_NAMES)
 _STATE_LIST = list(STATE_NAMES)
-_INDEX = {n: i for i, n in enumerate(JOINT_NAMES)}
 UNKNOWN_COVARIANCE = np.zeros(36)
 UNKNOWN_COVARIANCE[0] = -1.0  # "unknown" per the message convention
 
@@ -70,61 +52,6 @@ def stamp_ns(t: Time) -> int:
 
 def clock_msg(ns: int) -> Clock:
     return Clock(clock=stamp(ns))
-
-
-# ---------------------------------------------------------------------------------------------
-# commands
-
-
-@dataclass(frozen=True)
-class CommandCheck:
-    """Outcome of ``check_command``: ``u`` (12,) in contract order, or None if rejected.
-
-    ``reason``: None (used as sent), ``"clipped"`` (used after clipping to the joint limits) or
-    one of ``REJECT_REASONS``; ``detail`` is a short human-readable explanation.
-    """
-
-    u: np.ndarray | None
-    reason: str | None = None
-    detail: str = ""
-
-    @property
-    def accepted(self) -> bool:
-        return self.u is not None
-
-
-@lru_cache(maxsize=64)
-def _permutation(names: tuple[str, ...]) -> np.ndarray | str:
-    """Index into ``names`` of each contract joint, or why ``names`` is not usable."""
-    unknown = [n for n in names if n not in _INDEX]
-    if unknown:
-        return f"unknown joint name(s) {', '.join(repr(n) for n in unknown[:3])}"
-    if len(set(names)) != len(names):
-        return "duplicated joint names"
-    if len(names) != N_JOINTS:
-        missing = [n for n in JOINT_NAMES if n not in names]
-        return f"{len(names)} joint names, missing {', '.join(missing[:3])}"
-    where = {n: i for i, n in enumerate(names)}
-    return np.array([where[n] for n in JOINT_NAMES])
-
-
-def check_command(names, positions) -> CommandCheck:
-    """Apply the command rule (module doc) to a JointState's ``name`` and ``position``."""
-    perm = _permutation(tuple(names))
-    if isinstance(perm, str):
-        return CommandCheck(None, "names", perm)
-    pos = np.asarray(positions, dtype=np.float64)
-    if pos.shape != (N_JOINTS,):
-        return CommandCheck(None, "length", f"{pos.size} positions for {N_JOINTS} names")
-    u = pos[perm]
-    if not np.all(np.isfinite(u)):
-        bad = [JOINT_NAMES[i] for i in np.flatnonzero(~np.isfinite(u))]
-        return CommandCheck(None, "nonfinite", f"NaN/inf for {', '.join(bad[:3])}")
-    clipped = np.clip(u, JOINT_LOWER, JOINT_UPPER)
-    if np.any(clipped != u):
-        bad = [JOINT_NAMES[i] for i in np.flatnonzero(clipped != u)]
-        return CommandCheck(clipped, "clipped", f"outside the joint limits: {', '.join(bad[:3])}")
-    return CommandCheck(u)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -188,6 +115,102 @@ def status_msg(name: str, values: Mapping[str, object], level: int = 0,
     """DiagnosticStatus with ``values`` as key/value strings (counters, rates, latencies)."""
     return DiagnosticStatus(level=bytes([level]), name=name, message=message,
                             values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+
+
+class JointStateWriter:
+    """``joint_state_msg(ns, q, dq)`` for the per-step topic, reusing one message (rclpy
+    serialises at ``publish``, so the next step may overwrite it)."""
+
+    def __init__(self) -> None:
+        self.msg = JointState()
+        self.msg.name = _JOINT_LIST
+
+    def __call__(self, ns: int, q: np.ndarray, dq: np.ndarray) -> JointState:
+        msg = self.msg
+        msg.header.stamp = stamp(ns)
+        msg.position = _doubles(q)
+        msg.velocity = _doubles(dq)
+        return msg
+
+
+class OdometryWriter:
+    """``odometry_msg(...)`` for the per-step topic, reusing one message (see
+    :class:`JointStateWriter`)."""
+
+    def __init__(self) -> None:
+        self.msg = Odometry()
+        self.msg.header.frame_id = ODOM_FRAME
+        self.msg.child_frame_id = BASE_FRAME
+
+    def __call__(self, ns: int, position, orientation, linear, angular,
+                 pose_covariance: np.ndarray | None = None,
+                 twist_covariance: np.ndarray | None = None) -> Odometry:
+        msg = self.msg
+        msg.header.stamp = stamp(ns)
+        pose, twist = msg.pose, msg.twist
+        _set_xyz(pose.pose.position, position)
+        o = pose.pose.orientation
+        o.x, o.y, o.z, o.w = orientation.tolist()
+        _set_xyz(twist.twist.linear, linear)
+        _set_xyz(twist.twist.angular, angular)
+        pose.covariance = UNKNOWN_COVARIANCE if pose_covariance is None else pose_covariance
+        twist.covariance = UNKNOWN_COVARIANCE if twist_covariance is None else twist_covariance
+        return msg
+
+
+def _set_xyz(v, a: np.ndarray) -> None:
+    v.x, v.y, v.z = a.tolist()
+
+
+def _doubles(a: np.ndarray):
+    """A float64 array as what a sequence<double> field takes fastest (array.array)."""
+    return array("d", np.ascontiguousarray(a, dtype=np.float64).tobytes())
+
+
+def tf_message_type():
+    """tf2_msgs/TFMessage, or None where tf2_msgs is not installed (the pip wheels)."""
+    try:
+        from tf2_msgs.msg import TFMessage
+    except ImportError:
+        return None
+    return TFMessage
+
+
+class TfOdometry:
+    """The ``odom -> base_link`` transform of a pose as a ``tf_type`` message (TFMessage, or a
+    stand-in with a ``transforms`` list), reusing one message."""
+
+    def __init__(self, tf_type) -> None:
+        from geometry_msgs.msg import TransformStamped
+
+        self.tf = TransformStamped()
+        self.tf.header.frame_id = ODOM_FRAME
+        self.tf.child_frame_id = BASE_FRAME
+        self.msg = tf_type()
+        self.msg.transforms = [self.tf]
+
+    def __call__(self, ns: int, position: np.ndarray, orientation: np.ndarray):
+        tf = self.tf
+        tf.header.stamp = stamp(ns)
+        t, r = tf.transform.translation, tf.transform.rotation
+        t.x, t.y, t.z = position.tolist()
+        r.x, r.y, r.z, r.w = orientation.tolist()
+        self.msg.transforms = [tf]
+        return self.msg
+
+
+def robot_description() -> str:
+    """The LittleDog URDF as ``/robot_description`` carries it: the model's root link ``body``
+    gets a parent ``base_link`` (fixed joint, identity: the same frame, the odometry's child
+    frame), so ``odom -> base_link`` on /tf plus robot_state_publisher give the whole tree."""
+    from ..robot.config import URDF_PATH
+
+    text = URDF_PATH.read_text(encoding="utf-8")
+    root = ('<link name="base_link"/>\n  <joint name="base_link_to_body" type="fixed">\n'
+            '    <parent link="base_link"/>\n    <child link="body"/>\n'
+            '    <origin xyz="0 0 0" rpy="0 0 0"/>\n  </joint>\n  ')
+    i = text.index('<link name="body">')
+    return text[:i] + root + text[i:]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -10,8 +10,9 @@ measurements. ``/littledog/joint_states`` and ``/littledog/odom`` carry what the
 sensors report (encoders, motion capture and its finite-difference twist, as written to the
 bags); the odometry covariances are unknown (-1 in [0]), like in the bags. ``~/state`` (the
 paper's 33-element state) is published from the first step on (s_0 needs the pose before the
-start). Everything else (topics, step modes, command rule, timeout, services, counters) is
-``nodes/simulator.py``, shared with sim_node.
+start). The robot is stepped by ``sim.backend.PybulletBackend``; everything else (topics,
+step modes, command rule, timeout, services, counters) is ``nodes/simulator.py`` and
+``sim/core.py``, shared with sim_node.
 
 Parameters: ``config/pybullet.yaml``.
 """
@@ -20,57 +21,11 @@ from __future__ import annotations
 import sys
 from typing import Sequence
 
-import numpy as np
-
-from ..data.dataset import states_from_recording
-from ..data.recording import MoveRecording
-from ..layout import CONTROL_DT_NS
+from ..sim.backend import Backend, PybulletBackend
 from ._run import Param, StartupError
-from .simulator import Backend, SimulatorNode, run_simulator
+from .simulator import SimulatorNode, run_simulator
 
 NODE_NAME = "pybullet_node"
-
-
-class PybulletBackend(Backend):
-    """A ``LittleDogSim`` as a Backend; outputs are the sensor measurements of the last step."""
-
-    def __init__(self, robot: str, seed: int, effects: list) -> None:
-        from ..robot.sim import LittleDogSim
-
-        self.sim = LittleDogSim(robot)
-        self.seed = seed
-        self.effects = effects
-        self.reset()
-
-    def reset(self) -> None:
-        self._obs = self.sim.reset(seed=self.seed, effects=self.effects)
-        self.state = None
-        self._set_outputs()
-
-    def step(self, u: np.ndarray) -> bool:
-        prev = self._obs
-        try:
-            self._obs = self.sim.step(u)
-        except ValueError:
-            return False
-        both = {k: np.stack([prev[k], self._obs[k]]) for k in self._obs}
-        rec = MoveRecording(name="F_00", move_type="F",
-                            stamps_ns=np.array([0, CONTROL_DT_NS], dtype=np.int64),
-                            cmd=np.asarray(u, dtype=np.float64)[None], **both)
-        self.state = states_from_recording(rec)[0]
-        self._set_outputs()
-        return True
-
-    def _set_outputs(self) -> None:
-        o = self._obs
-        self.q, self.dq = o["q"], o["dq"]
-        self.position, self.orientation = o["position"], o["orientation"]
-        self.linear_velocity, self.angular_velocity = o["linear_velocity"], o["angular_velocity"]
-        self.pose_covariance = self.twist_covariance = None
-
-    def outputs_finite(self) -> bool:
-        vals = list(self._obs.values()) + ([] if self.state is None else [self.state])
-        return all(np.all(np.isfinite(v)) for v in vals)
 
 
 class PybulletNode(SimulatorNode):

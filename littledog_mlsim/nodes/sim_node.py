@@ -5,7 +5,9 @@
 Loads a one-step model (``OneStepModel.load``; a missing, corrupt or incompatible model is one
 FATAL log line and exit status 2), starts from the initial state and advances one 10 ms step
 per timer tick or per command (``step_mode``), each step ``LearnedSimulator.step``: the
-model's prediction passed through the projection (default alpha-PROJ, alpha 0.5), the pose
+model's prediction passed through the projection (default: gated alpha-PROJ, alpha 0.5, with
+the radius stored in the model, ``OneStepModel.gate_radius``; ``radius:=0.0`` gives the
+paper's plain alpha-PROJ), the pose
 integrated from the predicted states as ``integrate_path`` does, covariances from the model's
 predictive std (see ``rollout/learned_sim.py`` for the approximation). Topics, services, command
 rule, timeout and counters: ``nodes/simulator.py``.
@@ -15,6 +17,16 @@ that is nearest, in alpha-PROJ's normalised distance, to the ideal standing stat
 HOME_BODY_HEIGHT, level, at rest, joints at HOME_POSE): a real standing state from the data
 the model was trained on. ``initial_state`` (33 values, ``layout.STATE_NAMES`` order) replaces
 it; ``initial_pose`` = (x, y, yaw) places it in odom.
+
+Knowing when not to trust it: ``~/stats`` also carries ``nn_distance`` (the last prediction's
+normalised distance to its nearest TrainPool state, before the projection),
+``nn_distance_max`` (over the stats period), ``trust_radius`` (the gate radius: the
+projection's, else the model's stored one; 0 = never flagged), ``extrapolating`` (true/false,
+the last step) and ``extrapolating_steps`` (since start). A step beyond the trust radius is
+warned (throttled by ``log_throttle``) and inflates that step's variances by
+``(nn_distance / trust_radius)^2`` in the odometry covariances (``rollout/learned_sim.py``), so
+a controller sees extrapolation on the topics alone: the flag in ``~/stats`` and a covariance
+that grows faster.
 
 Parameters: ``config/sim.yaml`` (every one is listed there with its default) and
 ``nodes/simulator.py`` (those shared with pybullet_node).
@@ -46,10 +58,11 @@ class SimNode(SimulatorNode):
               "none | bound | alpha"),
         Param("alpha", 0.5, "alpha of alpha-PROJ: s := (1 - alpha) s + alpha q, q the nearest "
               "TrainPool state", "0 <= alpha <= 1"),
-        Param("radius", 0.0, "gated alpha-PROJ: leave a predicted state within this normalised "
-              "distance of its nearest TrainPool state alone and pull only the excess (0: plain "
-              "alpha-PROJ; `littledog-mlsim rollout --radius-quantile 0.9` prints the radius of a "
-              "quantile of the TrainPool's own distances)", ">= 0, finite; projection alpha only"),
+        Param("radius", Parameter.Type.DOUBLE, "gated alpha-PROJ: leave a predicted state "
+              "within this normalised distance of its nearest TrainPool state alone and pull "
+              "only the excess (unset: the model's own radius, the 0.9 quantile of its "
+              "TrainPool's leave-move-out distances; 0: plain alpha-PROJ)",
+              ">= 0, finite; projection alpha only"),
         Param("nn_method", "auto", "alpha-PROJ nearest-neighbour search (rollout.projection."
               "NearestNeighbour; exact either way)", "auto | pca | brute | kdtree"),
         Param("initial_state", Parameter.Type.DOUBLE_ARRAY, "initial state s_0, 33 values in "
@@ -67,7 +80,8 @@ class SimNode(SimulatorNode):
         self.get_logger().info(
             f"{self.model.method} model {self.param('model_path')} "
             f"({self.model.info.get('n_train', '?')} training samples), projection "
-            f"{sim.projection.describe()}, step_mode {self.step_mode}, covariance "
+            f"{sim.projection.describe()} (radius: {self.radius_source}), step_mode "
+            f"{self.step_mode}, covariance "
             f"{'from the model' if sim.use_variance else 'unknown'}"
             + (f", defaults from {self.config_path}" if self.config_path else ""))
 
@@ -92,10 +106,16 @@ class SimNode(SimulatorNode):
         if kind not in PROJECTIONS:
             raise StartupError(f"parameter projection must be one of {', '.join(PROJECTIONS)}, "
                                f"got {kind!r}")
+        radius = self.param("radius")
+        if radius is None:             # the model's own gate (alpha-PROJ only)
+            radius, self.radius_source = (model.gate_radius() if kind == "alpha"
+                                          else (0.0, "not gated"))
+        else:
+            self.radius_source = "the radius parameter"
         try:   # the projection checks radius (finite, >= 0, alpha only)
             projection = model.projection(kind, alpha=self.param("alpha"),
                                           nn_method=self.param("nn_method"),
-                                          radius=self.param("radius"))
+                                          radius=radius)
         except ValueError as e:
             raise StartupError(f"projection {kind}: {e}") from None
         s0 = self.param("initial_state")
@@ -116,7 +136,19 @@ class SimNode(SimulatorNode):
         if prepare is not None:   # one-time work (variance factors) out of the 10 ms loop
             prepare(return_std=use_var)
         self.model = model
-        return LearnedSimulator(model, projection, s0, pose, use_var)
+        # extrapolation: beyond the gate radius (the model's own if the projection has none)
+        trust = getattr(projection, "radius", 0.0) or float((model.gate or {}).get("radius", 0.0))
+        monitor = None
+        if kind != "alpha" and model.train_states is not None:
+            from ..rollout.projection import AlphaProjection
+            monitor = AlphaProjection(model.train_states, alpha=0.0,
+                                      nn_method=self.param("nn_method"))
+            monitor.nn.prepare()
+        nn = getattr(projection, "nn", None)
+        if nn is not None:
+            nn.prepare()              # the search index now, not inside the first step
+        return LearnedSimulator(model, projection, s0, pose, use_var, trust_radius=trust,
+                                monitor=monitor)
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -1,9 +1,10 @@
 """The learned simulator as a stepping object: state, integrated pose and covariance (no rclpy).
 
 ``sim_node`` (``nodes/sim_node.py``) is a ROS shell around :class:`LearnedSimulator`, which lives
-here with the rollout because it is plain NumPy; everything numeric is a call into the core
-(``rollout.simulate.step``, ``data.dataset.integrate_path``, ``robot.sensors.twist_from_poses``,
-``rotations``) so that the node's output is exactly the core's rollout.
+here with the rollout because it is plain NumPy. A step is the computation of
+``rollout.simulate.step`` and ``data.dataset.integrate_path`` written out for one robot (the
+model and projection are the same calls; ``test/test_learned_sim.py`` checks the node's
+output equals the core's rollout), so that it costs little besides them.
 
 A model whose feature set goes beyond the paper's 45 (``model.feature_set``: lagged commands and
 states, friction terms, the play operator, the heading, ...; models from ``diagnose`` or
@@ -11,9 +12,9 @@ states, friction terms, the play operator, the heading, ...; models from ``diagn
 pose and restarted on every ``reset``, exactly as ``rollout`` does; a plain model is stepped
 without one, as before.
 
-One step (``step(u)``): s_{t+1} = projection(model(s_t, u_t)) (``rollout.simulate.step``, the
-same call ``rollout`` makes for each of its steps), then the pose by ``integrate_path`` applied
-to the one new state from the previous (x, y, yaw) and (roll, pitch) = s_t[roll, pitch]:
+One step (``step(u)``): s_{t+1} = projection(model(s_t, u_t)) (as ``rollout.simulate.step``,
+the call ``rollout`` makes for each of its steps), then the pose as ``integrate_path`` gives it
+for the one new state from the previous (x, y, yaw) and (roll, pitch) = s_t[roll, pitch]:
 yaw += dyaw, (x, y) += R(roll_t, pitch_t, yaw_t)[:2] d_b; z = z_w; roll, pitch from s_{t+1}. The
 twist in base_link is the finite difference of the last two poses (``twist_from_poses``), the
 definition the pybullet robot and the recorded odometry use.
@@ -38,6 +39,16 @@ gives its homoscedastic residual std, GPs their predictive std), an approximatio
 
 Without a std (``use_variance=False`` or a model that has none) both covariances are None
 ("unknown", -1 in [0] on the wire).
+
+Knowing when not to trust it: every step also gives ``nn_distance``, the normalised distance
+(alpha-PROJ's metric) of the model's prediction, before the projection, to its nearest TrainPool
+state: taken from the alpha projection's own nearest-neighbour search (no second search), or
+from a search of its own for the other projections. With ``trust_radius`` r > 0 (sim_node: the
+gate radius) a step whose ``nn_distance`` d exceeds r is *extrapolating*: the prediction left
+the region the data covers as well as held-out real moves are covered. Then every variance of
+that step is multiplied by ``(d / r)^2`` before it enters the covariances (the summed x, y, yaw
+increments included, so the pose covariance keeps the extra uncertainty afterwards). Counters
+for the statistics: ``stats()``.
 """
 from __future__ import annotations
 
@@ -45,13 +56,11 @@ from typing import Any
 
 import numpy as np
 
-from ..data.dataset import integrate_path
-from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S
+from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S, wrap_angle
 from ..robot.sensors import twist_from_poses
-from ..rotations import rpy_to_matrix, rpy_to_quat
+from ..rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
 from .projection import AlphaProjection, Projection
-from .simulate import model_feature_set
-from .simulate import step as model_step
+from .simulate import _predict, model_feature_set
 
 __all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance"]
 
@@ -114,15 +123,21 @@ class LearnedSimulator:
         initial_state: s_0 (33,).
         initial_pose: (x, y, yaw) of the body in odom at t = 0.
         use_variance: fill the covariances from ``predict(..., return_std=True)``.
+        trust_radius: r > 0: steps whose prediction is further than r from the TrainPool are
+            extrapolating (module doc: flagged, variances inflated); 0: never flagged.
+        monitor: the nearest-neighbour search for ``nn_distance`` when ``projection`` is not
+            alpha-PROJ (an ``AlphaProjection`` over the TrainPool; None: no distance, NaN).
 
     Attributes after ``reset``/``step``: ``state`` (33,), ``q``, ``dq`` (12,); ``position``
     (3,), ``orientation`` (4,) xyzw, ``linear_velocity``, ``angular_velocity`` (3,) in
     base_link; ``pose_covariance``, ``twist_covariance`` (36,) or None; ``steps`` since the
-    last reset.
+    last reset; ``nn_distance`` of the last step's prediction (NaN before the first step),
+    ``extrapolating`` (bool, the last step).
     """
 
     def __init__(self, model: Any, projection: Projection, initial_state: np.ndarray,
-                 initial_pose=(0.0, 0.0, 0.0), use_variance: bool = True) -> None:
+                 initial_pose=(0.0, 0.0, 0.0), use_variance: bool = True,
+                 trust_radius: float = 0.0, monitor: AlphaProjection | None = None) -> None:
         self.model = model
         self.projection = projection
         self.initial_state = _as_vector(initial_state, N_STATE, "initial_state")
@@ -130,6 +145,13 @@ class LearnedSimulator:
         self.use_variance = bool(use_variance)
         self.dt = CONTROL_DT
         self.feature_set = model_feature_set(model)
+        self.trust_radius = float(trust_radius)
+        if not (np.isfinite(self.trust_radius) and self.trust_radius >= 0):
+            raise ValueError(f"trust_radius must be finite and >= 0, got {trust_radius}")
+        self._search = projection if isinstance(projection, AlphaProjection) else monitor
+        self._x = np.empty((1, N_STATE + N_ACTION))      # the feature row of a plain model
+        self.extrapolating_steps = 0                      # since start (not reset)
+        self._window_max = float("nan")                  # max nn_distance since stats()
         self.reset()
 
     # -- state
@@ -150,35 +172,66 @@ class LearnedSimulator:
         rpy_prev = np.array([s[S.roll], s[S.pitch], yaw]) - s[S.d_rpy]
         prev_pos = np.array([x, y, s[S.z_w]]) - rpy_to_matrix(rpy_prev) @ s[S.d_b]
         self._prev_pose = (prev_pos, rpy_to_quat(rpy_prev))
-        self._set_outputs(std=None)
+        self.nn_distance = float("nan")
+        self.extrapolating = False
+        self._set_outputs(None)
 
     def step(self, u: np.ndarray) -> bool:
         """Advance 10 ms with desired joint angles u (12,). False (nothing changed) if the
-        prediction is not finite (a diverged model)."""
+        prediction is not finite (a diverged model).
+
+        The same computation as ``rollout.simulate.step`` (feature row, prediction, projection,
+        history) and ``integrate_path`` for one state, written out for one robot so that a step
+        costs little besides the model and the projection (``benchmarks/sim_node_10x``)."""
         u = np.asarray(u, dtype=np.float64)
-        undo = None if self._history is None else self._history.copy()
-        if self.use_variance:
-            nxt, std = model_step(self.model, self.state, u, self.projection, return_std=True,
-                                  history=self._history)
+        history = self._history
+        undo = None if history is None else history.copy()
+        if history is None:
+            X = self._x
+            X[0, :N_STATE] = self.state
+            X[0, N_STATE:] = u
         else:
-            nxt, std = model_step(self.model, self.state, u, self.projection,
-                                  history=self._history), None
+            X = np.atleast_2d(history.features(u))
+        with np.errstate(over="ignore", invalid="ignore"):
+            mean, std = _predict(self.model, X, self.use_variance)
+            if self._search is self.projection:
+                nxt, d = self.projection.project_distance(mean)
+            else:
+                nxt = self.projection(mean)
+                d = (self._search.distance(mean) if self._search is not None
+                     and np.all(np.isfinite(mean)) else np.full(1, np.nan))
+        nxt, d = nxt[0], float(d[0])
+        if std is not None:
+            std = std[0]
         if not np.all(np.isfinite(nxt)) or (std is not None and not np.all(np.isfinite(std))):
             self._history = undo
             return False
-        prev_state, prev_xy_yaw = self.state, self._xy_yaw
-        xy_yaw = integrate_path(nxt[None], prev_xy_yaw[0], prev_xy_yaw[1], prev_xy_yaw[2],
-                                prev_state[S.roll_pitch])[0]
+        prev_state, (x0, y0, yaw0) = self.state, self._xy_yaw
+        yaw = yaw0 + nxt[S.dyaw]
+        R = rpy_to_matrix1(float(prev_state[S.roll]), float(prev_state[S.pitch]),
+                            float(yaw0))[:2]
+        dp = R @ nxt[S.d_b]
+        xy_yaw = np.array([x0 + dp[0], y0 + dp[1], wrap_angle(yaw)])
         if not np.all(np.isfinite(xy_yaw)):
             self._history = undo
             return False
+        if history is not None:
+            history.push(nxt[None])
         self._prev_pose = (self.position, self.orientation)
+        self.nn_distance = d
+        r = self.trust_radius
+        self.extrapolating = r > 0 and d > r
+        if self.extrapolating:
+            self.extrapolating_steps += 1
+        if not d <= self._window_max:     # also replaces NaN
+            self._window_max = d
         if std is not None:
             var = std * std
-            A = rpy_to_matrix(np.array([prev_state[S.roll], prev_state[S.pitch],
-                                        prev_xy_yaw[2]]))[:2]
-            self._sigma_xy = self._sigma_xy + (A * var[S.d_b]) @ A.T
+            if self.extrapolating:
+                var = var * (d / r) ** 2
+            self._sigma_xy = self._sigma_xy + (R * var[S.d_b]) @ R.T
             self._var_yaw += var[S.dyaw]
+            std = var
         self.state, self._xy_yaw = nxt, xy_yaw
         self.steps += 1
         self._set_outputs(std)
@@ -196,17 +249,19 @@ class LearnedSimulator:
         """Joint rates (12,) of the current state."""
         return self.state[S.dq]
 
-    def _set_outputs(self, std: np.ndarray | None) -> None:
+    def _set_outputs(self, var: np.ndarray | None) -> None:
+        """The published outputs from the state, the pose and this step's variances."""
         s = self.state
         x, y, yaw = self._xy_yaw
         self.position = np.array([x, y, s[S.z_w]])
-        self.orientation = rpy_to_quat(np.array([s[S.roll], s[S.pitch], yaw]))
+        self.orientation = rpy_to_quat1(float(s[S.roll]), float(s[S.pitch]), float(yaw))
         self.linear_velocity, self.angular_velocity = twist_from_poses(
             self._prev_pose[0], self._prev_pose[1], self.position, self.orientation, self.dt)
         if not self.use_variance:
             self.pose_covariance = self.twist_covariance = None
             return
-        var = np.zeros(N_STATE) if std is None else std * std
+        if var is None:
+            var = np.zeros(N_STATE)
         pose = np.zeros((6, 6))
         pose[:2, :2] = self._sigma_xy
         pose[2, 2] = var[S.z_w]
@@ -216,6 +271,18 @@ class LearnedSimulator:
         twist[np.arange(3), np.arange(3)] = var[S.d_b] / self.dt**2
         twist[np.arange(3, 6), np.arange(3, 6)] = var[S.d_rpy] / self.dt**2
         self.pose_covariance, self.twist_covariance = pose.reshape(36), twist.reshape(36)
+
+    def stats(self) -> dict[str, Any]:
+        """``~/stats`` entries of this backend (``sim.backend.Backend.stats``): ``nn_distance``
+        (last step), ``nn_distance_max`` (since the last call), ``trust_radius``,
+        ``extrapolating`` (last step, true/false) and ``extrapolating_steps`` (since start)."""
+        out = {"nn_distance": f"{self.nn_distance:.3f}",
+               "nn_distance_max": f"{self._window_max:.3f}",
+               "trust_radius": f"{self.trust_radius:.3f}",
+               "extrapolating": "true" if self.extrapolating else "false",
+               "extrapolating_steps": self.extrapolating_steps}
+        self._window_max = float("nan")
+        return out
 
     def outputs_finite(self) -> bool:
         """True if every value the node would publish is finite."""

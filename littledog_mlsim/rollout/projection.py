@@ -58,6 +58,7 @@ __all__ = [
     "PROJECTION_KINDS", "PROJECTION_FORMAT_VERSION", "Projection", "NoProjection",
     "BoundProjection", "AlphaProjection", "NearestNeighbour", "make_projection",
     "enforce_limits", "leave_move_out_distances", "radius_from_quantile",
+    "GATE_QUANTILE", "GATE_EVERY", "gate_radius",
 ]
 
 PROJECTION_KINDS: tuple[str, ...] = ("none", "bound", "alpha")
@@ -725,22 +726,52 @@ class AlphaProjection(Projection):
     def _project(self, s: np.ndarray) -> np.ndarray:
         if self.alpha == 0.0:
             return s
-        i = self.nearest(s)
+        return self._project_from(s, self.nearest(s))[0]
+
+    def _project_from(self, s: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """The projection of s given its nearest TrainPool states i; also their distances when
+        the gate computed them (else None)."""
         q = self.train_states[i]
         if self.radius > 0.0:
             return self._gated(s, q, i)
         if self.alpha == 1.0:
-            return q.copy()
-        return (1.0 - self.alpha) * s + self.alpha * q
+            return q.copy(), None
+        return (1.0 - self.alpha) * s + self.alpha * q, None
 
-    def _gated(self, s: np.ndarray, q: np.ndarray, i: np.ndarray) -> np.ndarray:
+    def project_distance(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``self(states)`` for (B, 33) states, plus the normalised distance (B,) of each
+        (limit-enforced) input row to its nearest TrainPool state (NaN for a non-finite row):
+        how far the prediction left the data, from the projection's own search (no second
+        one)."""
+        s = np.asarray(states, dtype=np.float64)
+        if s.ndim != 2 or s.shape[1] != N_STATE:
+            raise ValueError(f"states must be (B, {N_STATE}), got {s.shape}")
+        d = np.full(s.shape[0], np.nan)
+        finite = np.isfinite(s).all(axis=1)
+        out = enforce_limits(s)
+        if not finite.any():
+            out[:] = np.nan
+            return out, d
+        x = out[finite]
+        i = self.nearest(x)
+        if self.alpha == 0.0:
+            y, dx = x, None
+        else:
+            y, dx = self._project_from(x, i)
+        d[finite] = self.distance(x, i) if dx is None else dx
+        out[finite] = enforce_limits(y)
+        out[~finite] = np.nan
+        return out, d
+
+    def _gated(self, s: np.ndarray, q: np.ndarray, i: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
         d = self.distance(s, i)
         out = s.copy()
         far = np.flatnonzero(d > self.radius)
         if far.size:
             f = self.alpha * (1.0 - self.radius / d[far])        # share of (s - q) removed
             out[far] = s[far] - f[:, None] * (s[far] - q[far])
-        return out
+        return out, d
 
     def describe(self) -> dict[str, Any]:
         out = {"kind": self.kind, "alpha": self.alpha,
@@ -828,6 +859,25 @@ def radius_from_quantile(train_states: np.ndarray, groups: np.ndarray, quantile:
         raise ValueError(f"quantile must be in [0, 1], got {quantile}")
     d = leave_move_out_distances(train_states, groups, scale=scale, every=every)
     return float(np.quantile(d, quantile))
+
+
+GATE_QUANTILE = 0.9   # the default gate: this quantile of the leave-move-out distances
+GATE_EVERY = 4        # ... over every 4th TrainPool state of each move
+
+
+def gate_radius(train_states: np.ndarray, groups: np.ndarray, quantile: float = GATE_QUANTILE,
+                every: int = GATE_EVERY) -> dict[str, Any]:
+    """The default radius of the gated alpha-PROJ for a model, as a JSON-ready record:
+    ``{"radius", "quantile", "every", "n_queries", "rule": "leave-move-out"}``.
+
+    The radius is the ``quantile`` of ``leave_move_out_distances`` (every ``every``-th state):
+    real states of a move the TrainPool does not hold are that close to it in that share of
+    cases, so states as well covered as those stay untouched and only the excess is pulled.
+    ``GATE_QUANTILE`` (0.9) is the documented default (README "Which projection",
+    ``benchmarks/sim_node_10x``)."""
+    d = leave_move_out_distances(train_states, groups, every=every)
+    return {"radius": float(np.quantile(d, float(quantile))), "quantile": float(quantile),
+            "every": int(every), "n_queries": int(d.size), "rule": "leave-move-out"}
 
 
 _KINDS: dict[str, type[Projection]] = {

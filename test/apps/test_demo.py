@@ -82,7 +82,8 @@ def test_demo_core_on_tiny_dataset(tiny):
     data, model_path = tiny
     before = children()
     lines: list[str] = []
-    r = run_demo(data, model_path, max_steps=60, domain=DOMAIN, log=lines.append)
+    r = run_demo(data, model_path, max_steps=60, domain=DOMAIN, log=lines.append,
+                 projection="none")
     assert children() == before, "a simulator process survived the demo"
     assert len(r.pids) == 2 and all(gone(p) for p in r.pids)
     assert r.exit_codes == {"sim_node": 0, "pybullet_node": 0}

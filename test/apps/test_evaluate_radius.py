@@ -42,10 +42,14 @@ def test_labels():
 def test_radius_options_in_rollout(lr_model: Path, data: Path, tmp_path: Path):
     base = ["--model", str(lr_model), "--data", str(data), "--projection", "alpha",
             "--alpha", "0.5"]
-    plain = _rollout(base, tmp_path / "plain")
-    zero = _rollout([*base, "--radius", "0"], tmp_path / "zero")
+    plain = _rollout([*base, "--radius", "0"], tmp_path / "plain")
+    zero = _rollout([*base, "--radius", "0.0"], tmp_path / "zero")
     assert "radius" not in plain and "radius" not in zero
     assert zero["final_xy_error_m"] == plain["final_xy_error_m"]
+    # the default: the model's own radius, stored at training (quantile 0.9, every 4th state)
+    default = _rollout(base, tmp_path / "default")
+    gate = OneStepModel.load(lr_model).gate
+    assert default["radius"] == gate["radius"] > 0 and default["radius_quantile"] == 0.9
     # a radius beyond every distance: the rollout of no projection, exactly
     none = _rollout([*base[:-4], "--projection", "none"], tmp_path / "none")
     huge = _rollout([*base, "--radius", "1e9"], tmp_path / "huge")
@@ -59,6 +63,7 @@ def test_radius_options_in_rollout(lr_model: Path, data: Path, tmp_path: Path):
     assert q["radius_quantile"] == 0.9
     assert q["radius"] == pytest.approx(float(np.quantile(d, 0.9)), rel=1e-12)
     assert q["radius"] == trainpool_radius(OneStepModel.load(lr_model), data, 0.9)
+    assert q["radius"] == default["radius"]            # the stored radius is that quantile
 
 
 def test_radius_options_in_evaluate_and_errors(lr_model: Path, data: Path, tmp_path: Path,

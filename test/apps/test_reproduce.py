@@ -35,7 +35,8 @@ def test_evaluate_writes_metrics_per_state_and_rollouts(lr_model: Path, data: Pa
     assert list(m["nmse"]) == list(STATE_NAMES)
     assert all(v is None or v >= 0 for v in m["nmse"].values())
     assert m["n_samples"] == 3 * 399                    # one TestPool move per type
-    assert set(m["rollout"]) == {"none", "bound", "alpha_0.5"}
+    # the default alpha-PROJ is gated with the model's own radius (its 0.9 quantile)
+    assert set(m["rollout"]) == {"none", "bound", "alpha_0.5_q0.9"}
     for v in m["rollout"].values():
         assert v["final_xy_error_m"] is not None and v["final_xy_error_m"] >= 0
 

@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-DOMAIN_ID = str(1 + os.getpid() % 100)
+# LITTLEDOG_TEST_DOMAIN_ID: a fixed domain (e.g. one reserved for this checkout)
+DOMAIN_ID = os.environ.get("LITTLEDOG_TEST_DOMAIN_ID") or str(1 + os.getpid() % 100)
 os.environ["ROS_DOMAIN_ID"] = DOMAIN_ID          # before rclpy.init (read from the environment)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -36,7 +37,12 @@ from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from rclpy.qos import (  # noqa: E402
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+)
 from rosgraph_msgs.msg import Clock as ClockMsg  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_srvs.srv import SetBool, Trigger  # noqa: E402
@@ -350,7 +356,7 @@ def lockstep_sim(ros, work, served, test_move):
     params.write_text(json.dumps({"sim_node": {"ros__parameters": {
         "model_path": str(served[0]), "step_mode": "lockstep", "initial_state": s0,
         "initial_pose": pose, "stats_period": 0.2}}}))
-    proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5}, work,
+    proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5, "radius": 0.0}, work,
                 "--params-file", str(params))
     probe = Probe(ros)
     probe.connect(proc)
@@ -535,7 +541,10 @@ class TestTimerMode:
         assert received_fraction(window) > 0.95, starvation(probe)
         assert proc.alive()
 
-    @pytest.mark.parametrize("case", list(BAD_COMMANDS))
+    # one case per reason over DDS; every case of the rule is unit-tested without DDS
+    # (test_sim_core.py: test_command_rule_cases, test_rejected_commands_counted_and_...)
+    @pytest.mark.parametrize("case", ["duplicated_name", "long_position", "nan",
+                                      "outside_limits"])
     def test_bad_command(self, timer_sim, case):
         proc, probe, commands = timer_sim
         names, positions, counter = BAD_COMMANDS[case]
@@ -669,14 +678,34 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
     proc = Proc("sim_node", {"model_path": out, "step_mode": "lockstep", "stats_period": 0.2},
                 work)
     probe = Probe(ros)
+    # /robot_description: transient-local, so this late subscriber still gets the URDF
+    from std_msgs.msg import String
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    urdf: list[str] = []
+    desc = Node(f"description_{time.monotonic_ns()}")   # subscribed before the executor spins it
+    desc.create_subscription(String, "/robot_description",
+                             lambda msg: probe._add(lambda: urdf.append(msg.data)), latched)
+    ros.executor.add_node(desc)
     try:
         probe.connect(proc)
         probe.send(HOME_POSE)
         probe.wait(lambda: CONTROL_DT_NS in probe.state, what="the first step")
-        s0 = standing_train_state(model.train_states, model.projection("alpha", 0.5))
-        ref = rollout(model, s0, HOME_POSE[None], model.projection("alpha", 0.5))
+        probe.wait(lambda: bool(urdf), what="/robot_description")
+        assert '<link name="base_link"/>' in urdf[0] and '<link name="body">' in urdf[0]
+        # ~/stats: the distance to the data and the trust radius (the model's gate radius)
+        st = probe.wait_counter("steps", 1)
+        assert float(st["trust_radius"]) == pytest.approx(model.gate["radius"], abs=1e-3)
+        assert np.isfinite(float(st["nn_distance"])) and "real_time_factor" in st
+        assert st["extrapolating"] in ("true", "false") and int(st["extrapolating_steps"]) >= 0
+        # ... and steps with the default projection: gated alpha-PROJ, the model's own radius
+        assert model.gate["radius"] > 0 and model.gate["quantile"] == 0.9
+        gated = model.projection("alpha", 0.5, radius=model.gate["radius"])
+        s0 = standing_train_state(model.train_states, gated)
+        ref = rollout(model, s0, HOME_POSE[None], gated)
         np.testing.assert_allclose(probe.state[CONTROL_DT_NS], ref[0], atol=1e-12)
     finally:
+        ros.close(desc)
         probe.close()
         assert proc.stop() == 0
 

@@ -82,3 +82,67 @@ def test_a_refused_step_changes_nothing(model, moves):
         assert sim.step(u)
         np.testing.assert_allclose(sim.state, ref[t], rtol=0, atol=1e-12)
     assert sim.pose_covariance is None and sim.steps == 20
+
+
+def test_nn_distance_flag_and_covariance_inflation(moves):
+    """nn_distance is the prediction's normalised distance to its nearest TrainPool state (a
+    brute-force search here); beyond trust_radius the step is flagged and its variances are
+    multiplied by (d / r)^2."""
+    X, Y, _ = FeatureSet().features_responses(moves[:3])
+    model = OneStepModel.fit(LinearRegression(), X, Y)
+    move = prepare_test_move(moves[3])
+    pose0 = np.array([move.pose0.x0, move.pose0.y0, move.pose0.yaw0])
+    proj = model.projection("none")
+    monitor = model.projection("alpha", 0.0)
+    plain = LearnedSimulator(model, proj, move.s0, pose0, use_variance=True, monitor=monitor)
+    P = model.train_states / monitor.scale
+    ds = []
+    for u in move.actions[:30]:
+        x = np.r_[plain.state, u][None]
+        pred = model.predict(x)[0]
+        assert plain.step(u)
+        ds.append(plain.nn_distance)
+        brute = np.sqrt(((pred / monitor.scale - P) ** 2).sum(axis=1)).min()
+        assert plain.nn_distance == pytest.approx(brute, rel=1e-9)
+        assert not plain.extrapolating                     # trust_radius 0: never flagged
+    r = float(np.median(ds))
+    sim = LearnedSimulator(model, proj, move.s0, pose0, use_variance=True, trust_radius=r,
+                           monitor=monitor)
+    ref = LearnedSimulator(model, proj, move.s0, pose0, use_variance=True)
+    for u, d in zip(move.actions[:30], ds):
+        _, std = model.predict(np.r_[sim.state, u][None], return_std=True)
+        assert sim.step(u) and ref.step(u)
+        np.testing.assert_array_equal(sim.state, ref.state)   # the flag changes no state
+        assert sim.extrapolating == (d > r)
+        f = (d / r) ** 2 if d > r else 1.0
+        assert sim.pose_covariance[14] == pytest.approx(std[0, S.z_w] ** 2 * f, rel=1e-12)
+    st = sim.stats()
+    assert st["extrapolating_steps"] == sum(d > r for d in ds)
+    assert float(st["nn_distance_max"]) == pytest.approx(max(ds), abs=1e-3)
+    assert sim.pose_covariance[0] > ref.pose_covariance[0]      # x variance grew faster
+    assert sim.stats()["nn_distance_max"] == "nan"              # a new window, no step yet
+
+
+def test_gated_projection_distance_is_the_search_distance(moves):
+    """With alpha-PROJ the distance comes from the projection's own search: the same as a
+    separate one, and the state is that of the plain rollout step."""
+    X, Y, _ = FeatureSet().features_responses(moves[:3])
+    model = OneStepModel.fit(LinearRegression(), X, Y)
+    move = prepare_test_move(moves[3])
+    gated = model.projection("alpha", 0.5, radius=0.5)
+    ref = rollout(model, move.s0, move.actions[:20], gated)
+    sim = LearnedSimulator(model, gated, move.s0, use_variance=False)
+    for t, u in enumerate(move.actions[:20]):
+        pred = model.predict(np.r_[sim.state, u][None])
+        assert sim.step(u)
+        np.testing.assert_array_equal(sim.state, ref[t])
+        assert sim.nn_distance == pytest.approx(float(gated.distance(pred)[0]), rel=1e-12)
+
+
+def test_single_pose_rotations_equal_the_vectorised_ones():
+    from littledog_mlsim.rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
+    rpy = np.random.default_rng(0).uniform(-np.pi, np.pi, (200, 3))
+    np.testing.assert_allclose(np.array([rpy_to_matrix1(*r) for r in rpy]), rpy_to_matrix(rpy),
+                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.array([rpy_to_quat1(*r) for r in rpy]), rpy_to_quat(rpy),
+                               rtol=0, atol=1e-15)
