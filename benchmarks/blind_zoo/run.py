@@ -97,7 +97,13 @@ def diagnose(ds: Dataset, work: Path, extra: list[str], logs: Path) -> None:
     report = out / "report.json"
     if not report.is_file():
         cmd = CLI + ["diagnose", "--data", str(ds.path), "--out", str(out)] + extra
-        ds.diag_seconds = _run(cmd, logs / f"diagnose_{ds.name}.log")
+        t0 = time.perf_counter()
+        try:
+            ds.diag_seconds = _run(cmd, logs / f"diagnose_{ds.name}.log")
+        except RuntimeError as exc:          # a failed diagnosis is a result, not a stop
+            ds.diag_seconds = time.perf_counter() - t0
+            ds.report = {"error": str(exc), "significant": False, "effects": []}
+            return
         (out / "seconds.txt").write_text(f"{ds.diag_seconds:.1f}\n")
     elif (out / "seconds.txt").is_file():
         ds.diag_seconds = float((out / "seconds.txt").read_text())
