@@ -539,7 +539,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_lib: int, alpha: float, min_gain: f
 def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (), *,
              robot: Any = "measured", fit_per_type: int = 1, validate_per_type: int = 2,
              test_per_type: int = 2, alpha: float = 0.01, min_gain: float = 0.05,
-             max_rounds: int = 1, n_refine: int = 4, jobs: int = 2, screen_moves: int = 5,
+             max_rounds: int = 1, n_refine: int = 3, jobs: int = 2, screen_moves: int = 5,
              excitation: float = 0.0, families: Sequence[str] | None = None,
              horizons_s: Sequence[float] = DEFAULT_HORIZONS_S,
              progress: Callable[[str], None] | None = None) -> PhysIdResult:
@@ -792,7 +792,7 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
     if abs(dev) < 1e-9:
         dev = spec.probe
     grid = sorted({float(np.clip(spec.neutral + dev * f, lo, hi))
-                   for f in (0.5, 0.8, 1.0, 1.25, 1.6)})
+                   for f in (0.6, 1.0, 1.5)})
     evals: dict[float, float] = {}
 
     def run(mags: list[float]) -> None:
@@ -950,8 +950,8 @@ def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitat
     - a command-path family (delay, filter, backlash on the set-points) as the best candidate
       that was not accepted, on data without command excitation: a smooth open-loop trot
       hardly tells a late or filtered set-point from the robot's own dynamics;
-    - any best candidate that is significant but below the materiality bar, or material on the
-      fit moves but not significant on the held-out ones: more moves would settle it;
+    - any best candidate that is significant but below the materiality bar: more moves would
+      settle it;
     - an accepted command delay or filter whose rival (filter or delay) fitted nearly as well:
       excitation separates a pure delay from a lag.
     """
@@ -964,7 +964,8 @@ def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitat
         if f.profile:
             fit_cut = 1.0 - min(p["J_relative"] for p in f.profile)
         path = FAMILIES[f.family].command_path or f.family == "backlash"
-        if path and excitation <= 0 and (fit_cut or 0) >= 2 * min_gain:
+        held = bool(np.nanmin(f.p_channel) < alpha) and float(np.nansum(f.gain)) > 0
+        if path and excitation <= 0 and (fit_cut or 0) >= 2 * min_gain and held:
             out.append({"family": f.family, "scope": f.scope, "params": f.params,
                         "why": (f"{f.statement} explains {fit_cut:.0%} of the fit moves' "
                                 "output error but is not established on the held-out moves; "
@@ -975,11 +976,6 @@ def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitat
             out.append({"family": f.family, "scope": f.scope, "params": f.params,
                         "why": f"{f.statement} is significant on held-out moves (p = "
                                f"{f.p_value:.2g}) but cuts no output error by {min_gain:.0%}",
-                        "recording": more})
-        elif (fit_cut or 0) >= 4 * min_gain and not f.significant:
-            out.append({"family": f.family, "scope": f.scope, "params": f.params,
-                        "why": f"{f.statement} explains {fit_cut:.0%} of the fit moves' output "
-                               "error but is not significant on the held-out moves",
                         "recording": more})
     for f in findings:
         if f.family in ("command_delay", "command_filter") and excitation <= 0:
