@@ -350,7 +350,7 @@ def test_cli_diagnose_help_and_bad_input(tmp_path):
 PHYS_TYPES = ("F", "B", "L", "R", "DL", "S")
 PHYS_FAMILIES = ["command_delay", "command_filter", "servo_gain", "joint_friction",
                  "odom_force", "body_wrench", "ground_slope"]
-PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=3,
+PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=4,
                     n_refine=3, families=PHYS_FAMILIES)
 
 
