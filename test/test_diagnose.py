@@ -77,6 +77,37 @@ def test_every_candidate_is_the_same_in_batch_and_online(synthetic_moves):
                                           err_msg=f"{fs.describe()} batched={batched}")
 
 
+def test_physical_effect_features_are_the_same_in_batch_and_online(synthetic_moves):
+    """Every online feature the physical identification adds (diagnose.run.augmentation_for),
+    on scoped joints too, equals its batch value; the low-pass follows its definition."""
+    from littledog_mlsim.diagnose.run import augmentation_for
+    from littledog_mlsim.models.features import CommandFilter
+    cases = [("command_delay", "leg:back_left", {"delay_ms": 30.0}),
+             ("command_filter", "joint:front_left_knee", {"time_constant_ms": 40.0}),
+             ("command_filter", "side:left", {"time_constant_ms": 25.0}),
+             ("joint_friction", "type:knees", {"coulomb_Nm": 0.05}),
+             ("backlash", "all", {"width_rad": 0.03}),
+             ("torque_saturation", "type:knees", {"torque_limit_ratio": 0.7}),
+             ("odom_force", "body", {"force_N": 1.0}), ("time_drift", "all", {"rate_per_s": -0.1})]
+    for fam, scope, par in cases:
+        aug = augmentation_for(fam, scope, par)
+        fs = FeatureSet((aug,))
+        X, _, _ = fs.features_responses(synthetic_moves)
+        for batched in (False, True):
+            np.testing.assert_array_equal(_online(fs, synthetic_moves, batched), X,
+                                          err_msg=f"{fs.describe()} batched={batched}")
+    assert augmentation_for("servo_gain", "all", {"gain_ratio": 0.6}) is None
+    fs = FeatureSet((CommandFilter(time_constant_ms=40.0, joints="front_left_knee"),))
+    X, _, idx = fs.features_responses(synthetic_moves[:1])
+    U = X[:, N_STATE + 2]                       # u of front_left_knee (contract index 2)
+    a = 1.0 - np.exp(-10.0 / 40.0)
+    y = np.empty_like(U)
+    y[0] = U[0]
+    for t in range(1, len(U)):
+        y[t] = y[t - 1] + a * (U[t] - y[t - 1])
+    np.testing.assert_allclose(X[:, -1], y, atol=1e-12)
+
+
 def test_feature_values_against_their_definitions(synthetic_moves):
     rec = synthetic_moves[1]
     fs = FeatureSet((CommandLag(lag=2), StateLag(lag=1, group="q"), Heading()))
