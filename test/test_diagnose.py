@@ -382,7 +382,7 @@ PHYS_TYPES = ("F", "B", "L", "R", "DL", "S")
 PHYS_FAMILIES = ["command_delay", "command_filter", "servo_gain", "joint_friction",
                  "odom_force", "body_wrench", "ground_slope"]
 PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=4,
-                    n_refine=3, families=PHYS_FAMILIES)
+                    n_refine=4, families=PHYS_FAMILIES)
 
 
 def _record_small(root: Path, name: str, seed: int, effects: str | None = None,

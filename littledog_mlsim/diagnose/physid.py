@@ -542,7 +542,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_choice: int, alpha: float, min_gain
 def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (), *,
              robot: Any = "measured", fit_per_type: int = 1, validate_per_type: int = 2,
              test_per_type: int = 2, alpha: float = 0.01, min_gain: float = 0.05,
-             max_rounds: int = 1, n_refine: int = 3, jobs: int = 2, screen_moves: int = 5,
+             max_rounds: int = 1, n_refine: int = 4, jobs: int = 2, screen_moves: int = 5,
              excitation: float = 0.0, families: Sequence[str] | None = None,
              horizons_s: Sequence[float] = DEFAULT_HORIZONS_S,
              progress: Callable[[str], None] | None = None) -> PhysIdResult:
@@ -755,20 +755,28 @@ def _scope_scores(fam: str, G: np.ndarray, b: np.ndarray) -> list[Candidate]:
 
 
 def _shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
-    """The best ``n`` hypotheses with at most two scopes per family (so that a family and its
-    rivals are all fitted)."""
+    """The hypotheses to fit: the best scope of the best joint families and of the best body
+    families (half each), then the next best overall. Joint families are screened on the 1 s
+    segments, body families also on the 4 s replay, so their scores are not compared directly:
+    the held-out decision compares them after the fit."""
+    pos = [c for c in cands if c.score > 0]
+    joint = [c for c in pos if FAMILIES[c.family].kind == "joints"]
+    body = [c for c in pos if FAMILIES[c.family].kind != "joints"]
     out: list[Candidate] = []
-    per: dict[str, int] = {}
-    for c in cands:
-        if c.score <= 0:
-            continue
-        if per.get(c.family, 0) >= 2:
-            continue
-        # a second scope of a family only if it is not nested in the first
-        out.append(c)
-        per[c.family] = per.get(c.family, 0) + 1
+    for group, k in ((joint, (n + 1) // 2), (body, n // 2)):
+        fams: set[str] = set()
+        for c in group:
+            if c.family in fams:
+                continue
+            out.append(c)
+            fams.add(c.family)
+            if len(fams) >= k:
+                break
+    for c in pos:
         if len(out) >= n:
             break
+        if c not in out:
+            out.append(c)
     return out or cands[:1]
 
 
