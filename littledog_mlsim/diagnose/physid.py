@@ -542,7 +542,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_choice: int, alpha: float, min_gain
 def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (), *,
              robot: Any = "measured", fit_per_type: int = 1, validate_per_type: int = 2,
              test_per_type: int = 2, alpha: float = 0.01, min_gain: float = 0.05,
-             max_rounds: int = 1, n_refine: int = 4, jobs: int = 2, screen_moves: int = 5,
+             max_rounds: int = 1, n_refine: int = 4, jobs: int = 2, screen_moves: int = 4,
              excitation: float = 0.0, families: Sequence[str] | None = None,
              horizons_s: Sequence[float] = DEFAULT_HORIZONS_S,
              progress: Callable[[str], None] | None = None) -> PhysIdResult:
