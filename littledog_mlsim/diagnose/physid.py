@@ -816,9 +816,21 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
             evals[m] = _J(errs, w)
 
     run(grid)
+    for _ in range(2):      # the minimum at the grid's edge: extend once or twice that way
+        ms = sorted(evals, key=lambda m: abs(m - spec.neutral))
+        best_m = min(evals, key=evals.get)
+        if best_m == ms[-1]:
+            new = float(np.clip(spec.neutral + (best_m - spec.neutral) * 1.6, lo, hi))
+        elif best_m == ms[0] and len(ms) > 1:
+            new = float(np.clip(spec.neutral + (best_m - spec.neutral) * 0.4, lo, hi))
+        else:
+            break
+        if new in evals or abs(new - best_m) < 1e-9:
+            break
+        run([new])
     ms = sorted(evals)
     k = int(np.argmin([evals[m] for m in ms]))
-    if 0 < k < len(ms) - 1:
+    if 0 < k < len(ms) - 1:      # a parabola through the best point and its neighbours
         x = np.array(ms[k - 1:k + 2])
         y = np.array([evals[m] for m in x])
         A = np.vstack([x ** 2, x, np.ones(3)]).T
@@ -826,13 +838,10 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
             a2, a1, _ = np.linalg.solve(A, y)
             if a2 > 0:
                 xm = float(np.clip(-a1 / (2 * a2), x[0], x[2]))
-                run([xm])
+                if all(abs(xm - m) > 1e-6 for m in evals):
+                    run([xm])
         except np.linalg.LinAlgError:
             pass
-    elif k == len(ms) - 1 and ms[-1] < hi:        # extend outwards once
-        run([float(min(hi, spec.neutral + (ms[-1] - spec.neutral) * 1.6))])
-    elif k == 0 and ms[0] > lo and spec.neutral == 0.0:
-        run([float(max(lo, ms[0] * 0.5))])
     best = min(evals, key=evals.get)
     c.fitted = best
     c.J = evals[best]
