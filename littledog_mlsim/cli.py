@@ -212,11 +212,29 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
         raise CliError("--max-rounds must be >= 0, --folds >= 2, --random-features >= 10")
     options = dict(a.option) if a.option else None
     search = SearchModel(n_random_features=a.random_features, n_folds=a.folds, seed=a.seed)
+    if a.fit_moves < 1 or a.validate_moves < 1 or a.physics_rounds < 1 or a.jobs < 1:
+        raise CliError("--fit-moves, --validate-moves, --physics-rounds and --jobs must be >= 1")
+    if not a.horizons or any(h <= 0 or h > 4 for h in a.horizons):
+        raise CliError("--horizons: comma-separated seconds in (0, 4]")
+    physics_options = {"fit_per_type": a.fit_moves, "validate_per_type": a.validate_moves,
+                       "max_rounds": a.physics_rounds, "jobs": a.jobs,
+                       "horizons_s": tuple(a.horizons)}
     r = diagnose(a.data, a.out, model=a.model, baseline=a.baseline, method=a.method,
                  options=options, alpha=a.significance, min_gain=a.min_gain,
                  max_rounds=a.max_rounds, projections=a.projections, projection_alpha=a.alpha,
-                 search=search, seed=a.seed, figures=not a.no_figures, progress=not a.quiet)
-    if r["effects"]:
+                 search=search, seed=a.seed, figures=not a.no_figures, progress=not a.quiet,
+                 physics=a.physics, physics_options=physics_options)
+    for e in r.get("effects", []):
+        if "physical" in e:
+            print(f"effect {e['round']}: {e['physical']['family']} on {e['physical']['scope']} "
+                  f"{e['physical']['params']} (p = {e['p_value']:.2g}): "
+                  f"{e['physical']['statement']}")
+    for s in r.get("suspected", []):
+        print(f"suspected: {s['family']} on {s['scope']}: {s['why']}; settle with: "
+              f"{s['recording']}")
+    if r["effects"] and "physics" in r:
+        pass
+    elif r["effects"]:
         for e in r["effects"]:
             cut = [v for v in e["nmse_cut"].values() if v is not None]
             print(f"effect {e['round']}: {e['family']} {e['label']} (p = {e['p_value']:.2g}) on "
@@ -467,6 +485,22 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--seed", type=int, default=0, help="seed of the search model and report model")
     dg.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     dg.add_argument("--quiet", action="store_true", help="no progress lines")
+    dg.add_argument("--physics", choices=["auto", "on", "off"], default="auto",
+                    help="name effects by physical identification (family x scope x parameter "
+                         "by re-simulating the dataset's robot; docs/diagnosis.md); auto = on "
+                         "when the dataset names a known robot; off = the learned residual loop "
+                         "only (default auto)")
+    dg.add_argument("--fit-moves", type=int, default=1,
+                    help="physics: TrainPool moves per type that choose and fit (default 1)")
+    dg.add_argument("--validate-moves", type=int, default=2,
+                    help="physics: other TrainPool moves per type that decide (default 2)")
+    dg.add_argument("--physics-rounds", type=int, default=1,
+                    help="physics: most effects to identify (default 1)")
+    dg.add_argument("--horizons", type=lambda t: [float(x) for x in t.split(",") if x],
+                    default=[0.1, 0.5, 1.0, 4.0],
+                    help="physics: reported error horizons [s] (default 0.1,0.5,1,4)")
+    dg.add_argument("--jobs", type=int, default=2,
+                    help="physics: re-simulation worker processes (default 2)")
     dg.set_defaults(func=cmd_diagnose)
 
     im = sub.add_parser("import", help="turn recorded bags (ros2 bag record, ROS 1) into a dataset",

@@ -45,6 +45,15 @@ Top level::
     data, dataset_info, n_train_moves, n_test_moves, model (path of the final model), seconds
 
 All numbers are plain JSON (no NaN: undefined values are null).
+
+Additions (both modes, see docs/diagnosis.md for every key): ``effects[i].physical`` = {family,
+scope, params {primary: value, ...}, statement} in the diagnosis vocabulary; ``suspected`` =
+[{family, scope, params, why, recording}]. With physical identification (``diagnose
+--physics on/auto``, :func:`write_physical_report`) also ``effects[i].augmentation``,
+``effects[i].augmentation_note``, the physics ``effects[i].evidence`` (held-out output-error cuts,
+magnitude profile, fitted rivals, errors at horizons 0.1/0.5/1/4 s before/after) and ``physics``
+(transducer, moves, simulations, thresholds, the rejected best candidate); ``rounds`` is empty
+and ``search.kind`` is "physical identification".
 """
 from __future__ import annotations
 
@@ -129,7 +138,48 @@ def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -
                              "gain": _named(np.asarray(d["gain"]))} for d in r.delay_profile]),
         },
         "before": before, "after": after, "nmse_cut": cut,
+        "physical": learned_physical(s.augmentation),
     }
+
+
+_LEARNED_TO_VOCAB = {"command delay": "command_delay", "command filter": "command_filter",
+                     "Coulomb friction": "joint_friction", "backlash/hysteresis": "backlash",
+                     "tracking error saturation": "torque_saturation",
+                     "pose (heading)": "odom_force", "elapsed time": "time_drift",
+                     "foot contact": "contact_phase", "gait phase": "contact_phase"}
+_PRIMARY = {"command_delay": "delay_ms", "command_filter": "time_constant_ms",
+            "joint_friction": "coulomb_Nm", "backlash": "width_rad",
+            "torque_saturation": "torque_limit_Nm", "odom_force": "force_N",
+            "time_drift": "rate_per_s", "contact_phase": "magnitude"}
+
+
+def learned_physical(aug: Any) -> dict[str, Any]:
+    """The vocabulary's family/scope of a feature the learned loop added (docs/diagnosis.md);
+    the learned loop measures no physical magnitude, so the primary parameter is null except a
+    command delay's (lag x 10 ms)."""
+    fam = _LEARNED_TO_VOCAB.get(aug.family, "other")
+    params = aug.params()
+    joints = params.get("joints", "all")
+    if fam in ("odom_force", "contact_phase") or fam == "other":
+        scope = "body"
+    elif joints == "all":
+        scope = "all"
+    elif joints in ("hip_rolls", "hip_pitches", "knees"):
+        scope = f"type:{joints}"
+    elif joints in ("left", "right"):
+        scope = f"side:{joints}"
+    elif "_" in joints and joints.count("_") == 1:
+        scope = f"leg:{joints}"
+    else:
+        scope = f"joint:{joints}"
+    value = None
+    if aug.name == "command_lag":
+        value = 10.0 * params["lag"]
+    elif aug.name == "command_filter":
+        value = params["time_constant_ms"]
+    out = {_PRIMARY.get(fam, "value"): value}
+    return {"family": fam, "scope": scope, "params": out,
+            "statement": f"the learned model lacked {aug.label()} ({aug.family})"}
 
 
 def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> dict[str, Any]:
@@ -149,7 +199,7 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
                        "seconds": r.seconds, "best": [c.to_dict() for c in best]})
     doc = {
         "format": REPORT_FORMAT, "format_version": REPORT_FORMAT_VERSION,
-        "significant": bool(effects), "effects": effects,
+        "significant": bool(effects), "effects": effects, "suspected": [],
         "before": stages[0], "after": stages[-1], "stages": list(stages), "rounds": rounds,
         "search": {**sel.search_model, "residual": "cross-fitted by move (held-out folds)",
                    "alpha": sel.alpha, "min_gain": sel.min_gain,
@@ -412,4 +462,188 @@ def write_report(out: str | os.PathLike, sel: SelectionResult, stages: Sequence[
     figs = _figures(out, sel, doc) if figures else {}
     atomic_write_text(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
     atomic_write_text(out / "report.md", _markdown(doc, figs))
+    return doc
+
+
+# ---------------------------------------------------------------------------------------------
+# the physical identification's report (``diagnose`` with physics on; docs/diagnosis.md)
+
+def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dict[str, Any]:
+    from .physid import CHANNELS
+    ev = f.evidence()
+    outputs = [CHANNELS[j] for j in np.flatnonzero((f.p_channel < 0.01) & (f.gain >= 0.025))]
+    cut = {}
+    for name in STATE_NAMES:
+        b, a = before["nmse"].get(name), after["nmse"].get(name)
+        cut[name] = _f(1.0 - a / b) if (a is not None and b) else None
+    return {
+        "round": k + 1,
+        "name": None if aug is None else aug.name,
+        "label": (aug.label() if aug is not None else f"{f.family}({f.scope})"),
+        "family": f.family, "params": dict(f.params),
+        "columns": [] if aug is None else list(aug.columns()),
+        "outputs": outputs, "p_value": f.p_value,
+        "physical": {"family": f.family, "scope": f.scope, "params": dict(f.params),
+                     "statement": f.statement},
+        "augmentation": None if aug is None else aug.to_dict(),
+        "augmentation_note": (
+            "added to the learned model (computed online by sim_node, rollout, evaluate)"
+            if aug is not None else
+            "no feature added: a constant change of the robot is a function of the learned "
+            "model's inputs, so the model trained on these data already carries it "
+            "(before = after)"),
+        "evidence": ev, "before": before, "after": after, "nmse_cut": cut,
+    }
+
+
+def build_physical_report(pid: Any, effect_augs: Sequence[Any], effect_stage: Sequence[int],
+                          stages: Sequence[dict], **info: Any) -> dict[str, Any]:
+    """report.json of a diagnosis by physical identification (see module doc's additions)."""
+    effects = []
+    for k, (f, aug, si) in enumerate(zip(pid.findings, effect_augs, effect_stage)):
+        before = stages[si - 1] if aug is not None else stages[si]
+        effects.append(_physical_effect(k, f, aug, before, stages[si]))
+    doc = {
+        "format": REPORT_FORMAT, "format_version": REPORT_FORMAT_VERSION,
+        "significant": bool(effects), "effects": effects, "suspected": list(pid.suspected),
+        "before": stages[0], "after": stages[-1], "stages": list(stages), "rounds": [],
+        "search": {"kind": "physical identification", "alpha": pid.alpha,
+                   "min_gain": pid.min_gain, "library_size": pid.library_size,
+                   "test": "one-sided t-test over held-out moves of per-move output-error SSE "
+                           "cuts (pooled over channels and per channel), Bonferroni"},
+        "physics": pid.describe(),
+        **info,
+    }
+    return _clean(doc)
+
+
+def _physical_figures(out: Path, doc: dict) -> dict[str, list[str]]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    figs: dict[str, list[str]] = {"effects": [], "summary": []}
+    for e in doc["effects"]:
+        ev = e["evidence"]
+        fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
+        hb, ha = ev["horizon_errors_before"], ev["horizon_errors_after"]
+        hs = list(hb)
+        for ax, key, lab in ((axes[0], "q_rms_rad", "joint-angle RMS error [rad]"),
+                             (axes[1], None, "body (x, y) error [m]")):
+            vb = [hb[h].get(key) if key else hb[h].get("xy_body_m", hb[h].get("xy_odom_m"))
+                  for h in hs]
+            va = [ha[h].get(key) if key else ha[h].get("xy_body_m", ha[h].get("xy_odom_m"))
+                  for h in hs]
+            x = np.arange(len(hs))
+            ax.bar(x - 0.2, [np.nan if v is None else v for v in vb], 0.4, label="without")
+            ax.bar(x + 0.2, [np.nan if v is None else v for v in va], 0.4, label="with effect")
+            ax.set_xticks(x)
+            ax.set_xticklabels([f"{h} ahead" for h in hs], fontsize=8)
+            ax.set_ylabel(lab)
+            ax.set_yscale("log")
+            ax.legend(fontsize=7)
+        axes[0].set_title("physics re-simulation, TestPool", fontsize=9)
+        prof = ev.get("magnitude_profile") or []
+        ax = axes[2]
+        if prof:
+            ax.plot([p["magnitude"] for p in prof], [p["J_relative"] for p in prof], "o-")
+        ax.set_xlabel(f"{e['physical']['family']} magnitude")
+        ax.set_ylabel("weighted output SSE / without")
+        ax.set_title("magnitude fit (fit moves)", fontsize=9)
+        fig.suptitle(e["physical"]["statement"][:110], fontsize=9)
+        fig.tight_layout()
+        name = f"effect{e['round']}_{e['physical']['family']}.png"
+        fig.savefig(out / name, dpi=90)
+        plt.close(fig)
+        figs["effects"].append(name)
+    stages = doc["stages"]
+    labels = list(stages[0]["rollout"])
+    if labels and len(stages) > 1:
+        fig, axes = plt.subplots(1, len(labels), figsize=(5 * len(labels), 3.6), squeeze=False)
+        for ax, lab in zip(axes[0], labels):
+            for i, st in enumerate(stages):
+                y = [np.nan if v is None else v
+                     for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
+                ax.plot(np.arange(1, len(y) + 1) * 0.01, y,
+                        label="start" if i == 0 else f"+ feature {i}")
+            ax.set_xlabel("time after s_1 [s]")
+            ax.set_ylabel("mean cumulative (x, y) error [m]")
+            ax.set_title(f"learned rollout, projection {lab}")
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out / "rollout_before_after.png", dpi=90)
+        plt.close(fig)
+        figs["summary"].append("rollout_before_after.png")
+    return figs
+
+
+def _physical_markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
+    L: list[str] = []
+    add = L.append
+    ph = doc["physics"]
+    add("# Diagnosis (physical identification)\n")
+    add(f"Data: `{doc.get('data')}` ({doc.get('n_train_moves')} TrainPool moves, of which "
+        f"{ph['n_fit_moves']} choose and fit, {ph['n_validation_moves']} others decide; "
+        f"{doc.get('n_test_moves')} TestPool moves score). Transducer: {ph['transducer']}. "
+        f"Library: {ph['library_size']} family x scope hypotheses "
+        f"({', '.join(ph['families'])}); {ph['n_simulations']} re-simulations in "
+        f"{ph['seconds']:.0f} s.\n")
+    add(f"**Significant: {'yes' if doc['significant'] else 'no'}.**\n")
+    for e, fig in zip(doc["effects"], figs.get("effects", [])):
+        p = e["physical"]
+        ev = e["evidence"]
+        add(f"## Effect {e['round']}: {p['statement']}\n")
+        add(f"- family `{p['family']}`, scope `{p['scope']}`, parameters "
+            f"`{json.dumps(p['params'])}`")
+        add(f"- held-out moves: p = {e['p_value']:.2g} (adjusted); largest output-error cuts: "
+            + ", ".join(f"{k} {v:.0%}" for k, v in list(ev["held_out_sse_cut"].items())[:4]
+                        if v is not None))
+        add(f"- learned model: {e['augmentation_note']}"
+            + (f" (`{e['label']}`)" if e["augmentation"] else ""))
+        add("")
+        add("| horizon | joint RMS before [rad] | after | (x, y) before [m] | after |")
+        add("|---|---|---|---|---|")
+        for h, b in ev["horizon_errors_before"].items():
+            a = ev["horizon_errors_after"][h]
+            xyb = b.get("xy_body_m", b.get("xy_odom_m"))
+            xya = a.get("xy_body_m", a.get("xy_odom_m"))
+            add(f"| {h} | {_num(b['q_rms_rad'])} | {_num(a['q_rms_rad'])} | {_num(xyb)} | "
+                f"{_num(xya)} |")
+        add("")
+        add(f"![effect {e['round']}]({fig})\n")
+        add("TestPool, learned report model, before -> after: one-step nMSE mean "
+            f"{_num(e['before']['nmse_mean'])} -> {_num(e['after']['nmse_mean'])}; " + "; ".join(
+                f"rollout {lab} final (x, y) error {_num(e['before']['rollout'][lab]['final_xy_error_m'])}"
+                f" -> {_num(e['after']['rollout'][lab]['final_xy_error_m'])} m"
+                for lab in e["before"]["rollout"]) + "\n")
+    if doc.get("suspected"):
+        add("## Suspected, not established on this data\n")
+        for s in doc["suspected"]:
+            add(f"- `{s['family']}` on `{s['scope']}`: {s['why']}. Settle it with: "
+                f"`{s['recording']}`")
+        add("")
+    if not doc["effects"]:
+        for r in ph.get("rejected", []):
+            add(f"Best candidate, not accepted: {r['statement']} (held-out p = "
+                f"{_num(r['p_value'], '.2g')}, significant {r['significant']}, material "
+                f"{r['material']}).\n")
+    for f in figs.get("summary", []):
+        add(f"![{f}]({f})\n")
+    add(f"Final model: `{doc.get('model')}`. Schema of report.json: docs/diagnosis.md.")
+    return "\n".join(L) + "\n"
+
+
+def write_physical_report(out: str | os.PathLike, pid: Any, effect_augs: Sequence[Any],
+                          effect_stage: Sequence[int], stages: Sequence[dict], *,
+                          figures: bool = True, **info: Any) -> dict[str, Any]:
+    """Write report.json / report.md / figures of a physical identification."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    info = dict(info)
+    info["n_train_moves"] = info.pop("n_train", None)
+    info["n_test_moves"] = info.pop("n_test", None)
+    info["model"] = info.pop("model_path", None)
+    doc = build_physical_report(pid, effect_augs, effect_stage, stages, **info)
+    figs = _physical_figures(out, doc) if figures else {}
+    atomic_write_text(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    atomic_write_text(out / "report.md", _physical_markdown(doc, figs))
     return doc

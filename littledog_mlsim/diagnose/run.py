@@ -97,9 +97,17 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
              projections: Sequence[str] = ("alpha",), projection_alpha: float = 0.5,
              search: SearchModel | None = None, library: Sequence | None = None,
              seed: int = 0, save_model: bool = True, figures: bool = True,
-             progress: bool = True) -> dict[str, Any]:
+             progress: bool = True, physics: str = "auto",
+             physics_options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Run the residual loop on the dataset ``data``; write ``out/report.json``, ``report.md``,
     figures and ``out/model``. Returns the report (the JSON document).
+
+    ``physics``: ``"on"``/``"auto"`` (default): name effects by physical identification
+    (:mod:`.physid`: family x scope x parameter by re-simulation with the dataset's robot,
+    multi-step output errors), then add each found effect's online feature to the learned
+    model; ``"auto"`` falls back to ``"off"`` if the dataset names no known robot.
+    ``"off"``: the residual loop of :mod:`.selection` on the learned model alone.
+    ``physics_options``: keyword arguments of :func:`.physid.identify`.
 
     ``model``: start from this model file (its feature set, method, options and target; its
     "before" scores are its own). Otherwise the starting feature set is ``baseline``
@@ -134,6 +142,17 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
             options = DEFAULT_OPTIONS.get(method, {})
         baseline_desc = f"{baseline} feature set"
     options = dict(options or {})
+    robot = index.info.get("robot")
+    if physics not in ("on", "off", "auto"):
+        raise ValueError(f"physics must be on, off or auto, got {physics!r}")
+    if physics == "auto":
+        from ..robot.config import ROBOT_NAMES
+        physics = "on" if robot in ROBOT_NAMES else "off"
+    if physics == "on":
+        return _diagnose_physical(data, out, index, train, test, start, loaded, method, options,
+                                  target, seed, baseline_desc, projections, projection_alpha,
+                                  save_model, figures, say, t_start, robot or "measured",
+                                  alpha, min_gain, physics_options or {})
     search = SearchModel(seed=seed) if search is None else search
     library = list(default_library() if library is None else library)
 
@@ -184,6 +203,111 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
     say(f"{'found ' + found if found else 'nothing significant'}; wrote {out / 'report.md'} in "
         f"{time.perf_counter() - t_start:.1f} s")
     return report
+
+
+def _diagnose_physical(data, out, index, train, test, start, loaded, method, options, target,
+                       seed, baseline_desc, projections, projection_alpha, save_model, figures,
+                       say, t_start, robot, alpha, min_gain, physics_options):
+    """Physical identification (:mod:`.physid`), then the learned model before/after."""
+    from .physid import identify
+    from .report import write_physical_report
+    opts = {"alpha": alpha, "min_gain": min_gain, **dict(physics_options)}
+    excitation = float(index.info.get("command_excitation_rad", 0.0) or 0.0)
+    pid = identify(train, test, robot=robot, excitation=excitation, progress=say, **opts)
+    fs = start
+    feature_sets = [start]
+    effect_augs, effect_stage = [], []
+    for f in pid.findings:
+        aug = augmentation_for(f.family, f.scope, f.params)
+        if aug is not None and not (set(aug.columns()) & set(fs.names)):
+            fs = fs.with_augmentation(aug)
+            feature_sets.append(fs)
+        else:
+            aug = None
+        effect_augs.append(aug)
+        effect_stage.append(len(feature_sets) - 1)
+    stages, last_model = _stages(feature_sets, loaded, method, options, train, test, target,
+                                 seed, data, projections, projection_alpha, say)
+    out.mkdir(parents=True, exist_ok=True)
+    model_path = None
+    if save_model and last_model is not None:
+        model_path = last_model.save(out / "model")
+    report = write_physical_report(
+        out, pid, effect_augs, effect_stage, stages, data=os.fspath(data),
+        dataset_info=index.info, baseline=baseline_desc, method=method, options=options,
+        model_path=None if model_path is None else os.fspath(model_path), n_train=len(train),
+        n_test=len(test), figures=figures, seconds=time.perf_counter() - t_start)
+    found = "; ".join(e["physical"]["statement"] for e in report["effects"])
+    say(f"{'found: ' + found if found else 'nothing significant'}"
+        + (f"; suspected: {', '.join(s['family'] for s in report['suspected'])}"
+           if report["suspected"] else "")
+        + f"; wrote {out / 'report.md'} in {time.perf_counter() - t_start:.1f} s")
+    return report
+
+
+def _stages(feature_sets, loaded, method, options, train, test, target, seed, data,
+            projections, projection_alpha, say):
+    """Fit and score the report model for every feature set (the loop's stages)."""
+    stages: list[dict[str, Any]] = []
+    last_model = None
+    for k, fs_k in enumerate(feature_sets):
+        t0 = time.perf_counter()
+        if k == 0 and loaded is not None:
+            m, note = loaded, None
+        else:
+            info = {"diagnosis_stage": k, "data_dir": os.fspath(data)}
+            m, note = _fit_with_fallback(fs_k, method, options, train, target, seed, info, say)
+        if m is None:
+            scores = _failed_stage(note, projections, projection_alpha)
+        else:
+            scores = score_on_test(m, test, projections, projection_alpha)
+            if note:
+                scores["note"] = note
+        scores["feature_set"] = fs_k.to_dict()
+        scores["feature_set_description"] = fs_k.describe()
+        scores["fit_and_score_seconds"] = time.perf_counter() - t0
+        stages.append(scores)
+        last_model = m
+        if m is None:
+            say(f"stage {k} ({fs_k.describe()}): {note}")
+            continue
+        say(f"stage {k} ({fs_k.describe()}): TestPool nMSE mean {scores['nmse_mean']:.4f}, "
+            f"final xy error {_fmt(scores['rollout'])} in {time.perf_counter() - t0:.1f} s")
+    return stages, last_model
+
+
+def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
+    """The online feature (an :class:`..models.features.Augmentation`) that lets a learned model
+    carry a physically identified effect, or None if the model trained on the data carries it
+    already (a constant change of the robot is a function of the model's inputs).
+
+    command_delay -> u_{t-d} of the scope's joints; command_filter -> the low-passed commands;
+    joint_friction -> the rate/push signs; backlash -> a play operator on the commands;
+    torque_saturation -> the clipped tracking error; odom_force and ground_slope -> the heading
+    (a world-fixed push acts in the body frame through it); time_drift -> the elapsed time.
+    """
+    from ..models.features import (CommandFilter, CommandLag, ElapsedTime, Heading,
+                                   JointRateSign, Play, TrackingSaturation)
+    group = "all" if scope in ("all", "body") else scope.split(":", 1)[1]
+    if family == "command_delay":
+        lag = int(round(float(params["delay_ms"]) / 10.0))
+        return CommandLag(lag=lag, joints=group) if lag >= 1 else None
+    if family == "command_filter":
+        tau = float(params["time_constant_ms"])
+        return CommandFilter(time_constant_ms=round(tau, 1), joints=group) if tau > 1 else None
+    if family == "joint_friction":
+        return JointRateSign(smoothing=0.05, joints=group, error_smoothing=0.02)
+    if family == "backlash":
+        w = float(params["width_rad"])
+        return Play(width=round(w, 4), source="u") if w > 1e-4 else None
+    if family == "torque_saturation":
+        lim = float(params["torque_limit_ratio"]) * 0.61 / 6.7
+        return TrackingSaturation(limit=round(max(lim, 1e-3), 4))
+    if family in ("odom_force", "ground_slope"):
+        return Heading()
+    if family == "time_drift":
+        return ElapsedTime()
+    return None
 
 
 def _fit_with_fallback(fs, method, options, train, target, seed, info, say):

@@ -60,7 +60,7 @@ BASE_FEATURES = "paper45"
 __all__ = [
     "Augmentation", "AUGMENTATIONS", "register_augmentation", "FeatureSet", "FeatureSetError",
     "FeatureHistory", "Window", "batch_columns", "integrate_pose", "CommandLag",
-    "CommandIncrement", "StateLag",
+    "CommandIncrement", "StateLag", "CommandFilter",
     "TrackingSaturation", "JointRateSign", "JointRateMagnitude", "Play", "Heading",
     "PlanarPosition", "ElapsedTime", "FootHeight", "CommandedLift", "GaitPhase",
     "STATE_GROUPS", "JOINT_GROUPS", "BASE_FEATURES", "FEATURE_SET_FORMAT_VERSION",
@@ -118,6 +118,11 @@ JOINT_GROUPS: dict[str, tuple[int, ...]] = {
     "hip_pitches": tuple(range(1, 12, 3)),
     "knees": tuple(range(2, 12, 3)),
 }
+# the diagnosis' scopes (docs/diagnosis.md): legs, sides and single joints, by contract name
+JOINT_GROUPS.update({leg: tuple(range(3 * i, 3 * i + 3)) for i, leg in enumerate(LEGS)})
+JOINT_GROUPS.update({side: tuple(j for j, n in enumerate(JOINT_NAMES) if f"_{side}_" in n)
+                     for side in ("left", "right")})
+JOINT_GROUPS.update({n: (j,) for j, n in enumerate(JOINT_NAMES)})
 STATE_GROUPS: dict[str, tuple[int, ...]] = {
     "all": tuple(range(N_STATE)),
     "body": tuple(range(0, 9)),
@@ -389,6 +394,38 @@ class Play(Augmentation):
         half = 0.5 * self.width
         y = np.minimum(np.maximum(carry, x - half), x + half)
         return (x - y) / half, y
+
+
+@register_augmentation
+@dataclass(frozen=True)
+class CommandFilter(Augmentation):
+    """The selected joints' commands through a first-order low-pass of ``time_constant_ms``
+    (y_t = y_{t-1} + a (u_t - y_{t-1}), a = 1 - exp(-10 ms / tau), y = u at the first sample):
+    the set-point a servo acts on if set-points pass a lag. Recursive."""
+
+    time_constant_ms: float = 20.0
+    joints: str = "all"
+    name: ClassVar[str] = "command_filter"
+    family: ClassVar[str] = "command filter"
+    recursive: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if not self.time_constant_ms > 0:
+            raise FeatureSetError(f"command_filter: time_constant_ms must be > 0, "
+                                  f"got {self.time_constant_ms!r}")
+        _group(JOINT_GROUPS, self.joints, "command_filter")
+
+    def columns(self) -> tuple[str, ...]:
+        return tuple(f"lowpass{self.time_constant_ms:g}ms(u_{JOINT_NAMES[j]})"
+                     for j in JOINT_GROUPS[self.joints])
+
+    def init_carry(self, w: Window) -> np.ndarray:
+        return np.array(w.u(0)[..., list(JOINT_GROUPS[self.joints])], dtype=np.float64)
+
+    def advance(self, carry: np.ndarray, w: Window) -> tuple[np.ndarray, np.ndarray]:
+        a = 1.0 - np.exp(-CONTROL_DT * 1000.0 / self.time_constant_ms)
+        y = carry + a * (w.u(0)[..., list(JOINT_GROUPS[self.joints])] - carry)
+        return y, y
 
 
 @register_augmentation

@@ -187,6 +187,239 @@ class ConstantWind:
                              physicsClientId=sim.client)
 
 
+# ----------------------------------------------------------------------------- diagnosis families
+# One plug-in per family of the diagnosis vocabulary (docs/diagnosis.md), each with its primary
+# parameter in physical units; ``diagnose`` re-simulates them to name and size an effect.
+
+def _servo_gains(sim: Any, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kp, kd, torque limit) of the selected joints from the robot's config (PD servo)."""
+    from .config import per_joint
+    cfg = sim.config
+    return (per_joint(cfg.kp)[joints], per_joint(cfg.kd)[joints],
+            per_joint(cfg.torque_limit)[joints])
+
+
+class SetpointDelay:
+    """Set-points of some joints arrive ``delay_ms`` late; a delay between two control steps is
+    the linear interpolation of the two neighbouring commands (a sub-step delay of a
+    zero-order-held command, averaged over the step)."""
+
+    def __init__(self, delay_ms: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(delay_ms) and delay_ms >= 0):
+            raise ValueError(f"SetpointDelay: delay_ms must be >= 0, got {delay_ms!r}")
+        self.delay_ms = float(delay_ms)
+        self.joints = resolve_joints(joints)
+        self._history: deque[np.ndarray] = deque()
+
+    def reset(self, sim: Any) -> None:
+        self._history.clear()
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        steps = self.delay_ms / 10.0
+        k = int(np.floor(steps))
+        frac = steps - k
+        n = k + 2
+        if not self._history:
+            self._history.extend(u.copy() for _ in range(n))
+        self._history.append(u.copy())
+        while len(self._history) > n:
+            self._history.popleft()
+        h = self._history          # h[-1] = u_t, h[-1-k] = u_{t-k}
+        delayed = (1.0 - frac) * h[-1 - k] + frac * h[-2 - k]
+        out = u.copy()
+        out[self.joints] = delayed[self.joints]
+        return out
+
+
+class SetpointFilter:
+    """Set-points of some joints pass a first-order low-pass of ``time_constant_ms`` (updated
+    at the 100 Hz control rate, starting at the first command)."""
+
+    def __init__(self, time_constant_ms: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(time_constant_ms) and time_constant_ms >= 0):
+            raise ValueError(f"SetpointFilter: time_constant_ms must be >= 0, "
+                             f"got {time_constant_ms!r}")
+        self.time_constant_ms = float(time_constant_ms)
+        self.joints = resolve_joints(joints)
+        self._y: np.ndarray | None = None
+
+    def reset(self, sim: Any) -> None:
+        self._y = None
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        a = 1.0 - np.exp(-10.0 / self.time_constant_ms) if self.time_constant_ms > 0 else 1.0
+        if self._y is None:
+            self._y = u.copy()
+        else:
+            self._y = self._y + a * (u - self._y)
+        out = u.copy()
+        out[self.joints] = self._y[self.joints]
+        return out
+
+
+class ServoGain:
+    """The servo's P gain of some joints times ``gain_ratio`` (plus ``drift_per_s`` * t, a gain
+    that drifts with the time since the move started): the difference
+    (gain(t) - 1) k (q_des - q) is added as joint torque every physics step."""
+
+    def __init__(self, gain_ratio: float = 1.0, joints: str | list[str] | None = None,
+                 drift_per_s: float = 0.0, time_offset_s: float = 0.0) -> None:
+        if not (np.isfinite(gain_ratio) and gain_ratio >= 0 and np.isfinite(drift_per_s)):
+            raise ValueError(f"ServoGain: gain_ratio must be >= 0, got {gain_ratio!r}")
+        self.gain_ratio = float(gain_ratio)
+        self.drift_per_s = float(drift_per_s)
+        self.time_offset_s = float(time_offset_s)   # the move's time at this simulation's start
+        self.joints = resolve_joints(joints)
+        self._q_des = np.zeros(N_JOINTS)
+
+    def reset(self, sim: Any) -> None:
+        self._ids = [sim.joint_indices[j] for j in self.joints]
+        self._kp = _servo_gains(sim, self.joints)[0]
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        from ..layout import JOINT_LOWER, JOINT_UPPER
+        self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
+        return u
+
+    def substep(self, sim: Any, t: float) -> None:
+        g = (self.gain_ratio * (1.0 + self.drift_per_s * (t + self.time_offset_s))
+             if self.drift_per_s else self.gain_ratio)
+        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
+        q = np.array([s[0] for s in states])
+        tau = (g - 1.0) * self._kp * (self._q_des[self.joints] - q)
+        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=tau.tolist(),
+                                    physicsClientId=sim.client)
+
+
+class TorqueLimit:
+    """The servo torque of some joints limited to ``torque_limit_Nm`` (below the normal limit):
+    the PD torque k (q_des - q) - b dq is recomputed from the joint state and the excess over the
+    lower limit is taken off every physics step."""
+
+    def __init__(self, torque_limit_Nm: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(torque_limit_Nm) and torque_limit_Nm >= 0):
+            raise ValueError(f"TorqueLimit: torque_limit_Nm must be >= 0, got {torque_limit_Nm!r}")
+        self.torque_limit_Nm = float(torque_limit_Nm)
+        self.joints = resolve_joints(joints)
+        self._q_des = np.zeros(N_JOINTS)
+
+    def reset(self, sim: Any) -> None:
+        self._ids = [sim.joint_indices[j] for j in self.joints]
+        self._kp, self._kd, self._lim0 = _servo_gains(sim, self.joints)
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        from ..layout import JOINT_LOWER, JOINT_UPPER
+        self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
+        return u
+
+    def substep(self, sim: Any, t: float) -> None:
+        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
+        q = np.array([s[0] for s in states])
+        dq = np.array([s[1] for s in states])
+        tau = self._kp * (self._q_des[self.joints] - q) - self._kd * dq
+        lim = np.minimum(self.torque_limit_Nm, self._lim0)
+        extra = np.clip(tau, -lim, lim) - np.clip(tau, -self._lim0, self._lim0)
+        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=extra.tolist(),
+                                    physicsClientId=sim.client)
+
+
+class SetpointBacklash:
+    """Play of ``width_rad`` between the set-point and the joint: the set-point passes a play
+    (backlash) operator y = clip(y, u - width/2, u + width/2), started at the first command."""
+
+    def __init__(self, width_rad: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(width_rad) and width_rad >= 0):
+            raise ValueError(f"SetpointBacklash: width_rad must be >= 0, got {width_rad!r}")
+        self.width_rad = float(width_rad)
+        self.joints = resolve_joints(joints)
+        self._y: np.ndarray | None = None
+
+    def reset(self, sim: Any) -> None:
+        self._y = None
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        h = 0.5 * self.width_rad
+        self._y = u.copy() if self._y is None else np.clip(self._y, u - h, u + h)
+        out = u.copy()
+        out[self.joints] = self._y[self.joints]
+        return out
+
+
+class EncoderOffset:
+    """Measured angle = true angle + ``offset_rad`` on some joints (the report only; the servo
+    loop reads its own encoder)."""
+
+    def __init__(self, offset_rad: float, joints: str | list[str] | None = None) -> None:
+        if not np.isfinite(offset_rad):
+            raise ValueError(f"EncoderOffset: offset_rad must be finite, got {offset_rad!r}")
+        self.offset_rad = float(offset_rad)
+        self.joints = resolve_joints(joints)
+
+    def measure(self, obs: dict, t: float) -> dict:
+        q = obs["q"].copy()
+        q[self.joints] += self.offset_rad
+        obs["q"] = q
+        return obs
+
+
+class BodyWrench:
+    """A constant force [N] and torque [N m] fixed in the body frame (base_link), at the base's
+    centre of mass."""
+
+    def __init__(self, force: list[float] | tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 torque: list[float] | tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        self.force = _values(force, 3, "BodyWrench.force")
+        self.torque = _values(torque, 3, "BodyWrench.torque")
+
+    def substep(self, sim: Any, t: float) -> None:
+        c = sim.client
+        pos, orn = p.getBasePositionAndOrientation(sim.robot, physicsClientId=c)
+        R = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
+        if np.any(self.force):
+            p.applyExternalForce(sim.robot, -1, (R @ self.force).tolist(), pos, p.WORLD_FRAME,
+                                 physicsClientId=c)
+        if np.any(self.torque):
+            p.applyExternalTorque(sim.robot, -1, (R @ self.torque).tolist(), p.WORLD_FRAME,
+                                  physicsClientId=c)
+
+
+class GroundSlope:
+    """The ground inclined by ``slope_deg`` rising towards ``uphill_direction_deg`` (odom): gravity
+    tilted by the slope in odom (the odometry frame stays level with the ground)."""
+
+    def __init__(self, slope_deg: float, uphill_direction_deg: float = 0.0) -> None:
+        if not (np.isfinite(slope_deg) and abs(slope_deg) < 45):
+            raise ValueError(f"GroundSlope: slope_deg must be in (-45, 45), got {slope_deg!r}")
+        self.slope_deg = float(slope_deg)
+        self.uphill_direction_deg = float(uphill_direction_deg)
+
+    def reset(self, sim: Any) -> None:
+        from .sim import GRAVITY
+        s, phi = np.radians(self.slope_deg), np.radians(self.uphill_direction_deg)
+        g = GRAVITY * np.array([-np.sin(s) * np.cos(phi), -np.sin(s) * np.sin(phi), -np.cos(s)])
+        p.setGravity(*g.tolist(), physicsClientId=sim.client)
+
+
+class FootFriction:
+    """The friction coefficient of one foot (or several legs) times ``scale``."""
+
+    def __init__(self, scale: float, legs: str | list[str] = "front_left") -> None:
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(f"FootFriction: scale must be > 0, got {scale!r}")
+        self.scale = float(scale)
+        names = [legs] if isinstance(legs, str) else list(legs)
+        for n in names:
+            if n not in LEGS:
+                raise ValueError(f"FootFriction: unknown leg {n!r}")
+        self.legs = [LEGS.index(n) for n in names]
+
+    def reset(self, sim: Any) -> None:
+        for i in self.legs:
+            p.changeDynamics(sim.robot, sim.foot_links[i],
+                             lateralFriction=sim.config.foot_friction * self.scale,
+                             physicsClientId=sim.client)
+
+
 # ----------------------------------------------------------------------------- loading from YAML
 def _import_class(spec: str, base_dir: Path) -> type:
     module_part, sep, class_name = spec.rpartition(":")

@@ -77,6 +77,37 @@ def test_every_candidate_is_the_same_in_batch_and_online(synthetic_moves):
                                           err_msg=f"{fs.describe()} batched={batched}")
 
 
+def test_physical_effect_features_are_the_same_in_batch_and_online(synthetic_moves):
+    """Every online feature the physical identification adds (diagnose.run.augmentation_for),
+    on scoped joints too, equals its batch value; the low-pass follows its definition."""
+    from littledog_mlsim.diagnose.run import augmentation_for
+    from littledog_mlsim.models.features import CommandFilter
+    cases = [("command_delay", "leg:back_left", {"delay_ms": 30.0}),
+             ("command_filter", "joint:front_left_knee", {"time_constant_ms": 40.0}),
+             ("command_filter", "side:left", {"time_constant_ms": 25.0}),
+             ("joint_friction", "type:knees", {"coulomb_Nm": 0.05}),
+             ("backlash", "all", {"width_rad": 0.03}),
+             ("torque_saturation", "type:knees", {"torque_limit_ratio": 0.7}),
+             ("odom_force", "body", {"force_N": 1.0}), ("time_drift", "all", {"rate_per_s": -0.1})]
+    for fam, scope, par in cases:
+        aug = augmentation_for(fam, scope, par)
+        fs = FeatureSet((aug,))
+        X, _, _ = fs.features_responses(synthetic_moves)
+        for batched in (False, True):
+            np.testing.assert_array_equal(_online(fs, synthetic_moves, batched), X,
+                                          err_msg=f"{fs.describe()} batched={batched}")
+    assert augmentation_for("servo_gain", "all", {"gain_ratio": 0.6}) is None
+    fs = FeatureSet((CommandFilter(time_constant_ms=40.0, joints="front_left_knee"),))
+    X, _, idx = fs.features_responses(synthetic_moves[:1])
+    U = X[:, N_STATE + 2]                       # u of front_left_knee (contract index 2)
+    a = 1.0 - np.exp(-10.0 / 40.0)
+    y = np.empty_like(U)
+    y[0] = U[0]
+    for t in range(1, len(U)):
+        y[t] = y[t - 1] + a * (U[t] - y[t - 1])
+    np.testing.assert_allclose(X[:, -1], y, atol=1e-12)
+
+
 def test_feature_values_against_their_definitions(synthetic_moves):
     rec = synthetic_moves[1]
     fs = FeatureSet((CommandLag(lag=2), StateLag(lag=1, group="q"), Heading()))
@@ -225,8 +256,9 @@ def _record(root: Path, name: str, seed: int, effects: str | None = None,
 
 
 def _diagnose(data: Path, out: Path, figures: bool = False) -> dict:
+    """The learned residual loop (physics off): these tests are about it."""
     return diagnose(data, out, method="lr", search=SearchModel(**FAST_SEARCH),
-                    figures=figures, progress=False)
+                    figures=figures, progress=False, physics="off")
 
 
 @pytest.fixture(scope="module")
@@ -338,3 +370,91 @@ def test_cli_diagnose_help_and_bad_input(tmp_path):
     r = subprocess.run(cli + ["--data", str(tmp_path / "none"), "--out", str(tmp_path / "o")],
                        capture_output=True, text=True)
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1
+
+
+# ---------------------------------------------------------------------------------------------
+# physical identification (diagnose/physid.py): one effect per family class, named with family,
+# scope and parameter; clean data with and without excitation raises no alarm. Small versions:
+# 6 move types x 4 moves, a shortened library (the rivals that matter for each effect) so that
+# they stay within the CI budget; the benchmark (benchmarks/diagnose_physical.md) uses all of it.
+
+PHYS_TYPES = ("F", "B", "L", "R", "DL", "S")
+PHYS_FAMILIES = ["command_delay", "command_filter", "servo_gain", "joint_friction",
+                 "odom_force", "body_wrench", "ground_slope"]
+PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=4,
+                    n_refine=4, families=PHYS_FAMILIES)
+
+
+def _record_small(root: Path, name: str, seed: int, effects: str | None = None,
+                  excitation: float = 0.0) -> Path:
+    from littledog_mlsim.record import record_dataset
+    out = root / name
+    effects_file = None
+    if effects is not None:
+        effects_file = root / f"{name}.yaml"
+        effects_file.write_text(effects)
+    record_dataset(out, moves_per_type=4, seed=seed, types=PHYS_TYPES,
+                   effects_file=None if effects_file is None else str(effects_file),
+                   jobs=2, progress=False, excitation=excitation)
+    return out
+
+
+def _diagnose_physical(data: Path, out: Path) -> dict:
+    return diagnose(data, out, method="lr", figures=False, progress=False, physics="on",
+                    physics_options=PHYS_OPTIONS)
+
+
+def _only_effect(report: dict) -> dict:
+    assert report["significant"], report["physics"]["rejected"]
+    return report["effects"][0]["physical"]
+
+
+def test_physical_one_leg_delay_on_excited_data(recorded):
+    data = _record_small(recorded, "p_delay_leg", 121,
+                         "- class: littledog_mlsim.robot.effects:CommandDelay\n"
+                         "  params: {steps: 3, joints: back_left}\n", excitation=EXCITATION)
+    report = _diagnose_physical(data, recorded / "p_delay_leg_out")
+    ph = _only_effect(report)
+    assert (ph["family"], ph["scope"]) == ("command_delay", "leg:back_left"), ph
+    assert abs(ph["params"]["delay_ms"] - 30.0) <= 0.25 * 30.0, ph
+    e = report["effects"][0]
+    assert e["augmentation"]["name"] == "command_lag"
+    assert e["augmentation"]["params"] == {"lag": 3, "joints": "back_left"}
+    ev = e["evidence"]
+    assert ev["horizon_errors_after"]["0.1s"]["q_rms_rad"] < \
+        0.5 * ev["horizon_errors_before"]["0.1s"]["q_rms_rad"]
+    doc = json.loads((recorded / "p_delay_leg_out" / "report.json").read_text())
+    assert doc["effects"][0]["physical"] == ph and "suspected" in doc and "physics" in doc
+
+
+def test_physical_odom_fixed_force(recorded):
+    data = _record_small(recorded, "p_wind", 122,
+                         "- class: littledog_mlsim.robot.effects:ConstantWind\n"
+                         "  params: {force_xy: [0.0, 1.5]}\n")
+    report = _diagnose_physical(data, recorded / "p_wind_out")
+    ph = _only_effect(report)
+    assert (ph["family"], ph["scope"]) == ("odom_force", "body"), ph
+    assert abs(ph["params"]["force_N"] - 1.5) <= 0.25 * 1.5, ph
+    assert abs(ph["params"]["direction_deg"] - 90.0) < 20.0, ph
+    assert "odom" in ph["statement"]
+    e = report["effects"][0]
+    assert e["augmentation"]["name"] == "heading"
+
+
+def test_physical_servo_gain_of_one_joint(recorded):
+    data = _record_small(recorded, "p_gain", 123,
+                         "- class: littledog_mlsim.robot.effects:ServoGain\n"
+                         "  params: {gain_ratio: 0.6, joints: front_left_knee}\n")
+    report = _diagnose_physical(data, recorded / "p_gain_out")
+    ph = _only_effect(report)
+    assert (ph["family"], ph["scope"]) == ("servo_gain", "joint:front_left_knee"), ph
+    assert abs(ph["params"]["gain_ratio"] - 0.6) <= 0.25 * 0.6, ph
+    assert "front-left knee" in ph["statement"].lower()
+
+
+@pytest.mark.parametrize("seed, excitation", [(124, 0.0), (125, EXCITATION)])
+def test_physical_clean_data_raises_no_alarm(recorded, seed, excitation):
+    data = _record_small(recorded, f"p_clean_{seed}", seed, excitation=excitation)
+    report = _diagnose_physical(data, recorded / f"p_clean_{seed}_out")
+    assert report["significant"] is False and report["effects"] == []
+    assert report["physics"]["rejected"], "the best candidate is reported as rejected"
