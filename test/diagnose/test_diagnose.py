@@ -353,7 +353,8 @@ def test_knee_coulomb_friction_is_found_as_friction(recorded):
     assert np.mean(cut) > 0, cut          # a measured reduction on the TestPool
 
 
-@pytest.mark.parametrize("seed", [101, 102, 106])
+@pytest.mark.parametrize("seed", [101, pytest.param(102, marks=pytest.mark.slow),
+                                  pytest.param(106, marks=pytest.mark.slow)])
 def test_clean_data_raises_no_alarm(recorded, seed):
     data = _record(recorded, f"clean{seed}", seed)
     report = _diagnose(data, recorded / f"clean{seed}_out")
@@ -387,7 +388,7 @@ PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen
 
 def _record_small(root: Path, name: str, seed: int, effects: str | None = None,
                   excitation: float = 0.0) -> Path:
-    from littledog_mlsim.record import record_dataset
+    from littledog_mlsim.apps.record import record_dataset
     out = root / name
     effects_file = None
     if effects is not None:
@@ -441,6 +442,7 @@ def test_physical_odom_fixed_force(recorded):
     assert e["augmentation"]["name"] == "heading"
 
 
+@pytest.mark.slow
 def test_physical_servo_gain_of_one_joint(recorded):
     data = _record_small(recorded, "p_gain", 123,
                          "- class: littledog_mlsim.robot.effects:ServoGain\n"
