@@ -87,20 +87,9 @@ def standing_train_state(train_states: np.ndarray, projection: Projection | None
 
 
 def model_has_variance(model: Any) -> bool:
-    """True if ``model.predict(X, return_std=True)`` works (one trial prediction at the home
-    stance, through the model's feature set if it has one)."""
-    try:
-        fs = model_feature_set(model)
-        if fs is None:
-            x = np.zeros((1, N_STATE + N_ACTION))
-            x[0, :N_STATE] = home_state()
-            x[0, N_STATE:] = HOME_POSE
-        else:
-            x = np.atleast_2d(fs.history(home_state(), np.zeros(3)).features(HOME_POSE))
-        model.predict(x, return_std=True)
-        return True
-    except (ValueError, TypeError, NotImplementedError):
-        return False
+    """True if the model declares a predictive std (``supports_std``: the regressor contract,
+    ``docs/architecture.md``), so that ``predict(X, return_std=True)`` works."""
+    return bool(getattr(model, "supports_std", False))
 
 
 def _as_vector(a, n: int, what: str) -> np.ndarray:

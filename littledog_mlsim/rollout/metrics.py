@@ -29,12 +29,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..layout import CONTROL_DT, N_STATE, STATE_NAMES
-from .projection import NoProjection, Projection
-from .simulate import TestMove, predicted_paths, rollout_moves
+from .projection import Projection
+from .simulate import TestMove, predicted_paths
 
 __all__ = ["HORIZONS_S", "nmse", "nmse_array", "xy_error", "element_abs_error",
-           "element_error_sum", "first_nonfinite_step", "nmse_at_horizons", "rollout_metrics",
-           "evaluate_rollout"]
+           "element_error_sum", "first_nonfinite_step", "nmse_at_horizons", "rollout_metrics"]
 
 HORIZONS_S: tuple[float, ...] = (0.1, 0.5, 1.0, 4.0)
 _MIN_VAR = 1e-24  # std 1e-12, as Normalizer.min_std: below it an element counts as constant
@@ -266,10 +265,3 @@ def rollout_metrics(moves: Sequence[TestMove], predicted: Sequence[np.ndarray],
     }
 
 
-def evaluate_rollout(model: Any, moves: Sequence[TestMove], projection: Projection | None = None,
-                     horizons_s: Sequence[float] = HORIZONS_S,
-                     state_var: np.ndarray | None = None) -> dict[str, Any]:
-    """``rollout_moves`` + ``rollout_metrics``: the results dict of one model and projection."""
-    projection = NoProjection() if projection is None else projection
-    predicted = rollout_moves(model, moves, projection)
-    return rollout_metrics(moves, predicted, horizons_s, state_var, projection)

@@ -13,16 +13,14 @@ A rejected command is not used at all: the simulator keeps holding the previous 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
-from ..layout import JOINT_LOWER, JOINT_NAMES, JOINT_UPPER, N_JOINTS
+from ..layout import JOINT_LOWER, JOINT_NAMES, JOINT_UPPER, N_JOINTS, joint_permutation
 
 __all__ = ["REJECT_REASONS", "CommandCheck", "check_command", "joint_permutation"]
 
 REJECT_REASONS: tuple[str, ...] = ("names", "length", "nonfinite")
-_INDEX = {n: i for i, n in enumerate(JOINT_NAMES)}
 
 
 @dataclass(frozen=True)
@@ -40,21 +38,6 @@ class CommandCheck:
     @property
     def accepted(self) -> bool:
         return self.u is not None
-
-
-@lru_cache(maxsize=64)
-def joint_permutation(names: tuple[str, ...]) -> np.ndarray | str:
-    """Index into ``names`` of each contract joint, or why ``names`` is not usable."""
-    unknown = [n for n in names if n not in _INDEX]
-    if unknown:
-        return f"unknown joint name(s) {', '.join(repr(n) for n in unknown[:3])}"
-    if len(set(names)) != len(names):
-        return "duplicated joint names"
-    if len(names) != N_JOINTS:
-        missing = [n for n in JOINT_NAMES if n not in names]
-        return f"{len(names)} joint names, missing {', '.join(missing[:3])}"
-    where = {n: i for i, n in enumerate(names)}
-    return np.array([where[n] for n in JOINT_NAMES])
 
 
 def check_command(names, positions) -> CommandCheck:
