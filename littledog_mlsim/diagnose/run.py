@@ -26,8 +26,6 @@ import numpy as np
 from ..data.dataset import load_moves, read_index
 from ..data.recording import MoveRecording
 from ..models.features import FeatureSet
-from ..rollout.metrics import nmse, rollout_metrics
-from ..rollout.simulate import prepare_test_moves
 from .candidates import BASELINES, default_library
 from .selection import (DEFAULT_ALPHA, DEFAULT_MIN_GAIN, SearchModel, select_effects)
 
@@ -45,41 +43,29 @@ ROLLOUT_KEYS = ("final_xy_error_m", "final_xy_error_m_median", "final_xy_error_m
 def fit_report_model(feature_set: FeatureSet, method: str, options: Mapping[str, Any] | None,
                      train: Sequence[MoveRecording], *, target: str = "delta", seed: int = 0,
                      info: Mapping[str, Any] | None = None):
-    """A one-step model of ``method`` with ``feature_set`` fitted on the recordings ``train``."""
-    from ..models.onestep import OneStepModel
-    from ..models.persistence import fingerprint_arrays
-    from ..models.train import make_estimator
-    X, Y, _ = feature_set.features_responses(train)
-    estimator = make_estimator(method, dict(options or {}), seed=seed)
-    return OneStepModel.fit(estimator, X, Y, target=target, train_states=Y,
-                            data_fingerprint=fingerprint_arrays(X, Y),
-                            info=dict(info or {}), feature_set=feature_set)
+    """A one-step model of ``method`` with ``feature_set`` fitted on the recordings ``train``
+    (the pipeline's :func:`..models.train.fit_onestep`, on all samples; the diagnosis rolls
+    out with the projections it is asked for, so no gate radius is computed here)."""
+    from ..models.train import fit_onestep
+    return fit_onestep(train, method, feature_set=feature_set, options=options,
+                       random_state=seed, target=target, info=info, gate=False)
 
 
 def score_on_test(model, test: Sequence[MoveRecording], projections: Sequence[str] = ("alpha",),
                   alpha: float = 0.5) -> dict[str, Any]:
-    """One-step nMSE per state element and rollout errors of ``model`` on ``test``."""
-    from ..rollout.simulate import rollout_moves
-    fs = model.feature_set
-    X, Y, _ = fs.features_responses(test)
-    pred = model.predict(X)
-    per = nmse(Y, pred)
-    finite = [v for v in per.values() if np.isfinite(v)]
-    out: dict[str, Any] = {
-        "nmse": {k: (float(v) if np.isfinite(v) else None) for k, v in per.items()},
-        "nmse_mean": float(np.mean(finite)) if finite else None,
-        "n_samples": int(X.shape[0]), "rollout": {}}
-    moves = prepare_test_moves(test)
-    for kind in projections:
-        proj = model.projection(kind, alpha=alpha)
-        t0 = time.perf_counter()
-        predicted = rollout_moves(model, moves, proj)
-        full = rollout_metrics(moves, predicted, projection=proj)
-        label = f"alpha_{alpha:g}" if kind == "alpha" else kind
+    """One-step nMSE per state element and rollout errors of ``model`` on ``test``: the
+    pipeline's :func:`..scoring.score_model`, kept in the report's stage schema (module doc)."""
+    from ..scoring import RolloutSpec, score_model
+    specs = [RolloutSpec(kind, alpha) for kind in projections]
+    scores = score_model(model, test, specs)
+    out: dict[str, Any] = {k: scores[k] for k in ("nmse", "nmse_mean", "n_samples")}
+    out["rollout"] = {}
+    for spec in specs:
+        full = scores["rollout"][spec.label]
         block = {k: full.get(k) for k in ROLLOUT_KEYS}
         block["xy_error_vs_time_mean"] = full["xy_error_vs_time"]["mean"]
-        block["rollout_wall_s"] = time.perf_counter() - t0
-        out["rollout"][label] = block
+        block["rollout_wall_s"] = full.get("rollout_wall_s")
+        out["rollout"][spec.label] = block
     return out
 
 
