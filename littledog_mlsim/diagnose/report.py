@@ -214,6 +214,29 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
 # ---------------------------------------------------------------------------------------------
 # figures
 
+def _rollout_figure(out: Path, stages: Sequence[dict], step: str, title: str) -> str:
+    """rollout_before_after.png: the mean cumulative (x, y) error against time of every stage's
+    report model, one panel per projection; returns the file name."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    labels = list(stages[0]["rollout"])
+    fig, axes = plt.subplots(1, len(labels), figsize=(5 * len(labels), 3.6), squeeze=False)
+    for ax, lab in zip(axes[0], labels):
+        for i, st in enumerate(stages):
+            y = [np.nan if v is None else v for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
+            ax.plot(np.arange(1, len(y) + 1) * 0.01, y,
+                    label="start" if i == 0 else f"+ {step} {i}")
+        ax.set_xlabel("time after s_1 [s]")
+        ax.set_ylabel("mean cumulative (x, y) error [m]")
+        ax.set_title(f"{title}, projection {lab}")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "rollout_before_after.png", dpi=90)
+    plt.close(fig)
+    return "rollout_before_after.png"
+
+
 def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]:
     import matplotlib
     matplotlib.use("Agg")
@@ -295,23 +318,8 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
     plt.close(fig)
     figs["summary"].append("nmse_before_after.png")
 
-    labels = list(stages[0]["rollout"])
-    if labels:
-        fig, axes = plt.subplots(1, len(labels), figsize=(5 * len(labels), 3.6), squeeze=False)
-        for ax, lab in zip(axes[0], labels):
-            for i, st in enumerate(stages):
-                y = [np.nan if v is None else v
-                     for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
-                ax.plot(np.arange(1, len(y) + 1) * 0.01, y,
-                        label="start" if i == 0 else f"+ effect {i}")
-            ax.set_xlabel("time after s_1 [s]")
-            ax.set_ylabel("mean cumulative (x, y) error [m]")
-            ax.set_title(f"rollout, projection {lab}")
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out / "rollout_before_after.png", dpi=90)
-        plt.close(fig)
-        figs["summary"].append("rollout_before_after.png")
+    if list(stages[0]["rollout"]):
+        figs["summary"].append(_rollout_figure(out, stages, "effect", "rollout"))
 
     last = sel.rounds[-1]
     best = sorted(last.scores, key=lambda c: -c.max_gain)[:15]
@@ -556,23 +564,8 @@ def _physical_figures(out: Path, doc: dict) -> dict[str, list[str]]:
         plt.close(fig)
         figs["effects"].append(name)
     stages = doc["stages"]
-    labels = list(stages[0]["rollout"])
-    if labels and len(stages) > 1:
-        fig, axes = plt.subplots(1, len(labels), figsize=(5 * len(labels), 3.6), squeeze=False)
-        for ax, lab in zip(axes[0], labels):
-            for i, st in enumerate(stages):
-                y = [np.nan if v is None else v
-                     for v in st["rollout"][lab]["xy_error_vs_time_mean"]]
-                ax.plot(np.arange(1, len(y) + 1) * 0.01, y,
-                        label="start" if i == 0 else f"+ feature {i}")
-            ax.set_xlabel("time after s_1 [s]")
-            ax.set_ylabel("mean cumulative (x, y) error [m]")
-            ax.set_title(f"learned rollout, projection {lab}")
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out / "rollout_before_after.png", dpi=90)
-        plt.close(fig)
-        figs["summary"].append("rollout_before_after.png")
+    if list(stages[0]["rollout"]) and len(stages) > 1:
+        figs["summary"].append(_rollout_figure(out, stages, "feature", "learned rollout"))
     return figs
 
 

@@ -146,36 +146,13 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
                          max_rounds=max_rounds, progress=say)
 
     # report model before and after every accepted effect
-    stages: list[dict[str, Any]] = []
     fs = start
     feature_sets = [start] + [start for _ in sel.accepted]
     for k, picked in enumerate(sel.accepted):
         fs = fs.with_augmentation(picked.augmentation)
         feature_sets[k + 1] = fs
-    last_model = None
-    for k, fs_k in enumerate(feature_sets):
-        t0 = time.perf_counter()
-        if k == 0 and loaded is not None:
-            m, note = loaded, None
-        else:
-            info = {"diagnosis_stage": k, "data_dir": os.fspath(data)}
-            m, note = _fit_with_fallback(fs_k, method, options, train, target, seed, info, say)
-        if m is None:   # the report model could not be fitted: say so, keep going
-            scores = _failed_stage(note, projections, projection_alpha)
-        else:
-            scores = score_on_test(m, test, projections, projection_alpha)
-            if note:
-                scores["note"] = note
-        scores["feature_set"] = fs_k.to_dict()
-        scores["feature_set_description"] = fs_k.describe()
-        scores["fit_and_score_seconds"] = time.perf_counter() - t0
-        stages.append(scores)
-        last_model = m
-        if m is None:
-            say(f"stage {k} ({fs_k.describe()}): {note}")
-            continue
-        say(f"stage {k} ({fs_k.describe()}): TestPool nMSE mean {scores['nmse_mean']:.4f}, "
-            f"final xy error {_fmt(scores['rollout'])} in {time.perf_counter() - t0:.1f} s")
+    stages, last_model = _stages(feature_sets, loaded, method, options, train, test, target,
+                                 seed, data, projections, projection_alpha, say)
     out.mkdir(parents=True, exist_ok=True)
     model_path = None
     if save_model and last_model is not None:   # None if the last stage's fit failed
