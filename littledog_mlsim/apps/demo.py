@@ -248,15 +248,9 @@ class _Link:
         self.cmd.publish(joint_state_msg(0, u))
 
     def close(self) -> None:
-        import rclpy
+        from ..nodes._run import close_domain
 
-        try:
-            self.executor.remove_node(self.node)
-            self.node.destroy_node()
-        finally:
-            rclpy.try_shutdown(context=self.context)
-            self.executor.shutdown(timeout_sec=1.0)
-            self.thread.join(5.0)
+        close_domain(self.executor, self.node, self.context, self.thread)
 
 
 def _wait(cond: threading.Condition, pred: Callable[[], bool], timeout: float, what: str,
