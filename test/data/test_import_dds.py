@@ -151,7 +151,7 @@ class Controller:
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("dds")
-    rclpy.init()
+    rclpy.init(domain_id=int(DOMAIN_ID))   # this module's domain, whatever other modules set
     ex = SingleThreadedExecutor()
     node = Node("import_test")
     ex.add_node(node)

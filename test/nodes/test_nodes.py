@@ -144,7 +144,7 @@ def error_lines(text: str) -> list[str]:
 
 class Ros:
     def __init__(self) -> None:
-        rclpy.init()
+        rclpy.init(domain_id=int(DOMAIN_ID))   # this module's domain, whatever other modules set
         self.executor = SingleThreadedExecutor()
         self.thread = threading.Thread(target=self._spin, daemon=True)
         self.thread.start()
