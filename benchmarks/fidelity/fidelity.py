@@ -693,10 +693,10 @@ def cmd_closed_loop(a) -> int:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=("open-loop", "soak", "closed-loop"))
-    ap.add_argument("--data", type=Path, default=Path("/work/data/default"),
+    ap.add_argument("--data", type=Path, default=Path("bags/default"),
                     help="the dataset the models were trained on (its TrainPool gives the radius)")
-    ap.add_argument("--lgpr", type=Path, default=Path("/work/data/lgpr"))
-    ap.add_argument("--lr", type=Path, default=Path("/work/data/lr"))
+    ap.add_argument("--lgpr", type=Path, default=Path("bags/default_lgpr"))
+    ap.add_argument("--lr", type=Path, default=Path("bags/default_lr"))
     ap.add_argument("--configs", nargs="+", default=list(CONFIGS), choices=CONFIGS)
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
     ap.add_argument("--duration", type=float, default=None, help="s (default 60, soak 600, "

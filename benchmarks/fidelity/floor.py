@@ -96,8 +96,8 @@ def floor_task(args) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--lgpr", type=Path, default=Path("/work/data/lgpr"))
-    ap.add_argument("--lr", type=Path, default=Path("/work/data/lr"))
+    ap.add_argument("--lgpr", type=Path, default=Path("bags/default_lgpr"))
+    ap.add_argument("--lr", type=Path, default=Path("bags/default_lr"))
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
     ap.add_argument("--scenarios", nargs="+", default=["switch", "straight"],
                     choices=("switch", "straight"))

@@ -3,7 +3,7 @@
 Usage (from the repo root, in the venv):
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/import/import_benchmark.py \
-        [--data /work/data/default] [--moves-per-type 14] [--methods lr] [--work DIR]
+        [--data bags/default] [--moves-per-type 14] [--methods lr] [--work DIR]
 
 The moves are the first ``moves-per-type`` TrainPool moves of each type of ``--data`` (a contract
 dataset). Each style below writes them as real-style recordings (``data.realstyle``: an offline
@@ -72,11 +72,11 @@ def fit(method: str, moves, seed: int = 0) -> OneStepModel:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=Path("/work/data/default"))
+    ap.add_argument("--data", type=Path, default=Path("bags/default"))
     ap.add_argument("--moves-per-type", type=int, default=14)
     ap.add_argument("--methods", default="lr")
     ap.add_argument("--styles", default="sim,robot,robot_mocap100")
-    ap.add_argument("--work", type=Path, default=Path("/work/data/import/bench"))
+    ap.add_argument("--work", type=Path, default=Path("/tmp/import_bench"))
     a = ap.parse_args(argv)
     doc = run_record("import/import_benchmark.py", argv)
     doc["uptime_before"] = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
