@@ -242,7 +242,8 @@ FAST_SEARCH = dict(n_gp_points=300, gp_max_iter=40)  # M = 1000 random features 
 
 
 def _record(root: Path, name: str, seed: int, effects: str | None = None,
-            excitation: float = 0.0) -> Path:
+            excitation: float = 0.0, types=None) -> Path:
+    """4 moves per type (``types``: all by default) with the effects YAML text ``effects``."""
     from littledog_mlsim.apps.record import record_dataset
     out = root / name
     effects_file = None
@@ -250,6 +251,7 @@ def _record(root: Path, name: str, seed: int, effects: str | None = None,
         effects_file = root / f"{name}.yaml"
         effects_file.write_text(effects)
     record_dataset(out, moves_per_type=4, seed=seed,
+                   **({} if types is None else {"types": types}),
                    effects_file=None if effects_file is None else str(effects_file),
                    jobs=2, progress=False, excitation=excitation)
     return out
@@ -388,16 +390,7 @@ PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen
 
 def _record_small(root: Path, name: str, seed: int, effects: str | None = None,
                   excitation: float = 0.0) -> Path:
-    from littledog_mlsim.apps.record import record_dataset
-    out = root / name
-    effects_file = None
-    if effects is not None:
-        effects_file = root / f"{name}.yaml"
-        effects_file.write_text(effects)
-    record_dataset(out, moves_per_type=4, seed=seed, types=PHYS_TYPES,
-                   effects_file=None if effects_file is None else str(effects_file),
-                   jobs=2, progress=False, excitation=excitation)
-    return out
+    return _record(root, name, seed, effects, excitation, types=list(PHYS_TYPES))
 
 
 def _diagnose_physical(data: Path, out: Path) -> dict:
