@@ -126,7 +126,12 @@ class FamilySpec:
     components: tuple[str, ...] = ("value",)
     neutral: float = 0.0              # the magnitude of "no effect"
     command_path: bool = False        # acts on the set-points (identifiable with excitation)
-    analytic: bool = False            # sensitivity known without simulation
+    reported_as: str = ""             # the vocabulary's family if the search splits one
+    phase: str = ""                   # contact_phase: the phase the term acts in
+
+    @property
+    def vocabulary(self) -> str:
+        return self.reported_as or self.name
 
 
 FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
@@ -139,15 +144,26 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("backlash", "joints", "width_rad", "rad", 0.03, (0.0, 0.3)),
     FamilySpec("torque_saturation", "joints", "torque_limit_ratio", "1", -0.35, (0.05, 1.0),
                neutral=1.0),
-    FamilySpec("encoder_offset", "joints", "offset_rad", "rad", 0.02, (-0.5, 0.5),
-               analytic=True),
+    FamilySpec("encoder_offset", "joints", "offset_rad", "rad", 0.03, (-0.3, 0.3)),
     FamilySpec("time_drift", "joints", "rate_per_s", "1/s", -0.08, (-0.24, 0.24)),
     FamilySpec("odom_force", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
     FamilySpec("body_wrench", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
     FamilySpec("ground_slope", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy")),
     FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0)),
-    FamilySpec("leg_difference", "leg", "scale", "1", -0.5, (0.05, 3.0), neutral=1.0),
+    FamilySpec("leg_difference", "leg", "scale", "1", 0.5, (0.2, 4.0), neutral=1.0),
+    FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.5, (0.02, 1.5), neutral=1.0,
+               reported_as="contact_phase", phase="stance"),
+    FamilySpec("swing_drag", "leg", "force_N", "N", 1.0, (0.0, 10.0),
+               reported_as="contact_phase", phase="swing"),
 )}
+# Families that act alike on data whose odometry frame stays level with the ground: a slope
+# tilts gravity, i.e. adds m g sin(slope) downhill, fixed in odom, like a world-fixed push.
+PUSH_CLASS = ("odom_force", "ground_slope")
+
+
+def vocabulary_family(family: str) -> str:
+    """The vocabulary's family of a searched family (``foot_slip`` -> ``contact_phase``)."""
+    return FAMILIES[family].vocabulary if family in FAMILIES else family
 
 
 def scopes_for(family: str) -> list[str]:
@@ -181,11 +197,11 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
     if family == "joint_friction":
         return [fx.JointFriction(coulomb=max(v, 0.0), joints=joints)]
     if family == "backlash":
-        return [fx.SetpointBacklash(max(v, 0.0), joints)]
+        return [fx.ServoDeadband(max(v, 0.0), joints)]
     if family == "torque_saturation":
         return [_TorqueRatio(max(params["torque_limit_ratio"], 0.0), joints)]
     if family == "encoder_offset":
-        return [fx.EncoderOffset(v, joints)]
+        return [fx.EncoderOffset(v, joints, servo_loop=True)]
     if family == "time_drift":
         return [fx.ServoGain(1.0, joints, drift_per_s=v, time_offset_s=params.get("t0_s", 0.0))]
     if family == "odom_force":
@@ -198,7 +214,11 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
     if family == "mass_com":
         return [fx.Payload(max(v, 1e-3), params.get("com_offset_m", (0.0, 0.0, 0.0)))]
     if family == "leg_difference":
+        return [fx.LegMass(max(v, 1e-3), scope.split(":", 1)[1])]
+    if family == "foot_slip":
         return [fx.FootFriction(max(v, 1e-3), scope.split(":", 1)[1])]
+    if family == "swing_drag":
+        return [fx.SwingDrag(max(v, 0.0), scope.split(":", 1)[1])]
     raise ValueError(f"unknown family {family!r}")
 
 
@@ -298,6 +318,7 @@ class _Runner:
     def __init__(self, robot: Any, moves: list[_Move], jobs: int) -> None:
         self.jobs = max(1, int(jobs))
         self.n_sims = 0
+        self.config = robot
         if self.jobs > 1:
             ctx = mp.get_context("fork")
             self.pool = ctx.Pool(self.jobs, initializer=_init_worker,
@@ -542,7 +563,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_choice: int, alpha: float, min_gain
 def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (), *,
              robot: Any = "measured", fit_per_type: int = 1, validate_per_type: int = 2,
              test_per_type: int = 2, alpha: float = 0.01, min_gain: float = 0.05,
-             max_rounds: int = 1, n_refine: int = 4, jobs: int = 2, screen_moves: int = 4,
+             max_rounds: int = 1, n_refine: int = 6, jobs: int = 2, screen_moves: int = 4,
              excitation: float = 0.0, families: Sequence[str] | None = None,
              horizons_s: Sequence[float] = DEFAULT_HORIZONS_S,
              progress: Callable[[str], None] | None = None) -> PhysIdResult:
@@ -576,6 +597,8 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     T = list(range(n_fit + n_val, len(recs)))
     n_lib = library_size()
     runner = _Runner(cfg, moves, jobs)
+    from ..robot.sim import get_sim
+    robot_mass = get_sim(cfg).total_mass()
     try:
         base: list[tuple[str, str, dict]] = []
         findings: list[Finding] = []
@@ -594,11 +617,12 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
             top = _shortlist(cands, n_refine)
             for c in top:
                 _refine(runner, base, c, base_err, FS, meas)
+            top += _scope_variants(runner, base, top, cands, base_err, FS, meas)
             top.sort(key=lambda c: c.J)
             say(f"physics round {rnd + 1}: fitted " + "; ".join(
                 f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}" for c in top))
             fin = _validate(runner, base, top, base_err, V, T, meas, alpha, min_gain,
-                            horizons_s, cands)
+                            horizons_s, cands, robot_mass)
             say(f"physics round {rnd + 1}: {fin.statement}: p = {fin.p_value:.2g}, max held-out "
                 f"cut {np.nanmax(fin.gain):.3f} -> "
                 f"{'accepted' if fin.accepted else 'not accepted'} "
@@ -636,8 +660,6 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     tasks = []
     for fam in fams:
         spec = FAMILIES[fam]
-        if spec.analytic:
-            continue
         if spec.kind == "joints" and fam != "time_drift":
             for j in range(N_JOINTS):
                 jobs.append((fam, 0, j))
@@ -686,17 +708,6 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     cands: list[Candidate] = []
     for fam in fams:
         spec = FAMILIES[fam]
-        if spec.analytic:   # encoder offset: q_j + theta on the joint's angle channels
-            G = np.zeros((N_JOINTS, N_JOINTS))
-            b = np.zeros(N_JOINTS)
-            for j in range(N_JOINTS):
-                for i in F:
-                    es = base_err[i]["short"][..., j]
-                    el = base_err[i]["long"][..., j]
-                    G[j, j] += spec.probe ** 2 * (es.size * w[j] + el.size * w[18 + j])
-                    b[j] += spec.probe * (-es.sum() * w[j] - el.sum() * w[18 + j])
-            cands += _scope_scores(fam, G, b)
-            continue
         if spec.kind == "joints" and fam != "time_drift":
             J = [(fam, 0, j) for j in range(N_JOINTS)]
             G = np.zeros((N_JOINTS, N_JOINTS))
@@ -755,29 +766,56 @@ def _scope_scores(fam: str, G: np.ndarray, b: np.ndarray) -> list[Candidate]:
 
 
 def _shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
-    """The hypotheses to fit: the best scope of the best joint families and of the best body
-    families (half each), then the next best overall. Joint families are screened on the 1 s
-    segments, body families also on the 4 s replay, so their scores are not compared directly:
-    the held-out decision compares them after the fit."""
+    """The hypotheses to fit: the best scope of the best joint families (half), of the best body
+    families (all but one of the rest) and of the best leg family, then the next best overall. Joint
+    families are screened on the 1 s segments, body and leg families also on the 4 s replay, so
+    their scores are not compared directly: the held-out decision compares them after the fit.
+    A push fixed in odom and a slope count as one class here (they act alike; the rival is
+    reported by :func:`_inseparable`)."""
     pos = [c for c in cands if c.score > 0]
-    joint = [c for c in pos if FAMILIES[c.family].kind == "joints"]
-    body = [c for c in pos if FAMILIES[c.family].kind != "joints"]
+
+    def cls(c: Candidate) -> str:
+        return "push" if c.family in PUSH_CLASS else c.family
+
+    n_joint = (n + 1) // 2
+    n_body = max(1, n - n_joint - 1)
+    groups = [([c for c in pos if FAMILIES[c.family].kind == "joints"], n_joint),
+              ([c for c in pos if FAMILIES[c.family].kind == "body"], n_body),
+              ([c for c in pos if FAMILIES[c.family].kind == "leg"], max(1, n - n_joint - n_body))]
     out: list[Candidate] = []
-    for group, k in ((joint, (n + 1) // 2), (body, n // 2)):
-        fams: set[str] = set()
+    for group, k in groups:
+        seen: set[str] = set()
         for c in group:
-            if c.family in fams:
-                continue
-            out.append(c)
-            fams.add(c.family)
-            if len(fams) >= k:
+            if len(seen) >= k:
                 break
+            if cls(c) not in seen:
+                out.append(c)
+                seen.add(cls(c))
     for c in pos:
         if len(out) >= n:
             break
-        if c not in out:
+        if c not in out and cls(c) not in {cls(o) for o in out}:
             out.append(c)
-    return out or cands[:1]
+    return out[:max(n, 1)] or cands[:1]
+
+
+def related_scopes(scope: str) -> list[str]:
+    """The scopes a joint finding is compared with before it is named: the groups that hold a
+    single joint, the coarser groups of a group, the finer groups of ``all``."""
+    if scope == "all":
+        return ["side:left", "side:right"] + [f"type:{t}" for t in TYPE_SCOPES]
+    kind, _, what = scope.partition(":")
+    if kind == "joint":
+        leg = next(g for g in LEGS if what.startswith(g + "_"))
+        jt = what[len(leg) + 1:]
+        typ = next(t for t, k in TYPE_SCOPES.items() if k == jt)
+        side = "left" if leg.endswith("left") else "right"
+        return [f"leg:{leg}", f"type:{typ}", f"side:{side}", "all"]
+    if kind == "leg":
+        return [f"side:{'left' if what.endswith('left') else 'right'}", "all"]
+    if kind == "side":
+        return [f"leg:{g}" for g in LEGS if g.endswith(what)] + ["all"]
+    return ["all"]
 
 
 def _weights(base_err: list, F: list[int]) -> np.ndarray:
@@ -849,9 +887,48 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
     c.profile = [{"magnitude": m, "J_relative": evals[m] / J0} for m in sorted(evals)]
 
 
+def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: list[Candidate],
+                    base_err: list, F: list[int], meas: list) -> list[Candidate]:
+    """The best joint hypothesis refitted on its related scopes (:func:`related_scopes`); the
+    best of those by the fit moves' error joins the shortlist if it fits about as well
+    (within 10 %), so that the held-out decision also chooses the scope."""
+    joint = [c for c in top if FAMILIES[c.family].kind == "joints" and c.family != "time_drift"
+             and c.J is not None]
+    if not joint:
+        return []
+    c0 = min(joint, key=lambda c: c.J)
+    have = {(c.family, c.scope) for c in top}
+    variants = []
+    for scope in related_scopes(c0.scope):
+        if (c0.family, scope) in have:
+            continue
+        v = Candidate(c0.family, scope, 0.0, float(c0.fitted))
+        _refine(runner, base, v, base_err, F, meas)
+        variants.append(v)
+    if not variants:
+        return []
+    best = min(variants, key=lambda c: c.J)
+    return [best] if best.J <= 1.1 * c0.J else []
+
+
+def push_twin(c: Candidate, robot_mass: float) -> Candidate:
+    """The slope that pushes like an odom-fixed force, or the force a slope exerts: a slope of
+    theta adds m g sin(theta) downhill, fixed in odom."""
+    from ..robot.sim import GRAVITY
+    d = c.direction if c.direction is not None else np.array([1.0, 0.0])
+    m = c.fitted if c.fitted is not None else c.magnitude
+    w = robot_mass * GRAVITY
+    if c.family == "odom_force":
+        slope = math.degrees(math.asin(min(m / w, 0.99)))
+        return Candidate("ground_slope", "body", 0.0, slope, -d, fitted=slope)
+    force = w * math.sin(math.radians(m))
+    return Candidate("odom_force", "body", 0.0, force, -d, fitted=force)
+
+
 def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list, V: list[int],
               T: list[int], meas: list, alpha: float, min_gain: float,
-              horizons_s: Sequence[float], cands: list[Candidate]) -> Finding:
+              horizons_s: Sequence[float], cands: list[Candidate],
+              robot_mass: float) -> Finding:
     """Held-out decision and TestPool before/after (module doc, step 5).
 
     Every fitted hypothesis of the shortlist is re-simulated on the held-out moves V; the one
@@ -869,13 +946,21 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
         results.append((c, err, S1, decide(S0, S1, len(top), alpha, min_gain)))
     held = [float(np.nansum(r[3][0])) for r in results]
     best, err1, S1, (gain, p_ch, p_adj, sig, mat) = results[int(np.argmax(held))]
+    if best.family in PUSH_CLASS:   # its physical twin, for the "cannot tell" statement
+        twin = push_twin(best, robot_mass)
+        sims_w = runner.map([(i, base + [twin.hyp()], "full") for i in V])
+        S1w = np.array([_sse(_errors(s_, meas[i])) for i, s_ in zip(V, sims_w)])
+        top = top + [twin]
+        results.append((twin, None, S1w, decide(S0, S1w, len(top), alpha, min_gain)))
+        held.append(float(np.nansum(results[-1][3][0])))
     if T:
         sims_t = runner.map([(i, base + [best.hyp()], "full") for i in T])
         err1.update({i: _errors(s_, meas[i]) for i, s_ in zip(T, sims_t)})
     H = T or V
-    params = physical_params(best)
-    alts = [{"family": c.family, "scope": c.scope, "params": physical_params(c),
-             "J_relative": None if c.J is None else c.J / c.J0,
+    mu = runner.config.foot_friction * runner.config.ground_friction
+    params = physical_params(best, mu)
+    alts = [{"family": vocabulary_family(c.family), "scope": c.scope,
+             "params": physical_params(c, mu), "J_relative": None if c.J is None else c.J / c.J0,
              "held_out_total_gain": h, "held_out_p": r[3][2]}
             for c, h, r in zip(top, held, results)]
     screening = [{"family": c.family, "scope": c.scope, "score": c.score,
@@ -889,8 +974,9 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
 NORMAL_TORQUE = {"hip_roll": 1.7, "hip_pitch": 1.7, "knee": 0.61}
 
 
-def physical_params(c: Candidate) -> dict[str, Any]:
-    """The vocabulary's parameters of a fitted candidate (primary first)."""
+def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
+    """The vocabulary's parameters of a fitted candidate (primary first); ``foot_mu``: the
+    transducer's normal foot-ground friction coefficient (pybullet multiplies foot and ground)."""
     spec = FAMILIES[c.family]
     m = c.fitted if c.fitted is not None else c.magnitude
     if c.family in ("odom_force", "body_wrench"):
@@ -912,7 +998,13 @@ def physical_params(c: Candidate) -> dict[str, Any]:
     if c.family == "mass_com":
         return {"added_mass_kg": float(m), "com_offset_m": [0.0, 0.0, 0.0]}
     if c.family == "leg_difference":
-        return {"scale": float(m), "quantity": "foot friction coefficient"}
+        return {"scale": float(m), "quantity": "leg link masses and inertias"}
+    if c.family == "foot_slip":
+        return {"magnitude": float(m * foot_mu), "phase": "stance",
+                "quantity": "foot-ground friction coefficient", "friction_ratio": float(m)}
+    if c.family == "swing_drag":
+        return {"magnitude": float(m), "phase": "swing",
+                "quantity": "drag force on the swinging foot [N]", "force_N": float(m)}
     return {spec.primary: float(m)}
 
 
@@ -951,12 +1043,14 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "joint_friction":
         return f"{W}: about {v:.3f} N m of extra Coulomb friction"
     if family == "backlash":
-        return f"{W}: about {v:.3f} rad of play (backlash) between set-point and joint"
+        return (f"{W}: about {v:.3f} rad of play (backlash): the servo drives no torque while "
+                f"the joint is within {v / 2:.3f} rad of its set-point")
     if family == "torque_saturation":
         return (f"{W}: servo torque saturates at about {100 * params['torque_limit_ratio']:.0f} "
                 f"% of the normal limit ({params['torque_limit_Nm']:.2f} N m)")
     if family == "encoder_offset":
-        return f"{W}: measured angle reads about {v:+.3f} rad off the true angle"
+        return (f"{W}: the encoder reads about {v:+.3f} rad off the true angle (the servo holds "
+                f"the joint that far from the set-point while the report shows it on it)")
     if family == "time_drift":
         return (f"{W}: servo gain drifts by about {100 * v:+.1f} % per second since the start "
                 f"of a move")
@@ -972,8 +1066,56 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "mass_com":
         return f"About {v:.2f} kg of extra mass carried on the body"
     if family == "leg_difference":
-        return f"{W} differs: its foot friction is about {100 * v:.0f} % of the others'"
+        return f"{W} differs: its links weigh about {v:.2f} times the others'"
+    if family == "foot_slip":
+        return (f"{W}'s foot slips in stance: foot-ground friction coefficient about "
+                f"{params['magnitude']:.2f} ({100 * params['friction_ratio']:.0f} % of normal)")
+    if family == "swing_drag":
+        return (f"{W}'s foot is dragged while it swings: about {params['force_N']:.1f} N "
+                f"against its motion, none in stance")
     return f"{family} on {where}: {dict(params)}"
+
+
+INSEPARABLE_SHARE = 0.8   # a rival with this share of the finding's held-out cut: data can't tell
+
+
+def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
+    """Rivals of another family that the held-out moves cannot tell from an accepted finding:
+    significant on their own (adjusted p < alpha) with at least INSEPARABLE_SHARE of its summed
+    held-out SSE cut. Each names what would separate them."""
+    mine = vocabulary_family(f.family)
+    own = [a for a in f.alternatives if a["family"] == mine and a["scope"] == f.scope]
+    if not own or not own[0]["held_out_total_gain"] or own[0]["held_out_total_gain"] <= 0:
+        return []
+    g0 = own[0]["held_out_total_gain"]
+    out, seen = [], {mine}
+    for a in sorted(f.alternatives, key=lambda a: -(a["held_out_total_gain"] or -np.inf)):
+        g = a["held_out_total_gain"]
+        if a["family"] in seen or g is None or g < INSEPARABLE_SHARE * g0 or \
+                not a["held_out_p"] < alpha:
+            continue
+        seen.add(a["family"])
+        pair = {mine, a["family"]}
+        if pair == set(PUSH_CLASS):
+            how = ("a slope tilts gravity (m g sin(slope) downhill, fixed in odom) and a "
+                   "world-fixed push act alike on odometry that stays level with the ground; "
+                   "the gravity direction in base_link (an IMU's accelerometer) separates them")
+            rec = ("record the same moves with an IMU topic (sensor_msgs/Imu, linear "
+                   "acceleration); this project's recorder has none")
+        elif pair <= {"odom_force", "ground_slope", "body_wrench"}:
+            how = ("a push fixed in odom and one fixed to the body differ only when the heading "
+                   "changes; more turning moves separate them")
+            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 --types FL,FR,BL,BR "
+                   "[same options, a new seed]")
+        else:
+            how = "both explain the held-out moves about equally well"
+            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 --excitation 0.03 "
+                   "[same options, a new seed]")
+        out.append({"family": a["family"], "scope": a["scope"], "params": a["params"],
+                    "why": (f"cannot be told from the accepted {mine} on these data: held-out "
+                            f"cut {g:.3g} against {g0:.3g}; {how}"),
+                    "recording": rec, "kind": "inseparable"})
+    return out
 
 
 def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitation: float,
@@ -1010,6 +1152,8 @@ def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitat
                         "why": f"{f.statement} is significant on held-out moves (p = "
                                f"{f.p_value:.2g}) but cuts no output error by {min_gain:.0%}",
                         "recording": more})
+    for f in findings:
+        out += inseparable(f, alpha)
     for f in findings:
         if f.family in ("command_delay", "command_filter") and excitation <= 0:
             rival = [a for a in f.alternatives if a["family"] in ("command_delay",

@@ -477,7 +477,7 @@ def write_report(out: str | os.PathLike, sel: SelectionResult, stages: Sequence[
 # the physical identification's report (``diagnose`` with physics on; docs/diagnosis.md)
 
 def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dict[str, Any]:
-    from .physid import CHANNELS
+    from .physid import CHANNELS, vocabulary_family
     ev = f.evidence()
     outputs = [CHANNELS[j] for j in np.flatnonzero((f.p_channel < 0.01) & (f.gain >= 0.025))]
     cut = {}
@@ -491,7 +491,8 @@ def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dic
         "family": f.family, "params": dict(f.params),
         "columns": [] if aug is None else list(aug.columns()),
         "outputs": outputs, "p_value": f.p_value,
-        "physical": {"family": f.family, "scope": f.scope, "params": dict(f.params),
+        "physical": {"family": vocabulary_family(f.family), "scope": f.scope,
+                     "params": dict(f.params),
                      "statement": f.statement},
         "augmentation": None if aug is None else aug.to_dict(),
         "augmentation_note": (

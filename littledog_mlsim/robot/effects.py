@@ -346,14 +346,29 @@ class SetpointBacklash:
 
 
 class EncoderOffset:
-    """Measured angle = true angle + ``offset_rad`` on some joints (the report only; the servo
-    loop reads its own encoder)."""
+    """Measured angle = true angle + ``offset_rad`` on some joints.
 
-    def __init__(self, offset_rad: float, joints: str | list[str] | None = None) -> None:
+    ``servo_loop`` False: the report only (a calibration error in what is published; the servo
+    reads its own sensor). True: the servo closes its loop on the same offset encoder, as a
+    joint servo does, so it holds the joint ``offset_rad`` short of the set-point while the
+    reported angle still matches the set-point: the error shows in the body's motion, not in the
+    joint angles.
+    """
+
+    def __init__(self, offset_rad: float, joints: str | list[str] | None = None,
+                 servo_loop: bool = False) -> None:
         if not np.isfinite(offset_rad):
             raise ValueError(f"EncoderOffset: offset_rad must be finite, got {offset_rad!r}")
         self.offset_rad = float(offset_rad)
         self.joints = resolve_joints(joints)
+        self.servo_loop = bool(servo_loop)
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        if not self.servo_loop:
+            return u
+        out = u.copy()
+        out[self.joints] -= self.offset_rad
+        return out
 
     def measure(self, obs: dict, t: float) -> dict:
         q = obs["q"].copy()
@@ -407,17 +422,106 @@ class FootFriction:
         if not (np.isfinite(scale) and scale > 0):
             raise ValueError(f"FootFriction: scale must be > 0, got {scale!r}")
         self.scale = float(scale)
-        names = [legs] if isinstance(legs, str) else list(legs)
-        for n in names:
-            if n not in LEGS:
-                raise ValueError(f"FootFriction: unknown leg {n!r}")
-        self.legs = [LEGS.index(n) for n in names]
+        self.legs = _legs(legs, "FootFriction")
 
     def reset(self, sim: Any) -> None:
         for i in self.legs:
             p.changeDynamics(sim.robot, sim.foot_links[i],
                              lateralFriction=sim.config.foot_friction * self.scale,
                              physicsClientId=sim.client)
+
+
+def _legs(legs: str | list[str], who: str) -> list[int]:
+    names = [legs] if isinstance(legs, str) else list(legs)
+    for n in names:
+        if n not in LEGS:
+            raise ValueError(f"{who}: unknown leg {n!r}")
+    return [LEGS.index(n) for n in names]
+
+
+class LegMass:
+    """The links of one leg (or several) weigh ``scale`` times their normal mass, with their
+    inertia (and the reflected rotor inertia on it) scaled alike: heavier motors or a guard."""
+
+    def __init__(self, scale: float, legs: str | list[str] = "front_left") -> None:
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(f"LegMass: scale must be > 0, got {scale!r}")
+        self.scale = float(scale)
+        self.legs = _legs(legs, "LegMass")
+
+    def reset(self, sim: Any) -> None:
+        c = sim.client
+        for i in self.legs:
+            for link in [sim.joint_indices[3 * i + k] for k in range(3)] + [sim.foot_links[i]]:
+                mass, _, inertia = p.getDynamicsInfo(sim.robot, link, physicsClientId=c)[:3]
+                if mass > 0:
+                    p.changeDynamics(sim.robot, link, mass=mass * self.scale,
+                                     localInertiaDiagonal=[v * self.scale for v in inertia],
+                                     physicsClientId=c)
+
+
+class SwingDrag:
+    """While a foot is off the ground, a horizontal force of up to ``force_N`` opposes its
+    velocity (grass, a cable, a snag): F = -force_N tanh(|v| / speed_m_s) v / |v| at the foot,
+    with v the foot's horizontal velocity in odom. No force while the foot touches the ground."""
+
+    def __init__(self, force_N: float, legs: str | list[str] = "front_left",
+                 speed_m_s: float = 0.1) -> None:
+        if not (np.isfinite(force_N) and force_N >= 0):
+            raise ValueError(f"SwingDrag: force_N must be >= 0, got {force_N!r}")
+        if not (np.isfinite(speed_m_s) and speed_m_s > 0):
+            raise ValueError(f"SwingDrag: speed_m_s must be > 0, got {speed_m_s!r}")
+        self.force_N = float(force_N)
+        self.speed_m_s = float(speed_m_s)
+        self.legs = _legs(legs, "SwingDrag")
+
+    def substep(self, sim: Any, t: float) -> None:
+        if self.force_N == 0.0:
+            return
+        c = sim.client
+        links = [sim.foot_links[i] for i in self.legs]
+        states = p.getLinkStates(sim.robot, links, computeLinkVelocity=1,
+                                 computeForwardKinematics=1, physicsClientId=c)
+        for link, st in zip(links, states):
+            if p.getContactPoints(sim.robot, sim.plane, link, -1, physicsClientId=c):
+                continue
+            v = np.array(st[6][:2])
+            speed = float(np.hypot(*v))
+            if speed < 1e-9:
+                continue
+            f = -self.force_N * np.tanh(speed / self.speed_m_s) * v / speed
+            p.applyExternalForce(sim.robot, link, [float(f[0]), float(f[1]), 0.0], st[0],
+                                 p.WORLD_FRAME, physicsClientId=c)
+
+
+class ServoDeadband:
+    """Backlash in the gears of some joints as the servo sees it: the position error
+    e = q_des - q drives no torque within +-``width_rad``/2 and k (|e| - width/2) beyond it (a
+    dead zone on the stiffness term; damping unchanged)."""
+
+    def __init__(self, width_rad: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(width_rad) and width_rad >= 0):
+            raise ValueError(f"ServoDeadband: width_rad must be >= 0, got {width_rad!r}")
+        self.width_rad = float(width_rad)
+        self.joints = resolve_joints(joints)
+        self._q_des = np.zeros(N_JOINTS)
+
+    def reset(self, sim: Any) -> None:
+        self._ids = [sim.joint_indices[j] for j in self.joints]
+        self._kp = _servo_gains(sim, self.joints)[0]
+
+    def command(self, u: np.ndarray, t: float) -> np.ndarray:
+        from ..layout import JOINT_LOWER, JOINT_UPPER
+        self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
+        return u
+
+    def substep(self, sim: Any, t: float) -> None:
+        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
+        e = self._q_des[self.joints] - np.array([s[0] for s in states])
+        h = 0.5 * self.width_rad
+        tau = -self._kp * np.clip(e, -h, h)
+        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=tau.tolist(),
+                                    physicsClientId=sim.client)
 
 
 # ----------------------------------------------------------------------------- loading from YAML

@@ -21,7 +21,8 @@ from littledog_mlsim.layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_
                                     JOINT_UPPER, MOVE_TYPES, STEPS_PER_MOVE)
 from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE, URDF_PATH,
                                           RobotConfig, per_joint, robot_config)
-from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, JointFriction, Payload,
+from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, JointFriction,
+                                           LegMass, Payload, ServoDeadband, SwingDrag,
                                            load_effects, resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
 from littledog_mlsim.robot.servo import PDTorqueServo
@@ -272,6 +273,37 @@ def test_physical_effects_push_the_right_way():
     assert err(sticky) > err(base) * 1.05
     np.testing.assert_allclose(JointFriction(coulomb=0.2, viscous=0.1, smoothing=0.05).torque(
         np.array([-1.0, 0.0, 1.0] * 4)), np.array([0.2 * np.tanh(20) + 0.1, 0.0, -0.2 * np.tanh(20) - 0.1] * 4))
+
+
+
+def test_leg_swing_and_servo_plugins_act_where_named():
+    """The plug-ins the diagnosis adds for leg, contact-phase, backlash and encoder hypotheses."""
+    cmd = commands("F", 3)[:150]
+    sim = get_sim(quiet())
+    heavy = LegMass(2.0, "back_left")
+    sim.reset(effects=[heavy])
+    leg = [sim.joint_indices[6 + k] for k in range(3)]
+    m1 = sum(p.getDynamicsInfo(sim.robot, j, physicsClientId=sim.client)[0] for j in leg)
+    sim.reset(effects=[])
+    m0 = sum(p.getDynamicsInfo(sim.robot, j, physicsClientId=sim.client)[0] for j in leg)
+    assert m1 == pytest.approx(2.0 * m0)                 # the named leg's links, twice as heavy
+    base = simulate_move(cmd, robot=quiet())
+    # swing drag on a foot: the foot swings less far, so that leg's hip pitch lags its command
+    drag = simulate_move(cmd, robot=quiet(), effects=[SwingDrag(5.0, "front_left")])
+    err = lambda r, j: np.sqrt(np.mean((r.q[1:, j] - r.cmd[:, j]) ** 2))
+    assert err(drag, 1) > 1.1 * err(base, 1)
+    assert abs(err(drag, 10) - err(base, 10)) < abs(err(drag, 1) - err(base, 1))
+    # a dead band in the knee servos: knees track worse, hips hardly change
+    loose = simulate_move(cmd, robot=quiet(), effects=[ServoDeadband(0.1, "knees")])
+    assert err(loose, 2) > 1.1 * err(base, 2)
+    # an encoder offset inside the servo loop: the reported angle follows the set-point as before,
+    # the true joint sits offset_rad short of it (the measured angle minus the offset)
+    off = EncoderOffset(0.05, "front_left_hip_pitch", servo_loop=True)
+    u = off.command(np.asarray(cmd[0], dtype=float), 0.0)
+    assert u[1] == pytest.approx(cmd[0][1] - 0.05) and u[0] == cmd[0][0]
+    enc = simulate_move(cmd, robot=quiet(), effects=[off])
+    assert abs(np.mean(enc.q[50:, 1] - base.q[50:, 1])) < 0.02
+    assert EncoderOffset(0.05, "knees").command(np.zeros(12), 0.0).tolist() == [0.0] * 12
 
 
 PLUGIN = textwrap.dedent('''
