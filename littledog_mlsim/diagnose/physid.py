@@ -151,7 +151,7 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("ground_slope", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy")),
     FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0)),
     FamilySpec("leg_difference", "leg", "scale", "1", 0.5, (0.2, 4.0), neutral=1.0),
-    FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.5, (0.02, 1.5), neutral=1.0,
+    FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.85, (0.02, 1.5), neutral=1.0,
                reported_as="contact_phase", phase="stance"),
     FamilySpec("swing_drag", "leg", "force_N", "N", 1.0, (0.0, 10.0),
                reported_as="contact_phase", phase="swing"),
