@@ -59,7 +59,7 @@ import numpy as np
 from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S, wrap_angle
 from ..robot.sensors import twist_from_poses
 from ..rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
-from .projection import AlphaProjection, Projection
+from ..projection import AlphaProjection, Projection
 from .simulate import _predict, model_feature_set
 
 __all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance"]

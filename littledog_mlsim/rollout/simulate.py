@@ -30,7 +30,7 @@ from ..data.dataset import (
 )
 from ..data.recording import MoveRecording
 from ..layout import N_ACTION, N_FEATURE, N_STATE
-from .projection import NoProjection, Projection
+from ..projection import NoProjection, Projection
 
 __all__ = ["TestMove", "prepare_test_move", "prepare_test_moves", "rollout", "step",
            "rollout_moves", "predicted_paths"]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from littledog_mlsim.layout import JOINT_LOWER, JOINT_UPPER, N_STATE, S
-from littledog_mlsim.rollout.projection import (
+from littledog_mlsim.projection import (
     AlphaProjection, NoProjection, Projection, leave_move_out_distances, make_projection,
     radius_from_quantile,
 )

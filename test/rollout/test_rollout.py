@@ -22,7 +22,7 @@ from littledog_mlsim.layout import (
 from littledog_mlsim.rollout.metrics import (
     element_abs_error, element_error_sum, nmse, nmse_at_horizons, rollout_metrics, xy_error,
 )
-from littledog_mlsim.rollout.projection import (
+from littledog_mlsim.projection import (
     NearestNeighbour, NoProjection, Projection, enforce_limits,
     make_projection,
 )
