@@ -23,8 +23,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..data.dataset import features_responses, load_moves
+from ..data.dataset import load_moves
 from ..data.recording import MoveRecording
+from ..data.states import features_responses
 from ..fileio import atomic_write_text
 from ..models.onestep import OneStepModel
 from ..projection import radius_from_quantile

@@ -8,7 +8,7 @@ and command streams. An :class:`Augmentation` is one such named, parametrised tr
 order. The same object computes the features
 
 - in batch, from recordings (:meth:`FeatureSet.features_responses`, aligned sample for sample
-  with :func:`..data.dataset.features_responses`), and
+  with :func:`..data.states.features_responses`), and
 - online, step by step and batched over B simulated moves (:meth:`FeatureSet.history` ->
   :class:`FeatureHistory`), for the rollout and the 100 Hz node,
 
@@ -51,7 +51,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..data.dataset import actions_from_recording, initial_pose, states_from_recording
+from ..data.states import actions_from_recording, initial_pose, states_from_recording
 from ..data.recording import MoveRecording
 from ..layout import CONTROL_DT, FEATURE_NAMES, N_ACTION, N_FEATURE, N_STATE, S
 from ..rotations import rpy_to_matrix
@@ -196,7 +196,7 @@ class FeatureSet:
         return S_, U, Y, pose
 
     def extra_features(self, recs: Sequence[MoveRecording]) -> np.ndarray:
-        """Extra columns (n, n_extra), rows aligned with ``data.dataset.features_responses``."""
+        """Extra columns (n, n_extra), rows aligned with ``data.states.features_responses``."""
         return self.features_responses(recs)[0][:, N_FEATURE:]
 
     def features_responses(self, recs: Sequence[MoveRecording]

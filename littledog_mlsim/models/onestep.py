@@ -7,7 +7,7 @@ ask which one is inside:
     mean, std = model.predict(x_t, return_std=True)     (GPs only)
 
 Inside, the features are normalised to unit variance per column on the TrainPool (the paper's
-Section II; :class:`..data.dataset.Normalizer`), and the regressor learns a response
+Section II; :class:`..data.states.Normalizer`), and the regressor learns a response
 representation chosen by ``target``:
 
 - ``"delta"`` (default): r = s_{t+1} - s_t, normalised to unit variance per element; the
@@ -51,7 +51,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..data.dataset import Normalizer
+from ..data.states import Normalizer
 from ..layout import N_STATE, STATE_NAMES
 from ..projection import GATE_QUANTILE, Projection, gate_radius, make_projection
 from .base import Regressor, StdNotSupportedError

@@ -28,8 +28,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..data.dataset import features_responses, load_moves, read_index
+from ..data.dataset import load_moves, read_index
 from ..data.recording import MoveRecording
+from ..data.states import features_responses
 from ..logs import progress_to_stderr
 from ..projection import gate_radius
 from .base import Regressor

@@ -25,7 +25,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..data.dataset import (
+from ..data.states import (
     InitialPose, actions_from_recording, initial_pose, integrate_path, states_from_recording,
 )
 from ..data.recording import MoveRecording
