@@ -54,10 +54,10 @@ dataset: $(STAMP)
 reproduce: $(STAMP)
 	test -f $(DATA)/dataset.yaml || $(VENV)/bin/littledog-mlsim record --out $(DATA)
 	$(VENV)/bin/littledog-mlsim reproduce --data $(DATA) --out benchmarks/reproduce_paper --scale paper \
-		--physics-config benchmarks/nominal_tuned.json
+		--physics-config benchmarks/physics_baseline/nominal_tuned.json
 
 bench: $(STAMP)
-	$(PY) benchmarks/record_speed.py
+	$(PY) benchmarks/record_speed/record_speed.py
 
 clean:
 	rm -rf build install log *.egg-info .pytest_cache

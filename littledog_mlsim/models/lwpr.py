@@ -88,7 +88,7 @@ output; this is why ``w_update`` is the speed/accuracy knob. The library's defau
 except ``init_D`` (the features are normalised, not in [-1, 1]), ``w_gen``, ``w_update``,
 ``add_threshold``, ``w_prune``, ``init_alpha``, ``max_projections``/``max_rfs`` (bounds) and
 ``n_epochs``; the measurements behind each choice, the fit times and the paper-scale accuracy
-are in ``benchmarks/lwpr_design.md``.
+are in ``benchmarks/lwpr_design/README.md``.
 
 Distance metric from GP length-scales (paper Section III)
 --------------------------------------------------------

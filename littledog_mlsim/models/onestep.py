@@ -14,7 +14,7 @@ representation chosen by ``target``:
   prediction is s_t + r. The state changes little in 10 ms, so the regressor only models the
   change (the GP prior mean, zero, is then "the state stays", not "the state is the TrainPool
   mean"). On the recorded data it is the better target for most state elements, ``"next"``
-  for a few nearly uncorrelated ones (``benchmarks/lgpr_ablation.md``).
+  for a few nearly uncorrelated ones (``benchmarks/lgpr_ablation/lgpr_ablation.md``).
 - ``"next"``: the paper's literal response r = s_{t+1}, normalised to unit variance.
 
 The standard deviation is that of s_{t+1} given x_t (s_t is known, so the same for both

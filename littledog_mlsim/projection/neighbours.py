@@ -21,7 +21,8 @@ class NearestNeighbour:
 
     Every method returns the answer of a naive loop, ``argmin(((points - x) ** 2).sum(axis=1))``
     per query ``x``: the smallest such distance, and on exact ties the smallest index
-    (``"kdtree"`` excepted, see below). Methods (``benchmarks/projection_nn.md`` has the timings):
+    (``"kdtree"`` excepted, see below). Methods (``benchmarks/projection_nn/projection_nn.md``
+    has the timings):
 
     - ``"auto"`` (default): ``"pca"`` for at least ``4 * chunk_points`` points in at least 8
       dimensions whose first ``n_components`` principal axes carry at least 95% of the
@@ -53,7 +54,7 @@ class NearestNeighbour:
       loop's. Queries the bounds do not help (far outside the data, most of the home chunk's
       sample or more than ``n / 32`` points left as candidates) go to ``"brute"``. On the
       TrainPool about 1/4 of ``"brute"``'s time for alpha-PROJ's 66 queries of a rollout step,
-      1/2 for one query (``benchmarks/projection_nn.md``).
+      1/2 for one query (``benchmarks/projection_nn/projection_nn.md``).
     - ``"brute"``: one GEMM per chunk of points, ``[a, 1] @ [-2 b_j, ||b_j||^2]^T``
       = ``||a - b_j||^2 - ||a||^2`` (the row constant ``||a||^2`` dropped); every point within a
       rounding-error bound of the row minimum is then re-scored with the direct
