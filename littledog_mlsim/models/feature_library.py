@@ -10,7 +10,7 @@ scopes their ``joints``/``group`` parameters accept.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, Mapping
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
@@ -53,6 +53,13 @@ def _group(groups: Mapping[str, tuple[int, ...]], name: str, what: str) -> tuple
                               f"{', '.join(groups)}") from None
 
 
+def _check_lag(value: Any, what: str, least: int = 1) -> None:
+    """FeatureSetError unless ``value`` is an integer >= ``least`` (a lag in control steps)."""
+    if int(value) != value or value < least:
+        rule = "a positive integer" if least == 1 else f"an integer >= {least}"
+        raise FeatureSetError(f"{what} must be {rule}, got {value!r}")
+
+
 @register_augmentation
 @dataclass(frozen=True)
 class CommandLag(Augmentation):
@@ -65,8 +72,7 @@ class CommandLag(Augmentation):
     family: ClassVar[str] = "command delay"
 
     def __post_init__(self) -> None:
-        if int(self.lag) != self.lag or self.lag < 1:
-            raise FeatureSetError(f"command_lag: lag must be a positive integer, got {self.lag!r}")
+        _check_lag(self.lag, "command_lag: lag")
         _group(JOINT_GROUPS, self.joints, "command_lag")
 
     @property
@@ -93,9 +99,7 @@ class CommandIncrement(Augmentation):
     family: ClassVar[str] = "command delay"
 
     def __post_init__(self) -> None:
-        if int(self.lag) != self.lag or self.lag < 0:
-            raise FeatureSetError(f"command_increment: lag must be an integer >= 0, "
-                                  f"got {self.lag!r}")
+        _check_lag(self.lag, "command_increment: lag", least=0)
         _group(JOINT_GROUPS, self.joints, "command_increment")
 
     @property
@@ -122,8 +126,7 @@ class StateLag(Augmentation):
     family: ClassVar[str] = "lagged state"
 
     def __post_init__(self) -> None:
-        if int(self.lag) != self.lag or self.lag < 1:
-            raise FeatureSetError(f"state_lag: lag must be a positive integer, got {self.lag!r}")
+        _check_lag(self.lag, "state_lag: lag")
         _group(STATE_GROUPS, self.group, "state_lag")
 
     @property
@@ -412,9 +415,7 @@ class GaitPhase(Augmentation):
     family: ClassVar[str] = "gait phase"
 
     def __post_init__(self) -> None:
-        if int(self.quarter_lag) != self.quarter_lag or self.quarter_lag < 1:
-            raise FeatureSetError(f"gait_phase: quarter_lag must be a positive integer, got "
-                                  f"{self.quarter_lag!r}")
+        _check_lag(self.quarter_lag, "gait_phase: quarter_lag")
 
     @property
     def max_lag(self) -> int:
