@@ -13,14 +13,7 @@ from littledog_mlsim.projection import (
     AlphaProjection, NoProjection, Projection, leave_move_out_distances, make_projection,
     radius_from_quantile,
 )
-
-
-def random_states(n: int, seed: int, spread: float = 0.3) -> np.ndarray:
-    """States strictly inside the joint limits and the angle range."""
-    rng = np.random.default_rng(seed)
-    s = spread * rng.standard_normal((n, N_STATE))
-    s[:, S.q] = np.clip(s[:, S.q], JOINT_LOWER + 0.05, JOINT_UPPER - 0.05)
-    return s
+from synthetic import random_states
 
 
 def naive_distances(train: np.ndarray, s: np.ndarray) -> np.ndarray:
