@@ -36,7 +36,7 @@ run: $(STAMP)
 test: $(STAMP) $(CHROMIUM_STAMP)
 	$(PY) -m pytest -q test
 
-# Headless Chromium for the view's browser tests (test/test_viewer_browser.py), from Debian's
+# Headless Chromium for the view's browser tests (test/viewer/test_viewer_browser.py), from Debian's
 # packages, tried once (root with apt-get only); never fatal: without it those tests skip and say why.
 $(CHROMIUM_STAMP): | $(STAMP)
 	@if command -v chromium >/dev/null 2>&1; then :; \

@@ -127,7 +127,7 @@ that Dask cluster (``distributed.Client`` + joblib's ``dask`` backend; the worke
 package importable). Every task's result depends only on its data and its seed (derived from
 ``random_state`` and the cluster number), and BLAS runs on one thread inside each task, so
 ``n_jobs=1``, ``n_jobs=2`` and a Dask cluster give the same model (bit for bit when the workers
-use the same NumPy/BLAS build, as ``test/test_lgpr.py`` checks on one machine).
+use the same NumPy/BLAS build, as ``test/models/test_lgpr.py`` checks on one machine).
 """
 from __future__ import annotations
 

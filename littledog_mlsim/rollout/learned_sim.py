@@ -3,7 +3,7 @@
 ``sim_node`` (``nodes/sim_node.py``) is a ROS shell around :class:`LearnedSimulator`, which lives
 here with the rollout because it is plain NumPy. A step is the computation of
 ``rollout.simulate.step`` and ``data.states.integrate_path`` written out for one robot (the
-model and projection are the same calls; ``test/test_learned_sim.py`` checks the node's
+model and projection are the same calls; ``test/rollout/test_learned_sim.py`` checks the node's
 output equals the core's rollout), so that it costs little besides them.
 
 A model whose feature set goes beyond the paper's 45 (``model.feature_set``: lagged commands and
