@@ -36,7 +36,7 @@ run: $(STAMP)
 test: $(STAMP) $(CHROMIUM_STAMP)
 	$(PY) -m pytest -q test
 
-# Headless Chromium for the view's browser tests (test/test_viewer_browser.py), from Debian's
+# Headless Chromium for the view's browser tests (test/viewer/test_viewer_browser.py), from Debian's
 # packages, tried once (root with apt-get only); never fatal: without it those tests skip and say why.
 $(CHROMIUM_STAMP): | $(STAMP)
 	@if command -v chromium >/dev/null 2>&1; then :; \
@@ -54,10 +54,10 @@ dataset: $(STAMP)
 reproduce: $(STAMP)
 	test -f $(DATA)/dataset.yaml || $(VENV)/bin/littledog-mlsim record --out $(DATA)
 	$(VENV)/bin/littledog-mlsim reproduce --data $(DATA) --out benchmarks/reproduce_paper --scale paper \
-		--physics-config benchmarks/nominal_tuned.json
+		--physics-config benchmarks/physics_baseline/nominal_tuned.json
 
 bench: $(STAMP)
-	$(PY) benchmarks/record_speed.py
+	$(PY) benchmarks/record_speed/record_speed.py
 
 clean:
 	rm -rf build install log *.egg-info .pytest_cache

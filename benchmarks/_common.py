@@ -1,4 +1,5 @@
-"""Helpers shared by the benchmark scripts (run as ``python benchmarks/<name>.py``)."""
+"""Helpers shared by the benchmark scripts (run as ``python benchmarks/<study>/<script>.py``;
+a script puts ``benchmarks/`` on ``sys.path`` to import this module)."""
 from __future__ import annotations
 
 import subprocess

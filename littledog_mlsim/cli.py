@@ -399,7 +399,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--features", choices=["paper", "measured"], default="paper",
                    help="inputs: the paper's 45 (default) or those plus the measured robot's own "
                         "structure, the previous state (found by `diagnose`; see "
-                        "benchmarks/diagnose.md)")
+                        "benchmarks/diagnose/diagnose.md)")
     t.add_argument("--clusters", type=int, default=None, metavar="K", help="lgpr: number of k-means clusters")
     t.add_argument("--cluster-size", type=int, default=None, metavar="M",
                    help="lgpr: points per cluster when --clusters is not given (default 1000)")
@@ -449,7 +449,8 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--no-fig4", action="store_true", help="skip Fig. 4")
     rp.add_argument("--no-rollouts", action="store_true", help="skip Figs 5-7 and the animation")
     rp.add_argument("--physics-config", type=Path, default=None, metavar="FILE.json",
-                    help="tuned nominal robot (e.g. benchmarks/nominal_tuned.json) for the physics "
+                    help="tuned nominal robot (e.g. "
+                         "benchmarks/physics_baseline/nominal_tuned.json) for the physics "
                          "baseline curves")
     rp.set_defaults(func=cmd_reproduce)
 

@@ -1,7 +1,9 @@
 """Fixtures shared across the test tree (which mirrors the package: ``test/<subpackage>/``).
 
-``synthetic.py`` (hand-made recordings with known dynamics) sits beside this file; the test
-directory is put on ``sys.path`` so every test module imports it as ``synthetic``.
+``synthetic.py`` (hand-made recordings with known dynamics, synthetic states and points) and
+``waiting.py`` (waiting on events in the multi-process ROS tests) sit beside this file; the test
+directory is put on ``sys.path`` so every test module imports them as ``synthetic`` and
+``waiting``.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""A custom effect for the diagnosis sanity check (``benchmarks/diagnose.md``): gear backlash
-between the joint and its encoder.
+"""A custom effect for the diagnosis sanity check (``benchmarks/diagnose/diagnose.md``): gear
+backlash between the joint and its encoder.
 
 The reported joint angle follows the true one through a dead band of ``width`` rad (the play
 operator: it stays put after a reversal until the play is taken up). Only the 100 Hz reading is

@@ -389,6 +389,13 @@ def _fmt(x, nd=3) -> str:
     return f"{x:.{nd}f}" if isinstance(x, float) else str(x)
 
 
+def _implausible(rs: list[dict]) -> tuple[int, float | None]:
+    """How many of the runs ``rs`` turned implausible, and the earliest time one did (None if
+    none did)."""
+    imp = [r["implausible"]["first_s"] for r in rs if r["implausible"]["first_s"] is not None]
+    return len(imp), (min(imp) if imp else None)
+
+
 def _med(vals) -> float:
     v = np.array([np.nan if x is None else x for x in vals], dtype=float)
     return float(np.nanmedian(v)) if np.isfinite(v).any() else float("nan")
@@ -459,8 +466,7 @@ def cmd_open_loop(a, soak: bool = False) -> int:
                   "|---|---|---|---|---|---|---|---|---|---|"]
         for cfg in a.configs:
             rs = [r for r in doc["runs"] if r["scenario"] == sc and r["config"] == cfg]
-            imp = [r["implausible"]["first_s"] for r in rs]
-            k_imp = sum(x is not None for x in imp)
+            k_imp, first = _implausible(rs)
             summ = {"path_m": _med([r["path_m"] for r in rs]),
                     "path_learned_m": _med([r["path_learned_m"] for r in rs]),
                     "final_err_m": _med([r["final_err_m"] for r in rs]),
@@ -468,8 +474,7 @@ def cmd_open_loop(a, soak: bool = False) -> int:
                     "err_per_m_max": float(np.nanmax([r["err_per_m"] for r in rs])),
                     "max_err_m": _med([r["max_err_m"] for r in rs]),
                     "final_yaw_err_rad": _med([r["final_yaw_err_rad"] for r in rs]),
-                    "first_implausible_s": (None if k_imp == 0 else
-                                            min(x for x in imp if x is not None)),
+                    "first_implausible_s": first,
                     "runs_implausible": k_imp, "runs": len(rs),
                     "dist_median": _med([r["dist_median"] for r in rs]),
                     "far_fraction": _med([r["far_fraction"] for r in rs])}
@@ -635,9 +640,7 @@ def cmd_closed_loop(a) -> int:
                       "|---|---|---|---|---|---|---|---|---|---|"]
         for cfg in a.configs:
             rs = [r for r in doc["runs"] if r["controller"] == kind and r["config"] == cfg]
-            imp = [r["implausible"]["first_s"] for r in rs]
-            k_imp = sum(x is not None for x in imp)
-            first = None if k_imp == 0 else min(x for x in imp if x is not None)
+            k_imp, first = _implausible(rs)
             summ = {"path_m": _med([r["path_m"] for r in rs]),
                     "final_err_m": _med([r["final_err_m"] for r in rs]),
                     "err_per_m": _med([r["err_per_m"] for r in rs]),

@@ -31,7 +31,7 @@ import numpy as np
 import pybullet as p
 from PIL import Image, ImageDraw, ImageFont
 
-from ..data.dataset import initial_pose, integrate_path
+from ..data.states import initial_pose, integrate_path
 from ..data.recording import MoveRecording
 from ..layout import CONTROL_DT, JOINT_NAMES, N_STATE, S
 from ..robot.config import URDF_PATH

@@ -23,11 +23,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..data.dataset import features_responses, load_moves
+from ..data.dataset import load_moves
 from ..data.recording import MoveRecording
+from ..data.states import features_responses
 from ..fileio import atomic_write_text
 from ..models.onestep import OneStepModel
-from ..rollout.projection import radius_from_quantile
+from ..projection import radius_from_quantile
 from ..rollout.simulate import prepare_test_moves
 from ..scoring import ROLLOUT_SUMMARY_KEYS, RolloutSpec, rollout_scores, score_model
 

@@ -146,7 +146,7 @@ def _rollout_figures(data, out, models_dir, physics_config, animate) -> dict[str
     from ..fileio import atomic_write_text
     from ..models.onestep import OneStepModel
     from ..rollout.metrics import rollout_metrics
-    from ..rollout.projection import make_projection
+    from ..projection import make_projection
     from ..rollout.simulate import prepare_test_moves
 
     out, models_dir = Path(out), Path(models_dir)

@@ -93,7 +93,8 @@ SCALES: dict[str, Scale] = {
 
 
 def _cache_dataset(data: str | os.PathLike, path: Path) -> dict[str, Any]:
-    from ..data.dataset import features_responses, load_moves
+    from ..data.dataset import load_moves
+    from ..data.states import features_responses
     train, test = load_moves(data, "train"), load_moves(data, "test")
     X, Y, _ = features_responses(train)
     Xt, Yt, _ = features_responses(test)
@@ -169,7 +170,7 @@ def _fit_and_score(cache: str, method: str, options: dict[str, Any], n_train: in
 def fig4_point(cache: str, curve: str, n: int, seed: int, scale_name: str) -> dict[str, Any]:
     """nMSE of droll for one (curve, training size): a single-output model of droll."""
     _pin_blas()
-    from ..data.dataset import Normalizer
+    from ..data.states import Normalizer
     from ..models.train import make_estimator
     from ..rollout.metrics import nmse_array
 

@@ -9,7 +9,7 @@ sequence lengths, padding: everything except the numbers) are identical to it, a
 numbers of a whole group out with one NumPy view. Anything it does not know (big-endian CDR,
 ROS 1 messages, a message type other than the five below, a layout that differs) goes through
 ``rosbags``' deserializer with the bag's own type definitions, field by field; the result is
-the same (``test/test_import.py`` compares both paths).
+the same (``test/data/test_import.py`` compares both paths).
 
 Decoded per message (``Decoded`` fields; NaN where a message lacks a value):
 

@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..layout import DATASET_MOVE_TYPES
-from .dataset import load_moves, quat_to_rpy, read_index
+from ..rotations import quat_to_rpy
+from .dataset import load_moves, read_index
 from .recording import MoveRecording
 
 

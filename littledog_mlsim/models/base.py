@@ -19,7 +19,7 @@ LR, LWPR, GPR, SoR and LGPR alike, without asking which one they hold. The rules
   the learned state as a flat dict of NumPy arrays (saved to .npz, read with
   ``allow_pickle=False``) plus JSON-serialisable metadata (sizes).
 
-``test/test_regressor_conformance.py`` checks every registered estimator against these rules.
+``test/models/test_regressor_conformance.py`` checks every registered estimator against these rules.
 """
 from __future__ import annotations
 

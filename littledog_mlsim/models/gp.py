@@ -72,7 +72,7 @@ _BLOCK_ELEMENTS = 1 << 22
 # differences; larger ones loop over kernels with one GEMM each. At n = 1000, d = 45, p = 33 (BLAS
 # on one thread) the one-pass path is 3-25x faster for 1-8 queries and the crossover fell between
 # 8 and 32 queries in two runs on the noisy 2-core machine: see the "Cross-kernel paths" table of
-# benchmarks/gp_fit_vs_sklearn.md (made with --predict-paths).
+# benchmarks/gp_fit_vs_sklearn/gp_fit_vs_sklearn.md (made with --predict-paths).
 _FEW_QUERIES = 8
 
 

@@ -49,8 +49,8 @@ the cluster's points. ``hyperparameters``:
 - ``"cold"``: :func:`.gp.default_init` on the cluster's subset (median heuristic).
 
 The defaults (shared kernels, 30 L-BFGS-B iterations on 500 points per cluster, warm start,
-nearest-centre prediction) were chosen on ``benchmarks/lgpr_ablation.md``; the measurements are
-summarised in ``benchmarks/lgpr_design.md``.
+nearest-centre prediction) were chosen on ``benchmarks/lgpr_ablation/lgpr_ablation.md``; the
+measurements are summarised in ``benchmarks/lgpr_design/README.md``.
 
 If a kernel matrix is not positive definite (at an L-BFGS-B start, or the cluster's full matrix
 with hyperparameters from a subset) the jitter is raised along :func:`.gp.jitter_schedule` (up to
@@ -76,7 +76,8 @@ blend, whose weights are variances) and c_j is a by-product of the fit (the alph
 computed: no extra Cholesky, no extra prediction cost). It corrects each output's overall level,
 not the shape (signal vs noise share) of its variance. How well the std is calibrated with and
 without the option (mean(z^2) per output on generated and recorded data) is measured in
-``benchmarks/lgpr_calibration.md`` and summarised in ``benchmarks/lgpr_design.md``.
+``benchmarks/lgpr_calibration/lgpr_calibration.md`` and summarised in
+``benchmarks/lgpr_design/README.md``.
 
 ``output_scale=False`` restores the plain shared-kernel std. Model files written before the
 option have no ``output_scale`` array and load with c = 1 (their old std).
@@ -101,7 +102,7 @@ scaled by the same c_j (so those weights, ratios of the two, do not depend on th
 ``"precision"`` weights and the mixture variance use the calibrated variances). The blend's std
 is conservative, because of the mixture's spread term sum_r w_r mu_r^2 - mean^2 (the local
 models' disagreement, while the blended mean is better than either); measured in
-``benchmarks/lgpr_design.md``.
+``benchmarks/lgpr_design/README.md``.
 
 Prediction cost and memory
 --------------------------
@@ -115,7 +116,7 @@ each) but built by the first call that needs them, for all clusters at once (as 
 ``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
 inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly. Shared hyperparameters:
 one m x m factor per cluster (k m^2 8 bytes); per-output: p of them per cluster, so only a few
-clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design.md``).
+clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design/README.md``).
 
 Parallel fitting
 ----------------
@@ -126,7 +127,7 @@ that Dask cluster (``distributed.Client`` + joblib's ``dask`` backend; the worke
 package importable). Every task's result depends only on its data and its seed (derived from
 ``random_state`` and the cluster number), and BLAS runs on one thread inside each task, so
 ``n_jobs=1``, ``n_jobs=2`` and a Dask cluster give the same model (bit for bit when the workers
-use the same NumPy/BLAS build, as ``test/test_lgpr.py`` checks on one machine).
+use the same NumPy/BLAS build, as ``test/models/test_lgpr.py`` checks on one machine).
 """
 from __future__ import annotations
 
@@ -536,7 +537,7 @@ class LGPR(Regressor):
                                ) -> tuple[np.ndarray, np.ndarray | None]:
         """Standardised mean (nq, p) and variance of a shared-kernel cluster from GEMM kernel
         rows (the rollout's hot path: ~1.7x faster than per-dimension differences for a few
-        queries, equal to them to rounding; ``benchmarks/rollout_speed.md``)."""
+        queries, equal to them to rounding; ``benchmarks/rollout_speed/rollout_speed.md``)."""
         shift, inv_l, ZT, zz, sf2, sn2 = self._rows[c]
         A = (Xq - shift) * inv_l
         K = A @ ZT

@@ -64,7 +64,7 @@ to every RF of every output (``x^T D x - 2 (D c)^T x + c^T D c``, recomputed exa
 candidates), then all activated RFs of all outputs are updated together with array operations,
 and RF creation/pruning is decided per output from the two largest activations.  This is the
 exact sample-by-sample algorithm — no mini-batching — so the result does not depend on the
-vectorisation: ``test/test_lwpr.py`` checks it against a plain per-RF, per-projection,
+vectorisation: ``test/models/test_lwpr.py`` checks it against a plain per-RF, per-projection,
 per-metric-element loop written like the library's C code, to 1e-8, including RF creation,
 pruning and projection growth, diagonal and full metrics, with and without meta learning.
 
@@ -88,7 +88,7 @@ output; this is why ``w_update`` is the speed/accuracy knob. The library's defau
 except ``init_D`` (the features are normalised, not in [-1, 1]), ``w_gen``, ``w_update``,
 ``add_threshold``, ``w_prune``, ``init_alpha``, ``max_projections``/``max_rfs`` (bounds) and
 ``n_epochs``; the measurements behind each choice, the fit times and the paper-scale accuracy
-are in ``benchmarks/lwpr_design.md``.
+are in ``benchmarks/lwpr_design/README.md``.
 
 Distance metric from GP length-scales (paper Section III)
 --------------------------------------------------------

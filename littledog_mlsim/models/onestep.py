@@ -7,14 +7,14 @@ ask which one is inside:
     mean, std = model.predict(x_t, return_std=True)     (GPs only)
 
 Inside, the features are normalised to unit variance per column on the TrainPool (the paper's
-Section II; :class:`..data.dataset.Normalizer`), and the regressor learns a response
+Section II; :class:`..data.states.Normalizer`), and the regressor learns a response
 representation chosen by ``target``:
 
 - ``"delta"`` (default): r = s_{t+1} - s_t, normalised to unit variance per element; the
   prediction is s_t + r. The state changes little in 10 ms, so the regressor only models the
   change (the GP prior mean, zero, is then "the state stays", not "the state is the TrainPool
   mean"). On the recorded data it is the better target for most state elements, ``"next"``
-  for a few nearly uncorrelated ones (``benchmarks/lgpr_ablation.md``).
+  for a few nearly uncorrelated ones (``benchmarks/lgpr_ablation/lgpr_ablation.md``).
 - ``"next"``: the paper's literal response r = s_{t+1}, normalised to unit variance.
 
 The standard deviation is that of s_{t+1} given x_t (s_t is known, so the same for both
@@ -26,11 +26,11 @@ which it records (``feature_set``; ``feature_names`` are its column names) so th
 compute the same columns; ``predict`` then takes (n, ``feature_set.n_features``).
 
 The model also carries what the rollout needs to project predicted states back to the data
-(Section VI): the TrainPool states, stored as an alpha-PROJ projection (``rollout.projection``'s
+(Section VI): the TrainPool states, stored as an alpha-PROJ projection (``littledog_mlsim.projection``'s
 ``to_arrays``; ``projection(kind, alpha)`` builds any kind from them), plus the feature names,
 the training data fingerprint and free-form ``info`` (how it was trained), and the default
 radius of the gated alpha-PROJ (``gate``: meta key ``"gate"``, a record of
-``rollout.projection.gate_radius`` computed at training time from the TrainPool's moves;
+``projection.gate_radius`` computed at training time from the TrainPool's moves;
 :meth:`OneStepModel.gate_radius`). A model file without it (written before) still loads; its
 radius is then computed on first use from the stored TrainPool states when the moves can be
 told apart (``info``'s ``n_moves`` equal blocks of states), else the gate is off (radius 0,
@@ -51,8 +51,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..data.dataset import Normalizer
+from ..data.states import Normalizer
 from ..layout import N_STATE, STATE_NAMES
+from ..projection import GATE_QUANTILE, Projection, gate_radius, make_projection
 from .base import Regressor, StdNotSupportedError
 from .features import FeatureSet, FeatureSetError
 from .persistence import ModelError, fingerprint_arrays, read_model, save_model
@@ -75,7 +76,7 @@ def _check_xy(X: np.ndarray, Y: np.ndarray | None, n_features: int
 
 
 def _check_gate(gate: Mapping[str, Any]) -> dict[str, Any]:
-    """A ``gate`` record (``rollout.projection.gate_radius``): a dict with a finite radius >= 0."""
+    """A ``gate`` record (``projection.gate_radius``): a dict with a finite radius >= 0."""
     if not isinstance(gate, Mapping):
         raise ValueError("gate must be a mapping")
     r = gate.get("radius")
@@ -212,8 +213,7 @@ class OneStepModel:
     def projection(self, kind: str = "alpha", alpha: float = 0.5, nn_method: str = "auto",
                    radius: float = 0.0):
         """The rollout projection ``kind`` (none/bound/alpha) built from the TrainPool states;
-        ``radius`` > 0 gates alpha-PROJ (``rollout.projection.make_projection``)."""
-        from ..rollout.projection import make_projection
+        ``radius`` > 0 gates alpha-PROJ (``projection.make_projection``)."""
         if kind != "none" and self.train_states is None:
             raise ValueError("this model holds no TrainPool states for a projection")
         return make_projection(kind, self.train_states, alpha=alpha, nn_method=nn_method,
@@ -226,7 +226,6 @@ class OneStepModel:
         now (every ``every_on_load``-th state, to keep start-up short) if ``info`` tells the
         moves apart (``n_moves`` blocks of equal length, as ``train`` stores them), kept in
         ``gate`` (re-saving the model stores it); otherwise 0 (plain alpha-PROJ)."""
-        from ..rollout.projection import GATE_QUANTILE, gate_radius
         if self.gate is not None:
             g = self.gate
             how = g.get("source", "stored in the model")
@@ -268,7 +267,6 @@ class OneStepModel:
         """Write the model directory atomically (see :func:`.persistence.save_model`)."""
         extra: dict[str, np.ndarray] = {}
         if self.train_states is not None:
-            from ..rollout.projection import make_projection
             proj = make_projection("alpha", self.train_states)
             extra = proj.to_arrays(prefix=PROJECTION_PREFIX)
         return save_model(path, self.estimator, self._meta(), extra_arrays=extra)
@@ -306,7 +304,6 @@ class OneStepModel:
             target = block["target"]
             train_states = None
             if block.get("has_train_states"):
-                from ..rollout.projection import Projection
                 train_states = Projection.from_arrays(extra, prefix=PROJECTION_PREFIX
                                                       ).train_states
             return cls(estimator, fn, rn, target, train_states=train_states,

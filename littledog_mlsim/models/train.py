@@ -28,10 +28,11 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..data.dataset import features_responses, load_moves, read_index
+from ..data.dataset import load_moves, read_index
 from ..data.recording import MoveRecording
+from ..data.states import features_responses
 from ..logs import progress_to_stderr
-from ..rollout.projection import gate_radius
+from ..projection import gate_radius
 from .base import Regressor
 from .features import FeatureSet
 from .onestep import TARGETS, OneStepModel
@@ -111,7 +112,7 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, ...], method:
     ``info``: provenance merged into the model's ``info`` (which also gets method, options,
     target, seed, n_train_pool, fit time). The projection data are the states of all of
     ``train``. ``gate``: also compute the gated alpha-PROJ's default radius from the moves
-    (``rollout.projection.gate_radius``, stored in the model file as ``gate``); it needs the
+    (``projection.gate_radius``, stored in the model file as ``gate``); it needs the
     moves or ``(X, Y, groups)`` with at least two moves. ValueError (one line) on bad input.
     """
     opts = dict(options or {})

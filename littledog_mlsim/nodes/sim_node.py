@@ -63,7 +63,7 @@ class SimNode(SimulatorNode):
               "only the excess (unset: the model's own radius, the 0.9 quantile of its "
               "TrainPool's leave-move-out distances; 0: plain alpha-PROJ)",
               ">= 0, finite; projection alpha only"),
-        Param("nn_method", "auto", "alpha-PROJ nearest-neighbour search (rollout.projection."
+        Param("nn_method", "auto", "alpha-PROJ nearest-neighbour search (projection."
               "NearestNeighbour; exact either way)", "auto | pca | brute | kdtree"),
         Param("initial_state", Parameter.Type.DOUBLE_ARRAY, "initial state s_0, 33 values in "
               "layout.STATE_NAMES order (unset: the model's TrainPool state nearest the home "
@@ -97,7 +97,7 @@ class SimNode(SimulatorNode):
             raise StartupError(f"cannot load model: {e}") from None
         except OSError as e:
             raise StartupError(f"cannot load model {path}: {e}") from None
-        from ..rollout.projection import NearestNeighbour
+        from ..projection import NearestNeighbour
 
         if self.param("nn_method") not in NearestNeighbour.METHODS:
             raise StartupError(f"parameter nn_method must be one of "
@@ -140,7 +140,7 @@ class SimNode(SimulatorNode):
         trust = getattr(projection, "radius", 0.0) or float((model.gate or {}).get("radius", 0.0))
         monitor = None
         if kind != "alpha" and model.train_states is not None:
-            from ..rollout.projection import AlphaProjection
+            from ..projection import AlphaProjection
             monitor = AlphaProjection(model.train_states, alpha=0.0,
                                       nn_method=self.param("nn_method"))
             monitor.nn.prepare()

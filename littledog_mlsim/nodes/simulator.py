@@ -63,7 +63,7 @@ used and the others are counted as ``cmd_superseded`` (a warning, throttled, say
 callback does no more than the command check, and timers go before subscriptions in rclpy's
 executor, so the 100 Hz stepping is kept as long as the process gets the CPU: each received
 message costs about 0.2 ms in rclpy, so a 1 kHz flood needs about a quarter of a core on top
-of the stepping (``benchmarks/sim_node_latency.md``).
+of the stepping (``benchmarks/sim_node_latency/sim_node_latency.md``).
 
 Timeout (timer mode): when no valid command arrived for ``cmd_timeout`` s (0 = never), the node
 applies ``cmd_timeout_action``: ``hold`` keeps the last command (the contract's zero-order hold)

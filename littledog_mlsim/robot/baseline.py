@@ -61,8 +61,9 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..data.dataset import features_responses, load_moves, states_from_recording
+from ..data.dataset import load_moves
 from ..data.recording import MoveRecording
+from ..data.states import features_responses, states_from_recording
 from ..fileio import atomic_write_text, read_document
 from ..layout import MOVE_TYPES, S, STATE_NAMES
 from .config import RobotConfig, robot_config

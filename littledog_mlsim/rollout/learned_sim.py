@@ -2,8 +2,8 @@
 
 ``sim_node`` (``nodes/sim_node.py``) is a ROS shell around :class:`LearnedSimulator`, which lives
 here with the rollout because it is plain NumPy. A step is the computation of
-``rollout.simulate.step`` and ``data.dataset.integrate_path`` written out for one robot (the
-model and projection are the same calls; ``test/test_learned_sim.py`` checks the node's
+``rollout.simulate.step`` and ``data.states.integrate_path`` written out for one robot (the
+model and projection are the same calls; ``test/rollout/test_learned_sim.py`` checks the node's
 output equals the core's rollout), so that it costs little besides them.
 
 A model whose feature set goes beyond the paper's 45 (``model.feature_set``: lagged commands and
@@ -59,7 +59,7 @@ import numpy as np
 from ..layout import CONTROL_DT, HOME_BODY_HEIGHT, HOME_POSE, N_ACTION, N_STATE, S, wrap_angle
 from ..robot.sensors import twist_from_poses
 from ..rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
-from .projection import AlphaProjection, Projection
+from ..projection import AlphaProjection, Projection
 from .simulate import _predict, model_feature_set
 
 __all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance"]

@@ -29,7 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..layout import CONTROL_DT, N_STATE, STATE_NAMES
-from .projection import Projection
+from ..projection import Projection
 from .simulate import TestMove, predicted_paths
 
 __all__ = ["HORIZONS_S", "nmse", "nmse_array", "xy_error", "element_abs_error",

@@ -25,12 +25,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..data.dataset import (
+from ..data.states import (
     InitialPose, actions_from_recording, initial_pose, integrate_path, states_from_recording,
 )
 from ..data.recording import MoveRecording
 from ..layout import N_ACTION, N_FEATURE, N_STATE
-from .projection import NoProjection, Projection
+from ..projection import NoProjection, Projection
 
 __all__ = ["TestMove", "prepare_test_move", "prepare_test_moves", "rollout", "step",
            "rollout_moves", "predicted_paths"]

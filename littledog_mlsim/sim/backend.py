@@ -11,7 +11,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..data.dataset import states_from_measurements
+from ..data.states import states_from_measurements
 
 __all__ = ["Backend", "PybulletBackend"]
 

@@ -143,6 +143,17 @@ class RobotDrawing:
             fr.wxyz = matrix_to_wxyz(R)
             fr.position = p
 
+    def set_visible(self, on: bool, label: bool = True) -> None:
+        """Show or hide the body (and the label with it, if ``label``); hiding also hides the
+        trail and ellipse (drawing them again shows them)."""
+        for h in self.handles:
+            h.visible = on
+        self.text.visible = on and label
+        if not on:
+            for d in (self.trail, self.ellipse):
+                if d is not None:
+                    d.visible = False
+
     def show_trail(self, points: np.ndarray | None) -> None:
         """The body path so far, (n, 3) world points (drawn on the ground), or None to hide."""
         if points is None or len(points) < 2:
@@ -294,23 +305,9 @@ class ViewerApp:
         """Robots appear with their first state; ghost layout swaps robots 1.. for ghosts."""
         ghost = self.gui_layout.value == "ghost"
         for i, r in enumerate(self.robots):
-            on = self._last[i] is not None and not (ghost and i > 0)
-            for h in r.handles:
-                h.visible = on
-            r.text.visible = on
-            if not on:
-                for d in (r.trail, r.ellipse):
-                    if d is not None:
-                        d.visible = False
+            r.set_visible(self._last[i] is not None and not (ghost and i > 0))
         for i, g in enumerate(self.ghosts, start=1):
-            on = self._last[i] is not None and ghost
-            for h in g.handles:
-                h.visible = on
-            g.text.visible = False
-            if not on:
-                for d in (g.trail, g.ellipse):
-                    if d is not None:
-                        d.visible = False
+            g.set_visible(self._last[i] is not None and ghost, label=False)
 
     def _drawings(self, i: int) -> RobotDrawing:
         if i > 0 and self.gui_layout.value == "ghost":

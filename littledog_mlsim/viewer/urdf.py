@@ -9,8 +9,8 @@ Forward kinematics (:meth:`RobotModel.link_poses`, :meth:`RobotModel.visual_pose
 vectorised over frames: for a base pose
 (position, quaternion xyzw) and joint angles q in ``layout.JOINT_NAMES`` order, the world
 transform of every link is T_parent @ T_origin @ Rot(axis, q); a visual sits at
-T_link @ T_visual_origin. ``test/test_viewer.py`` checks the foot spheres against the analytic
-legs of ``gait.ik.forward_kinematics`` (an independent implementation).
+T_link @ T_visual_origin. ``test/viewer/test_viewer.py`` checks the foot spheres against the
+analytic legs of ``gait.ik.forward_kinematics`` (an independent implementation).
 """
 from __future__ import annotations
 

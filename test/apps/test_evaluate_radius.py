@@ -12,7 +12,7 @@ from littledog_mlsim.data.dataset import features_responses, load_moves
 from littledog_mlsim.apps.evaluate import projection_label, trainpool_radius
 from littledog_mlsim.models.onestep import OneStepModel
 from littledog_mlsim.models.train import train_from_dataset
-from littledog_mlsim.rollout.projection import leave_move_out_distances
+from littledog_mlsim.projection import leave_move_out_distances
 
 
 @pytest.fixture(scope="module")

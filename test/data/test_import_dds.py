@@ -39,9 +39,9 @@ from littledog_mlsim.data.importer import ImportOptions, import_bags  # noqa: E4
 from littledog_mlsim.gait.trot import sample_trot_params, trot_commands  # noqa: E402
 from littledog_mlsim.layout import JOINT_NAMES  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
+from waiting import TIMEOUT, wait_until  # noqa: E402
 
 BIN = Path(sys.executable).parent
-TIMEOUT = 15.0
 ENV = dict(os.environ, PYTHONUNBUFFERED="1")
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                  reliability=ReliabilityPolicy.RELIABLE)
@@ -67,14 +67,6 @@ class Proc:
         except subprocess.TimeoutExpired:
             self.p.kill()
             return self.p.wait()
-
-
-def wait_until(pred, timeout: float = TIMEOUT, what: str = "") -> None:
-    end = time.monotonic() + timeout
-    while not pred():
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-        time.sleep(0.005)
 
 
 class Recorder:

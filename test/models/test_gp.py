@@ -243,8 +243,8 @@ def test_kernel_is_translation_invariant_despite_large_offsets() -> None:
 
 @pytest.mark.parametrize("shared", [False, True])
 def test_gpr_fits_a_cluster_with_constant_and_duplicated_columns(shared: bool) -> None:
-    """Regression (benchmarks/diagnose.md, "LGPR as the report model"): the std-relative bounds
-    of a std-3e-15 column made K garbage at every start ("not positive definite at any start
+    """Regression (benchmarks/diagnose/diagnose.md, "LGPR as the report model"): the std-relative
+    bounds of a std-3e-15 column made K garbage at every start ("not positive definite at any start
     point"). The constant columns must be harmless: same fit as without them."""
     X, Y = degenerate_cluster()
     Xq, Yq = degenerate_cluster(200, seed=1)

@@ -349,8 +349,8 @@ def friction_like_data(n_slide: int = 450, n_free: int = 350, seed: int = 0):
 
 @pytest.mark.parametrize("init", ["warm", "cold"])
 def test_cluster_with_constant_columns_fits(init):
-    """Regression (benchmarks/diagnose.md, "LGPR as the report model"): a cluster where a column
-    is constant up to rounding (std ~1e-15) got length-scale bounds ~1e-14 and a garbage kernel
+    """Regression (benchmarks/diagnose/diagnose.md, "LGPR as the report model"): a cluster where a
+    column is constant up to rounding (std ~1e-15) got length-scale bounds ~1e-14 and a garbage kernel
     matrix ("not positive definite at any start point" from the warm start, "even with jitter
     0.0001" at paper scale). Now the constant columns are harmless and no jitter is added."""
     X, Y = friction_like_data()

@@ -9,7 +9,7 @@ import pytest
 from littledog_mlsim.models.lr import LinearRegression
 from littledog_mlsim.models.onestep import OneStepModel
 from littledog_mlsim.models.persistence import ModelError
-from littledog_mlsim.rollout.projection import gate_radius, leave_move_out_distances
+from littledog_mlsim.projection import gate_radius, leave_move_out_distances
 
 
 def _model(n_moves: int = 4, per_move: int = 30, info: dict | None = None) -> OneStepModel:

@@ -20,7 +20,7 @@ from littledog_mlsim.models.lr import LinearRegression
 from littledog_mlsim.models.onestep import OneStepModel
 from littledog_mlsim.models.persistence import ModelError, fingerprint_arrays, save_model
 from littledog_mlsim.models.train import train_from_dataset
-from littledog_mlsim.rollout.projection import make_projection
+from littledog_mlsim.projection import make_projection
 from synthetic import make_recording
 
 

@@ -70,9 +70,9 @@ from littledog_mlsim.robot.sensors import twist_from_poses  # noqa: E402
 from littledog_mlsim.rollout.learned_sim import standing_train_state  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
 from littledog_mlsim.rotations import quat_to_rpy  # noqa: E402
+from waiting import TIMEOUT, wait_until  # noqa: E402
 
 BIN = Path(sys.executable).parent
-TIMEOUT = 15.0          # s, any wait for an event (discovery of a late joiner takes ~2.5 s)
 ENV = dict(os.environ, PYTHONUNBUFFERED="1")
 
 
@@ -167,14 +167,6 @@ class Ros:
     def shutdown(self) -> None:
         rclpy.try_shutdown()
         self.thread.join(5)
-
-
-def wait_until(pred, timeout: float = TIMEOUT, what: str = "") -> None:
-    end = time.monotonic() + timeout
-    while not pred():
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out after {timeout} s waiting for {what or pred}")
-        time.sleep(0.005)
 
 
 class Probe:

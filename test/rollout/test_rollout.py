@@ -1,8 +1,8 @@
-"""Projection (none, BOUND, alpha-PROJ), sequential rollout and its metrics.
+"""Sequential rollout and its metrics (the projections themselves: ``test/projection/``).
 
 References are independent of the code under test: an exact model that looks up the recorded
 s_{t+1} (so a rollout must reproduce the recording and its odometry), a linear system stepped by a
-plain loop, a naive nearest-neighbour loop, and small cases computed by hand.
+plain loop, and small cases computed by hand.
 """
 from __future__ import annotations
 
@@ -22,13 +22,11 @@ from littledog_mlsim.layout import (
 from littledog_mlsim.rollout.metrics import (
     element_abs_error, element_error_sum, nmse, nmse_at_horizons, rollout_metrics, xy_error,
 )
-from littledog_mlsim.rollout.projection import (
-    NearestNeighbour, NoProjection, Projection, enforce_limits,
-    make_projection,
-)
+from littledog_mlsim.projection import NoProjection, Projection, make_projection
 from littledog_mlsim.rollout.simulate import (
     TestMove, prepare_test_move, prepare_test_moves, rollout, rollout_moves, step,
 )
+from synthetic import random_states
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -90,18 +88,6 @@ class Affine:
 def recordings() -> list[MoveRecording]:
     # two lengths: rollout_moves must batch moves of equal length together
     return [make_recording(f"F_{i:02d}", n=60 if i < 2 else 45, seed=i) for i in range(3)]
-
-
-def naive_nearest(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    return np.array([np.argmin(((P - a) ** 2).sum(axis=1)) for a in Q])
-
-
-def random_states(n: int, seed: int, spread: float = 0.3) -> np.ndarray:
-    """States strictly inside the joint limits and the angle range."""
-    rng = np.random.default_rng(seed)
-    s = spread * rng.standard_normal((n, N_STATE))
-    s[:, S.q] = np.clip(s[:, S.q], JOINT_LOWER + 0.05, JOINT_UPPER - 0.05)
-    return s
 
 
 # ----------------------------------------------------------------------------- test moves
@@ -195,246 +181,6 @@ def test_diverging_model_blows_up_without_projection_only():
     # |s'| <= 0.55 |s| + 0.5 |q|  =>  |s| <= max(|s0|, |q| / 0.9)
     lim = max(np.abs(s0).max(), np.abs(train).max() / 0.9)
     assert np.abs(alpha).max() <= lim + 1e-12
-
-
-# ----------------------------------------------------------------------------- projection
-
-
-def test_enforce_limits_clips_joints_and_wraps_deltas_only_when_needed():
-    rng = np.random.default_rng(5)
-    s = 0.1 * rng.standard_normal((6, N_STATE))
-    s[0, S.q] = JOINT_UPPER + 1.0
-    s[1, S.q] = JOINT_LOWER - 1.0
-    s[2, S.d_rpy] = [3.5, -np.pi, -4.0]
-    s[3, S.d_rpy] = [np.pi, 2 * np.pi + 0.25, -7.0]
-    out = enforce_limits(s)
-    np.testing.assert_array_equal(out[0, S.q], JOINT_UPPER)
-    np.testing.assert_array_equal(out[1, S.q], JOINT_LOWER)
-    np.testing.assert_allclose(out[2, S.d_rpy], [3.5 - 2 * np.pi, np.pi, -4.0 + 2 * np.pi],
-                               atol=1e-15)
-    np.testing.assert_allclose(out[3, S.d_rpy], [np.pi, 0.25, -7.0 + 2 * np.pi], atol=1e-14)
-    np.testing.assert_array_equal(out[4:], s[4:])          # in range: bit for bit
-    assert out[3, S.d_rpy][0] == np.pi                        # pi itself stays pi
-
-
-def test_alpha_zero_equals_none_and_alpha_one_gives_the_nearest_trainpool_state():
-    rng = np.random.default_rng(6)
-    train = random_states(400, seed=7)
-    train[:, S.z_w] *= 0.01                       # unequal scales: the normalisation matters
-    s = train[rng.choice(400, 50)] + 0.2 * rng.standard_normal((50, N_STATE))
-    s[0, S.q] = JOINT_UPPER + 0.5                             # out-of-range values, too
-    s[1, S.d_rpy] = 4.0
-    none = NoProjection()(s)
-    np.testing.assert_array_equal(make_projection("alpha", train, alpha=0.0)(s), none)
-    sd = train.std(0)
-    nearest = naive_nearest(train / sd, none / sd)
-    one = make_projection("alpha", train, alpha=1.0)(s)
-    np.testing.assert_array_equal(one, train[nearest])      # exactly TrainPool states
-    half = make_projection("alpha", train, alpha=0.5)(s)
-    np.testing.assert_allclose(half, 0.5 * none + 0.5 * train[nearest], rtol=0, atol=1e-15)
-    # the normalised distance, not the raw one, chooses q (z_w has a 100x smaller scale)
-    assert not np.array_equal(nearest, naive_nearest(train, none))
-
-
-def test_bound_clips_to_the_trainpool_range():
-    rng = np.random.default_rng(8)
-    train = random_states(300, seed=9)
-    lo = np.array([min(r[i] for r in train) for i in range(N_STATE)])   # by a loop
-    hi = np.array([max(r[i] for r in train) for i in range(N_STATE)])
-    s = 0.6 * rng.standard_normal((40, N_STATE))
-    out = make_projection("bound", train)(s)
-    expect = np.minimum(hi, np.maximum(s, lo))
-    np.testing.assert_array_equal(out, expect)
-    inside = (s >= lo) & (s <= hi)
-    assert inside.any() and (~inside).any()
-    np.testing.assert_array_equal(out[inside], s[inside])
-
-
-def test_nonfinite_rows_become_nan_and_others_are_untouched():
-    train = random_states(100, seed=10)
-    s = train[:4] + 0.01
-    s[1, 3] = np.inf
-    s[2, 20] = np.nan
-    for proj in (NoProjection(), make_projection("bound", train),
-                 make_projection("alpha", train, 0.5)):
-        out = proj(s)
-        assert np.all(np.isnan(out[1])) and np.all(np.isnan(out[2]))
-        np.testing.assert_array_equal(out[[0, 3]], proj(s[[0, 3]]))
-
-
-def test_nearest_neighbour_equals_a_naive_loop():
-    rng = np.random.default_rng(11)
-    d = N_STATE
-    P = rng.standard_normal((2000, d))
-    P[1500] = P[37]                                          # exact duplicate: smallest index wins
-    # near ties far from the origin, where the GEMM expansion cannot tell them apart
-    centres = 5.0 + rng.standard_normal((40, d))
-    for k, c in enumerate(centres):
-        v1, v2 = rng.standard_normal((2, d))
-        v1 /= np.linalg.norm(v1)
-        v2 /= np.linalg.norm(v2)
-        delta = 1e-13 * (1 if k % 2 else -1)
-        P[100 + 2 * k] = c + v1 * (1 + delta)
-        P[101 + 2 * k] = c + v2
-    Q = np.vstack([rng.standard_normal((150, d)), P[[37, 5, 1999]], centres,
-                   1e12 * rng.standard_normal((3, d))])
-    ref = naive_nearest(P, Q)
-    for chunk in (3000, 1 << 18):                           # many small chunks, and one
-        nn = NearestNeighbour(P, chunk_elems=chunk)
-        np.testing.assert_array_equal(nn.query(Q), ref)
-        np.testing.assert_array_equal(np.concatenate([nn.query(Q[i:i + 1]) for i in range(9)]),
-                                      ref[:9])
-    assert ref[150] == 37
-    ik = NearestNeighbour(P, method="kdtree").query(Q)
-    np.testing.assert_array_equal(((Q - P[ik]) ** 2).sum(1), ((Q - P[ref]) ** 2).sum(1))
-
-
-def clustered_points(n: int, seed: int, d: int = N_STATE) -> np.ndarray:
-    """Real-data-like points: clusters along curves of a 5-D latent space, mapped into d-D with
-    decaying scales (a steep PCA spectrum like the TrainPool's) plus a little noise."""
-    rng = np.random.default_rng(seed)
-    t = rng.uniform(0, 2 * np.pi, n)
-    centres = 3.0 * rng.standard_normal((8, 5))
-    lat = centres[rng.integers(0, 8, n)] + np.c_[np.cos(t), np.sin(t), np.cos(2 * t),
-                                                 np.sin(3 * t), t / np.pi]
-    M = rng.standard_normal((5, d)) * (0.7 ** np.arange(d))
-    return lat @ M + 0.05 * rng.standard_normal((n, d)) * (0.85 ** np.arange(d))
-
-
-@pytest.mark.parametrize("kind", ["clustered", "gaussian", "grid", "flat"])
-def test_pca_nearest_neighbour_equals_a_naive_loop(kind):
-    rng = np.random.default_rng(21)
-    n, d = 4000, N_STATE
-    if kind == "clustered":
-        P = clustered_points(n, seed=22)
-    elif kind == "gaussian":                  # flat spectrum: the bounds barely prune
-        P = rng.standard_normal((n, d))
-    elif kind == "grid":                      # half-integer grid: many exactly equal distances
-        P = np.round(2 * clustered_points(n, seed=22)) / 2
-    else:                                     # a 10-D grid in 33-D: the bounds are the
-        P = np.zeros((n, d))                  # distances, up to rounding; many exact ties
-        P[:, 3:13] = np.round(2 * clustered_points(n, seed=22, d=10)) / 2
-    P[3999] = P[17]                           # duplicates in different chunks
-    P[2500] = P[1200]
-    sd = P.std(0)
-    Q = np.vstack([P[rng.choice(n, 60)] + s * sd * rng.standard_normal((60, d))
-                   for s in (0.3, 0.8, 1.5)]
-                  + [P[[17, 1200, 0]],
-                     np.round(2 * P[rng.choice(n, 20)] + 3 * rng.standard_normal((20, d))) / 2,
-                     30.0 * rng.standard_normal((3, d)), 3e3 * rng.standard_normal((2, d)),
-                     1e12 * rng.standard_normal((2, d))])          # far, very far, beyond `far`
-    ref = naive_nearest(P, Q)
-    nn = NearestNeighbour(P, method="pca", chunk_points=128)
-    assert nn.build_index().n_chunks >= 32
-    np.testing.assert_array_equal(nn.query(Q), ref)
-    singles = np.concatenate([nn.query(Q[i:i + 1]) for i in range(0, 190, 7)])
-    np.testing.assert_array_equal(singles, ref[0:190:7])
-    first_copy = [np.flatnonzero((P == P[i]).all(axis=1))[0] for i in (17, 1200)]
-    assert list(ref[180:182]) == first_copy and first_copy[0] <= 17
-    if kind != "gaussian":
-        # the bounds alone answer every query near the data: no fall-back to brute force (which
-        # would also hide a point wrongly ruled out)
-        np.testing.assert_array_equal(nn.build_index().query(Q[:183], P), ref[:183])
-
-
-def test_pca_nearest_neighbour_near_ties_and_blocks():
-    rng = np.random.default_rng(23)
-    d = N_STATE
-    P = clustered_points(3000, seed=24)
-    # near ties far from the origin: two points at distance 1 and 1 +- 1e-13 from a centre
-    centres = P[rng.choice(3000, 40)] + 3.0
-    for k, c in enumerate(centres):
-        v1, v2 = rng.standard_normal((2, d))
-        P[100 + 2 * k] = c + v1 / np.linalg.norm(v1) * (1 + 1e-13 * (1 if k % 2 else -1))
-        P[2900 - 2 * k] = c + v2 / np.linalg.norm(v2)
-    Q = np.vstack([centres, P[rng.choice(3000, 500)] + 0.5 * rng.standard_normal((500, d))])
-    ref = naive_nearest(P, Q)
-    nn = NearestNeighbour(P, method="pca", chunk_points=100)
-    np.testing.assert_array_equal(nn.query(Q), ref)          # 540 rows: several query blocks
-    np.testing.assert_array_equal(nn.query(Q, method="brute"), ref)
-    np.testing.assert_array_equal(nn.query(Q[:1]), ref[:1])
-    assert nn.query(Q[:0]).shape == (0,)
-
-
-def test_nearest_neighbour_auto_method_pickle_and_threads():
-    import pickle
-    import threading
-    P = clustered_points(2000, seed=25, d=12)
-    Q = P[::40] + 0.3
-    ref = naive_nearest(P, Q)
-    assert NearestNeighbour(P, chunk_points=500)._resolve("auto") == "pca"
-    assert NearestNeighbour(P)._resolve("auto") == "brute"             # too few points
-    assert NearestNeighbour(P[:, :4], chunk_points=100)._resolve("auto") == "brute"  # 4-D
-    flat = np.random.default_rng(28).standard_normal((2000, N_STATE))  # no dominant axes
-    assert NearestNeighbour(flat, chunk_points=100)._resolve("auto") == "brute"
-    nn = NearestNeighbour(P, chunk_points=100).prepare()
-    back = pickle.loads(pickle.dumps(nn))
-    np.testing.assert_array_equal(back.query(Q), ref)
-    results = [None] * 4
-
-    def work(i):
-        results[i] = [nn.query(Q) for _ in range(20)]
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    for res in results:
-        for r in res:
-            np.testing.assert_array_equal(r, ref)
-    with pytest.raises(ValueError, match="method"):
-        NearestNeighbour(P, method="ball")
-    with pytest.raises(ValueError, match="method"):
-        nn.query(Q, method="ball")
-
-
-def test_alpha_projection_default_search_equals_brute_force():
-    train = clustered_points(9000, seed=26)
-    train[:, S.q] = np.clip(train[:, S.q], JOINT_LOWER + 0.05, JOINT_UPPER - 0.05)
-    train[:, S.d_rpy] = np.clip(train[:, S.d_rpy], -3.0, 3.0)
-    rng = np.random.default_rng(27)
-    s = train[rng.choice(9000, 66)] + 0.8 * train.std(0) * rng.standard_normal((66, N_STATE))
-    auto = make_projection("alpha", train, alpha=0.5)
-    assert auto.nn._resolve(auto.nn.method) == "pca"
-    brute = make_projection("alpha", train, alpha=0.5, nn_method="brute")
-    np.testing.assert_array_equal(auto.nearest(s), brute.nearest(s))
-    np.testing.assert_array_equal(auto(s), brute(s))
-
-
-def test_projection_round_trips_through_npz(tmp_path):
-    train = random_states(200, seed=12)
-    s = train[:10] + 0.3
-    for proj in (NoProjection(), make_projection("bound", train),
-                 make_projection("alpha", train, alpha=0.3)):
-        path = tmp_path / f"{proj.kind}.npz"
-        np.savez(path, other=np.arange(3), **proj.to_arrays(prefix="projection_"))
-        with np.load(path, allow_pickle=False) as z:
-            back = Projection.from_arrays(z, prefix="projection_")
-        assert type(back) is type(proj) and back.describe() == proj.describe()
-        np.testing.assert_array_equal(back(s), proj(s))
-    arrays = make_projection("alpha", train).to_arrays()
-    for broken, msg in [({**arrays, "kind": np.array("magic")}, "unknown kind"),
-                        ({**arrays, "format_version": np.array(2)}, "format_version"),
-                        ({k: v for k, v in arrays.items() if k != "train_states"}, "missing"),
-                        ({**arrays, "scale": np.ones(5)}, "shape"),
-                        ({**arrays, "alpha": np.array(1.5)}, "alpha")]:
-        with pytest.raises(ValueError, match=msg):
-            Projection.from_arrays(broken)
-
-
-def test_make_projection_refuses_bad_arguments():
-    train = random_states(20, seed=13)
-    with pytest.raises(ValueError, match="alpha"):
-        make_projection("alpha", train, alpha=1.5)
-    with pytest.raises(ValueError, match="TrainPool"):
-        make_projection("bound")
-    with pytest.raises(ValueError, match="projection must be"):
-        make_projection("clip", train)
-    bad = train.copy()
-    bad[3, 3] = np.nan
-    with pytest.raises(ValueError, match="NaN"):
-        make_projection("alpha", bad)
 
 
 # ----------------------------------------------------------------------------- metrics
