@@ -8,7 +8,7 @@
 - :mod:`.report`: ``report.json`` (schema in its docstring) and ``report.md`` with figures;
 - :mod:`.physics`: the same loop pointed at the physics baseline (``diagnose_physics``: its
   residual traced to a missing parameter by re-simulation, calibrated; imported on its own, it
-  needs pybullet: ``benchmarks/physics_diagnosis.py``).
+  needs pybullet: ``benchmarks/physics_diagnosis/physics_diagnosis.py``).
 """
 from .candidates import BASELINES, default_library, measured_robot_features, paper_features
 from .run import diagnose

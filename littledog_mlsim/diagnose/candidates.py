@@ -35,7 +35,7 @@ features already, so they are not candidates of their own.
 
 :func:`measured_robot_features` is the feature set of the *default* model: the structure the
 measured robot itself leaves in the paper's 45-feature model (see its docstring and
-``benchmarks/diagnose.md``), so that a diagnosis of clean data from that robot finds nothing.
+``benchmarks/diagnose/diagnose.md``), so that a diagnosis of clean data from that robot finds nothing.
 """
 from __future__ import annotations
 
@@ -76,7 +76,7 @@ def measured_robot_features() -> FeatureSet:
     """The default model's features: the paper's 45 plus the measured robot's own structure.
 
     A diagnosis of clean data from the ``measured`` robot, starting from the paper's features,
-    finds the state non-Markov (``benchmarks/diagnose.md``): s_{t-1} cuts held-out nMSE, most
+    finds the state non-Markov (``benchmarks/diagnose/diagnose.md``): s_{t-1} cuts held-out nMSE, most
     of all of the body displacements dx_b, dy_b (8 %), which are successive differences of a
     motion-capture pose with 0.3 mm noise, so the noise of the pose at t enters d_b(t) with +
     and d_b(t+1) with - (an MA(1) noise the Markov state cannot represent), and of the joint

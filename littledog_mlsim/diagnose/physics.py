@@ -2,7 +2,7 @@
 
 The learned-model diagnosis (:mod:`.selection`) asks which feature a regression lacks; here the
 same loop is pointed at the physics simulator (the ``nominal`` pybullet robot, usually the tuned
-``benchmarks/nominal_tuned.json``), the hybrid route of sim-to-real practice: find which physical
+``benchmarks/physics_baseline/nominal_tuned.json``), the hybrid route of sim-to-real practice: find which physical
 parameter or effect the simulator lacks or has wrong, calibrate it, check on held-out moves.
 
 Method (and why)
@@ -61,7 +61,7 @@ stand-in robot chiefly the servo model itself: torque-mode PD with rotor armatur
 idealised position motor) is absorbed by whichever candidate best imitates it, at a value that
 need not be physical (e.g. a heavy rate filter smoothing the position motor's joint rates, or a
 mass scale standing in for the rotor inertia). The estimates are therefore calibrations of the
-physics robot, not measurements of the real one; ``benchmarks/physics_diagnosis.md`` compares them
+physics robot, not measurements of the real one; ``benchmarks/physics_diagnosis/physics_diagnosis.md`` compares them
 with the stand-in's known values.
 """
 from __future__ import annotations

@@ -30,7 +30,7 @@ Method (and why)
    any false alarm in a round.
 4. **Materiality.** Significant is not enough (with enough data everything is): an effect counts
    only if it also cuts the held-out nMSE of at least one element by ``min_gain`` (default 5 %,
-   see ``benchmarks/diagnose.md`` for why not 10 %) with that element's own p < alpha. Its
+   see ``benchmarks/diagnose/diagnose.md`` for why not 10 %) with that element's own p < alpha. Its
    ``outputs`` are the elements with p < alpha and gain >= ``min_gain / 2``.
 5. **Forward selection.** The family of the significant and material candidate with the largest
    total held-out gain (summed over the 33 elements) is detected; its parameters are estimated
@@ -517,7 +517,7 @@ def delay_from_scan(profile: Sequence[dict[str, Any]]) -> int:
     Given u_{t-d} with d up to the true delay, the model still sees the command being applied
     (or a newer one, from which, with the state, it infers it), so its fit changes little; one
     step older and the applied command is gone, so the held-out gain drops sharply (measured on
-    clean and delayed data, ``benchmarks/diagnose.md``; the best single d is less reliable: a
+    clean and delayed data, ``benchmarks/diagnose/diagnose.md``; the best single d is less reliable: a
     command a step newer than the applied one often fits as well or better). The estimate is the
     d before the largest one-step drop of the total gain; 0 means no delay.
     """

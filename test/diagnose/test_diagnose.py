@@ -8,8 +8,8 @@ candidate update equals refitting the search model with the candidate's columns.
 pybullet data sets (module-scoped, recorded once with ``record --effects``, 4 moves per type;
 the diagnosis sees only the bags): a command delay of 2 steps on all joints, Coulomb friction on
 the knees, and clean data from three seeds (the negative control). The report model is LR to
-keep CI fast (``benchmarks/diagnose.md`` runs LGPR at paper scale). Measured results and why the
-thresholds are what they are: ``benchmarks/diagnose.md``.
+keep CI fast (``benchmarks/diagnose/diagnose.md`` runs LGPR at paper scale). Measured results and why the
+thresholds are what they are: ``benchmarks/diagnose/diagnose.md``.
 """
 from __future__ import annotations
 
@@ -291,7 +291,7 @@ def test_command_delay_is_found_with_its_delay(delay_report):
 
 
 # White noise of this size [rad] on every command (record --excitation): the system-identification
-# regime in which a command delay is identifiable from one-step data (benchmarks/diagnose.md).
+# regime in which a command delay is identifiable from one-step data (benchmarks/diagnose/diagnose.md).
 EXCITATION = 0.03
 JOINT_ELEMENTS = [n for n in STATE_NAMES if n.startswith(("q_", "dq_"))]
 
@@ -379,7 +379,7 @@ def test_cli_diagnose_help_and_bad_input(tmp_path):
 # physical identification (diagnose/physid.py): one effect per family class, named with family,
 # scope and parameter; clean data with and without excitation raises no alarm. Small versions:
 # 6 move types x 4 moves, a shortened library (the rivals that matter for each effect) so that
-# they stay within the CI budget; the benchmark (benchmarks/diagnose_physical.md) uses all of it.
+# they stay within the CI budget; the benchmark (benchmarks/diagnose_physical/diagnose_physical.md) uses all of it.
 
 PHYS_TYPES = ("F", "B", "L", "R", "DL", "S")
 PHYS_FAMILIES = ["command_delay", "command_filter", "servo_gain", "joint_friction",
