@@ -839,8 +839,10 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
     dev = m0 - spec.neutral
     if abs(dev) < 1e-9:
         dev = spec.probe
-    grid = sorted({float(np.clip(spec.neutral + dev * f, lo, hi))
-                   for f in (0.6, 1.0, 1.5)})
+    # a first-order estimate beyond the family's range (a strongly nonlinear effect such as a
+    # foot that only slips below the friction its stance needs): a finer grid up to the bound
+    fractions = (0.6, 1.0, 1.5) if m0 == c.magnitude else (0.2, 0.4, 0.6, 0.8, 0.95)
+    grid = sorted({float(np.clip(spec.neutral + dev * f, lo, hi)) for f in fractions})
     evals: dict[float, float] = {}
 
     def run(mags: list[float]) -> None:

@@ -26,6 +26,7 @@ from littledog_mlsim.diagnose import (SearchModel, default_library, diagnose,
                                       measured_robot_features)
 from littledog_mlsim.diagnose.selection import move_folds
 from littledog_mlsim.layout import N_FEATURE, N_STATE, STATE_NAMES
+from littledog_mlsim.robot.sim import get_sim
 from littledog_mlsim.models.features import (
     CommandLag, FeatureSet, FeatureSetError, Heading, Play, StateLag, augmentation_from_dict,
 )
@@ -433,6 +434,45 @@ def test_physical_odom_fixed_force(recorded):
     assert "odom" in ph["statement"]
     e = report["effects"][0]
     assert e["augmentation"]["name"] == "heading"
+    # a slope pushes the same (m g sin(slope) downhill): the report names it as a rival these
+    # data cannot tell apart, downhill along the push, with what would separate them
+    twin = [x for x in report["suspected"] if x.get("kind") == "inseparable"]
+    assert [x["family"] for x in twin] == ["ground_slope"], report["suspected"]
+    mg = 9.81 * get_sim("measured").total_mass()
+    slope = np.degrees(np.arcsin(ph["params"]["force_N"] / mg))
+    assert twin[0]["params"]["slope_deg"] == pytest.approx(slope, rel=1e-6)
+    downhill = twin[0]["params"]["uphill_direction_deg"] + 180.0
+    assert abs((downhill - ph["params"]["direction_deg"] + 180) % 360 - 180) < 1e-6
+    assert "IMU" in twin[0]["recording"]
+
+
+def test_physical_scopes_and_shortlist():
+    """The scope check's neighbours, the library's size and the shortlist's classes."""
+    from littledog_mlsim.diagnose.physid import (FAMILIES, Candidate, _shortlist, library_size,
+                                                 related_scopes, scope_joints, scopes_for)
+    assert related_scopes("joint:back_left_knee") == ["leg:back_left", "type:knees",
+                                                      "side:left", "all"]
+    assert related_scopes("leg:front_right") == ["side:right", "all"]
+    assert related_scopes("side:left") == ["leg:front_left", "leg:back_left", "all"]
+    for scope in ("joint:front_right_hip_roll", "leg:back_right", "side:right", "type:knees",
+                  "all"):   # each neighbour holds the scope or is held by it
+        for r in related_scopes(scope):
+            a, b = set(scope_joints(scope)), set(scope_joints(r))
+            assert a < b or b < a, (scope, r)
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 4 + 3 * 4
+    c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
+         Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
+         Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
+         Candidate("joint_friction", "all", 6.0, 0.1),
+         Candidate("body_wrench", "body", 5.0, 1.0, np.array([0.0, 1.0])),
+         Candidate("swing_drag", "leg:back_left", 4.0, 1.0),
+         Candidate("servo_gain", "joint:back_left_knee", 3.0, 0.8),
+         Candidate("leg_difference", "leg:front_left", 2.0, 1.5)]
+    short = _shortlist(c, 4)
+    # one scope per family, one of the push class (slope or odom force), a leg family included
+    assert [(x.family, x.scope) for x in short] == [
+        ("joint_friction", "leg:front_left"), ("servo_gain", "joint:back_left_knee"),
+        ("ground_slope", "body"), ("swing_drag", "leg:back_left")]
 
 
 @pytest.mark.slow
