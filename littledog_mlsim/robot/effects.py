@@ -257,49 +257,13 @@ class SetpointFilter:
         return out
 
 
-class ServoGain:
-    """The servo's P gain of some joints times ``gain_ratio`` (plus ``drift_per_s`` * t, a gain
-    that drifts with the time since the move started): the difference
-    (gain(t) - 1) k (q_des - q) is added as joint torque every physics step."""
+class _ServoTorque:
+    """A change of the PD servo of some joints, added as joint torque every physics step: the
+    set-point is captured as the servo receives it, :meth:`extra` gives the torque to add from
+    the joint state (the servo's gains, ``_kp``, ``_kd``, and torque limit, ``_lim0``, are the
+    robot config's)."""
 
-    def __init__(self, gain_ratio: float = 1.0, joints: str | list[str] | None = None,
-                 drift_per_s: float = 0.0, time_offset_s: float = 0.0) -> None:
-        if not (np.isfinite(gain_ratio) and gain_ratio >= 0 and np.isfinite(drift_per_s)):
-            raise ValueError(f"ServoGain: gain_ratio must be >= 0, got {gain_ratio!r}")
-        self.gain_ratio = float(gain_ratio)
-        self.drift_per_s = float(drift_per_s)
-        self.time_offset_s = float(time_offset_s)   # the move's time at this simulation's start
-        self.joints = resolve_joints(joints)
-        self._q_des = np.zeros(N_JOINTS)
-
-    def reset(self, sim: Any) -> None:
-        self._ids = [sim.joint_indices[j] for j in self.joints]
-        self._kp = _servo_gains(sim, self.joints)[0]
-
-    def command(self, u: np.ndarray, t: float) -> np.ndarray:
-        from ..layout import JOINT_LOWER, JOINT_UPPER
-        self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
-        return u
-
-    def substep(self, sim: Any, t: float) -> None:
-        g = (self.gain_ratio * (1.0 + self.drift_per_s * (t + self.time_offset_s))
-             if self.drift_per_s else self.gain_ratio)
-        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
-        q = np.array([s[0] for s in states])
-        tau = (g - 1.0) * self._kp * (self._q_des[self.joints] - q)
-        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=tau.tolist(),
-                                    physicsClientId=sim.client)
-
-
-class TorqueLimit:
-    """The servo torque of some joints limited to ``torque_limit_Nm`` (below the normal limit):
-    the PD torque k (q_des - q) - b dq is recomputed from the joint state and the excess over the
-    lower limit is taken off every physics step."""
-
-    def __init__(self, torque_limit_Nm: float, joints: str | list[str] | None = None) -> None:
-        if not (np.isfinite(torque_limit_Nm) and torque_limit_Nm >= 0):
-            raise ValueError(f"TorqueLimit: torque_limit_Nm must be >= 0, got {torque_limit_Nm!r}")
-        self.torque_limit_Nm = float(torque_limit_Nm)
+    def __init__(self, joints: str | list[str] | None) -> None:
         self.joints = resolve_joints(joints)
         self._q_des = np.zeros(N_JOINTS)
 
@@ -312,15 +276,53 @@ class TorqueLimit:
         self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
         return u
 
+    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        """Torque to add for the position error e = q_des - q and the rate dq [N m]."""
+        raise NotImplementedError
+
     def substep(self, sim: Any, t: float) -> None:
         states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
-        q = np.array([s[0] for s in states])
-        dq = np.array([s[1] for s in states])
-        tau = self._kp * (self._q_des[self.joints] - q) - self._kd * dq
-        lim = np.minimum(self.torque_limit_Nm, self._lim0)
-        extra = np.clip(tau, -lim, lim) - np.clip(tau, -self._lim0, self._lim0)
-        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=extra.tolist(),
+        e = self._q_des[self.joints] - np.array([s[0] for s in states])
+        tau = self.extra(e, np.array([s[1] for s in states]), t)
+        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=tau.tolist(),
                                     physicsClientId=sim.client)
+
+
+class ServoGain(_ServoTorque):
+    """The servo's P gain of some joints times ``gain_ratio`` (plus ``drift_per_s`` * t, a gain
+    that drifts with the time since the move started): the difference
+    (gain(t) - 1) k (q_des - q) is added as joint torque every physics step."""
+
+    def __init__(self, gain_ratio: float = 1.0, joints: str | list[str] | None = None,
+                 drift_per_s: float = 0.0, time_offset_s: float = 0.0) -> None:
+        if not (np.isfinite(gain_ratio) and gain_ratio >= 0 and np.isfinite(drift_per_s)):
+            raise ValueError(f"ServoGain: gain_ratio must be >= 0, got {gain_ratio!r}")
+        super().__init__(joints)
+        self.gain_ratio = float(gain_ratio)
+        self.drift_per_s = float(drift_per_s)
+        self.time_offset_s = float(time_offset_s)   # the move's time at this simulation's start
+
+    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        g = (self.gain_ratio * (1.0 + self.drift_per_s * (t + self.time_offset_s))
+             if self.drift_per_s else self.gain_ratio)
+        return (g - 1.0) * self._kp * e
+
+
+class TorqueLimit(_ServoTorque):
+    """The servo torque of some joints limited to ``torque_limit_Nm`` (below the normal limit):
+    the PD torque k (q_des - q) - b dq is recomputed from the joint state and the excess over the
+    lower limit is taken off every physics step."""
+
+    def __init__(self, torque_limit_Nm: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(torque_limit_Nm) and torque_limit_Nm >= 0):
+            raise ValueError(f"TorqueLimit: torque_limit_Nm must be >= 0, got {torque_limit_Nm!r}")
+        super().__init__(joints)
+        self.torque_limit_Nm = float(torque_limit_Nm)
+
+    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        tau = self._kp * e - self._kd * dq
+        lim = np.minimum(self.torque_limit_Nm, self._lim0)
+        return np.clip(tau, -lim, lim) - np.clip(tau, -self._lim0, self._lim0)
 
 
 class SetpointBacklash:
@@ -494,7 +496,7 @@ class SwingDrag:
                                  p.WORLD_FRAME, physicsClientId=c)
 
 
-class ServoDeadband:
+class ServoDeadband(_ServoTorque):
     """Backlash in the gears of some joints as the servo sees it: the position error
     e = q_des - q drives no torque within +-``width_rad``/2 and k (|e| - width/2) beyond it (a
     dead zone on the stiffness term; damping unchanged)."""
@@ -502,27 +504,12 @@ class ServoDeadband:
     def __init__(self, width_rad: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(width_rad) and width_rad >= 0):
             raise ValueError(f"ServoDeadband: width_rad must be >= 0, got {width_rad!r}")
+        super().__init__(joints)
         self.width_rad = float(width_rad)
-        self.joints = resolve_joints(joints)
-        self._q_des = np.zeros(N_JOINTS)
 
-    def reset(self, sim: Any) -> None:
-        self._ids = [sim.joint_indices[j] for j in self.joints]
-        self._kp = _servo_gains(sim, self.joints)[0]
-
-    def command(self, u: np.ndarray, t: float) -> np.ndarray:
-        from ..layout import JOINT_LOWER, JOINT_UPPER
-        self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
-        return u
-
-    def substep(self, sim: Any, t: float) -> None:
-        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
-        e = self._q_des[self.joints] - np.array([s[0] for s in states])
+    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         h = 0.5 * self.width_rad
-        tau = -self._kp * np.clip(e, -h, h)
-        p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=tau.tolist(),
-                                    physicsClientId=sim.client)
-
+        return -self._kp * np.clip(e, -h, h)
 
 # ----------------------------------------------------------------------------- loading from YAML
 def _import_class(spec: str, base_dir: Path) -> type:
