@@ -460,16 +460,24 @@ def _mean_or_none(d: Mapping[str, Any] | None) -> float | None:
 def write_report(out: str | os.PathLike, sel: SelectionResult, stages: Sequence[dict], *,
                  figures: bool = True, **info: Any) -> dict[str, Any]:
     """Write ``out/report.json``, ``out/report.md`` and the figures; return the JSON document."""
+    return _write(out, info, lambda i: build_report(sel, stages, **i),
+                  lambda doc: _figures(Path(out), sel, doc) if figures else {}, _markdown)
+
+
+def _write(out: str | os.PathLike, info: dict[str, Any], build: Any, figs: Any,
+           markdown: Any) -> dict[str, Any]:
+    """The report files of either mode: the document from ``info`` (its run keys renamed as
+    report.json has them), the figures, then report.json and report.md, each atomically."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     info = dict(info)
     info["n_train_moves"] = info.pop("n_train", None)
     info["n_test_moves"] = info.pop("n_test", None)
     info["model"] = info.pop("model_path", None)
-    doc = build_report(sel, stages, **info)
-    figs = _figures(out, sel, doc) if figures else {}
+    doc = build(info)
+    f = figs(doc)
     atomic_write_text(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
-    atomic_write_text(out / "report.md", _markdown(doc, figs))
+    atomic_write_text(out / "report.md", markdown(doc, f))
     return doc
 
 
@@ -630,14 +638,7 @@ def write_physical_report(out: str | os.PathLike, pid: Any, effect_augs: Sequenc
                           effect_stage: Sequence[int], stages: Sequence[dict], *,
                           figures: bool = True, **info: Any) -> dict[str, Any]:
     """Write report.json / report.md / figures of a physical identification."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    info = dict(info)
-    info["n_train_moves"] = info.pop("n_train", None)
-    info["n_test_moves"] = info.pop("n_test", None)
-    info["model"] = info.pop("model_path", None)
-    doc = build_physical_report(pid, effect_augs, effect_stage, stages, **info)
-    figs = _physical_figures(out, doc) if figures else {}
-    atomic_write_text(out / "report.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
-    atomic_write_text(out / "report.md", _physical_markdown(doc, figs))
-    return doc
+    return _write(out, info,
+                  lambda i: build_physical_report(pid, effect_augs, effect_stage, stages, **i),
+                  lambda doc: _physical_figures(Path(out), doc) if figures else {},
+                  _physical_markdown)
