@@ -611,7 +611,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if train_s is not None:
             _print(f"trained {a.model} in {train_s:.0f} s")
         if a.view:
-            from .viewer.demo_view import DemoView
+            from ..viewer.demo_view import DemoView
 
             a.domain = pick_domains(a.domain)[0]
             view = DemoView(a.domain, a.domain + 1, port=a.view_port, log=_print)
