@@ -307,8 +307,8 @@ def pick_domains(domain: int | None = None) -> tuple[int, int]:
     from the process id (2..98, so a parallel run or test picks another pair)."""
     if domain is None:
         domain = 2 + 2 * (os.getpid() % 49)
-    if not 0 <= domain <= 100:
-        raise DemoError(f"--domain must be in 0..100 (it and the next one are used), got {domain}")
+    if not 0 <= domain <= 231:       # ROS 2 domain ids end at 232 (Linux)
+        raise DemoError(f"--domain must be in 0..231 (it and the next one are used), got {domain}")
     return domain, domain + 1
 
 

@@ -40,6 +40,8 @@ def _lathe(profile: np.ndarray, sections: int) -> Mesh:
     """The surface swept by turning ``profile`` (k, 2) of (radius, z), from the bottom pole
     (radius 0) up to the top pole, about the z axis. Consecutive equal profile points (a sharp
     edge) and the degenerate triangles at the poles are left out."""
+    profile = np.array(profile, dtype=np.float64)
+    profile[profile[:, 0] < 1e-9 * np.abs(profile).max(), 0] = 0.0   # cos(pi/2) is not 0
     a = 2.0 * np.pi * np.arange(sections) / sections
     ring = np.stack([np.cos(a), np.sin(a)], axis=1)
     verts = np.concatenate([np.column_stack([r * ring, np.full(sections, z)])
