@@ -1,8 +1,8 @@
 """Triangle meshes of the URDF's primitive shapes, in plain NumPy.
 
 The view sends each shape to the page once, as vertices and faces (viser's ``add_mesh_simple``).
-Generating them here, rather than with trimesh, keeps trimesh's import (a large share of the
-view's start-up: benchmarks/viewer) off the start path.
+Generating them here, rather than with trimesh, keeps trimesh's import (and SciPy's, which it
+pulls in) off the view's start path (start-up: benchmarks/viewer).
 
 Conventions match the URDF: a box of ``extents`` (x, y, z) centred at the origin; a capsule and
 a cylinder along z, centred, ``length`` being the capsule's distance between its two sphere
