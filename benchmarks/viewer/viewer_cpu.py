@@ -8,9 +8,9 @@ for one websocket client, with sim_node at 100 Hz as the source; A/B between two
 For each round and each tree (``--trees``, comma-separated; the tree's code is what
 ``littledog-mlsim view`` runs: PYTHONPATH and working directory), one sim_node (this
 repository's, timer mode, no commands) runs in its own ROS domain and
-``littledog-mlsim view --live sim=DOMAIN --no-plots`` is launched on it. After the view has received states (``--settle`` s), the view
-process's CPU time (utime + stime from /proc/PID/stat) is read over two windows of
-``--seconds`` s each:
+``littledog-mlsim view --live sim=DOMAIN --no-plots`` is launched on it. After the view has
+received states (``--settle`` s), the view process's CPU time (utime + stime from
+/proc/PID/stat) is read over two windows of ``--seconds`` s each:
 
 1. nobody watching (subscriptions only; the view draws only for a page);
 2. one websocket client connected (``bench_viewer.wire_frames``: speaks viser's protocol like
