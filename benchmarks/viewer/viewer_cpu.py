@@ -22,8 +22,8 @@ windows is recorded too. The load average is recorded beside every number.
 
 ``--startups N``: also N start-ups per tree, the trees alternating (so both see the same load):
 wall time from launching ``littledog-mlsim view`` to the page served (HTTP 200 on /) and to
-its "ready" line, for ``--live sim=DOMAIN`` and for ``--bag BAG`` (``bench_viewer.startup``'s
-measure, with the tree's code).
+its "ready" line, for ``--live sim=DOMAIN``, for ``--bag BAG`` and for the replay of
+``--startup-replay`` (``bench_viewer.startup``'s measure, with the tree's code).
 """
 from __future__ import annotations
 
@@ -121,7 +121,8 @@ def startup(tree: Path, argv: list[str], domain: int) -> dict:
                 break
     finally:
         stop(p)
-    return {"tree": str(tree), "mode": argv[0].lstrip("-"), "served_s": served,
+    mode = argv[0].lstrip("-") if argv[0] in ("--live", "--bag") else "replay " + " ".join(argv)
+    return {"tree": str(tree), "mode": mode, "served_s": served,
             "ready_line_s": ready, "load": os.getloadavg()[0]}
 
 
@@ -137,6 +138,8 @@ def main() -> int:
     ap.add_argument("--name", default="viewer_cpu")
     ap.add_argument("--startups", type=int, default=0, help="start-ups per tree and mode")
     ap.add_argument("--bag", default=None, help="bag of the replay start-ups")
+    ap.add_argument("--startup-replay", default=None, metavar="ARGS",
+                    help="also time this replay's start-ups (view arguments in one string)")
     a = ap.parse_args()
     trees = [Path(t).resolve() for t in a.trees.split(",")]
     runs = []
@@ -149,7 +152,10 @@ def main() -> int:
     starts = []
     for _ in range(a.startups):
         for tree in trees:
-            for argv in (["--live", f"sim={a.domain}"], ["--bag", a.bag]):
+            modes = [["--live", f"sim={a.domain}"], ["--bag", a.bag]]
+            if a.startup_replay:
+                modes.append(a.startup_replay.split())
+            for argv in modes:
                 if argv[1] is None:
                     continue
                 res = startup(tree, argv, a.domain)
