@@ -167,3 +167,34 @@ def test_demo_view_serves_live_then_replay_and_stops_on_sigint(tiny):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+SERVED = re.compile(r"page served at (http://\S+) after")
+READY = re.compile(r"LittleDog view \(replay: (.*)\) at (http://\S+) \(ready in")
+
+
+def test_view_replay_serves_the_page_before_its_rollouts(tiny):
+    """``littledog-mlsim view`` replaying a move with two learned simulators and the physics
+    baseline: the page answers once the inputs are loaded, before the rollouts are done (the
+    "ready" line comes after), then draws the replay; SIGINT ends it with status 0."""
+    data, model = tiny
+    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "littledog_mlsim.cli", "view", "--data", str(data), "--move",
+         "F_01", "--model", str(model), "--projection", "none,alpha", "--physics", "nominal",
+         "--port", "0"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    out = Lines(proc)
+    try:
+        url = out.wait_for(SERVED).group(1)
+        assert "<html" in get_page(url).lower()
+        m = out.wait_for(READY)
+        assert m.group(2) == url
+        assert m.group(1) == "measured, lr none, lr alpha 0.5, physics (nominal)"
+        assert robot_frames(url) >= 1
+        proc.send_signal(signal.SIGINT)
+        rc = proc.wait(20)
+        assert rc == 0, f"exit status {rc}:\n{out.rest()}"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
