@@ -24,8 +24,9 @@ start-up.
    (subprotocol, zstd + msgpack windows) and counts the distinct robot frames it receives per
    second: what a page gets, independent of how fast the machine can render it.
 3. Start-up: wall time from launching ``littledog-mlsim view`` to the page being served (HTTP
-   200 on /) and to its "ready" line, for ``--live`` (one robot) and for a bag replay; 3 runs
-   each, median reported.
+   200 on /) and to its "ready" line, for ``--live`` (one robot) and for a bag replay (and for
+   the replay of ``--startup-replay``, e.g. with learned simulators whose rollouts are computed
+   after the page is served); 3 runs each, median reported.
 
 The machine is shared: the load average is recorded beside every number.
 """
@@ -269,6 +270,9 @@ def main() -> int:
                     help="comma-separated among alone, view-no-page, view, view+browser")
     ap.add_argument("--no-startup", action="store_true", help="skip the start-up runs")
     ap.add_argument("--name", default="result", help="output file stem (default result)")
+    ap.add_argument("--startup-replay", default=None, metavar="ARGS",
+                    help="also time the start-up of this replay (view arguments in one string, "
+                         "e.g. '--data D --move F_15 --model M --projection none,alpha')")
     a = ap.parse_args()
     kinds = {"alone": (False, False, False), "view-no-page": (True, False, False),
              "view": (True, False, True), "view+browser": (True, True, True)}
@@ -283,6 +287,9 @@ def main() -> int:
     starts = {} if a.no_startup else {
         "live": [startup(["--live", f"sim={a.domain}"], a.domain) for _ in range(3)],
         "bag": [startup(["--bag", a.bag], a.domain) for _ in range(3)]}
+    if a.startup_replay and not a.no_startup:
+        starts["replay " + a.startup_replay] = [startup(a.startup_replay.split(), a.domain)
+                                               for _ in range(3)]
     print(json.dumps(starts), flush=True)
     doc = {"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
         [str(Path(sys.argv[0]).relative_to(ROOT)) if Path(sys.argv[0]).is_absolute()

@@ -307,8 +307,8 @@ def pick_domains(domain: int | None = None) -> tuple[int, int]:
     from the process id (2..98, so a parallel run or test picks another pair)."""
     if domain is None:
         domain = 2 + 2 * (os.getpid() % 49)
-    if not 0 <= domain <= 100:
-        raise DemoError(f"--domain must be in 0..100 (it and the next one are used), got {domain}")
+    if not 0 <= domain <= 231:       # ROS 2 domain ids end at 232 (Linux)
+        raise DemoError(f"--domain must be in 0..231 (it and the next one are used), got {domain}")
     return domain, domain + 1
 
 
@@ -611,7 +611,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if train_s is not None:
             _print(f"trained {a.model} in {train_s:.0f} s")
         if a.view:
-            from .viewer.demo_view import DemoView
+            from ..viewer.demo_view import DemoView
 
             a.domain = pick_domains(a.domain)[0]
             view = DemoView(a.domain, a.domain + 1, port=a.view_port, log=_print)

@@ -19,7 +19,7 @@ import logging
 import sys
 import time
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 __all__ = ["add_arguments", "run", "main", "ViewError"]
 
@@ -79,9 +79,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="stop after this many seconds (default: serve until Ctrl-C)")
 
 
-def _replay_tracks(a: argparse.Namespace) -> list:
+def _replay_plan(a: argparse.Namespace) -> tuple[list[str], Callable[[], list]]:
+    """Check the replay arguments and load the inputs (recording, model, robot config); return
+    the robots' labels and a function computing their tracks (the rollouts: the slow part,
+    done once the page is served)."""
     from .tracks import (learned_track, load_recording, measured_track, physics_track,
-                         rollout_file_settings)
+                         projection_label, rollout_file_settings)
 
     model_path, data, move = a.model, a.data, a.move
     projection, alpha, radius = a.projection, a.alpha, a.radius
@@ -96,7 +99,8 @@ def _replay_tracks(a: argparse.Namespace) -> list:
     if a.bag is None and data is None:
         raise ViewError("nothing to show: give --live, --bag, --data or --rollout")
     rec = load_recording(a.bag, data, move)
-    tracks = [measured_track(rec)]
+    labels = ["measured"]
+    steps: list[Callable[[], object]] = [lambda: measured_track(rec, labels[0])]
     if model_path is not None:
         from ..models.onestep import OneStepModel
         from ..models.persistence import ModelError
@@ -109,9 +113,13 @@ def _replay_tracks(a: argparse.Namespace) -> list:
         bad = [k for k in kinds if k not in ("none", "bound", "alpha")]
         if bad or not kinds:
             raise ViewError(f"--projection: choose among none, bound, alpha (got {projection!r})")
+        al = 0.5 if alpha is None else alpha
         for k in kinds:
-            tracks.append(learned_track(rec, model, k, 0.5 if alpha is None else alpha,
-                                        (radius or 0.0) if k == "alpha" else 0.0))
+            rad = (radius or 0.0) if k == "alpha" else 0.0
+            label = f"{getattr(model, 'method', 'learned')} " + projection_label(k, al, rad)
+            labels.append(label)
+            steps.append(lambda k=k, rad=rad, label=label:
+                          learned_track(rec, model, k, al, rad, label=label))
     elif projection is not None:
         raise ViewError("--projection needs --model or --rollout")
     if a.physics is not None:
@@ -120,9 +128,11 @@ def _replay_tracks(a: argparse.Namespace) -> list:
             from ..robot.baseline import load_robot_config
 
             config = load_robot_config(a.physics)
-        tracks.append(physics_track(rec, config, label=f"physics ({Path(str(a.physics)).stem})"))
-    log.info("replaying %s: %s", rec.name, ", ".join(t.label for t in tracks))
-    return tracks
+        label = f"physics ({Path(str(a.physics)).stem})"
+        labels.append(label)
+        steps.append(lambda: physics_track(rec, config, label=label))
+    log.info("replaying %s: %s", rec.name, ", ".join(labels))
+    return labels, lambda: [step() for step in steps]
 
 
 def run(a: argparse.Namespace, ready=None) -> int:
@@ -151,13 +161,23 @@ def run(a: argparse.Namespace, ready=None) -> int:
         what = "live: " + ", ".join(s.describe() for s in specs)
     else:
         try:
-            tracks = _replay_tracks(a)
+            labels, compute = _replay_plan(a)
         except ValueError as e:
             raise ViewError(str(e)) from None
-        app = ViewerApp([t.label for t in tracks], title="LittleDog replay", **common)
-        player = Player(app, tracks, rate=a.rate, autoplay=not a.paused)
+        # serve the page first (it says "waiting for robot states"), then run the rollouts
+        app = ViewerApp(labels, title="LittleDog replay", **common)
+        log.info("page served at %s after %.1f s; computing the tracks", app.url,
+                 time.perf_counter() - t0)
+        try:
+            player = Player(app, compute(), rate=a.rate, autoplay=not a.paused)
+        except ValueError as e:
+            app.stop()
+            raise ViewError(str(e)) from None
+        except BaseException:
+            app.stop()
+            raise
         closers = [player.close]
-        what = "replay: " + ", ".join(t.label for t in tracks)
+        what = "replay: " + ", ".join(labels)
     print(f"LittleDog view ({what}) at {app.url} (ready in {time.perf_counter() - t0:.1f} s; "
           f"Ctrl-C to stop)", flush=True)
     if ready is not None:

@@ -8,11 +8,12 @@ both keep the contract's topic names).
 
 Cost to the simulators: a subscription is one more DDS reader of their publishers. By default
 it is best-effort and volatile, so a simulator never waits for, retransmits to or keeps history
-for the viewer (``--reliable``: reliable + transient-local depth 1, which also gets an idle
-simulator's last state). The callbacks only convert the message and store it; drawing happens
-in :class:`LiveView`'s own thread at ``rate`` frames per second, each time with the newest
-complete state (joint states and odometry of the same stamp) of every robot. Measured in
-``benchmarks/viewer``.
+for the viewer (``--reliable``: reliable + transient-local, which also gets an idle
+simulator's last states). No executor runs: the messages wait in the readers' caches
+(``READER_DEPTH``) and one thread takes them all ``POLL_RATE`` times per second
+(:meth:`LiveSource.poll`), converts and stores them; drawing happens in :class:`LiveView`'s own
+thread at ``rate`` frames per second, each time with the newest complete state (joint states
+and odometry of the same stamp) of every robot. Measured in ``benchmarks/viewer``.
 
 History: every complete state is kept (up to ``HISTORY`` per robot) for the trails, the plots
 (robots compared at equal stamps with robot 0) and :meth:`LiveSource.tracks`, which turns what
@@ -27,7 +28,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -43,6 +44,8 @@ HISTORY = 120_000          # states kept per robot (20 min at 100 Hz)
 PLOT_WINDOW = 2_000        # plots show the last this many common stamps (20 s at 100 Hz)
 PLOT_PERIOD = 0.25         # s between plot updates
 TRAIL_PERIOD = 0.2         # s between trail updates
+POLL_RATE = 50.0           # Hz: the subscriptions are read this often (LiveSource's thread)
+READER_DEPTH = 50          # messages a subscription keeps between two polls (0.5 s at 100 Hz)
 _SPEC = re.compile(r"^(?:(?P<label>[^=/]+)=)?(?P<domain>\d+)?(?P<ns>/[A-Za-z0-9_/~]*)?$")
 
 
@@ -105,6 +108,9 @@ class _Robot:
         self.cov: deque[np.ndarray | None] = deque(maxlen=HISTORY)
         self.latest: Frame | None = None
         self.bad = 0
+        from ..nodes.messages import joint_state_arrays, stamp_ns
+
+        self._joint_state_arrays, self._stamp_ns = joint_state_arrays, stamp_ns
 
     def _complete(self, ns: int) -> None:
         if ns in self.q and ns in self.odom:
@@ -128,10 +134,8 @@ class _Robot:
                         del d[k]
 
     def on_joint_states(self, msg: Any) -> None:
-        from ..nodes.messages import joint_state_arrays, stamp_ns
-
         try:
-            q = joint_state_arrays(msg)[0]
+            q = self._joint_state_arrays(msg)[0]
         except (ValueError, IndexError):
             self.bad += 1
             return
@@ -139,18 +143,16 @@ class _Robot:
             self.bad += 1
             return
         with self.lock:
-            ns = stamp_ns(msg.header.stamp)
+            ns = self._stamp_ns(msg.header.stamp)
             self.q[ns] = q
             self._complete(ns)
 
     def on_odom(self, msg: Any) -> None:
-        from ..nodes.messages import stamp_ns
-
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
         pos = np.array([p.x, p.y, p.z])
         orn = np.array([o.x, o.y, o.z, o.w])
-        if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(orn))
-                and np.linalg.norm(orn) > 0.5):
+        if not (np.isfinite(pos).all() and np.isfinite(orn).all()
+                and float(orn @ orn) > 0.25):     # |orn| > 0.5
             self.bad += 1
             return
         c = msg.pose.covariance
@@ -160,72 +162,107 @@ class _Robot:
             if not np.all(np.isfinite(cov)):
                 cov = None
         with self.lock:
-            ns = stamp_ns(msg.header.stamp)
+            ns = self._stamp_ns(msg.header.stamp)
             self.odom[ns] = (pos, orn, cov)
             self._complete(ns)
 
 
 class _Domain:
-    """One rclpy context, node and executor thread in a ROS domain."""
+    """One rclpy context and node in a ROS domain, read by polling (no executor).
+
+    The subscriptions have no callback work: :meth:`poll` takes every message waiting in their
+    reader caches (depth ``READER_DEPTH``) and hands them to the robots. A poll per drawn frame
+    replaces an executor wake-up per message, which was most of the view's CPU
+    (benchmarks/viewer)."""
 
     def __init__(self, domain: int, robots: Sequence[_Robot], reliable: bool) -> None:
         import rclpy
         from nav_msgs.msg import Odometry
         from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
         from rclpy.signals import SignalHandlerOptions
         from sensor_msgs.msg import JointState
 
-        if reliable:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                             reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        else:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
-                             reliability=ReliabilityPolicy.BEST_EFFORT,
-                             durability=DurabilityPolicy.VOLATILE)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=READER_DEPTH,
+                         reliability=(ReliabilityPolicy.RELIABLE if reliable
+                                      else ReliabilityPolicy.BEST_EFFORT),
+                         durability=(DurabilityPolicy.TRANSIENT_LOCAL if reliable
+                                     else DurabilityPolicy.VOLATILE))
         self.domain = domain
         self.context = Context()
         rclpy.init(context=self.context, domain_id=domain,
                    signal_handler_options=SignalHandlerOptions.NO)
-        self.node = Node(f"viewer_{os.getpid()}_{domain}", context=self.context)
-        self.subs = []
-        for r in robots:
-            self.subs.append(self.node.create_subscription(
-                JointState, r.spec.topic(TOPIC_JOINT_STATES), r.on_joint_states, qos))
-            self.subs.append(self.node.create_subscription(
-                Odometry, r.spec.topic(TOPIC_ODOM), r.on_odom, qos))
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, name=f"viewer-domain-{domain}",
-                                       daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
         try:
-            self.executor.spin()
-        except Exception:   # the context was shut down under it
-            pass
+            # no parameter services or rosout: nothing would serve them (no executor)
+            self.node = Node(f"viewer_{os.getpid()}_{domain}", context=self.context,
+                             start_parameter_services=False, enable_rosout=False)
+            self.subs = []
+            self.readers: list[tuple[Any, Callable[[Any], None]]] = []
+            for r in robots:
+                for msg_type, topic, handler in (
+                        (JointState, TOPIC_JOINT_STATES, r.on_joint_states),
+                        (Odometry, TOPIC_ODOM, r.on_odom)):
+                    sub = self.node.create_subscription(msg_type, r.spec.topic(topic),
+                                                        _never_called, qos)
+                    self.subs.append(sub)
+                    self.readers.append((sub, handler))
+        except Exception:
+            rclpy.try_shutdown(context=self.context)
+            raise
+        self.lock = threading.Lock()
+
+    def poll(self) -> int:
+        """Take every waiting message of every subscription, oldest first; returns how many."""
+        n = 0
+        with self.lock:
+            for sub, handler in self.readers:
+                try:
+                    with sub.handle:
+                        while True:
+                            got = sub.handle.take_message(sub.msg_type, False)
+                            if got is None:
+                                break
+                            handler(got[0])
+                            n += 1
+                except Exception as e:   # destroyed under us (closing), or a bad message
+                    if not self.context.ok():
+                        return n
+                    log.warning("viewer: taking a message in domain %d: %s", self.domain, e)
+        return n
 
     def publishers(self) -> int:
         """Fewest publishers matched by one of this domain's subscriptions."""
         return min(s.get_publisher_count() for s in self.subs)
 
     def close(self) -> None:
-        from ..nodes._run import close_domain
+        import rclpy
 
-        close_domain(self.executor, self.node, self.context, self.thread)
+        with self.lock:
+            try:
+                self.node.destroy_node()
+            finally:
+                rclpy.try_shutdown(context=self.context)
+
+
+def _never_called(msg: Any) -> None:
+    """The subscriptions' callback: no executor runs them (:meth:`_Domain.poll` takes)."""
 
 
 class LiveSource:
-    """The robots of ``specs``, subscribed (module doc)."""
+    """The robots of ``specs``, subscribed (module doc); a thread reads the subscriptions
+    ``poll_rate`` times per second (:meth:`_Domain.poll`)."""
 
-    def __init__(self, specs: Sequence[SimSpec], reliable: bool = False) -> None:
+    def __init__(self, specs: Sequence[SimSpec], reliable: bool = False,
+                 poll_rate: float = POLL_RATE) -> None:
+        if not poll_rate > 0:
+            raise ValueError(f"poll_rate must be > 0, got {poll_rate}")
         self.specs = list(specs)
         self.robots = [_Robot(s) for s in self.specs]
         self.domains: list[_Domain] = []
+        self.period = 1.0 / poll_rate
+        self._stop = threading.Event()
+        self.thread: threading.Thread | None = None
         try:
             for d in dict.fromkeys(s.domain for s in self.specs):
                 self.domains.append(_Domain(d, [r for r in self.robots if r.spec.domain == d],
@@ -233,6 +270,18 @@ class LiveSource:
         except Exception:
             self.close()
             raise
+        self.thread = threading.Thread(target=self._run, name="viewer-poll", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            t0 = time.perf_counter()
+            self.poll()
+            self._stop.wait(max(0.0, self.period - (time.perf_counter() - t0)))
+
+    def poll(self) -> int:
+        """Read every waiting message now (the thread does this each period)."""
+        return sum(d.poll() for d in self.domains)
 
     def latest(self) -> list[Frame | None]:
         out = []
@@ -302,6 +351,9 @@ class LiveSource:
         return out
 
     def close(self) -> None:
+        self._stop.set()
+        if self.thread is not None:
+            self.thread.join(5.0)
         for d in self.domains:
             try:
                 d.close()

@@ -29,6 +29,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..layout import JOINT_NAMES
+from .meshes import shape_mesh
 from .tracks import Track
 from .urdf import RobotModel, load_robot, matrix_to_wxyz
 
@@ -46,6 +47,8 @@ GHOST_OPACITY = 0.4
 ELLIPSE_SIGMA = 2.0        # the ellipse is the 2-sigma contour of the (x, y) covariance
 TRAIL_POINTS = 600         # at most this many points per trail (decimated)
 TRAIL_EVERY = 10           # replay: redraw the trails every this many frames
+ELLIPSE_PERIOD = 0.2       # s: the ellipse's contour is resent at most this often ...
+ELLIPSE_RESHAPE = 0.02     # ... and only when the covariance changed by more than this (relative)
 
 
 @dataclass
@@ -58,20 +61,6 @@ class Frame:
     orientation: np.ndarray
     q: np.ndarray
     cov_xy: np.ndarray | None = None
-
-
-def _mesh(kind: str, size: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    if kind == "box":
-        m = trimesh.creation.box(extents=size)
-    elif kind == "capsule":
-        m = trimesh.creation.capsule(height=size[1], radius=size[0], count=[12, 12])
-    elif kind == "cylinder":
-        m = trimesh.creation.cylinder(radius=size[0], height=size[1], sections=16)
-    else:
-        m = trimesh.creation.icosphere(subdivisions=2, radius=size[0])
-    return np.asarray(m.vertices, dtype=np.float32), np.asarray(m.faces, dtype=np.uint32)
 
 
 def _segments(points: np.ndarray) -> np.ndarray:
@@ -118,7 +107,7 @@ class RobotDrawing:
                 if v.link != link:
                     continue
                 if v.key not in meshes:
-                    meshes[v.key] = _mesh(v.kind, v.size)
+                    meshes[v.key] = shape_mesh(v.kind, v.size)
                 verts, faces = meshes[v.key]
                 c = colour if link == model.root else tuple(int(round(255 * x))
                                                              for x in v.rgba[:3])
@@ -134,14 +123,20 @@ class RobotDrawing:
         self.colour = colour
         self.trail = None
         self.ellipse = None
+        self._ellipse_cov: np.ndarray | None = None    # the covariance the contour shows
+        self._ellipse_due = 0.0
 
     def show(self, frame: Frame) -> None:
-        """Pose the links (call inside ``server.atomic()`` to send them together)."""
+        """Pose the links (call inside ``server.atomic()`` to send them together): one
+        vectorised quaternion conversion for all links, plain float tuples to viser."""
         poses = self.model.link_poses(frame.position + self.offset, frame.orientation, frame.q)
-        for link, fr in self.frames.items():
-            R, p = poses[link]
-            fr.wxyz = matrix_to_wxyz(R)
-            fr.position = p
+        links = list(self.frames)
+        wxyz = matrix_to_wxyz(np.stack([poses[k][0] for k in links])).tolist()
+        pos = np.stack([poses[k][1] for k in links]).tolist()
+        for k, link in enumerate(links):
+            fr = self.frames[link]
+            fr.wxyz = tuple(wxyz[k])
+            fr.position = tuple(pos[k])
 
     def set_visible(self, on: bool, label: bool = True) -> None:
         """Show or hide the body (and the label with it, if ``label``); hiding also hides the
@@ -173,18 +168,39 @@ class RobotDrawing:
             self.trail.visible = True
 
     def show_ellipse(self, centre: np.ndarray | None, cov: np.ndarray | None) -> None:
-        pts = None if centre is None or cov is None else ellipse_points(centre[:2], cov)
-        if pts is None:
+        """The (x, y) covariance ellipse around ``centre``, or None/None to hide it. The
+        contour is drawn relative to its node, which moves with every frame (one small
+        message); the contour itself is resent only when the covariance changed by more than
+        ``ELLIPSE_RESHAPE`` (relative), at most every ``ELLIPSE_PERIOD`` s."""
+        if centre is None or cov is None:
             if self.ellipse is not None:
                 self.ellipse.visible = False
             return
-        p = np.column_stack([pts, np.full(len(pts), 0.003)]) + self.offset
-        seg = _segments(p.astype(np.float32))
+        now = time.monotonic()
+        shape_due = (self.ellipse is None or self._ellipse_cov is None
+                     or (now >= self._ellipse_due and not np.allclose(
+                         cov, self._ellipse_cov, rtol=ELLIPSE_RESHAPE,
+                         atol=ELLIPSE_RESHAPE * float(np.abs(self._ellipse_cov).max()))))
+        seg = None
+        if shape_due:
+            pts = ellipse_points(np.zeros(2), cov)
+            if pts is None:
+                if self.ellipse is not None:
+                    self.ellipse.visible = False
+                return
+            seg = _segments(np.column_stack([pts, np.zeros(len(pts))]).astype(np.float32))
+            self._ellipse_cov = np.array(cov, dtype=np.float64)
+            self._ellipse_due = now + ELLIPSE_PERIOD
+        at = (float(centre[0] + self.offset[0]), float(centre[1] + self.offset[1]), 0.003)
         if self.ellipse is None:
             self.ellipse = self.server.scene.add_line_segments(
-                f"/robots/{self.key}/ellipse", seg, colors=(200, 30, 30), thickness=0.004)
-        else:
+                f"/robots/{self.key}/ellipse", seg, colors=(200, 30, 30), thickness=0.004,
+                position=at)
+            return
+        if seg is not None:
             self.ellipse.points = seg
+        self.ellipse.position = at
+        if not self.ellipse.visible:
             self.ellipse.visible = True
 
 

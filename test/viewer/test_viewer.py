@@ -158,3 +158,53 @@ def test_live_messages(monkeypatch):
     r.on_joint_states(joint_state_msg(30_000_000, q))
     assert r.latest.t == pytest.approx(0.03) and r.latest.cov_xy is None
     assert list(r.stamps) == [10_000_000, 30_000_000]
+
+
+def _closed_and_outward(verts: np.ndarray, faces: np.ndarray) -> float:
+    """Check a mesh is closed (after merging vertices at equal positions every edge has two
+    faces, in opposite directions) and return its signed volume (> 0: outward faces)."""
+    v = verts.astype(np.float64)
+    _, ids = np.unique(np.round(v, 9), axis=0, return_inverse=True)
+    f = ids.reshape(-1)[faces]
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    fwd = {tuple(e) for e in edges}
+    assert len(fwd) == len(edges), "an edge is used twice in the same direction"
+    assert all((b, a) in fwd for a, b in fwd), "an edge has only one face (a hole)"
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    assert np.all(np.linalg.norm(np.cross(b - a, c - a), axis=1) > 1e-12), "degenerate face"
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+def test_primitive_meshes_are_closed_outward_and_on_their_shapes():
+    from littledog_mlsim.viewer.meshes import shape_mesh
+
+    r, L = 0.02, 0.09
+    cases = {
+        ("box", (0.33, 0.11, 0.14)): 0.33 * 0.11 * 0.14,
+        ("sphere", (r,)): 4 / 3 * np.pi * r ** 3,
+        ("capsule", (r, L)): np.pi * r ** 2 * L + 4 / 3 * np.pi * r ** 3,
+        ("cylinder", (r, L)): np.pi * r ** 2 * L,
+    }
+    for (kind, size), volume in cases.items():
+        verts, faces = shape_mesh(kind, size)
+        assert verts.dtype == np.float32 and faces.dtype == np.uint32
+        vol = _closed_and_outward(verts, faces)
+        # inscribed polyhedra: a little smaller than the shape, never larger
+        assert 0.9 * volume < vol <= volume * (1 + 1e-6), (kind, vol, volume)
+        v = verts.astype(np.float64)
+        if kind == "box":
+            np.testing.assert_allclose(np.abs(v), np.broadcast_to(np.array(size) / 2, v.shape),
+                                       rtol=1e-6)
+        elif kind == "sphere":
+            np.testing.assert_allclose(np.linalg.norm(v, axis=1), r, rtol=1e-6)
+        elif kind == "capsule":      # distance to the axis segment is the radius
+            z = np.clip(v[:, 2], -L / 2, L / 2)
+            d = np.linalg.norm(v - np.column_stack([0 * z, 0 * z, z]), axis=1)
+            np.testing.assert_allclose(d, r, rtol=1e-5)
+        else:
+            rho = np.linalg.norm(v[:, :2], axis=1)
+            on_side = np.isclose(rho, r, rtol=1e-5)
+            on_cap = np.isclose(np.abs(v[:, 2]), L / 2, rtol=1e-5) & (rho <= r * (1 + 1e-5))
+            assert np.all(on_side | on_cap)
+    with pytest.raises(ValueError, match="no mesh for shape 'cone'"):
+        shape_mesh("cone", (1.0,))
