@@ -42,6 +42,7 @@ import sys
 import tempfile
 import time
 import urllib.request
+from typing import Callable
 from pathlib import Path
 
 import numpy as np
@@ -291,15 +292,19 @@ def main() -> int:
         starts["replay " + a.startup_replay] = [startup(a.startup_replay.split(), a.domain)
                                                for _ in range(3)]
     print(json.dumps(starts), flush=True)
+    return save(a.out, a.name, runs, starts, report)
+
+
+def save(out: Path, name: str, runs: list, starts: object, render: Callable[[dict], str]) -> int:
+    """Write ``out/name``.json (command, date, runs, start-ups) and ``.md`` (``render(doc)``)."""
     doc = {"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
-        [str(Path(sys.argv[0]).relative_to(ROOT)) if Path(sys.argv[0]).is_absolute()
-         else sys.argv[0]] + sys.argv[1:]),
+        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "runs": runs,
         "startup": starts}
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / f"{a.name}.json").write_text(json.dumps(doc, indent=1) + "\n")
-    (a.out / f"{a.name}.md").write_text(report(doc))
-    print(report(doc))
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{name}.json").write_text(json.dumps(doc, indent=1) + "\n")
+    (out / f"{name}.md").write_text(render(doc))
+    print(render(doc))
     return 0
 
 

@@ -41,7 +41,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
 
-from bench_viewer import free_port, stop, wait_http, wire_frames  # noqa: E402
+from bench_viewer import free_port, save, stop, wait_http, wire_frames  # noqa: E402
 
 PY = sys.executable
 TICK = os.sysconf("SC_CLK_TCK")
@@ -161,15 +161,7 @@ def main() -> int:
                 res = startup(tree, argv, a.domain)
                 print(json.dumps(res), flush=True)
                 starts.append(res)
-    doc = {"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
-        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
-        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "runs": runs,
-        "startup": starts}
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / f"{a.name}.json").write_text(json.dumps(doc, indent=1) + "\n")
-    (a.out / f"{a.name}.md").write_text(report(doc))
-    print(report(doc))
-    return 0
+    return save(a.out, a.name, runs, starts, report)
 
 
 def report(doc: dict) -> str:
