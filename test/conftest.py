@@ -23,3 +23,21 @@ def small_dataset(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("small") / "ds"
     record_dataset(out, moves_per_type=2, types=["F", "BL", "S"], jobs=2, progress=False)
     return out
+
+
+@pytest.fixture(scope="session")
+def tiny(tmp_path_factory) -> tuple[Path, Path]:
+    """(dataset, model): two F moves recorded and an LR model trained on the TrainPool one, for
+    the tests that run the demo end to end. Shared read-only."""
+    from littledog_mlsim.apps.record import record_dataset
+    from littledog_mlsim.data.dataset import features_responses, load_moves
+    from littledog_mlsim.models.lr import LinearRegression
+    from littledog_mlsim.models.onestep import OneStepModel
+
+    work = tmp_path_factory.mktemp("demo")
+    data = work / "data"
+    record_dataset(data, moves_per_type=2, types=["F"], jobs=1, progress=False)
+    X, Y, _ = features_responses(load_moves(data, split="train"))
+    model = work / "lr_model"
+    OneStepModel.fit(LinearRegression(), X, Y).save(model)
+    return data, model

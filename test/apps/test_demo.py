@@ -24,14 +24,11 @@ import yaml
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from littledog_mlsim.data.bags import read_bag  # noqa: E402
-from littledog_mlsim.data.dataset import features_responses, load_moves  # noqa: E402
 from littledog_mlsim.apps.demo import DemoError, main, run_demo  # noqa: E402
 from littledog_mlsim.layout import HOME_POSE, JOINT_NAMES  # noqa: E402
-from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.nodes import messages as m  # noqa: E402
 from littledog_mlsim.nodes.topic_echo import message_to_dict, message_to_yaml  # noqa: E402
-from littledog_mlsim.apps.record import record_dataset  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
 
 BIN = Path(sys.executable).parent
@@ -61,17 +58,6 @@ def gone(pid: int) -> bool:
     except ProcessLookupError:
         return True
     return False
-
-
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory) -> tuple[Path, Path]:
-    work = tmp_path_factory.mktemp("demo")
-    data = work / "data"
-    record_dataset(data, moves_per_type=2, types=["F"], jobs=1, progress=False)
-    X, Y, _ = features_responses(load_moves(data, split="train"))
-    model = work / "lr_model"
-    OneStepModel.fit(LinearRegression(), X, Y).save(model)
-    return data, model
 
 
 # ---------------------------------------------------------------------------------------------

@@ -32,22 +32,6 @@ ADDRESS = re.compile(r"view: open (http://\S+) to watch")
 REPLAY = re.compile(r"view: replay of the run at (http://\S+)")
 
 
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory) -> tuple[Path, Path]:
-    from littledog_mlsim.apps.record import record_dataset
-    from littledog_mlsim.data.dataset import features_responses, load_moves
-    from littledog_mlsim.models.lr import LinearRegression
-    from littledog_mlsim.models.onestep import OneStepModel
-
-    work = tmp_path_factory.mktemp("demo_view")
-    data = work / "data"
-    record_dataset(data, moves_per_type=2, types=["F"], jobs=1, progress=False)
-    X, Y, _ = features_responses(load_moves(data, split="train"))
-    model = work / "lr_model"
-    OneStepModel.fit(LinearRegression(), X, Y).save(model)
-    return data, model
-
-
 class Lines:
     """The process's stdout, read by a thread into a queue; :meth:`wait_for` waits on it with
     a deadline (no fixed sleeps, no blocking read past the deadline)."""
