@@ -34,7 +34,7 @@ run: $(STAMP)
 	$(PY) -m littledog_mlsim.apps.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)$(if $(VIEW), --view)
 
 test: $(STAMP) $(CHROMIUM_STAMP)
-	$(PY) -m pytest -q test
+	$(PY) -m pytest -q --durations=15 test
 
 # Headless Chromium for the view's browser tests (test/viewer/test_viewer_browser.py), from Debian's
 # packages, tried once (root with apt-get only); never fatal: without it those tests skip and say why.
