@@ -333,12 +333,18 @@ def report(doc: dict) -> str:
           "| mode | served s (3 runs) | median | ready line s (median) | load avg |",
           "|---|---|---|---|---|"]
     for mode, rs in doc["startup"].items():
-        served = [x["served_s"] for x in rs]
-        ready = [x["ready_line_s"] for x in rs if x["ready_line_s"] is not None]
-        L.append(f"| {mode} | {', '.join(f'{s:.2f}' for s in served)} | "
-                 f"{np.median(served):.2f} | {np.median(ready):.2f} | "
-                 f"{min(x['load'] for x in rs):.1f}-{max(x['load'] for x in rs):.1f} |")
+        L.append(f"| {mode} | {startup_cells(rs)} |")
     return "\n".join(L) + "\n"
+
+
+def startup_cells(rs: list[dict]) -> str:
+    """Table cells of start-up runs: served times, their median, the ready line's median and
+    the load range."""
+    served = [x["served_s"] for x in rs]
+    ready = [x["ready_line_s"] for x in rs if x["ready_line_s"] is not None]
+    return (f"{', '.join(f'{v:.2f}' for v in served)} | {np.median(served):.2f} | "
+            f"{np.median(ready):.2f} | "
+            f"{min(x['load'] for x in rs):.1f}-{max(x['load'] for x in rs):.1f}")
 
 
 if __name__ == "__main__":

@@ -41,7 +41,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
 
-from bench_viewer import free_port, save, stop, wait_http, wire_frames  # noqa: E402
+from bench_viewer import (free_port, save, startup_cells, stop, wait_http,  # noqa: E402
+                          wire_frames)
 
 PY = sys.executable
 TICK = os.sysconf("SC_CLK_TCK")
@@ -185,11 +186,7 @@ def report(doc: dict) -> str:
         for tree in dict.fromkeys(x["tree"] for x in doc["startup"]):
             for mode in dict.fromkeys(x["mode"] for x in doc["startup"]):
                 rs = [x for x in doc["startup"] if x["tree"] == tree and x["mode"] == mode]
-                served = [x["served_s"] for x in rs]
-                ready = [x["ready_line_s"] for x in rs if x["ready_line_s"] is not None]
-                L.append(f"| {tree} | {mode} | {', '.join(f'{v:.2f}' for v in served)} | "
-                         f"{np.median(served):.2f} | {np.median(ready):.2f} | "
-                         f"{min(x['load'] for x in rs):.1f}-{max(x['load'] for x in rs):.1f} |")
+                L.append(f"| {tree} | {mode} | {startup_cells(rs)} |")
     return "\n".join(L) + "\n"
 
 
