@@ -446,6 +446,24 @@ def test_physical_odom_fixed_force(recorded):
     assert "IMU" in twin[0]["recording"]
 
 
+def test_physical_heavy_leg_among_leg_and_contact_terms(recorded):
+    """The leg class: one leg twice as heavy, searched against the contact-phase terms of every
+    leg (stance slip, swing drag) and the joint and body families."""
+    data = _record_small(recorded, "p_heavy_leg", 126,
+                         "- class: littledog_mlsim.robot.effects:LegMass\n"
+                         "  params: {scale: 2.0, legs: front_left}\n")
+    report = diagnose(data, recorded / "p_heavy_leg_out", method="lr", figures=False,
+                      progress=False, physics="on", physics_options={
+                          **PHYS_OPTIONS,
+                          "families": PHYS_FAMILIES + ["leg_difference", "foot_slip",
+                                                       "swing_drag"]})
+    ph = _only_effect(report)
+    assert (ph["family"], ph["scope"]) == ("leg_difference", "leg:front_left"), ph
+    assert abs(ph["params"]["scale"] - 2.0) <= 0.25 * 2.0, ph
+    assert "front-left leg" in ph["statement"]
+    assert report["effects"][0]["augmentation"] is None   # a constant change: nothing to add
+
+
 def test_physical_scopes_and_shortlist():
     """The scope check's neighbours, the library's size and the shortlist's classes."""
     from littledog_mlsim.diagnose.physid import (FAMILIES, Candidate, _shortlist, library_size,
