@@ -217,6 +217,13 @@ class _Link:
             n.create_subscription(JointState, f"/{node_name}/state",
                                   lambda msg: self._add(self.state, msg), QOS),
         ]
+        # one service round trip before the first command: our side matching the simulator's
+        # subscription does not mean its side has matched our publisher yet (a command sent in
+        # between is lost, and lockstep then waits for it forever)
+        from rcl_interfaces.srv import GetParameters
+        self._ping = n.create_client(GetParameters, f"/{node_name}/get_parameters")
+        self._ping_future: Any = None
+        self.pinged = False
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(n)
         self.thread = threading.Thread(target=self._spin, name=f"demo-{label}", daemon=True)
@@ -236,8 +243,20 @@ class _Link:
             self.cond.notify_all()
 
     def connected(self) -> bool:
-        return (self.cmd.get_subscription_count() >= 1
-                and all(s.get_publisher_count() >= 1 for s in self.subs))
+        """Both ways matched: topics seen from here and one service call answered."""
+        if not (self.cmd.get_subscription_count() >= 1
+                and all(s.get_publisher_count() >= 1 for s in self.subs)):
+            return False
+        if self._ping_future is None and self._ping.service_is_ready():
+            from rcl_interfaces.srv import GetParameters
+            self._ping_future = self._ping.call_async(GetParameters.Request(names=[]))
+            self._ping_future.add_done_callback(self._answered)
+        return self.pinged
+
+    def _answered(self, future: Any) -> None:
+        with self.cond:
+            self.pinged = True
+            self.cond.notify_all()
 
     def has(self, ns: int) -> bool:
         return ns in self.js and ns in self.odom and ns in self.state
