@@ -2,7 +2,7 @@
 start-up.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/viewer/bench_viewer.py \
-        --model /work/data/lr --bag /work/data/default/F_15 --duration 20 --rounds 2 \
+        --model bags/default_lr --bag bags/default/F_15 --duration 20 --rounds 2 \
         --out benchmarks/viewer
 
 1. sim_node's step time at 100 Hz, alone and watched. sim_node runs as a process in timer

@@ -2,7 +2,7 @@
 for one websocket client, with sim_node at 100 Hz as the source; A/B between two source trees.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/viewer/viewer_cpu.py \
-        --model /work/data/lr --rounds 3 --trees .,/path/to/other/checkout \
+        --model bags/default_lr --rounds 3 --trees .,/path/to/other/checkout \
         --out benchmarks/viewer
 
 For each round and each tree (``--trees``, comma-separated; the tree's code is what
