@@ -365,11 +365,13 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
              *, move: str | None = None, max_steps: int | None = None,
              domain: int | None = None, robot: str = "measured",
              projection: str = "alpha", alpha: float = 0.5,
-             log: Log = _print) -> DemoResult:
+             log: Log = _print, watcher: Callable[[], bool] | None = None) -> DemoResult:
     """Replay one move's commands through sim_node and pybullet_node (each a process in its
     own ROS domain, lockstep) and compare what they publish (module doc). ``max_steps`` cuts
     the move to that many commands (at least 2); ``projection`` and ``alpha`` are sim_node's
-    parameters (module doc). Stops every process it started."""
+    parameters (module doc). ``watcher``, if given, says whether an observer (the browser
+    view) has matched both simulators' topics; the first command waits for it up to
+    ``START_TIMEOUT`` so that the observer sees the whole run. Stops every process it started."""
     import rclpy  # noqa: F401  (fail early and plainly if the ROS wheels are missing)
 
     from ..data.bags import read_bag
@@ -432,6 +434,15 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
             _restore_env(saved)
             _wait(cond, lambda: learned.connected() and pyb.connected(), START_TIMEOUT,
                   "sim_node and pybullet_node to start and be discovered", children)
+            if watcher is not None:
+                end = time.monotonic() + START_TIMEOUT
+                while not watcher() and time.monotonic() < end:
+                    for c in children:
+                        c.check()
+                    time.sleep(0.1)
+                if not watcher():
+                    log(f"view: has not discovered both simulators after {START_TIMEOUT:g} s; "
+                        f"it may miss part of the run")
             start_s = time.perf_counter() - t0
             log(f"both simulators up and discovered in {start_s:.1f} s; replaying "
                 f"{entry.name} ({'TestPool' if entry.split == 'test' else 'TrainPool'}, "
@@ -635,7 +646,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             a.domain = pick_domains(a.domain)[0]
             view = DemoView(a.domain, a.domain + 1, port=a.view_port, log=_print)
         r = run_demo(a.data, a.model, move=a.move, max_steps=a.steps, domain=a.domain,
-                     projection=a.projection, alpha=a.alpha)
+                     projection=a.projection, alpha=a.alpha,
+                     watcher=None if view is None else view.connected)
         _print(format_report(r))
         _print(f"\ndone in {time.perf_counter() - t0:.0f} s; to run the nodes yourself see "
                f"README.md, 'Using it from ROS 2'.")

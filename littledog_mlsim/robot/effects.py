@@ -276,9 +276,16 @@ class _ServoTorque:
         self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
         return u
 
-    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
-        """Torque to add for the position error e = q_des - q and the rate dq [N m]."""
+    def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        """The changed servo's torque for the position error e = q_des - q and the rate dq
+        [N m], within its torque limit."""
         raise NotImplementedError
+
+    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        """Torque to add: the changed servo's minus the normal one (both saturate at their
+        limits, so a weaker or play-affected servo that saturates anyway changes nothing)."""
+        normal = np.clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
+        return self.servo(e, dq, t) - normal
 
     def substep(self, sim: Any, t: float) -> None:
         states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
@@ -290,8 +297,8 @@ class _ServoTorque:
 
 class ServoGain(_ServoTorque):
     """The servo's P gain of some joints times ``gain_ratio`` (plus ``drift_per_s`` * t, a gain
-    that drifts with the time since the move started): the difference
-    (gain(t) - 1) k (q_des - q) is added as joint torque every physics step."""
+    that drifts with the time since the move started, floored at 0): the servo's torque becomes
+    clip(gain(t) k (q_des - q) - b dq) within the normal torque limit."""
 
     def __init__(self, gain_ratio: float = 1.0, joints: str | list[str] | None = None,
                  drift_per_s: float = 0.0, time_offset_s: float = 0.0) -> None:
@@ -302,10 +309,10 @@ class ServoGain(_ServoTorque):
         self.drift_per_s = float(drift_per_s)
         self.time_offset_s = float(time_offset_s)   # the move's time at this simulation's start
 
-    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
-        g = (self.gain_ratio * (1.0 + self.drift_per_s * (t + self.time_offset_s))
+    def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        g = (self.gain_ratio * max(0.0, 1.0 + self.drift_per_s * (t + self.time_offset_s))
              if self.drift_per_s else self.gain_ratio)
-        return (g - 1.0) * self._kp * e
+        return np.clip(g * self._kp * e - self._kd * dq, -self._lim0, self._lim0)
 
 
 class TorqueLimit(_ServoTorque):
@@ -319,10 +326,9 @@ class TorqueLimit(_ServoTorque):
         super().__init__(joints)
         self.torque_limit_Nm = float(torque_limit_Nm)
 
-    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
-        tau = self._kp * e - self._kd * dq
+    def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         lim = np.minimum(self.torque_limit_Nm, self._lim0)
-        return np.clip(tau, -lim, lim) - np.clip(tau, -self._lim0, self._lim0)
+        return np.clip(self._kp * e - self._kd * dq, -lim, lim)
 
 
 class SetpointBacklash:
@@ -507,9 +513,10 @@ class ServoDeadband(_ServoTorque):
         super().__init__(joints)
         self.width_rad = float(width_rad)
 
-    def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+    def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         h = 0.5 * self.width_rad
-        return -self._kp * np.clip(e, -h, h)
+        return np.clip(self._kp * (e - np.clip(e, -h, h)) - self._kd * dq,
+                       -self._lim0, self._lim0)
 
 # ----------------------------------------------------------------------------- loading from YAML
 def _import_class(spec: str, base_dir: Path) -> type:

@@ -39,6 +39,11 @@ class DemoView:
         self.player: Player | None = None
         log(f"view: open {self.app.url} to watch pybullet_node and sim_node live")
 
+    def connected(self) -> bool:
+        """The view's subscriptions have matched both simulators' publishers (the demo waits
+        for this before its first command, so that the view sees the whole run)."""
+        return self.source.connected()
+
     def serve_replay(self) -> None:
         """Stop the live view, replay what was received, serve until Ctrl-C or SIGTERM
         (the demo turns SIGTERM into KeyboardInterrupt)."""
