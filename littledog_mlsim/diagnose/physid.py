@@ -149,7 +149,8 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("odom_force", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
     FamilySpec("body_wrench", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
     FamilySpec("ground_slope", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy")),
-    FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0)),
+    FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0),
+               ("m_origin", "m_front", "m_left")),
     FamilySpec("leg_difference", "leg", "scale", "1", 0.5, (0.2, 4.0), neutral=1.0),
     FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.85, (0.02, 1.5), neutral=1.0,
                reported_as="contact_phase", phase="stance"),
@@ -212,7 +213,8 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
         sx, sy = params["sx"], params["sy"]
         return [fx.GroundSlope(math.hypot(sx, sy), math.degrees(math.atan2(sy, sx)))]
     if family == "mass_com":
-        return [fx.Payload(max(v, 1e-3), params.get("com_offset_m", (0.0, 0.0, 0.0)))]
+        m, off = mass_com_of(params)
+        return [fx.Payload(m, off)]
     if family == "leg_difference":
         return [fx.LegMass(max(v, 1e-3), scope.split(":", 1)[1])]
     if family == "foot_slip":
@@ -220,6 +222,29 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
     if family == "swing_drag":
         return [fx.SwingDrag(max(v, 0.0), scope.split(":", 1)[1])]
     raise ValueError(f"unknown family {family!r}")
+
+
+# mass_com is screened as three point masses: at the body origin, MASS_LEVER_M ahead of it and
+# MASS_LEVER_M to its left (base_link). To first order their combination (a0, a1, a2) acts as
+# one mass a0 + a1 + a2 at the offset (a1, a2) L / (a0 + a1 + a2): the fit names the mass and
+# the horizontal position of its centre; the 1-D refit scales the mass at that position.
+MASS_LEVER_M = 0.1
+
+
+def mass_com_of(params: Mapping[str, float]) -> tuple[float, tuple[float, float, float]]:
+    """(added mass [kg], its position in base_link [m]) of a mass_com hypothesis: from the
+    components (:data:`MASS_LEVER_M`), or from ``added_mass_kg`` and ``com_offset_m``. A
+    combination whose mass is not positive is no payload (a negligible mass at the origin)."""
+    if "m_origin" in params:
+        a0, a1, a2 = (float(params[k]) for k in ("m_origin", "m_front", "m_left"))
+        m = a0 + a1 + a2
+        if m < 1e-3:
+            return 1e-3, (0.0, 0.0, 0.0)
+        off = (float(np.clip(a1 * MASS_LEVER_M / m, -0.3, 0.3)),
+               float(np.clip(a2 * MASS_LEVER_M / m, -0.3, 0.3)), 0.0)
+        return m, off
+    off = tuple(float(x) for x in params.get("com_offset_m", (0.0, 0.0, 0.0)))
+    return max(float(params["added_mass_kg"]), 1e-3), off   # type: ignore[return-value]
 
 
 class _TorqueRatio:
@@ -617,6 +642,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
             top = _shortlist(cands, n_refine)
             for c in top:
                 _refine(runner, base, c, base_err, FS, meas)
+                _refine_direction(runner, base, c, base_err, FS, meas)
             top += _scope_variants(runner, base, top, cands, base_err, FS, meas)
             top.sort(key=lambda c: c.J)
             say(f"physics round {rnd + 1}: fitted " + "; ".join(
@@ -739,7 +765,7 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
             scope = "all" if fam == "time_drift" else "body"
             if nc > 1:
                 mag = float(np.linalg.norm(a)) * spec.probe
-                direction = a / np.linalg.norm(a) if np.linalg.norm(a) > 0 else np.array([1.0, 0])
+                direction = a / np.linalg.norm(a) if np.linalg.norm(a) > 0 else np.eye(nc)[0]
                 cands.append(Candidate(fam, scope, score, mag, direction))
             else:
                 cands.append(Candidate(fam, scope, score, float(a[0])))
@@ -889,6 +915,36 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
     c.profile = [{"magnitude": m, "J_relative": evals[m] / J0} for m in sorted(evals)]
 
 
+def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
+                      meas: list, steps_deg: Sequence[float] = (30.0, 12.0)) -> None:
+    """For a planar vector family (a force, a slope): the direction of the first-order fit,
+    turned by +-30 deg then +-12 deg around the best so far at the fitted magnitude, then the
+    magnitude refitted along the best direction (the first-order direction is biased where the
+    response is not linear in the components)."""
+    if c.direction is None or len(c.direction) != 2 or c.fitted is None:
+        return
+    w = _weights(base_err, F)
+
+    def J_of(direction: np.ndarray) -> float:
+        par = _params_from(c.family, c.fitted, direction)
+        sims = runner.map([(i, base + [(c.family, c.scope, par)], "full") for i in F])
+        return _J([_errors(s_, meas[i]) for s_, i in zip(sims, F)], w)
+
+    best_d, best_J = np.asarray(c.direction, dtype=float), float(c.J)
+    for step in steps_deg:
+        a0 = math.atan2(best_d[1], best_d[0])
+        for sgn in (-1.0, 1.0):
+            a = a0 + sgn * math.radians(step)
+            d = np.array([math.cos(a), math.sin(a)])
+            j = J_of(d)
+            if j < best_J:
+                best_d, best_J = d, j
+    if best_J < c.J:
+        c.direction = best_d
+        c.magnitude = float(c.fitted)
+        _refine(runner, base, c, base_err, F, meas)
+
+
 def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: list[Candidate],
                     base_err: list, F: list[int], meas: list) -> list[Candidate]:
     """The best joint hypothesis refitted on its related scopes (:func:`related_scopes`); the
@@ -998,7 +1054,8 @@ def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
         return {"torque_limit_Nm": primary, "torque_limit_ratio": float(m),
                 "torque_limit_Nm_by_joint_type": lim}
     if c.family == "mass_com":
-        return {"added_mass_kg": float(m), "com_offset_m": [0.0, 0.0, 0.0]}
+        mass, off = mass_com_of(c.params(m))
+        return {"added_mass_kg": float(mass), "com_offset_m": [float(x) for x in off]}
     if c.family == "leg_difference":
         return {"scale": float(m), "quantity": "leg link masses and inertias"}
     if c.family == "foot_slip":
@@ -1066,7 +1123,10 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
         return (f"Ground inclined by about {v:.1f} deg, uphill towards "
                 f"{params['uphill_direction_deg']:.0f} deg in odom")
     if family == "mass_com":
-        return f"About {v:.2f} kg of extra mass carried on the body"
+        off = params.get("com_offset_m", (0.0, 0.0, 0.0))
+        return (f"About {v:.2f} kg of extra mass carried on the body, its centre about "
+                f"{100 * off[0]:+.0f} cm ahead and {100 * off[1]:+.0f} cm to the left of the "
+                f"body origin")
     if family == "leg_difference":
         return f"{W} differs: its links weigh about {v:.2f} times the others'"
     if family == "foot_slip":

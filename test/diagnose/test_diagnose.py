@@ -493,6 +493,39 @@ def test_physical_scopes_and_shortlist():
         ("ground_slope", "body"), ("swing_drag", "leg:back_left")]
 
 
+def test_physical_mass_com_components_and_servo_saturation():
+    """mass_com's three point masses name one mass and its centre; a changed servo saturates at
+    the servo's limit, so a weaker servo that saturates anyway adds nothing."""
+    from littledog_mlsim.diagnose.physid import (MASS_LEVER_M, Candidate, build_effects,
+                                                 mass_com_of, physical_params)
+    from littledog_mlsim.robot.effects import ServoDeadband, ServoGain
+    m, off = mass_com_of({"m_origin": 0.3, "m_front": 0.3, "m_left": -0.15})
+    assert m == pytest.approx(0.45) and off == pytest.approx((0.3 * MASS_LEVER_M / 0.45,
+                                                             -0.15 * MASS_LEVER_M / 0.45, 0.0))
+    assert mass_com_of({"m_origin": -0.2, "m_front": 0.1, "m_left": 0.0})[0] == 1e-3
+    d = np.array([0.3, 0.3, -0.15])
+    c = Candidate("mass_com", "body", 1.0, 0.0, d / np.linalg.norm(d),
+                  fitted=float(np.linalg.norm(d)))
+    pp = physical_params(c)
+    assert pp["added_mass_kg"] == pytest.approx(0.45)
+    assert pp["com_offset_m"] == pytest.approx([0.0667, -0.0333, 0.0], abs=1e-3)
+    (payload,) = build_effects("mass_com", "body", c.params())
+    assert payload.mass == pytest.approx(0.45) and payload.offset[0] == pytest.approx(0.0667, 1e-2)
+    weak = ServoGain(0.5, "knees")
+    weak._kp, weak._kd, weak._lim0 = np.full(4, 10.0), np.full(4, 0.1), np.full(4, 0.6)
+    e, dq = np.array([0.001, 0.03, 0.2, -0.2]), np.zeros(4)
+    # unsaturated: half the stiffness torque; saturated either way: nothing; in between: the cut
+    # to the weak servo's torque
+    assert weak.extra(e, dq, 0.0) == pytest.approx([-0.005, -0.15, 0.0, 0.0])
+    drift = ServoGain(1.0, "knees", drift_per_s=-0.1, time_offset_s=3.0)
+    drift._kp, drift._kd, drift._lim0 = weak._kp, weak._kd, weak._lim0
+    assert drift.extra(e, dq, 1.0) == pytest.approx(          # 1 s into a segment at 3 s
+        np.clip(0.6 * 10 * e, -0.6, 0.6) - np.clip(10 * e, -0.6, 0.6))
+    play = ServoDeadband(0.1, "knees")
+    play._kp, play._kd, play._lim0 = weak._kp, weak._kd, weak._lim0
+    assert play.extra(e, dq, 0.0) == pytest.approx([-0.01, -0.3, 0.0, 0.0])
+
+
 @pytest.mark.slow
 def test_physical_servo_gain_of_one_joint(recorded):
     data = _record_small(recorded, "p_gain", 123,
