@@ -917,31 +917,41 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
 
 def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
                       meas: list, steps_deg: Sequence[float] = (30.0, 12.0)) -> None:
-    """For a planar vector family (a force, a slope): the direction of the first-order fit,
-    turned by +-30 deg then +-12 deg around the best so far at the fitted magnitude, then the
-    magnitude refitted along the best direction (the first-order direction is biased where the
-    response is not linear in the components)."""
-    if c.direction is None or len(c.direction) != 2 or c.fitted is None:
+    """The direction of a vector family's first-order fit, searched around it (the first-order
+    direction is biased where the response is not linear in the components): a planar force or
+    slope turned by +-30 deg, then +-12 deg around the best so far, at the fitted magnitude;
+    mass_com's mass at the body origin changed by +-50 %, then +-20 % of the fitted vector's
+    size (the total mass at about the same moment). Then the magnitude is refitted along the
+    best direction."""
+    if c.direction is None or c.fitted is None or len(c.direction) not in (2, 3):
         return
     w = _weights(base_err, F)
 
-    def J_of(direction: np.ndarray) -> float:
-        par = _params_from(c.family, c.fitted, direction)
+    def J_of(vec: np.ndarray) -> float:
+        par = _params_from(c.family, float(np.linalg.norm(vec)), vec / np.linalg.norm(vec))
         sims = runner.map([(i, base + [(c.family, c.scope, par)], "full") for i in F])
         return _J([_errors(s_, meas[i]) for s_, i in zip(sims, F)], w)
 
-    best_d, best_J = np.asarray(c.direction, dtype=float), float(c.J)
-    for step in steps_deg:
-        a0 = math.atan2(best_d[1], best_d[0])
-        for sgn in (-1.0, 1.0):
-            a = a0 + sgn * math.radians(step)
-            d = np.array([math.cos(a), math.sin(a)])
-            j = J_of(d)
+    best = float(c.fitted) * np.asarray(c.direction, dtype=float)
+    best_J = float(c.J)
+    r = float(np.linalg.norm(best))
+    for k, step in enumerate(steps_deg):
+        if len(best) == 2:
+            a0 = math.atan2(best[1], best[0])
+            tries = [r * np.array([math.cos(a0 + s * math.radians(step)),
+                                   math.sin(a0 + s * math.radians(step))]) for s in (-1, 1)]
+        else:   # mass_com: the mass at the origin, i.e. the mass at about the same moment
+            dm = (0.5, 0.2)[min(k, 1)] * r
+            tries = [best + np.array([s * dm, 0.0, 0.0]) for s in (-1, 1)]
+        for v in tries:
+            if np.linalg.norm(v) <= 0 or (len(v) == 3 and v.sum() <= 0):
+                continue
+            j = J_of(v)
             if j < best_J:
-                best_d, best_J = d, j
+                best, best_J = v, j
     if best_J < c.J:
-        c.direction = best_d
-        c.magnitude = float(c.fitted)
+        c.direction = best / np.linalg.norm(best)
+        c.magnitude = float(np.linalg.norm(best))
         _refine(runner, base, c, base_err, F, meas)
 
 
