@@ -644,7 +644,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
                 _refine(runner, base, c, base_err, FS, meas)
                 _refine_direction(runner, base, c, base_err, FS, meas)
             top += _scope_variants(runner, base, top, cands, base_err, FS, meas)
-            top.sort(key=lambda c: c.J)
+            top.sort(key=lambda c: c.J / c.J0)
             say(f"physics round {rnd + 1}: fitted " + "; ".join(
                 f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}" for c in top))
             fin = _validate(runner, base, top, base_err, V, T, meas, alpha, min_gain,
@@ -856,10 +856,17 @@ def _J(errs: list, w: np.ndarray) -> float:
 def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
             meas: list) -> None:
     """1-D fit of the magnitude by re-simulation (module doc, step 4): a grid around the
-    first-order estimate, then a parabola through the best point and its neighbours."""
+    first-order estimate, then a parabola through the best point and its neighbours, then the
+    midpoints between the best point and its neighbours, twice. Joint families are fitted on the
+    1 s segments' channels, body and leg families on all."""
     spec = FAMILIES[c.family]
     lo, hi = spec.bounds
     w = _weights(base_err, F)
+    if spec.kind == "joints":
+        # a joint family's magnitude from the 1 s segments only: the 4 s replays of a few moves
+        # flip between gaits (a foot lands a step earlier) at some magnitudes and not at
+        # neighbouring ones, which makes their error jump about the true value
+        w[LONG] = 0.0
     J0 = _J([base_err[i] for i in F], w)
     m0 = float(np.clip(c.magnitude, lo, hi))
     dev = m0 - spec.neutral
@@ -908,6 +915,10 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
                     run([xm])
         except np.linalg.LinAlgError:
             pass
+    for _ in range(2):      # halve the bracket around the best point, twice
+        ms = sorted(evals)
+        k = int(np.argmin([evals[m] for m in ms]))
+        run([0.5 * (ms[k] + ms[j]) for j in (k - 1, k + 1) if 0 <= j < len(ms)])
     best = min(evals, key=evals.get)
     c.fitted = best
     c.J = evals[best]
