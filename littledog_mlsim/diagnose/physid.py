@@ -142,7 +142,7 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("servo_gain", "joints", "gain_ratio", "1", -0.25, (0.05, 3.0), neutral=1.0),
     FamilySpec("joint_friction", "joints", "coulomb_Nm", "N m", 0.05, (0.0, 0.6)),
     FamilySpec("backlash", "joints", "width_rad", "rad", 0.03, (0.0, 0.3)),
-    FamilySpec("torque_saturation", "joints", "torque_limit_ratio", "1", -0.35, (0.05, 1.0),
+    FamilySpec("torque_saturation", "joints", "torque_limit_ratio", "1", -0.5, (0.05, 1.0),
                neutral=1.0),
     FamilySpec("encoder_offset", "joints", "offset_rad", "rad", 0.03, (-0.3, 0.3)),
     FamilySpec("time_drift", "joints", "rate_per_s", "1/s", -0.08, (-0.24, 0.24)),
