@@ -297,6 +297,7 @@ EXCITATION = 0.03
 JOINT_ELEMENTS = [n for n in STATE_NAMES if n.startswith(("q_", "dq_"))]
 
 
+@pytest.mark.slow   # the residual loop's further case; CI keeps its delay and clean checks
 def test_command_delay_on_excited_commands_halves_the_joint_error(recorded):
     """The issue's target, in the regime where it can be met: with the trot's commands excited
     by white noise the delayed command is no longer predictable from the state, and adding it
@@ -312,6 +313,7 @@ def test_command_delay_on_excited_commands_halves_the_joint_error(recorded):
     assert min(cuts) > 0.3, cuts
 
 
+@pytest.mark.slow   # the residual loop's further case; CI keeps its delay and clean checks
 def test_clean_excited_data_raises_no_alarm(recorded):
     data = _record(recorded, "clean_excited", 108, excitation=EXCITATION)
     report = _diagnose(data, recorded / "clean_excited_out")

@@ -145,8 +145,10 @@ def _blobs(img: np.ndarray) -> list[int]:
                   reverse=True)
 
 
-def _wait_blobs(b, n: int, timeout: float = 20.0) -> list[int]:
-    """Screenshots until ``n`` robots show (a fresh page needs a moment to set up WebGL)."""
+def _wait_blobs(b, n: int, timeout: float = 60.0) -> list[int]:
+    """Screenshots until ``n`` robots show (a fresh page needs a moment to set up WebGL; on a
+    loaded machine a software-rendered frame can take seconds, and one caught while a robot
+    moves can show its legs apart)."""
     end = time.monotonic() + timeout
     while True:
         sizes = _blobs(_shot(b, 0.5))
