@@ -37,7 +37,9 @@ Method
    (fx, fy), a body-frame force, a slope (two tilt angles)) fit their components jointly.
 4. **Parameter by re-simulation.** The best few (family, scope) pairs are fitted in 1-D (the
    magnitude along the fitted direction) by re-simulating a short grid around the first-order
-   estimate and a parabola through the best three; the pair with the lowest weighted SSE wins.
+   estimate, a parabola through the best three and two bisection steps (joint families on the
+   1 s segments' channels only); vector families then search their direction around the
+   first-order one and refit the magnitude (:func:`_refine_direction`).
    This is the transducer: the parameter is the plug-in's value that reproduces the data.
 5. **Decision on held-out moves.** The fitted shortlist is re-simulated on other TrainPool moves
    (not used to screen or fit): the hypothesis with the largest summed held-out SSE cut is the
