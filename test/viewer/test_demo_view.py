@@ -125,7 +125,7 @@ def test_demo_view_serves_live_then_replay_and_stops_on_sigint(tiny):
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1")
     proc = subprocess.Popen(
         [sys.executable, "-m", "littledog_mlsim.apps.demo", "--data", str(data), "--model",
-         str(model), "--steps", "40", "--projection", "none", "--domain", str(DOMAIN),
+         str(model), "--steps", "300", "--projection", "none", "--domain", str(DOMAIN),
          "--view", "--view-port", "0"],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     out = Lines(proc)
@@ -137,7 +137,7 @@ def test_demo_view_serves_live_then_replay_and_stops_on_sigint(tiny):
         replay_url = out.wait_for(REPLAY).group(1)
         text = "".join(out.seen)
         assert replay_url == url
-        assert "replayed 40 lockstep steps" in text
+        assert "replayed 300 lockstep steps" in text
         assert "nothing to replay" not in text, "the live view received no states of the run"
         assert not children(proc.pid), "a simulator outlived the demo's report"
         assert "<html" in get_page(url).lower()
