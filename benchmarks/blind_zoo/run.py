@@ -49,6 +49,9 @@ PRIMARY = {
     "mass_com": "added_mass_kg", "leg_difference": "scale", "contact_phase": "magnitude",
     "time_drift": "rate_per_s",
 }
+#: The primary parameter where the truth's is zero: a pure torque (vocabulary: body_wrench
+#: "or torque_Nm for a pure torque").
+PRIMARY_IF_ZERO = {"body_wrench": "torque_Nm"}
 #: Secondary parameters compared where both sides give them (angles: error in degrees).
 ANGLES = ("direction_deg", "uphill_direction_deg")
 PARAM_TOLERANCE = 0.25
@@ -146,6 +149,9 @@ def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
     out["angle_error_deg"] = None
     key = PRIMARY.get(fam)
     true_v = (truth.get("params") or {}).get(key) if key else None
+    if true_v in (None, 0) and fam in PRIMARY_IF_ZERO:
+        key = PRIMARY_IF_ZERO[fam]
+        true_v = (truth.get("params") or {}).get(key)
     if match and key and true_v not in (None, 0):
         est = (match[0].get("params") or {}).get(key)
         if isinstance(est, (int, float)):

@@ -150,14 +150,17 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("time_drift", "joints", "rate_per_s", "1/s", -0.08, (-0.24, 0.24)),
     FamilySpec("odom_force", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
     FamilySpec("body_wrench", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
+    FamilySpec("body_torque", "body", "torque_Nm", "N m", 0.05, (-1.0, 1.0),
+               reported_as="body_wrench"),
     FamilySpec("ground_slope", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy")),
-    FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0),
-               ("m_origin", "m_front", "m_left")),
+    FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0)),
     FamilySpec("leg_difference", "leg", "scale", "1", 0.5, (0.2, 4.0), neutral=1.0),
     FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.85, (0.02, 1.5), neutral=1.0,
                reported_as="contact_phase", phase="stance"),
     FamilySpec("swing_drag", "leg", "force_N", "N", 1.0, (0.0, 10.0),
                reported_as="contact_phase", phase="swing"),
+    FamilySpec("foot_adhesion", "leg", "force_N", "N", 1.0, (0.0, 10.0),
+               reported_as="contact_phase", phase="lift-off"),
 )}
 # Families that act alike on data whose odometry frame stays level with the ground: a slope
 # tilts gravity, i.e. adds m g sin(slope) downhill, fixed in odom, like a world-fixed push.
@@ -211,6 +214,8 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
         return [fx.ConstantWind([params["fx"], params["fy"]])]
     if family == "body_wrench":
         return [fx.BodyWrench(force=[params["fx"], params["fy"], 0.0])]
+    if family == "body_torque":
+        return [fx.BodyWrench(torque=[0.0, 0.0, v])]
     if family == "ground_slope":
         sx, sy = params["sx"], params["sy"]
         return [fx.GroundSlope(math.hypot(sx, sy), math.degrees(math.atan2(sy, sx)))]
@@ -223,28 +228,24 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
         return [fx.FootFriction(max(v, 1e-3), scope.split(":", 1)[1])]
     if family == "swing_drag":
         return [fx.SwingDrag(max(v, 0.0), scope.split(":", 1)[1])]
+    if family == "foot_adhesion":
+        return [fx.FootAdhesion(max(v, 0.0), scope.split(":", 1)[1])]
     raise ValueError(f"unknown family {family!r}")
 
 
-# mass_com is screened as three point masses: at the body origin, MASS_LEVER_M ahead of it and
-# MASS_LEVER_M to its left (base_link). To first order their combination (a0, a1, a2) acts as
-# one mass a0 + a1 + a2 at the offset (a1, a2) L / (a0 + a1 + a2): the fit names the mass and
-# the horizontal position of its centre; the 1-D refit scales the mass at that position.
-MASS_LEVER_M = 0.1
+# mass_com is screened as a point mass at each of these positions on the body (base_link [m]:
+# the centre, 8 cm ahead and behind, 4 cm to each side, 2 cm up, where a payload is strapped).
+# A payload's signature is mostly the moment its weight makes about the body's centre of mass,
+# which is far from linear in the mass and position over a 4 s replay, so the position is
+# searched directly (:func:`_refine_position`) rather than solved from first-order components.
+MASS_POSITIONS: tuple[tuple[float, float, float], ...] = (
+    (0.0, 0.0, 0.02), (0.08, 0.0, 0.02), (-0.08, 0.0, 0.02), (0.0, 0.04, 0.02),
+    (0.0, -0.04, 0.02))
 
 
-def mass_com_of(params: Mapping[str, float]) -> tuple[float, tuple[float, float, float]]:
-    """(added mass [kg], its position in base_link [m]) of a mass_com hypothesis: from the
-    components (:data:`MASS_LEVER_M`), or from ``added_mass_kg`` and ``com_offset_m``. A
-    combination whose mass is not positive is no payload (a negligible mass at the origin)."""
-    if "m_origin" in params:
-        a0, a1, a2 = (float(params[k]) for k in ("m_origin", "m_front", "m_left"))
-        m = a0 + a1 + a2
-        if m < 1e-3:
-            return 1e-3, (0.0, 0.0, 0.0)
-        off = (float(np.clip(a1 * MASS_LEVER_M / m, -0.3, 0.3)),
-               float(np.clip(a2 * MASS_LEVER_M / m, -0.3, 0.3)), 0.0)
-        return m, off
+def mass_com_of(params: Mapping[str, Any]) -> tuple[float, tuple[float, float, float]]:
+    """(added mass [kg], its position in base_link [m]) of a mass_com hypothesis
+    (``added_mass_kg``, ``com_offset_m``; a mass below 1 g is taken as 1 g)."""
     off = tuple(float(x) for x in params.get("com_offset_m", (0.0, 0.0, 0.0)))
     return max(float(params["added_mass_kg"]), 1e-3), off   # type: ignore[return-value]
 
@@ -463,9 +464,11 @@ class Candidate:
     J: float | None = None           # weighted SSE on the fit moves after the fit
     J0: float | None = None
     profile: list[dict[str, float]] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)   # fixed parameters (mass position)
 
-    def params(self, mag: float | None = None) -> dict[str, float]:
-        return _params_from(self.family, self.fitted if mag is None else mag, self.direction)
+    def params(self, mag: float | None = None) -> dict[str, Any]:
+        return {**_params_from(self.family, self.fitted if mag is None else mag,
+                               self.direction), **self.extra}
 
     def hyp(self, mag: float | None = None) -> tuple[str, str, dict]:
         return (self.family, self.scope, self.params(mag))
@@ -645,6 +648,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
             for c in top:
                 _refine(runner, base, c, base_err, FS, meas)
                 _refine_direction(runner, base, c, base_err, FS, meas)
+                _refine_position(runner, base, c, base_err, FS, meas)
             top += _scope_variants(runner, base, top, cands, base_err, FS, meas)
             top.sort(key=lambda c: c.J / c.J0)
             say(f"physics round {rnd + 1}: fitted " + "; ".join(
@@ -694,6 +698,9 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
         elif spec.kind == "leg":
             for g in range(len(LEGS)):
                 jobs.append((fam, 0, g))
+        elif fam == "mass_com":
+            for k in range(len(MASS_POSITIONS)):
+                jobs.append((fam, k, None))
         else:
             for c in range(len(spec.components)):
                 jobs.append((fam, c, None))
@@ -707,6 +714,9 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
         elif spec.kind == "leg":
             scope = f"leg:{LEGS[j]}"
             par = {spec.primary: probe}
+        elif fam == "mass_com":
+            scope = "body"
+            par = {spec.primary: probe, "com_offset_m": MASS_POSITIONS[c]}
         else:
             scope = "body"
             direction = np.zeros(len(spec.components))
@@ -753,6 +763,14 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
                 bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
                 a = bb / gg if gg > 0 else 0.0
                 cands.append(Candidate(fam, f"leg:{LEGS[g]}", bb * a, a))
+        elif fam == "mass_com":   # a mass at each screening position; only added mass counts
+            for k, pos in enumerate(MASS_POSITIONS):
+                D = [sens[(fam, k, None)][i] for i in F]
+                gg = sum(float(d @ d) for d in D)
+                bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
+                a = bb / gg if gg > 0 else 0.0
+                cands.append(Candidate(fam, "body", bb * a if a > 0 else 0.0, a,
+                                       extra={"com_offset_m": pos}))
         else:
             nc = len(spec.components)
             G = np.zeros((nc, nc))
@@ -932,11 +950,9 @@ def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list,
                       meas: list, steps_deg: Sequence[float] = (30.0, 12.0)) -> None:
     """The direction of a vector family's first-order fit, searched around it (the first-order
     direction is biased where the response is not linear in the components): a planar force or
-    slope turned by +-30 deg, then +-12 deg around the best so far, at the fitted magnitude;
-    mass_com's mass at the body origin changed by +-50 %, then +-20 % of the fitted vector's
-    size (the total mass at about the same moment). Then the magnitude is refitted along the
-    best direction."""
-    if c.direction is None or c.fitted is None or len(c.direction) not in (2, 3):
+    slope turned by +-30 deg, then +-12 deg around the best so far, at the fitted magnitude.
+    Then the magnitude is refitted along the best direction."""
+    if c.direction is None or c.fitted is None or len(c.direction) != 2:
         return
     w = _weights(base_err, F)
 
@@ -948,23 +964,50 @@ def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list,
     best = float(c.fitted) * np.asarray(c.direction, dtype=float)
     best_J = float(c.J)
     r = float(np.linalg.norm(best))
-    for k, step in enumerate(steps_deg):
-        if len(best) == 2:
-            a0 = math.atan2(best[1], best[0])
-            tries = [r * np.array([math.cos(a0 + s * math.radians(step)),
-                                   math.sin(a0 + s * math.radians(step))]) for s in (-1, 1)]
-        else:   # mass_com: the mass at the origin, i.e. the mass at about the same moment
-            dm = (0.5, 0.2)[min(k, 1)] * r
-            tries = [best + np.array([s * dm, 0.0, 0.0]) for s in (-1, 1)]
+    for step in steps_deg:
+        a0 = math.atan2(best[1], best[0])
+        tries = [r * np.array([math.cos(a0 + s * math.radians(step)),
+                               math.sin(a0 + s * math.radians(step))]) for s in (-1, 1)]
         for v in tries:
-            if np.linalg.norm(v) <= 0 or (len(v) == 3 and v.sum() <= 0):
-                continue
             j = J_of(v)
             if j < best_J:
                 best, best_J = v, j
     if best_J < c.J:
         c.direction = best / np.linalg.norm(best)
         c.magnitude = float(np.linalg.norm(best))
+        _refine(runner, base, c, base_err, F, meas)
+
+
+def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
+                     meas: list, steps_m: Sequence[tuple[float, float]] = ((0.04, 0.03),
+                                                                           (0.02, 0.015)),
+                     step_up_m: float = 0.03) -> None:
+    """mass_com's position searched around the best screening position at the fitted mass:
+    +-4 cm ahead and +-3 cm to the side, then +-2 and +-1.5 cm around the best so far, then
+    3 cm higher or lower; the mass is refitted at the best position."""
+    if c.family != "mass_com" or c.fitted is None or c.J is None:
+        return
+    w = _weights(base_err, F)
+
+    def J_at(pos: tuple[float, float, float]) -> float:
+        par = {**c.params(), "com_offset_m": pos}
+        sims = runner.map([(i, base + [(c.family, c.scope, par)], "full") for i in F])
+        return _J([_errors(s_, meas[i]) for s_, i in zip(sims, F)], w)
+
+    best = tuple(float(x) for x in c.extra.get("com_offset_m", (0.0, 0.0, 0.0)))
+    best_J = float(c.J)
+    moves = [[(s * dx, 0.0, 0.0) for s in (-1, 1)] + [(0.0, s * dy, 0.0) for s in (-1, 1)]
+             for dx, dy in steps_m] + [[(0.0, 0.0, s * step_up_m) for s in (1, -1)]]
+    for tries in moves:
+        start = best
+        for d in tries:
+            pos = tuple(round(a + b, 4) for a, b in zip(start, d))
+            j = J_at(pos)
+            if j < best_J:
+                best, best_J = pos, j
+    if best_J < c.J:
+        c.extra = {**c.extra, "com_offset_m": best}
+        c.magnitude = float(c.fitted)
         _refine(runner, base, c, base_err, F, meas)
 
 
@@ -1040,8 +1083,8 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
     H = T or V
     mu = runner.config.foot_friction * runner.config.ground_friction
     params = physical_params(best, mu)
-    alts = [{"family": vocabulary_family(c.family), "scope": c.scope,
-             "params": physical_params(c, mu), "J_relative": None if c.J is None else c.J / c.J0,
+    alts = [{"family": vocabulary_family(c.family), "searched_family": c.family,
+             "scope": c.scope, "params": physical_params(c, mu), "J_relative": None if c.J is None else c.J / c.J0,
              "held_out_total_gain": h, "held_out_p": r[3][2]}
             for c, h, r in zip(top, held, results)]
     screening = [{"family": c.family, "scope": c.scope, "score": c.score,
@@ -1064,6 +1107,8 @@ def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
         d = c.direction if c.direction is not None else np.array([1.0, 0.0])
         return {"force_N": float(m), "direction_deg": float(math.degrees(math.atan2(d[1], d[0]))),
                 "force_xy_N": [float(m * d[0]), float(m * d[1])]}
+    if c.family == "body_torque":
+        return {"torque_Nm": float(m), "force_N": 0.0, "torque_axis": "z (base_link)"}
     if c.family == "ground_slope":
         d = c.direction if c.direction is not None else np.array([1.0, 0.0])
         return {"slope_deg": float(m),
@@ -1087,6 +1132,10 @@ def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
     if c.family == "swing_drag":
         return {"magnitude": float(m), "phase": "swing",
                 "quantity": "drag force on the swinging foot [N]", "force_N": float(m)}
+    if c.family == "foot_adhesion":
+        return {"magnitude": float(m), "phase": "lift-off",
+                "quantity": "downward pull on the foot from touch-down until it has risen "
+                            "1 cm [N]", "force_N": float(m)}
     return {spec.primary: float(m)}
 
 
@@ -1142,6 +1191,10 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "body_wrench":
         return (f"About {v:.2f} N pushing the body along {params['direction_deg']:.0f} deg in "
                 f"base_link (fixed to the body)")
+    if family == "body_torque":
+        turn = "counter-clockwise" if v >= 0 else "clockwise"
+        return (f"About {abs(v):.3f} N m twisting the body about its vertical axis ({turn} seen "
+                f"from above; a torque fixed to the body, no net force)")
     if family == "ground_slope":
         return (f"Ground inclined by about {v:.1f} deg, uphill towards "
                 f"{params['uphill_direction_deg']:.0f} deg in odom")
@@ -1158,6 +1211,9 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "swing_drag":
         return (f"{W}'s foot is dragged while it swings: about {params['force_N']:.1f} N "
                 f"against its motion, none in stance")
+    if family == "foot_adhesion":
+        return (f"{W}'s foot sticks to the ground: about {params['force_N']:.1f} N pulling it "
+                f"down from touch-down until it has risen 1 cm")
     return f"{family} on {where}: {dict(params)}"
 
 
@@ -1169,19 +1225,27 @@ def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
     significant on their own (adjusted p < alpha) with at least INSEPARABLE_SHARE of its summed
     held-out SSE cut. Each names what would separate them."""
     mine = vocabulary_family(f.family)
-    own = [a for a in f.alternatives if a["family"] == mine and a["scope"] == f.scope]
+    own = [a for a in f.alternatives
+           if a.get("searched_family", a["family"]) == f.family and a["scope"] == f.scope]
     if not own or not own[0]["held_out_total_gain"] or own[0]["held_out_total_gain"] <= 0:
         return []
     g0 = own[0]["held_out_total_gain"]
-    out, seen = [], {mine}
+    out, seen = [], {f.family}
     for a in sorted(f.alternatives, key=lambda a: -(a["held_out_total_gain"] or -np.inf)):
         g = a["held_out_total_gain"]
-        if a["family"] in seen or g is None or g < INSEPARABLE_SHARE * g0 or \
+        searched = a.get("searched_family", a["family"])
+        if searched in seen or g is None or g < INSEPARABLE_SHARE * g0 or \
                 not a["held_out_p"] < alpha:
             continue
-        seen.add(a["family"])
+        seen.add(searched)
         pair = {mine, a["family"]}
-        if pair == set(PUSH_CLASS):
+        if "body_torque" in (f.family, searched):
+            how = ("a torque about the vertical axis and a push or a leg effect that turns the "
+                   "trot both bend its path; moves with other headings and speeds separate "
+                   "them (a torque turns the body the same way at any speed)")
+            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 --types FL,FR,BL,BR "
+                   "[same options, a new seed]")
+        elif pair == set(PUSH_CLASS):
             how = ("a slope tilts gravity (m g sin(slope) downhill, fixed in odom) and a "
                    "world-fixed push act alike on odometry that stays level with the ground; "
                    "the gravity direction in base_link (an IMU's accelerometer) separates them")

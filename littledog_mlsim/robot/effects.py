@@ -502,6 +502,43 @@ class SwingDrag:
                                  p.WORLD_FRAME, physicsClientId=c)
 
 
+class FootAdhesion:
+    """A foot that sticks to the ground (mud, tape, a suction cup): from touch-down until the
+    foot has risen ``height_m`` above where it touched down, a downward force ``force_N`` pulls
+    it (it loads the stance foot and holds it back at lift-off); none higher up in swing."""
+
+    def __init__(self, force_N: float, legs: str | list[str] = "front_left",
+                 height_m: float = 0.01) -> None:
+        if not (np.isfinite(force_N) and force_N >= 0):
+            raise ValueError(f"FootAdhesion: force_N must be >= 0, got {force_N!r}")
+        if not (np.isfinite(height_m) and height_m > 0):
+            raise ValueError(f"FootAdhesion: height_m must be > 0, got {height_m!r}")
+        self.force_N = float(force_N)
+        self.height_m = float(height_m)
+        self.legs = _legs(legs, "FootAdhesion")
+        self._touch: dict[int, float] = {}
+
+    def reset(self, sim: Any) -> None:
+        self._touch = {}
+
+    def substep(self, sim: Any, t: float) -> None:
+        if self.force_N == 0.0:
+            return
+        c = sim.client
+        links = [sim.foot_links[i] for i in self.legs]
+        states = p.getLinkStates(sim.robot, links, computeForwardKinematics=1,
+                                 physicsClientId=c)
+        for link, st in zip(links, states):
+            z = float(st[0][2])
+            if p.getContactPoints(sim.robot, sim.plane, link, -1, physicsClientId=c):
+                self._touch[link] = min(z, self._touch.get(link, z))
+            elif link in self._touch and z > self._touch[link] + self.height_m:
+                del self._touch[link]
+            if link in self._touch:
+                p.applyExternalForce(sim.robot, link, [0.0, 0.0, -self.force_N], st[0],
+                                     p.WORLD_FRAME, physicsClientId=c)
+
+
 class ServoDeadband(_ServoTorque):
     """Backlash in the gears of some joints as the servo sees it: the position error
     e = q_des - q drives no torque within +-``width_rad``/2 and k (|e| - width/2) beyond it (a

@@ -479,7 +479,7 @@ def test_physical_scopes_and_shortlist():
         for r in related_scopes(scope):
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             assert a < b or b < a, (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 4 + 3 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 5 + 4 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
@@ -495,24 +495,21 @@ def test_physical_scopes_and_shortlist():
         ("ground_slope", "body"), ("swing_drag", "leg:back_left")]
 
 
-def test_physical_mass_com_components_and_servo_saturation():
-    """mass_com's three point masses name one mass and its centre; a changed servo saturates at
-    the servo's limit, so a weaker servo that saturates anyway adds nothing."""
-    from littledog_mlsim.diagnose.physid import (MASS_LEVER_M, Candidate, build_effects,
-                                                 mass_com_of, physical_params)
+def test_physical_mass_com_position_and_servo_saturation():
+    """mass_com names one mass at a searched position; a changed servo saturates at the servo's
+    limit, so a weaker servo that saturates anyway adds nothing."""
+    from littledog_mlsim.diagnose.physid import (Candidate, build_effects, mass_com_of,
+                                                 physical_params)
     from littledog_mlsim.robot.effects import ServoDeadband, ServoGain
-    m, off = mass_com_of({"m_origin": 0.3, "m_front": 0.3, "m_left": -0.15})
-    assert m == pytest.approx(0.45) and off == pytest.approx((0.3 * MASS_LEVER_M / 0.45,
-                                                             -0.15 * MASS_LEVER_M / 0.45, 0.0))
-    assert mass_com_of({"m_origin": -0.2, "m_front": 0.1, "m_left": 0.0})[0] == 1e-3
-    d = np.array([0.3, 0.3, -0.15])
-    c = Candidate("mass_com", "body", 1.0, 0.0, d / np.linalg.norm(d),
-                  fitted=float(np.linalg.norm(d)))
+    assert mass_com_of({"added_mass_kg": -0.2}) == (1e-3, (0.0, 0.0, 0.0))
+    c = Candidate("mass_com", "body", 1.0, 0.3, fitted=0.45,
+                  extra={"com_offset_m": (-0.06, 0.015, 0.02)})
     pp = physical_params(c)
     assert pp["added_mass_kg"] == pytest.approx(0.45)
-    assert pp["com_offset_m"] == pytest.approx([0.0667, -0.0333, 0.0], abs=1e-3)
+    assert pp["com_offset_m"] == pytest.approx([-0.06, 0.015, 0.02])
     (payload,) = build_effects("mass_com", "body", c.params())
-    assert payload.mass == pytest.approx(0.45) and payload.offset[0] == pytest.approx(0.0667, 1e-2)
+    assert payload.mass == pytest.approx(0.45)
+    assert payload.offset == pytest.approx([-0.06, 0.015, 0.02])
     weak = ServoGain(0.5, "knees")
     weak._kp, weak._kd, weak._lim0 = np.full(4, 10.0), np.full(4, 0.1), np.full(4, 0.6)
     e, dq = np.array([0.001, 0.03, 0.2, -0.2]), np.zeros(4)
