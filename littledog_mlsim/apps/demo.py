@@ -370,8 +370,10 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
     own ROS domain, lockstep) and compare what they publish (module doc). ``max_steps`` cuts
     the move to that many commands (at least 2); ``projection`` and ``alpha`` are sim_node's
     parameters (module doc). ``watcher``, if given, says whether an observer (the browser
-    view) has matched both simulators' topics; the first command waits for it up to
-    ``START_TIMEOUT`` so that the observer sees the whole run. Stops every process it started."""
+    view, ``DemoView.ready``) has received state from both simulators (their initial states,
+    which lockstep simulators publish at start-up; a transient-local subscription gets them);
+    the first command waits for it up to ``START_TIMEOUT`` so that the observer sees the whole
+    run. Stops every process it started."""
     import rclpy  # noqa: F401  (fail early and plainly if the ROS wheels are missing)
 
     from ..data.bags import read_bag
@@ -441,8 +443,8 @@ def run_demo(data: str | os.PathLike = DEFAULT_DATA, model: str | os.PathLike = 
                         c.check()
                     time.sleep(0.1)
                 if not watcher():
-                    log(f"view: has not discovered both simulators after {START_TIMEOUT:g} s; "
-                        f"it may miss part of the run")
+                    log(f"view: has not received state from both simulators after "
+                        f"{START_TIMEOUT:g} s; it may miss part of the run")
             start_s = time.perf_counter() - t0
             log(f"both simulators up and discovered in {start_s:.1f} s; replaying "
                 f"{entry.name} ({'TestPool' if entry.split == 'test' else 'TrainPool'}, "
@@ -647,7 +649,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             view = DemoView(a.domain, a.domain + 1, port=a.view_port, log=_print)
         r = run_demo(a.data, a.model, move=a.move, max_steps=a.steps, domain=a.domain,
                      projection=a.projection, alpha=a.alpha,
-                     watcher=None if view is None else view.connected)
+                     watcher=None if view is None else view.ready)
         _print(format_report(r))
         _print(f"\ndone in {time.perf_counter() - t0:.0f} s; to run the nodes yourself see "
                f"README.md, 'Using it from ROS 2'.")

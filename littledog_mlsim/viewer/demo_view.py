@@ -3,6 +3,17 @@
 Before the replay: a live view of pybullet_node (robot 0, the reference) and sim_node, each in
 its own ROS domain, with localhost discovery as the demo uses. After the report: the same page
 turns into a replay of everything it received (a timeline to scrub), served until Ctrl-C.
+
+The subscriptions are reliable and transient-local (``LiveSource(reliable=True)``), unlike the
+live view's best-effort default: the demo's simulators run in lockstep, so they are idle until
+the first command and have published only their initial state (measurement 0, at start-up,
+kept by their transient-local publishers). A transient-local subscription gets that state as
+soon as DDS delivers to it, so :meth:`DemoView.ready` turns true only once messages really
+arrive from both simulators, and the demo waits for it before its first command (matching in
+the ROS graph, :meth:`DemoView.connected`, comes before delivery: a short run could be over
+before the view received anything). The simulators' publishers are keep-last (depth 10):
+DDS drops a slow reliable reader's oldest unacknowledged samples instead of blocking the
+writer, so the view still never holds up a step.
 """
 from __future__ import annotations
 
@@ -26,7 +37,7 @@ class DemoView:
         saved = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE")
         os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"   # read by rclpy.init
         try:
-            self.source = LiveSource(specs)
+            self.source = LiveSource(specs, reliable=True)
         except Exception:
             self.app.stop()
             raise
@@ -40,9 +51,15 @@ class DemoView:
         log(f"view: open {self.app.url} to watch pybullet_node and sim_node live")
 
     def connected(self) -> bool:
-        """The view's subscriptions have matched both simulators' publishers (the demo waits
-        for this before its first command, so that the view sees the whole run)."""
+        """The view's subscriptions have matched both simulators' publishers in the ROS graph
+        (not yet proof that messages arrive: :meth:`ready`)."""
         return self.source.connected()
+
+    def ready(self) -> bool:
+        """The view has received at least one complete state from each simulator (their
+        initial states, module doc); the demo waits for this before its first command, so
+        that the view sees the whole run."""
+        return self.source.ready()
 
     def serve_replay(self) -> None:
         """Stop the live view, replay what was received, serve until Ctrl-C or SIGTERM
@@ -50,11 +67,16 @@ class DemoView:
         if self.live is not None:
             self.live.close()
             self.live = None
+        self.source.poll()            # anything still waiting in the readers
         try:
             tracks = self.source.tracks()
         except ValueError as e:
             self.log(f"view: {e}")
             tracks = None
+        else:
+            t = tracks[0].t
+            self.log(f"view: received {t.size} states of both simulators, t = {t[0]:.2f} to "
+                     f"{t[-1]:.2f} s")
         self.source.close()
         if tracks is not None:
             self.player = Player(self.app, tracks)

@@ -107,6 +107,7 @@ class _Robot:
         self.qs: deque[np.ndarray] = deque(maxlen=HISTORY)
         self.cov: deque[np.ndarray | None] = deque(maxlen=HISTORY)
         self.latest: Frame | None = None
+        self.received = 0        # complete states taken since the start (restarts included)
         self.bad = 0
         from ..nodes.messages import joint_state_arrays, stamp_ns
 
@@ -127,6 +128,7 @@ class _Robot:
             self.orn.append(orn)
             self.qs.append(q)
             self.cov.append(cov)
+            self.received += 1
             self.latest = Frame(ns / 1e9, pos, orn, q, cov)
             for d in (self.q, self.odom):     # drop halves that can no longer complete
                 if len(d) > 20:
@@ -291,8 +293,24 @@ class LiveSource:
         return out
 
     def connected(self) -> bool:
-        """Every subscription matched at least one publisher."""
+        """Every subscription matched at least one publisher. Matching is what the ROS graph
+        says; DDS may deliver to a new subscription only some time later, so this does not
+        mean that anything was received yet (:meth:`ready` does)."""
         return all(d.publishers() >= 1 for d in self.domains)
+
+    def received(self) -> list[int]:
+        """Complete states (joint states and odometry of one stamp) taken so far from each
+        robot, in the order of ``specs``; counts only grow (also over a simulator restart)."""
+        out = []
+        for r in self.robots:
+            with r.lock:
+                out.append(r.received)
+        return out
+
+    def ready(self) -> bool:
+        """Every robot has delivered at least one complete state: the subscriptions do not
+        only match, messages actually arrive through them."""
+        return all(n >= 1 for n in self.received())
 
     def trails(self, points: int = 600) -> list[np.ndarray | None]:
         out: list[np.ndarray | None] = []

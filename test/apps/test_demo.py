@@ -32,7 +32,8 @@ from littledog_mlsim.nodes.topic_echo import message_to_dict, message_to_yaml  #
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
 
 BIN = Path(sys.executable).parent
-DOMAIN = 2 + 2 * ((os.getpid() + 17) % 49)     # the demo uses DOMAIN and DOMAIN + 1
+# the demo uses DOMAIN and DOMAIN + 1; LITTLEDOG_TEST_DOMAIN_ID picks DOMAIN (as in test_nodes)
+DOMAIN = int(os.environ.get("LITTLEDOG_TEST_DOMAIN_ID") or 2 + 2 * ((os.getpid() + 17) % 49))
 TIMEOUT = 60.0
 
 

@@ -2,9 +2,11 @@
 
 The demo runs as a process on a tiny dataset (two F moves) with an LR model and a shortened
 move, the view on an ephemeral port. Checks: the address it prints answers HTTP with the page
-while the simulators run, the live view received the run (the replay has states: no "nothing
-to replay" line), the page then serves the replay to a websocket client (viser's protocol)
-with robot frames, and SIGINT stops everything cleanly (exit status 0, no simulator left).
+while the simulators run, the live view received the whole run, from its first state to its
+last, although the run is short (the demo waits until the view has received both simulators'
+initial states before its first command), the page then serves the replay to a websocket
+client (viser's protocol) with robot frames, and SIGINT stops everything cleanly (exit status
+0, no simulator left).
 Every wait is on the process's output or a socket, with a timeout.
 """
 from __future__ import annotations
@@ -26,10 +28,14 @@ import pytest
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parents[2]
-DOMAIN = 210 + 2 * (os.getpid() % 5)        # this helper's range: the demo uses D and D + 1
+# the demo uses D and D + 1; LITTLEDOG_TEST_DOMAIN_ID picks D (as in test/nodes/test_nodes.py)
+DOMAIN = int(os.environ.get("LITTLEDOG_TEST_DOMAIN_ID") or 210 + 2 * (os.getpid() % 5))
 TIMEOUT = 60.0
 ADDRESS = re.compile(r"view: open (http://\S+) to watch")
 REPLAY = re.compile(r"view: replay of the run at (http://\S+)")
+RECEIVED = re.compile(r"view: received (\d+) states of both simulators, t = ([0-9.]+) to "
+                      r"([0-9.]+) s")
+STEPS = 40          # 0.4 s of simulated time: over in a fraction of a second of wall time
 
 
 class Lines:
@@ -125,7 +131,7 @@ def test_demo_view_serves_live_then_replay_and_stops_on_sigint(tiny):
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1")
     proc = subprocess.Popen(
         [sys.executable, "-m", "littledog_mlsim.apps.demo", "--data", str(data), "--model",
-         str(model), "--steps", "300", "--projection", "none", "--domain", str(DOMAIN),
+         str(model), "--steps", str(STEPS), "--projection", "none", "--domain", str(DOMAIN),
          "--view", "--view-port", "0"],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     out = Lines(proc)
@@ -137,8 +143,16 @@ def test_demo_view_serves_live_then_replay_and_stops_on_sigint(tiny):
         replay_url = out.wait_for(REPLAY).group(1)
         text = "".join(out.seen)
         assert replay_url == url
-        assert "replayed 300 lockstep steps" in text
+        assert f"replayed {STEPS} lockstep steps" in text
+        assert "view: has not received state" not in text, "the demo did not wait for the view"
         assert "nothing to replay" not in text, "the live view received no states of the run"
+        # the whole run, from the start: the learned simulator's initial state is stamped
+        # 0.01 s (measurement 1) and each of the STEPS - 1 commands it gets adds 0.01 s;
+        # pybullet_node has every one of those stamps
+        got = RECEIVED.search(text)
+        assert got, text
+        assert (int(got.group(1)), got.group(2), got.group(3)) == (
+            STEPS, "0.01", f"{STEPS * 0.01:.2f}"), got.group(0)
         assert not children(proc.pid), "a simulator outlived the demo's report"
         assert "<html" in get_page(url).lower()
         assert robot_frames(url) >= 1         # the replay draws for a connected page

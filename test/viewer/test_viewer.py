@@ -160,6 +160,36 @@ def test_live_messages(monkeypatch):
     assert list(r.stamps) == [10_000_000, 30_000_000]
 
 
+def test_live_received_counts_complete_states():
+    """``received`` (behind ``LiveSource.received``/``ready``) counts complete states only: not a
+    lone half, not a bad message, not a repeated stamp; a restart (stamps going back) clears
+    the history but the count keeps growing."""
+    from littledog_mlsim.nodes.messages import joint_state_msg, odometry_msg
+    from littledog_mlsim.viewer.live import SimSpec, _Robot
+
+    r = _Robot(SimSpec("a", 0, ""))
+    q = HOME_POSE.copy()
+
+    def odom(ns: int, x: float = 0.0):
+        return odometry_msg(ns, [x, 0, 0.15], [0, 0, 0, 1], [0] * 3, [0] * 3)
+
+    assert r.received == 0
+    r.on_joint_states(joint_state_msg(10_000_000, q))
+    assert r.received == 0                       # half a state
+    r.on_odom(odom(10_000_000))
+    assert r.received == 1
+    r.on_odom(odom(20_000_000, float("nan")))    # bad: the state cannot complete
+    r.on_joint_states(joint_state_msg(20_000_000, q))
+    assert r.received == 1
+    r.on_joint_states(joint_state_msg(10_000_000, q))
+    r.on_odom(odom(10_000_000))                  # the same stamp again
+    assert r.received == 1
+    for ns in (0, 30_000_000):                   # back to 0: a restarted simulator
+        r.on_joint_states(joint_state_msg(ns, q))
+        r.on_odom(odom(ns))
+    assert r.received == 3 and list(r.stamps) == [0, 30_000_000]
+
+
 def _closed_and_outward(verts: np.ndarray, faces: np.ndarray) -> float:
     """Check a mesh is closed (after merging vertices at equal positions every edge has two
     faces, in opposite directions) and return its signed volume (> 0: outward faces)."""
