@@ -890,6 +890,17 @@ def _J(errs: list, w: np.ndarray) -> float:
     return float(sum(np.nansum(_sse(e) * w) for e in errs))
 
 
+def _evaluate(runner: _Runner, base: list, c: Candidate, mags: list[float], F: list[int],
+              meas: list, w: np.ndarray, evals: dict[float, float]) -> None:
+    """J (weighted output-error SSE on the moves F) of ``c`` at each magnitude, into ``evals``."""
+    if not mags:
+        return
+    sims = runner.map([(i, base + [(c.family, c.scope, c.params(m))], "full")
+                       for m in mags for i in F])
+    for k, m in enumerate(mags):
+        evals[m] = _J([_errors(sims[k * len(F) + n], meas[i]) for n, i in enumerate(F)], w)
+
+
 def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
             meas: list) -> None:
     """1-D fit of the magnitude by re-simulation (module doc, step 4): a grid around the
@@ -916,14 +927,7 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
     evals: dict[float, float] = {}
 
     def run(mags: list[float]) -> None:
-        mags = [m for m in mags if m not in evals]
-        if not mags:
-            return
-        sims = runner.map([(i, base + [(c.family, c.scope, c.params(m))], "full")
-                           for m in mags for i in F])
-        for k, m in enumerate(mags):
-            errs = [_errors(sims[k * len(F) + n], meas[i]) for n, i in enumerate(F)]
-            evals[m] = _J(errs, w)
+        _evaluate(runner, base, c, [m for m in mags if m not in evals], F, meas, w, evals)
 
     run(grid)
     for _ in range(2):      # the minimum at the grid's edge: extend once or twice that way
@@ -983,13 +987,7 @@ def _refine_wide(runner: _Runner, base: list, c: Candidate, base_err: list, F: l
     evals: dict[float, float] = {}
 
     def run(mags: list[float]) -> None:
-        mags = [m for m in mags if m not in evals]
-        if not mags:
-            return
-        sims = runner.map([(i, base + [(c.family, c.scope, c.params(m))], "full")
-                           for m in mags for i in F])
-        for k, m in enumerate(mags):
-            evals[m] = _J([_errors(sims[k * len(F) + n], meas[i]) for n, i in enumerate(F)], w)
+        _evaluate(runner, base, c, [m for m in mags if m not in evals], F, meas, w, evals)
 
     x = [float(np.clip(spec.neutral + dev * f, lo, hi)) for f in fractions]
     run(x)
