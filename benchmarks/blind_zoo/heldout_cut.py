@@ -1,0 +1,66 @@
+"""The held-out SSE cut of one hypothesis, per channel and per move, as ``diagnose`` decides.
+
+Re-simulates a dataset's held-out TrainPool moves (2 of each type after the fit move, as
+``physid.identify`` picks them) with and without the hypothesis and prints the decision
+(``physid.decide``: summed cut, adjusted p, significant, material), every channel's cut and the
+moves that lose most. This is how the README's account of zoo2's torque-limit miss was measured:
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/heldout_cut.py \
+        DATA torque_saturation type:hip_pitches '{"torque_limit_ratio": 0.518}'
+
+with DATA zoo2's ``y07`` dataset (seed 7) that ``run.py`` records.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+
+import numpy as np
+
+from littledog_mlsim.data.dataset import load_moves, read_index
+from littledog_mlsim.diagnose import physid as P
+from littledog_mlsim.robot.config import as_config
+from littledog_mlsim.robot.sim import InitialState
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("data", help="dataset directory")
+    ap.add_argument("family", help="a family of physid.FAMILIES")
+    ap.add_argument("scope", help="e.g. type:hip_pitches, body, leg:back_left")
+    ap.add_argument("params", help="the plug-in parameters as JSON, e.g. '{\"delay_ms\": 30}'")
+    ap.add_argument("--n-choice", type=int, default=7,
+                    help="hypotheses compared (the Bonferroni factor; diagnose: the shortlist)")
+    ap.add_argument("--jobs", type=int, default=2)
+    a = ap.parse_args()
+    index = read_index(a.data)
+    train = load_moves(a.data, "train")
+    cfg = replace(as_config(index.info.get("robot", "measured")), sensor_noise=False)
+    recs = [train[i] for i in P._pick_moves(train, 2, skip=1)]
+    moves = [P._Move(r.name, r.move_type, np.asarray(r.cmd, dtype=float),
+                     {k: InitialState.from_recording(r, k) for k in P.SEG_STARTS}) for r in recs]
+    meas = [P._measured(r) for r in recs]
+    hyp = (a.family, a.scope, json.loads(a.params))
+    runner = P._Runner(cfg, moves, a.jobs)
+    try:
+        V = range(len(recs))
+        S0 = np.array([P._sse(P._errors(s, meas[i]))
+                       for i, s in zip(V, runner.map([(i, [], "full") for i in V]))])
+        S1 = np.array([P._sse(P._errors(s, meas[i]))
+                       for i, s in zip(V, runner.map([(i, [hyp], "full") for i in V]))])
+    finally:
+        runner.close()
+    gain, p_ch, p_adj, sig, mat = P.decide(S0, S1, a.n_choice, 0.01, 0.05)
+    print(f"{len(recs)} held-out moves: summed cut {np.nansum(gain):+.2f}, adjusted p "
+          f"{p_adj:.3g}, significant {sig}, material {mat}")
+    for j in np.argsort(gain):
+        print(f"  {P.CHANNELS[j]:30s} cut {gain[j]:+8.3f}  p {p_ch[j]:.3g}  "
+              f"baseline SSE {S0[:, j].sum():.3g}")
+    share = (S0 - S1) / np.where(S0.sum(axis=0) > 0, S0.sum(axis=0), 1.0)
+    for m in np.argsort(share.sum(axis=1))[:3]:
+        print(f"  move {recs[m].name}: its part of the summed cut {share[m].sum():+.2f}")
+
+
+if __name__ == "__main__":
+    main()
