@@ -153,6 +153,8 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("body_torque", "body", "torque_Nm", "N m", 0.05, (-1.0, 1.0),
                reported_as="body_wrench"),
     FamilySpec("ground_slope", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy")),
+    FamilySpec("ground_tilt", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy"),
+               reported_as="ground_slope"),
     FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0)),
     FamilySpec("leg_difference", "leg", "scale", "1", 0.5, (0.2, 4.0), neutral=1.0),
     FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.85, (0.02, 1.5), neutral=1.0,
@@ -219,6 +221,10 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
     if family == "ground_slope":
         sx, sy = params["sx"], params["sy"]
         return [fx.GroundSlope(math.hypot(sx, sy), math.degrees(math.atan2(sy, sx)))]
+    if family == "ground_tilt":
+        sx, sy = params["sx"], params["sy"]
+        return [fx.GroundTilt(math.hypot(sx, sy), math.degrees(math.atan2(sy, sx)),
+                              params.get("origin_xy", (0.0, 0.0)))]
     if family == "mass_com":
         m, off = mass_com_of(params)
         return [fx.Payload(m, off)]
@@ -241,6 +247,17 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
 MASS_POSITIONS: tuple[tuple[float, float, float], ...] = (
     (0.0, 0.0, 0.02), (0.08, 0.0, 0.02), (-0.08, 0.0, 0.02), (0.0, 0.04, 0.02),
     (0.0, -0.04, 0.02))
+
+
+# ground_tilt is screened as a tilt of the floor towards each of these many directions (uphill
+# every 45 deg): a floor tilted the wrong way puts the measured stance into or above it, so the
+# response is far from linear in the two tilt components and a first-order fit of them fails.
+TILT_DIRECTIONS = 8
+
+
+def _tilt_direction(k: int) -> np.ndarray:
+    a = 2.0 * math.pi * k / TILT_DIRECTIONS
+    return np.array([math.cos(a), math.sin(a)])
 
 
 def mass_com_of(params: Mapping[str, Any]) -> tuple[float, tuple[float, float, float]]:
@@ -322,7 +339,8 @@ def _simulate(task: tuple[int, list[tuple[str, str, dict]], str]) -> dict[str, n
 
     def run(k0: int, n: int) -> np.ndarray:
         effects = [e for (fam, sc, par) in hyps
-                   for e in build_effects(fam, sc, {**par, "t0_s": k0 * 0.01})]
+                   for e in build_effects(fam, sc, {**par, "t0_s": k0 * 0.01,
+                                                    "origin_xy": mv.starts[0].position[:2]})]
         rec = simulate_move(mv.cmd[k0:k0 + n], robot=robot, effects=effects, seed=0,
                             name=mv.name, move_type=mv.move_type,
                             initial=true_start(mv.starts[k0], hyps))
@@ -718,6 +736,9 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
         elif fam == "mass_com":
             for k in range(len(MASS_POSITIONS)):
                 jobs.append((fam, k, None))
+        elif fam == "ground_tilt":
+            for k in range(TILT_DIRECTIONS):
+                jobs.append((fam, k, None))
         else:
             for c in range(len(spec.components)):
                 jobs.append((fam, c, None))
@@ -734,6 +755,9 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
         elif fam == "mass_com":
             scope = "body"
             par = {spec.primary: probe, "com_offset_m": MASS_POSITIONS[c]}
+        elif fam == "ground_tilt":
+            scope = "body"
+            par = _params_from(fam, spec.probe, _tilt_direction(c))
         else:
             scope = "body"
             direction = np.zeros(len(spec.components))
@@ -780,6 +804,14 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
                 bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
                 a = bb / gg if gg > 0 else 0.0
                 cands.append(Candidate(fam, f"leg:{LEGS[g]}", bb * a, a))
+        elif fam == "ground_tilt":   # a tilt towards each screening direction, scaled in 1-D
+            for k in range(TILT_DIRECTIONS):
+                D = [sens[(fam, k, None)][i] for i in F]
+                gg = sum(float(d @ d) for d in D)
+                bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
+                a = bb / gg if gg > 0 else 0.0
+                cands.append(Candidate(fam, "body", bb * a if a > 0 else 0.0,
+                                       max(a, 0.0) * spec.probe, _tilt_direction(k)))
         elif fam == "mass_com":   # a mass at each screening position; only added mass counts
             for k, pos in enumerate(MASS_POSITIONS):
                 D = [sens[(fam, k, None)][i] for i in F]
@@ -1170,10 +1202,12 @@ def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
                 "force_xy_N": [float(m * d[0]), float(m * d[1])]}
     if c.family == "body_torque":
         return {"torque_Nm": float(m), "force_N": 0.0, "torque_axis": "z (base_link)"}
-    if c.family == "ground_slope":
+    if c.family in ("ground_slope", "ground_tilt"):
         d = c.direction if c.direction is not None else np.array([1.0, 0.0])
         return {"slope_deg": float(m),
-                "uphill_direction_deg": float(math.degrees(math.atan2(d[1], d[0])))}
+                "uphill_direction_deg": float(math.degrees(math.atan2(d[1], d[0]))),
+                "odom": ("level with the ground (gravity tilted)" if c.family == "ground_slope"
+                         else "level in the world (the floor tilted under it)")}
     if c.family == "torque_saturation":
         kinds = {JOINT_NAMES[j].rsplit("_", 1)[-1] for j in scope_joints(c.scope)}
         kinds = {("hip_roll" if k == "roll" else "hip_pitch" if k == "pitch" else k)
@@ -1259,6 +1293,10 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "ground_slope":
         return (f"Ground inclined by about {v:.1f} deg, uphill towards "
                 f"{params['uphill_direction_deg']:.0f} deg in odom")
+    if family == "ground_tilt":
+        return (f"Floor inclined by about {v:.1f} deg, uphill towards "
+                f"{params['uphill_direction_deg']:.0f} deg in a level odom (the body's attitude "
+                f"and height follow the floor)")
     if family == "mass_com":
         off = params.get("com_offset_m", (0.0, 0.0, 0.0))
         return (f"About {v:.2f} kg of extra mass carried on the body, its centre about "
@@ -1300,7 +1338,11 @@ def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
             continue
         seen.add(searched)
         pair = {mine, a["family"]}
-        if "body_torque" in (f.family, searched):
+        if "ground_tilt" in (f.family, searched):
+            how = "both explain the held-out moves about equally well"
+            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 "
+                   "[same options, a new seed]")
+        elif "body_torque" in (f.family, searched):
             how = ("a torque about the vertical axis and a push or a leg effect that turns the "
                    "trot both bend its path; moves with other headings and speeds separate "
                    "them (a torque turns the body the same way at any speed)")

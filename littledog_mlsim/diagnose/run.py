@@ -246,8 +246,9 @@ def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
 
     command_delay -> u_{t-d} of the scope's joints; command_filter -> the low-passed commands;
     joint_friction -> the rate/push signs; backlash -> a play operator on the commands;
-    torque_saturation -> the clipped tracking error; odom_force and ground_slope -> the heading
-    (a world-fixed push acts in the body frame through it); time_drift -> the elapsed time.
+    torque_saturation -> the clipped tracking error; odom_force and ground_slope (either kind)
+    -> the heading (a world-fixed push acts in the body frame through it); time_drift -> the
+    elapsed time.
     """
     from ..models.features import (CommandFilter, CommandLag, ElapsedTime, Heading,
                                    JointRateSign, Play, TrackingSaturation)
@@ -266,7 +267,7 @@ def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
     if family == "torque_saturation":
         lim = float(params["torque_limit_ratio"]) * 0.61 / 6.7
         return TrackingSaturation(limit=round(max(lim, 1e-3), 4))
-    if family in ("odom_force", "ground_slope"):
+    if family in ("odom_force", "ground_slope", "ground_tilt"):
         return Heading()
     if family == "time_drift":
         return ElapsedTime()

@@ -423,6 +423,29 @@ class GroundSlope:
         p.setGravity(*g.tolist(), physicsClientId=sim.client)
 
 
+class GroundTilt:
+    """The floor inclined by ``slope_deg``, rising towards ``uphill_direction_deg`` (odom), under a
+    level odometry frame (motion capture in the level world): the ground plane is turned about a
+    horizontal axis through ``origin_xy`` (at height 0), where the move starts. Unlike
+    :class:`GroundSlope` (gravity tilted, odometry level with the ground) the body's attitude and
+    height in odom follow the floor."""
+
+    def __init__(self, slope_deg: float, uphill_direction_deg: float = 0.0,
+                 origin_xy: list[float] | tuple[float, float] = (0.0, 0.0)) -> None:
+        if not (np.isfinite(slope_deg) and abs(slope_deg) < 45):
+            raise ValueError(f"GroundTilt: slope_deg must be in (-45, 45), got {slope_deg!r}")
+        self.slope_deg = float(slope_deg)
+        self.uphill_direction_deg = float(uphill_direction_deg)
+        self.origin_xy = _values(origin_xy, 2, "GroundTilt.origin_xy")
+
+    def reset(self, sim: Any) -> None:
+        s, phi = np.radians(self.slope_deg), np.radians(self.uphill_direction_deg)
+        quat = p.getQuaternionFromAxisAngle([np.sin(phi), -np.cos(phi), 0.0], s)
+        p.resetBasePositionAndOrientation(sim.plane, [float(self.origin_xy[0]),
+                                                      float(self.origin_xy[1]), 0.0], quat,
+                                          physicsClientId=sim.client)
+
+
 class FootFriction:
     """The friction coefficient of one foot (or several legs) times ``scale``."""
 

@@ -479,7 +479,7 @@ def test_physical_scopes_and_shortlist():
         for r in related_scopes(scope):
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             assert a < b or b < a, (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 5 + 4 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 6 + 4 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
