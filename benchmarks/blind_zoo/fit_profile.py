@@ -7,11 +7,15 @@ Prints, per magnitude, the weighted output-error SSE relative to no effect (the 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/fit_profile.py \
         DATA joint_friction side:right coulomb_Nm 0.06,0.09,0.12,0.15,0.19,0.24
 
-with DATA the side-friction effect dataset that ``run.py`` records (seed 4 for run 2).
+with DATA the side-friction effect dataset that ``run.py`` records (seed 4 for run 2). A
+family with several parameters takes ``-`` as the parameter and a JSON list of parameter sets,
+e.g. ``ground_tilt body - '[{"sx": -1.41, "sy": -0.513}]'`` (a 1.5 deg floor rising towards
+200 deg).
 """
 from __future__ import annotations
 
 import argparse
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -28,7 +32,8 @@ def main() -> None:
     ap.add_argument("family", help="a family of physid.FAMILIES with one component")
     ap.add_argument("scope", help="e.g. side:right, joint:back_left_knee, leg:front_right")
     ap.add_argument("parameter", help="the family's primary parameter, e.g. coulomb_Nm")
-    ap.add_argument("magnitudes", help="comma-separated values")
+    ap.add_argument("magnitudes", help="comma-separated values (or, with parameter '-', a JSON "
+                                       "list of parameter sets)")
     ap.add_argument("--moves", type=int, default=4, help="fit moves used (as diagnose screens)")
     ap.add_argument("--jobs", type=int, default=2)
     a = ap.parse_args()
@@ -47,11 +52,14 @@ def main() -> None:
         masks = {"all": w, "short": np.where(np.isin(np.arange(P.N_CH), P.SHORT), w, 0.0),
                  "long": np.where(np.isin(np.arange(P.N_CH), P.LONG), w, 0.0)}
         J0 = {k: P._J(base, m) for k, m in masks.items()}
-        for mag in (float(x) for x in a.magnitudes.split(",")):
-            sims = runner.map([(i, [(a.family, a.scope, {a.parameter: mag})], "full") for i in F])
+        sets = (json.loads(a.magnitudes) if a.parameter == "-" else
+                [{a.parameter: float(x)} for x in a.magnitudes.split(",")])
+        for par in sets:
+            sims = runner.map([(i, [(a.family, a.scope, par)], "full") for i in F])
             errs = [P._errors(s, meas[i]) for i, s in zip(F, sims)]
-            print(f"{mag:.4g}: " + " ".join(f"{k} {P._J(errs, m) / J0[k]:.3f}"
-                                             for k, m in masks.items()), flush=True)
+            label = (f"{par[a.parameter]:.4g}" if a.parameter != "-" else json.dumps(par))
+            print(f"{label}: " + " ".join(f"{k} {P._J(errs, m) / J0[k]:.3f}"
+                                          for k, m in masks.items()), flush=True)
     finally:
         runner.close()
 
