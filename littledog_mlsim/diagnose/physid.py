@@ -784,6 +784,15 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
             if long:
                 d["long"] = e["long"] - base_err[i]["long"]
             sens[job][i] = _flat(d, w, long)
+
+    def fit_1d(sens_job: Mapping[int, np.ndarray]) -> tuple[float, float]:
+        """(score, scale a) of one sensitivity fitted to the whole-move residual by least
+        squares, summed over the screening moves."""
+        gg = sum(float(sens_job[i] @ sens_job[i]) for i in F)
+        bb = sum(float(sens_job[i] @ r_full[i]) for i in F)
+        a = bb / gg if gg > 0 else 0.0
+        return bb * a, a
+
     cands: list[Candidate] = []
     for fam in fams:
         spec = FAMILIES[fam]
@@ -799,26 +808,17 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
             cands += _scope_scores(fam, G, b)
         elif spec.kind == "leg":
             for g in range(len(LEGS)):
-                D = [sens[(fam, 0, g)][i] for i in F]
-                gg = sum(float(d @ d) for d in D)
-                bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
-                a = bb / gg if gg > 0 else 0.0
-                cands.append(Candidate(fam, f"leg:{LEGS[g]}", bb * a, a))
+                score, a = fit_1d(sens[(fam, 0, g)])
+                cands.append(Candidate(fam, f"leg:{LEGS[g]}", score, a))
         elif fam == "ground_tilt":   # a tilt towards each screening direction, scaled in 1-D
             for k in range(TILT_DIRECTIONS):
-                D = [sens[(fam, k, None)][i] for i in F]
-                gg = sum(float(d @ d) for d in D)
-                bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
-                a = bb / gg if gg > 0 else 0.0
-                cands.append(Candidate(fam, "body", bb * a if a > 0 else 0.0,
+                score, a = fit_1d(sens[(fam, k, None)])
+                cands.append(Candidate(fam, "body", score if a > 0 else 0.0,
                                        max(a, 0.0) * spec.probe, _tilt_direction(k)))
         elif fam == "mass_com":   # a mass at each screening position; only added mass counts
             for k, pos in enumerate(MASS_POSITIONS):
-                D = [sens[(fam, k, None)][i] for i in F]
-                gg = sum(float(d @ d) for d in D)
-                bb = sum(float(d @ r_full[i]) for d, i in zip(D, F))
-                a = bb / gg if gg > 0 else 0.0
-                cands.append(Candidate(fam, "body", bb * a if a > 0 else 0.0, a,
+                score, a = fit_1d(sens[(fam, k, None)])
+                cands.append(Candidate(fam, "body", score if a > 0 else 0.0, a,
                                        extra={"com_offset_m": pos}))
         else:
             nc = len(spec.components)
@@ -920,6 +920,13 @@ def _weights(base_err: list, F: list[int]) -> np.ndarray:
 
 def _J(errs: list, w: np.ndarray) -> float:
     return float(sum(np.nansum(_sse(e) * w) for e in errs))
+
+
+def _J_hyp(runner: _Runner, base: list, hyp: tuple[str, str, dict], F: list[int], meas: list,
+           w: np.ndarray) -> float:
+    """J (weighted output-error SSE on the moves F) of one hypothesis added to ``base``."""
+    sims = runner.map([(i, base + [hyp], "full") for i in F])
+    return _J([_errors(s_, meas[i]) for s_, i in zip(sims, F)], w)
 
 
 def _evaluate(runner: _Runner, base: list, c: Candidate, mags: list[float], F: list[int],
@@ -1051,8 +1058,7 @@ def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list,
 
     def J_of(vec: np.ndarray) -> float:
         par = _params_from(c.family, float(np.linalg.norm(vec)), vec / np.linalg.norm(vec))
-        sims = runner.map([(i, base + [(c.family, c.scope, par)], "full") for i in F])
-        return _J([_errors(s_, meas[i]) for s_, i in zip(sims, F)], w)
+        return _J_hyp(runner, base, (c.family, c.scope, par), F, meas, w)
 
     best = float(c.fitted) * np.asarray(c.direction, dtype=float)
     best_J = float(c.J)
@@ -1083,9 +1089,8 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
     w = _weights(base_err, F)
 
     def J_at(pos: tuple[float, float, float]) -> float:
-        par = {**c.params(), "com_offset_m": pos}
-        sims = runner.map([(i, base + [(c.family, c.scope, par)], "full") for i in F])
-        return _J([_errors(s_, meas[i]) for s_, i in zip(sims, F)], w)
+        return _J_hyp(runner, base, (c.family, c.scope, {**c.params(), "com_offset_m": pos}),
+                      F, meas, w)
 
     best = tuple(float(x) for x in c.extra.get("com_offset_m", (0.0, 0.0, 0.0)))
     best_J = float(c.J)
@@ -1177,7 +1182,8 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
     mu = runner.config.foot_friction * runner.config.ground_friction
     params = physical_params(best, mu)
     alts = [{"family": vocabulary_family(c.family), "searched_family": c.family,
-             "scope": c.scope, "params": physical_params(c, mu), "J_relative": None if c.J is None else c.J / c.J0,
+             "scope": c.scope, "params": physical_params(c, mu),
+             "J_relative": None if c.J is None else c.J / c.J0,
              "held_out_total_gain": h, "held_out_p": r[3][2]}
             for c, h, r in zip(top, held, results)]
     screening = [{"family": c.family, "scope": c.scope, "score": c.score,
