@@ -387,7 +387,7 @@ def test_cli_diagnose_help_and_bad_input(tmp_path):
 PHYS_TYPES = ("F", "B", "L", "R", "DL", "S")
 PHYS_FAMILIES = ["command_delay", "command_filter", "servo_gain", "joint_friction",
                  "odom_force", "body_wrench", "ground_slope"]
-PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=4,
+PHYS_OPTIONS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=3,
                     n_refine=4, families=PHYS_FAMILIES)
 
 
@@ -436,15 +436,16 @@ def test_physical_odom_fixed_force(recorded):
     assert "odom" in ph["statement"]
     e = report["effects"][0]
     assert e["augmentation"]["name"] == "heading"
-    # a slope pushes the same (m g sin(slope) downhill): the report names it as a rival these
-    # data cannot tell apart, downhill along the push, with what would separate them
+    # a slope pushes about the same (m g sin(slope) downhill): fitted on its own, the report
+    # names it as a rival these data cannot tell apart, downhill along the push, with what
+    # would separate them
     twin = [x for x in report["suspected"] if x.get("kind") == "inseparable"]
     assert [x["family"] for x in twin] == ["ground_slope"], report["suspected"]
     mg = 9.81 * get_sim("measured").total_mass()
     slope = np.degrees(np.arcsin(ph["params"]["force_N"] / mg))
-    assert twin[0]["params"]["slope_deg"] == pytest.approx(slope, rel=1e-6)
+    assert twin[0]["params"]["slope_deg"] == pytest.approx(slope, rel=0.25)
     downhill = twin[0]["params"]["uphill_direction_deg"] + 180.0
-    assert abs((downhill - ph["params"]["direction_deg"] + 180) % 360 - 180) < 1e-6
+    assert abs((downhill - ph["params"]["direction_deg"] + 180) % 360 - 180) < 20.0
     assert "IMU" in twin[0]["recording"]
 
 
@@ -479,7 +480,7 @@ def test_physical_scopes_and_shortlist():
         for r in related_scopes(scope):
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             assert a < b or b < a, (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 6 + 4 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 8 + 4 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
