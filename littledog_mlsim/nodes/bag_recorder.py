@@ -10,6 +10,15 @@ messages before it joined (e.g. measurement 0) are recorded too. On SIGINT/SIGTE
 ``max_steps`` steps are recorded, it writes the bag with the core's ``write_bag`` (atomic;
 ``out`` must not exist; its directory name ``<TYPE>_<NN>`` is the bag's name) and exits.
 
+Ready: once it has received a complete measurement (a joint state and an odometry message with
+the same stamp, e.g. the simulator's initial state, measurement 0) and its ``cmd_topic``
+subscription has a matched publisher, it logs one line (INFO) starting ``ready:``. A script
+that starts the recorder, then the simulator, then a controller waits for that line before it
+sends the first command: a subscription that the caller's own process sees in the ROS graph is
+not yet one that the simulator has matched, nor one that has received anything. (The
+simulator sends ``~/cmd_applied`` whether or not it has a subscriber, so its transient-local
+history also holds the first commands for a recorder the simulator matched late.)
+
 What goes in: the first contiguous run of the 100 Hz clock starting at the first stamp that has
 a joint state, an odometry message and an applied command; it ends at the first stamp where any
 of them is missing (a reset, a pause that dropped nothing is fine, a lost message), with the
@@ -77,10 +86,15 @@ class BagRecorder(ConfiguredNode):
         self.js: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.odom: dict[int, dict[str, np.ndarray]] = {}
         self.cmd: dict[int, np.ndarray] = {}
+        self.cmd_topic = self.param("cmd_topic")
+        # the command subscription first: it is announced to the simulator before the
+        # measurement ones, whose first message then marks the recorder ready (module doc)
+        self.cmd_sub = self.create_subscription(JointState, self.cmd_topic, self._on_cmd,
+                                                RECORD_QOS)
         self.create_subscription(JointState, TOPIC_JOINT_STATES, self._on_js, RECORD_QOS)
         self.create_subscription(Odometry, TOPIC_ODOM, self._on_odom, RECORD_QOS)
-        self.create_subscription(JointState, self.param("cmd_topic"), self._on_cmd, RECORD_QOS)
         self.done = False
+        self.ready = False
 
     def _on_js(self, msg: JointState) -> None:
         try:
@@ -99,6 +113,18 @@ class BagRecorder(ConfiguredNode):
         except ValueError as e:
             self.get_logger().warning(f"ignored a command: {e}", throttle_duration_sec=2.0)
         self._check_done()
+
+    def _check_ready(self) -> None:
+        """Log the ``ready:`` line once a complete measurement is in and the command topic has a
+        publisher (module doc)."""
+        if self.ready:
+            return
+        complete = self.js.keys() & self.odom.keys()
+        if complete and self.cmd_sub.get_publisher_count() >= 1:
+            self.ready = True
+            self.get_logger().info(
+                f"ready: measurement at {min(complete) / 1e9:.3f} s received, "
+                f"{self.cmd_sub.get_publisher_count()} publisher(s) of {self.cmd_topic}")
 
     def _stamps(self) -> list[int]:
         """The contiguous run of measurement stamps (module doc)."""
@@ -127,6 +153,7 @@ class BagRecorder(ConfiguredNode):
         try:
             while not self.done:
                 rclpy.spin_once(self, timeout_sec=0.1)
+                self._check_ready()
         except KeyboardInterrupt:
             pass
         n = self.write()

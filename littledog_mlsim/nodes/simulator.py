@@ -18,8 +18,10 @@ late-joining transient-local subscriber such as bag_recorder gets the last 10 me
   s_t, exact float64, as a stamped named vector: a JointState with ``name`` =
   ``layout.STATE_NAMES``, ``position`` = the values; ``messages.state_array``), ``~/cmd_applied``
   (JointState: the command actually applied for the step starting at its stamp, after the
-  command rule, the zero-order hold and the timeout rule; these two are only built and sent
-  while they have a subscriber) and ``~/stats`` (DiagnosticStatus, every ``stats_period`` s;
+  command rule, the zero-order hold and the timeout rule; always sent, so that its
+  transient-local history, like that of the measurements, holds the last 10 for a recorder
+  whose subscription the node matches only after the first steps; ``~/state`` is only built
+  and sent while it has a subscriber) and ``~/stats`` (DiagnosticStatus, every ``stats_period`` s;
   key/value strings: ``step_mode``, ``paused``, ``sim_time``, the counters below, ``steps``,
   ``steps_skipped``, ``diverged``, ``resets``, and over the last period ``rate_hz``,
   ``real_time_factor`` (simulated seconds per wall second), ``step_ms_p50/p99/max`` (step
@@ -259,8 +261,11 @@ class SimulatorNode(ConfiguredNode):
     def _publish(self, ns: int, u: np.ndarray | None) -> None:
         """Send the backend's outputs stamped ``ns`` (the core's ``publish``)."""
         b = self.backend
-        # ~/cmd_applied and ~/state are built only while someone subscribes (CPU per step)
-        if u is not None and self.pub_applied.get_subscription_count():
+        # ~/cmd_applied always (a small message): sent only while a subscriber was matched,
+        # the commands of the steps before this node matched a recorder (which the recorder's
+        # own process may have seen matched already) were never sent, nor kept in the
+        # transient-local history, and the recording lost its first steps
+        if u is not None:
             self.pub_applied.publish(m.joint_state_msg(ns - m.CONTROL_DT_NS, u))
         if self.pub_clock is not None:
             self.pub_clock.publish(m.clock_msg(ns))
@@ -270,6 +275,7 @@ class SimulatorNode(ConfiguredNode):
                                          b.twist_covariance))
         if self.pub_tf is not None:
             self.pub_tf.publish(self._tf(ns, b.position, b.orientation))
+        # ~/state is built only while someone subscribes (CPU per step)
         if b.state is not None and self.pub_state.get_subscription_count():
             self.pub_state.publish(m.state_msg(ns, b.state))
 
