@@ -1026,10 +1026,23 @@ def _refine_wide(runner: _Runner, base: list, c: Candidate, base_err: list, F: l
     through those three; the best of the four is kept. Body and leg families are fitted on the
     4 s replays too, which flip between gait patterns at some magnitudes and not at
     neighbouring ones: over a few moves this makes the error profile jagged about the true
-    value, over one move of each type it is smoother (benchmarks/blind_zoo/README.md)."""
-    spec = FAMILIES[c.family]
+    value, over one move of each type it is smoother (benchmarks/blind_zoo/README.md).
+
+    A planar force or slope is then turned by +-12 and +-6 deg on every fit move too (its
+    direction from the screening moves alone can be off by more than the magnitude's tolerance
+    allows), and if that helps its magnitude is refitted once more."""
     if c.fitted is None or len(F) == 0:
         return
+    _wide_magnitude(runner, base, c, base_err, F, meas, fractions)
+    if c.direction is not None and len(c.direction) == 2 and c.J is not None and \
+            _turn(runner, base, c, F, meas, _weights(base_err, F), (12.0, 6.0)):
+        _wide_magnitude(runner, base, c, base_err, F, meas, fractions)
+
+
+def _wide_magnitude(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
+                    meas: list, fractions: Sequence[float]) -> None:
+    """The magnitude step of :func:`_refine_wide` (its docstring)."""
+    spec = FAMILIES[c.family]
     lo, hi = spec.bounds
     w = _weights(base_err, F)
     J0 = _J([base_err[i] for i in F], w)
@@ -1067,7 +1080,16 @@ def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list,
     Then the magnitude is refitted along the best direction."""
     if c.direction is None or c.fitted is None or len(c.direction) != 2:
         return
-    w = _weights(base_err, F)
+    if _turn(runner, base, c, F, meas, _weights(base_err, F), steps_deg):
+        c.magnitude = float(c.fitted)
+        _refine(runner, base, c, base_err, F, meas)
+
+
+def _turn(runner: _Runner, base: list, c: Candidate, F: list[int], meas: list,
+          w: np.ndarray, steps_deg: Sequence[float]) -> bool:
+    """A planar hypothesis turned by -+step around its best direction so far, for each step, at
+    its fitted magnitude on the moves ``F`` (weights ``w``, against ``c.J`` on the same moves).
+    Keeps the best direction (and its J) in ``c``; True if it turned."""
 
     def J_of(vec: np.ndarray) -> float:
         par = _params_from(c.family, float(np.linalg.norm(vec)), vec / np.linalg.norm(vec))
@@ -1086,8 +1108,9 @@ def _refine_direction(runner: _Runner, base: list, c: Candidate, base_err: list,
                 best, best_J = v, j
     if best_J < c.J:
         c.direction = best / np.linalg.norm(best)
-        c.magnitude = float(np.linalg.norm(best))
-        _refine(runner, base, c, base_err, F, meas)
+        c.J = best_J
+        return True
+    return False
 
 
 def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
