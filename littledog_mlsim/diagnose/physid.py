@@ -171,6 +171,13 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
 # A pure torque fixed to the body, about one of base_link's axes (x roll, y pitch, z yaw).
 TORQUE_AXES = {"body_roll_torque": 0, "body_pitch_torque": 1, "body_torque": 2}
 _AXIS_WORDS = {0: "x (base_link, roll)", 1: "y (base_link, pitch)", 2: "z (base_link)"}
+# (what it does, its sense when > 0, when < 0) in a finding's statement
+_TORQUE_WORDS = {
+    "body_torque": ("twisting the body about its vertical axis",
+                    "counter-clockwise seen from above", "clockwise seen from above"),
+    "body_roll_torque": ("rolling the body about its forward axis", "its left side pushed up",
+                         "its right side pushed up"),
+    "body_pitch_torque": ("pitching the body about its lateral axis", "nose down", "nose up")}
 
 # Families that act alike on data whose odometry frame stays level with the ground: a slope
 # tilts gravity, i.e. adds m g sin(slope) downhill, fixed in odom, like a world-fixed push.
@@ -1354,18 +1361,10 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "body_wrench":
         return (f"About {v:.2f} N pushing the body along {params['direction_deg']:.0f} deg in "
                 f"base_link (fixed to the body)")
-    if family == "body_torque":
-        turn = "counter-clockwise" if v >= 0 else "clockwise"
-        return (f"About {abs(v):.3f} N m twisting the body about its vertical axis ({turn} seen "
-                f"from above; a torque fixed to the body, no net force)")
-    if family == "body_roll_torque":
-        side = "left" if v >= 0 else "right"
-        return (f"About {abs(v):.3f} N m rolling the body about its forward axis (its {side} "
-                f"side pushed up; a torque fixed to the body, no net force)")
-    if family == "body_pitch_torque":
-        end = "nose down" if v >= 0 else "nose up"
-        return (f"About {abs(v):.3f} N m pitching the body about its lateral axis ({end}; a "
-                f"torque fixed to the body, no net force)")
+    if family in TORQUE_AXES:
+        what, positive, negative = _TORQUE_WORDS[family]
+        return (f"About {abs(v):.3f} N m {what} ({positive if v >= 0 else negative}; a torque "
+                f"fixed to the body, no net force)")
     if family == "ground_slope":
         return (f"Ground inclined by about {v:.1f} deg, uphill towards "
                 f"{params['uphill_direction_deg']:.0f} deg in odom")

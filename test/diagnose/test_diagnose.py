@@ -544,3 +544,24 @@ def test_physical_clean_data_raises_no_alarm(recorded, seed, excitation):
     report = _diagnose_physical(data, recorded / f"p_clean_{seed}_out")
     assert report["significant"] is False and report["effects"] == []
     assert report["physics"]["rejected"], "the best candidate is reported as rejected"
+
+
+def test_physical_torque_axes_and_foot_friction_names():
+    """A pure torque acts about the axis its family names; a foot's friction ratio is the
+    vocabulary's leg_difference (a scaled property of one leg), with the coefficient beside it."""
+    from littledog_mlsim.diagnose.physid import (Candidate, build_effects, physical_params,
+                                                 statement, vocabulary_family)
+    for fam, axis in (("body_roll_torque", 0), ("body_pitch_torque", 1), ("body_torque", 2)):
+        (wrench,) = build_effects(fam, "body", {"torque_Nm": -0.2})
+        assert wrench.torque == pytest.approx(np.eye(3)[axis] * -0.2)
+        assert not np.any(wrench.force)
+        pp = physical_params(Candidate(fam, "body", 1.0, -0.2, fitted=-0.2))
+        assert vocabulary_family(fam) == "body_wrench" and pp["force_N"] == 0.0
+        assert pp["torque_Nm"] == -0.2 and pp["torque_axis"][0] == "xyz"[axis]
+    assert "right side pushed up" in statement("body_roll_torque", "body", {"torque_Nm": -0.1})
+    assert "nose down" in statement("body_pitch_torque", "body", {"torque_Nm": 0.1})
+    pp = physical_params(Candidate("foot_slip", "leg:back_right", 1.0, 0.15, fitted=0.15), 0.8)
+    assert vocabulary_family("foot_slip") == "leg_difference"
+    assert pp["scale"] == pp["friction_ratio"] == 0.15
+    assert pp["friction_coefficient"] == pytest.approx(0.12)
+    assert "15 % of normal" in statement("foot_slip", "leg:back_right", pp)
