@@ -234,9 +234,11 @@ class LittleDogSim:
         self._command_hooks = [e.command for e in effects if hasattr(e, "command")]
         self._substep_hooks = [e.substep for e in effects if hasattr(e, "substep")]
         self._measure_hooks = [e.measure for e in effects if hasattr(e, "measure")]
-        for e in effects:
-            if hasattr(e, "reset"):
-                e.reset(self)
+        resets = [e.reset for e in effects if hasattr(e, "reset")]
+        for hook in resets:
+            hook(self)
+        if resets:   # a reset hook may have moved the body (e.g. onto a floor it has tilted)
+            state = self.true_state()
         # The pose one control step earlier (constant-velocity extrapolation), measured, so that
         # the first twist is a finite difference like all later ones.
         r = quat_to_matrix(state.orientation)

@@ -225,6 +225,29 @@ def test_initial_state_starts_there():
         dataclasses.replace(start, q=np.zeros(11)).validated()
 
 
+class _TiltOnReset:
+    """A plug-in whose reset carries the standing robot 3 deg about x, at rest (as a floor
+    tilted under it would)."""
+
+    def reset(self, sim):
+        c = sim.client
+        pos, orn = p.getBasePositionAndOrientation(sim.robot, physicsClientId=c)
+        tilt = p.getQuaternionFromAxisAngle([1.0, 0.0, 0.0], np.radians(3.0))
+        p.resetBasePositionAndOrientation(sim.robot, pos, p.multiplyTransforms(
+            [0, 0, 0], tilt, [0, 0, 0], orn)[1], physicsClientId=c)
+        p.resetBaseVelocity(sim.robot, [0, 0, 0], [0, 0, 0], physicsClientId=c)
+
+
+def test_first_twist_is_measured_after_the_effects_reset():
+    """A reset hook that moves the body at rest must not show up as a twist at t = 0 (the first
+    twist is a finite difference from the pose one step earlier, taken after the hooks)."""
+    rec = simulate_move(commands("F", 6)[:5], robot=quiet(), effects=[_TiltOnReset()])
+    assert Rotation.from_quat(rec.orientation[0]).as_euler("xyz")[0] == pytest.approx(
+        np.radians(3.0), abs=1e-3)
+    assert np.abs(rec.angular_velocity[0]).max() < 1e-6
+    assert np.abs(rec.linear_velocity[0]).max() < 1e-6
+
+
 def test_simulate_move_rejects_bad_input():
     with pytest.raises(ValueError, match="shape"):
         simulate_move(np.zeros((10, 11)))
