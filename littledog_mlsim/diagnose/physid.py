@@ -1046,12 +1046,15 @@ def _refine_wide(runner: _Runner, base: list, c: Candidate, base_err: list, F: l
     _wide_magnitude(runner, base, c, base_err, F, meas, fractions)
     if c.direction is not None and len(c.direction) == 2 and c.J is not None and \
             _turn(runner, base, c, F, meas, _weights(base_err, F), (12.0, 6.0)):
-        _wide_magnitude(runner, base, c, base_err, F, meas, fractions)
+        # the turned direction's J at the fitted magnitude is known: not simulated again
+        _wide_magnitude(runner, base, c, base_err, F, meas, fractions, {float(c.fitted): c.J})
 
 
 def _wide_magnitude(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
-                    meas: list, fractions: Sequence[float]) -> None:
-    """The magnitude step of :func:`_refine_wide` (its docstring)."""
+                    meas: list, fractions: Sequence[float],
+                    known: Mapping[float, float] | None = None) -> None:
+    """The magnitude step of :func:`_refine_wide` (its docstring); ``known``: J already
+    evaluated on these moves along the current direction, by magnitude."""
     spec = FAMILIES[c.family]
     lo, hi = spec.bounds
     w = _weights(base_err, F)
@@ -1059,7 +1062,7 @@ def _wide_magnitude(runner: _Runner, base: list, c: Candidate, base_err: list, F
     dev = float(c.fitted) - spec.neutral
     if abs(dev) < 1e-9:
         return
-    evals: dict[float, float] = {}
+    evals: dict[float, float] = dict(known or {})
 
     def run(mags: list[float]) -> None:
         _evaluate(runner, base, c, [m for m in mags if m not in evals], F, meas, w, evals)
