@@ -471,15 +471,17 @@ def test_physical_scopes_and_shortlist():
     """The scope check's neighbours, the library's size and the shortlist's classes."""
     from littledog_mlsim.diagnose.physid import (FAMILIES, Candidate, _shortlist, library_size,
                                                  related_scopes, scope_joints, scopes_for)
-    assert related_scopes("joint:back_left_knee") == ["leg:back_left", "type:knees",
-                                                      "side:left", "all"]
+    assert related_scopes("joint:back_left_knee") == [
+        "joint:back_left_hip_roll", "joint:back_left_hip_pitch", "leg:back_left", "type:knees",
+        "side:left", "all"]
     assert related_scopes("leg:front_right") == ["side:right", "all"]
     assert related_scopes("side:left") == ["leg:front_left", "leg:back_left", "all"]
     for scope in ("joint:front_right_hip_roll", "leg:back_right", "side:right", "type:knees",
                   "all"):   # each neighbour holds the scope or is held by it
-        for r in related_scopes(scope):
+        for r in related_scopes(scope):   # or, for one joint, is a joint of the same leg
             a, b = set(scope_joints(scope)), set(scope_joints(r))
-            assert a < b or b < a, (scope, r)
+            same_leg = r.startswith("joint:") and r.split("_")[:2] == scope.split("_")[:2]
+            assert a < b or b < a or (len(a) == len(b) == 1 and same_leg), (scope, r)
     assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 8 + 4 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
@@ -524,6 +526,37 @@ def test_physical_mass_com_position_and_servo_saturation():
     play = ServoDeadband(0.1, "knees")
     play._kp, play._kd, play._lim0 = weak._kp, weak._kd, weak._lim0
     assert play.extra(e, dq, 0.0) == pytest.approx([-0.01, -0.3, 0.0, 0.0])
+
+
+def test_mass_com_position_walks_the_valley_of_constant_first_moment(monkeypatch):
+    """A lighter mass further out tilts the body as a heavier one nearer in does: the position
+    search ends by trading mass against offset at a constant first moment, so it leaves the mass
+    it started from when a heavier (or lighter) one fits better. A stand-in objective whose
+    valley is mass x offset = 0.3 kg x -0.05 m and whose floor is lowest at 0.3 kg."""
+    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.diagnose.physid import Candidate, mass_com_of
+
+    def J(runner, base, hyp, F, meas, w):
+        m, (x, y, z) = mass_com_of(hyp[2])
+        return 100 * (m * x + 0.015) ** 2 + (m - 0.3) ** 2 + y ** 2 + z ** 2
+
+    refits = []
+    monkeypatch.setattr(physid, "_J_hyp", J)
+    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(1))
+    monkeypatch.setattr(physid, "_refine", lambda runner, base, c, *a: refits.append(c.magnitude))
+    c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.15,
+                  extra={"com_offset_m": (-0.1, 0.0, 0.0)})
+    c.J = J(None, None, c.hyp(), None, None, None)
+    physid._refine_position(None, [], c, [], [0], [])
+    m, (x, y, z) = mass_com_of(c.params(refits[0]))
+    # up the valley by 1.5 twice (a third would pass the floor), back by 1.2
+    assert refits == [pytest.approx(0.15 * 1.5 * 1.5 / 1.2, rel=1e-9)]
+    assert m * x == pytest.approx(-0.015, rel=2e-3) and (y, z) == (0.0, 0.0)   # 0.1 mm steps
+    # a candidate already at the floor stays where it is
+    c = Candidate("mass_com", "body", 1.0, 0.3, fitted=0.3, extra={"com_offset_m": (-0.05, 0, 0)})
+    c.J, refits[:] = J(None, None, c.hyp(), None, None, None), []
+    physid._refine_position(None, [], c, [], [0], [])
+    assert refits == [] and c.extra["com_offset_m"] == (-0.05, 0, 0)
 
 
 @pytest.mark.slow
