@@ -1196,7 +1196,11 @@ def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: li
                     base_err: list, F: list[int], meas: list) -> list[Candidate]:
     """The best joint hypothesis refitted on its related scopes (:func:`related_scopes`); the
     best of those by the fit moves' error joins the shortlist if it fits about as well
-    (within 10 %), so that the held-out decision also chooses the scope."""
+    (within 10 %), so that the held-out decision also chooses the scope. A family whose
+    parameter may lie either side of neutral (an encoder offset) starts each scope's fit on the
+    side that fits it better: the neighbouring joint's offset that best imitates the true one
+    can have the other sign (zoo4's z07: +0.075 rad on the hip roll for -0.1 rad on the hip
+    pitch)."""
     joint = [c for c in top if FAMILIES[c.family].kind == "joints" and c.family != "time_drift"
              and c.J is not None]
     if not joint:
@@ -1208,12 +1212,31 @@ def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: li
         if (c0.family, scope) in have:
             continue
         v = Candidate(c0.family, scope, 0.0, float(c0.fitted))
+        _start_side(runner, base, v, base_err, F, meas)
         _refine(runner, base, v, base_err, F, meas)
         variants.append(v)
     if not variants:
         return []
     best = min(variants, key=lambda c: c.J)
     return [best] if best.J <= 1.1 * c0.J else []
+
+
+def _start_side(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
+                meas: list) -> None:
+    """For a family signed about its neutral value, ``c.magnitude`` mirrored about neutral if
+    the mirror image fits the moves ``F`` better (on the channels :func:`_refine` fits)."""
+    spec = FAMILIES[c.family]
+    lo, hi = spec.bounds
+    dev = float(c.magnitude) - spec.neutral
+    if not lo < spec.neutral < hi or abs(dev) < 1e-9:
+        return
+    w = _weights(base_err, F)
+    if spec.kind == "joints":
+        w[LONG] = 0.0
+    mags = [float(np.clip(spec.neutral + s * dev, lo, hi)) for s in (1, -1)]
+    evals: dict[float, float] = {}
+    _evaluate(runner, base, c, mags, F, meas, w, evals)
+    c.magnitude = min(evals, key=evals.get)
 
 
 def push_twin(c: Candidate, robot_mass: float) -> Candidate:

@@ -559,6 +559,29 @@ def test_mass_com_position_walks_the_valley_of_constant_first_moment(monkeypatch
     assert refits == [] and c.extra["com_offset_m"] == (-0.05, 0, 0)
 
 
+def test_signed_family_starts_its_scope_fit_on_the_better_side(monkeypatch):
+    """A neighbouring joint's encoder offset is first tried at the fitted magnitude's mirror
+    image too (a stand-in objective lowest at -0.1 rad); a one-sided family is left alone."""
+    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.diagnose.physid import Candidate
+
+    def evaluate(runner, base, c, mags, F, meas, w, evals):
+        assert w[physid.LONG].sum() == 0.0      # a joint family: the 1 s segments' channels
+        evals.update({m: (m + 0.1) ** 2 for m in mags})
+
+    monkeypatch.setattr(physid, "_evaluate", evaluate)
+    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(physid.N_CH))
+    v = Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, 0.075)
+    physid._start_side(None, [], v, [], [0], [])
+    assert v.magnitude == pytest.approx(-0.075)
+    v = Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, -0.05)
+    physid._start_side(None, [], v, [], [0], [])
+    assert v.magnitude == pytest.approx(-0.05)
+    g = Candidate("joint_friction", "joint:back_left_knee", 0.0, 0.1)   # bounds start at 0
+    physid._start_side(None, [], g, [], [0], [])
+    assert g.magnitude == 0.1
+
+
 @pytest.mark.slow
 def test_physical_servo_gain_of_one_joint(recorded):
     data = _record_small(recorded, "p_gain", 123,
