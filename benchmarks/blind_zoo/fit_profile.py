@@ -36,7 +36,14 @@ def main() -> None:
                                        "list of parameter sets)")
     ap.add_argument("--moves", type=int, default=4, help="fit moves used (as diagnose screens)")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--friction-smoothing", type=float, default=None, metavar="RAD_S",
+                    help="the velocity over which JointFriction's Coulomb term passes through "
+                         "zero, for this run (default: the library's)")
     a = ap.parse_args()
+    if a.friction_smoothing is not None:   # the workers are forked: they see the new default
+        from littledog_mlsim.robot import effects as fx
+        *head, _ = fx.JointFriction.__init__.__defaults__
+        fx.JointFriction.__init__.__defaults__ = (*head, a.friction_smoothing)
     index = read_index(a.data)
     train = load_moves(a.data, "train")
     cfg = replace(as_config(index.info.get("robot", "measured")), sensor_noise=False)
