@@ -1139,8 +1139,8 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
     +-4 cm ahead and +-3 cm to the side, then +-2 and +-1.5 cm around the best so far, then
     3 cm higher or lower. Then along the valley of a constant first moment: a lighter mass
     further out tilts the body as a heavier one nearer in does, so a search at a fixed mass
-    stops on the first mass it fitted (zoo4's payload, 0.17 kg for 0.3 kg:
-    benchmarks/blind_zoo/README.md, after zoo4); the mass is scaled by each step in
+    stops on the first mass it fitted (benchmarks/blind_zoo/README.md, before the fifth
+    zoo); the mass is scaled by each step in
     ``valley_steps`` and its offset divided by it, up or down while the fit improves. The mass
     is refitted at the best position."""
     if c.family != "mass_com" or c.fitted is None or c.J is None:
@@ -1197,10 +1197,10 @@ def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: li
     """The best joint hypothesis refitted on its related scopes (:func:`related_scopes`); the
     best of those by the fit moves' error joins the shortlist if it fits about as well
     (within 10 %), so that the held-out decision also chooses the scope. A family whose
-    parameter may lie either side of neutral (an encoder offset) starts each scope's fit on the
-    side that fits it better: the neighbouring joint's offset that best imitates the true one
-    can have the other sign (zoo4's z07: +0.075 rad on the hip roll for -0.1 rad on the hip
-    pitch)."""
+    parameter may lie either side of neutral (an encoder offset, a servo gain) starts each
+    scope's fit on the side that fits it better: the neighbouring joint's offset that best
+    imitates the true one can have the other sign (benchmarks/blind_zoo/README.md, before the
+    fifth zoo)."""
     joint = [c for c in top if FAMILIES[c.family].kind == "joints" and c.family != "time_drift"
              and c.J is not None]
     if not joint:
