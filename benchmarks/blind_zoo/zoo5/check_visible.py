@@ -11,8 +11,8 @@ effect:
 - joint angle RMS difference [rad] (measured q, all joints, all steps);
 - body z change [m]: mean of (z(t) - z(0)) effect minus clean;
 - fall check: the worst |roll| / |pitch| [rad] relative to the first sample and the lowest body
-  height above its start; a move counts as fallen if the tilt exceeds 0.7 rad or the body drops
-  more than 0.07 m below its start.
+  height above its start; a move counts as fallen if the tilt exceeds 0.35 rad or the body drops
+  more than 0.03 m below its start.
 
 Two modes:
 
@@ -36,8 +36,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[2]))
 from littledog_mlsim.data.bags import read_bag  # noqa: E402
 
-TILT_FALL = 0.7
-DROP_FALL = 0.07
+TILT_FALL = 0.35
+DROP_FALL = 0.03
 
 
 def _yaw(q: np.ndarray) -> np.ndarray:
