@@ -126,7 +126,11 @@ def main(argv: list[str] | None = None) -> int:
         r = compare(load(epath), cleans[exc])
         rows.append((t["id"], exc, r))
         print(t["id"], "done", file=sys.stderr, flush=True)
-    lines = ["Command: `" + " ".join(["python"] + [str(x) for x in sys.argv]) + "`", "",
+    lines = ["Command (from benchmarks/blind_zoo/zoo5, PYTHONPATH=<repository root>, "
+             "OPENBLAS_NUM_THREADS=1): `" + " ".join(["python"] + [str(x) for x in sys.argv]) + "`",
+             "", "Same seed, effect versus clean, move by move; see check_visible.py for the "
+             "columns. A move counts as fallen above %.2f rad of tilt or %.2f m of drop." % (
+                 TILT_FALL, DROP_FALL), "",
              "| effect | excitation | moves | final (x,y) diff [m] | relative to clean travel | "
              "final yaw diff [rad] | joint q RMS diff [rad] | mean z change [m] | "
              "worst tilt [rad] | worst drop [m] | fallen moves |",
