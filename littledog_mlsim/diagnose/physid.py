@@ -704,9 +704,6 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
                 _fit(runner, base, twin, base_err, FS, F, meas)
                 top.append(twin)
             top += _scope_variants(runner, base, top, cands, base_err, FS, meas)
-            for c in top:   # joint magnitudes too on every fit move, once the scope is chosen
-                if FAMILIES[c.family].kind == "joints":
-                    _wide_magnitude(runner, base, c, base_err, F, meas, (0.7, 1.0, 1.4))
             top.sort(key=lambda c: c.J / c.J0)
             say(f"physics round {rnd + 1}: fitted " + "; ".join(
                 f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}" for c in top))
@@ -1061,15 +1058,10 @@ def _wide_magnitude(runner: _Runner, base: list, c: Candidate, base_err: list, F
                     meas: list, fractions: Sequence[float],
                     known: Mapping[float, float] | None = None) -> None:
     """The magnitude step of :func:`_refine_wide` (its docstring); ``known``: J already
-    evaluated on these moves along the current direction, by magnitude. A joint family is
-    refitted so too, on the 1 s segments' channels as in :func:`_refine`: over the few
-    screening moves a weak joint effect's profile is flat and its minimum wanders
-    (benchmarks/blind_zoo/README.md, the fifth zoo)."""
+    evaluated on these moves along the current direction, by magnitude."""
     spec = FAMILIES[c.family]
     lo, hi = spec.bounds
     w = _weights(base_err, F)
-    if spec.kind == "joints":
-        w[LONG] = 0.0
     J0 = _J([base_err[i] for i in F], w)
     dev = float(c.fitted) - spec.neutral
     if abs(dev) < 1e-9:

@@ -582,30 +582,6 @@ def test_signed_family_starts_its_scope_fit_on_the_better_side(monkeypatch):
     assert g.magnitude == 0.1
 
 
-def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments(monkeypatch):
-    """The refit on every fit move weighs a joint family on the 1 s segments' channels only
-    (a body family on all) and keeps the best of 0.7, 1, 1.4x and the parabola's vertex."""
-    from littledog_mlsim.diagnose import physid
-    from littledog_mlsim.diagnose.physid import Candidate
-    seen = []
-
-    def evaluate(runner, base, c, mags, F, meas, w, evals):
-        seen.append((c.family, float(w[physid.LONG].sum()), len(F)))
-        evals.update({m: (m - 0.062) ** 2 + 1.0 for m in mags})
-
-    monkeypatch.setattr(physid, "_evaluate", evaluate)
-    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(physid.N_CH))
-    monkeypatch.setattr(physid, "_J", lambda errs, w: 2.0)
-    c = Candidate("joint_friction", "side:right", 1.0, 0.05, fitted=0.043)
-    physid._wide_magnitude(None, [], c, [None] * 11, list(range(11)), [], (0.7, 1.0, 1.4))
-    assert c.fitted == pytest.approx(0.062) and c.J == pytest.approx(1.0) and c.J0 == 2.0
-    assert {s[1] for s in seen} == {0.0} and {s[2] for s in seen} == {11}
-    seen.clear()
-    b = Candidate("body_torque", "body", 1.0, 0.05, fitted=0.043)
-    physid._wide_magnitude(None, [], b, [None] * 11, list(range(11)), [], (0.7, 1.0, 1.4))
-    assert seen[0][1] == len(physid.LONG)
-
-
 @pytest.mark.slow
 def test_physical_servo_gain_of_one_joint(recorded):
     data = _record_small(recorded, "p_gain", 123,
