@@ -967,20 +967,28 @@ def _evaluate(runner: _Runner, base: list, c: Candidate, mags: list[float], F: l
         evals[m] = _J([_errors(sims[k * len(F) + n], meas[i]) for n, i in enumerate(F)], w)
 
 
+def _fit_weights(family: str, base_err: list, F: list[int]) -> np.ndarray:
+    """The channel weights a family's magnitude is fitted with on the moves F: a joint family's
+    from the 1 s segments only (the 4 s replays of a few moves flip between gaits, a foot
+    landing a step earlier, at some magnitudes and not at neighbouring ones, which makes their
+    error jump about the true value), a body or leg family's on all channels."""
+    w = _weights(base_err, F)
+    if FAMILIES[family].kind == "joints":
+        w[LONG] = 0.0
+    return w
+
+
 def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
-            meas: list) -> None:
+            meas: list, known: Mapping[float, float] | None = None) -> None:
     """1-D fit of the magnitude by re-simulation (module doc, step 4): a grid around the
     first-order estimate, then a parabola through the best point and its neighbours, then the
     midpoints between the best point and its neighbours, twice. Joint families are fitted on the
-    1 s segments' channels, body and leg families on all."""
+    1 s segments' channels, body and leg families on all (:func:`_fit_weights`). ``known``: J
+    already evaluated on these moves with these weights, by magnitude; a grid point found there
+    is not simulated again."""
     spec = FAMILIES[c.family]
     lo, hi = spec.bounds
-    w = _weights(base_err, F)
-    if spec.kind == "joints":
-        # a joint family's magnitude from the 1 s segments only: the 4 s replays of a few moves
-        # flip between gaits (a foot lands a step earlier) at some magnitudes and not at
-        # neighbouring ones, which makes their error jump about the true value
-        w[LONG] = 0.0
+    w = _fit_weights(c.family, base_err, F)
     J0 = _J([base_err[i] for i in F], w)
     m0 = float(np.clip(c.magnitude, lo, hi))
     dev = m0 - spec.neutral
@@ -990,7 +998,7 @@ def _refine(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[i
     # foot that only slips below the friction its stance needs): a finer grid up to the bound
     fractions = (0.6, 1.0, 1.5) if m0 == c.magnitude else (0.2, 0.4, 0.6, 0.8, 0.95)
     grid = sorted({float(np.clip(spec.neutral + dev * f, lo, hi)) for f in fractions})
-    evals: dict[float, float] = {}
+    evals = {m: j for m, j in (known or {}).items() if m in grid}
 
     def run(mags: list[float]) -> None:
         _evaluate(runner, base, c, [m for m in mags if m not in evals], F, meas, w, evals)
@@ -1140,9 +1148,8 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
     3 cm higher or lower. Then along the valley of a constant first moment: a lighter mass
     further out tilts the body as a heavier one nearer in does, so a search at a fixed mass
     stops on the first mass it fitted (benchmarks/blind_zoo/README.md, before the fifth
-    zoo); the mass is scaled by each step in
-    ``valley_steps`` and its offset divided by it, up or down while the fit improves. The mass
-    is refitted at the best position."""
+    zoo); the mass is scaled by each step in ``valley_steps`` and its offset divided by it, up
+    or down while the fit improves. The mass is refitted at the best position."""
     if c.family != "mass_com" or c.fitted is None or c.J is None:
         return
     w = _weights(base_err, F)
@@ -1212,8 +1219,8 @@ def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: li
         if (c0.family, scope) in have:
             continue
         v = Candidate(c0.family, scope, 0.0, float(c0.fitted))
-        _start_side(runner, base, v, base_err, F, meas)
-        _refine(runner, base, v, base_err, F, meas)
+        side = _start_side(runner, base, v, base_err, F, meas)
+        _refine(runner, base, v, base_err, F, meas, known=side)
         variants.append(v)
     if not variants:
         return []
@@ -1222,21 +1229,20 @@ def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: li
 
 
 def _start_side(runner: _Runner, base: list, c: Candidate, base_err: list, F: list[int],
-                meas: list) -> None:
+                meas: list) -> dict[float, float]:
     """For a family signed about its neutral value, ``c.magnitude`` mirrored about neutral if
-    the mirror image fits the moves ``F`` better (on the channels :func:`_refine` fits)."""
+    the mirror image fits the moves ``F`` better (with :func:`_fit_weights`). Returns the J of
+    the magnitude kept, for :func:`_refine` (empty if nothing was evaluated)."""
     spec = FAMILIES[c.family]
     lo, hi = spec.bounds
     dev = float(c.magnitude) - spec.neutral
     if not lo < spec.neutral < hi or abs(dev) < 1e-9:
-        return
-    w = _weights(base_err, F)
-    if spec.kind == "joints":
-        w[LONG] = 0.0
+        return {}
     mags = [float(np.clip(spec.neutral + s * dev, lo, hi)) for s in (1, -1)]
     evals: dict[float, float] = {}
-    _evaluate(runner, base, c, mags, F, meas, w, evals)
+    _evaluate(runner, base, c, mags, F, meas, _fit_weights(c.family, base_err, F), evals)
     c.magnitude = min(evals, key=evals.get)
+    return {c.magnitude: evals[c.magnitude]}
 
 
 def push_twin(c: Candidate, robot_mass: float) -> Candidate:

@@ -578,8 +578,19 @@ def test_signed_family_starts_its_scope_fit_on_the_better_side(monkeypatch):
     physid._start_side(None, [], v, [], [0], [])
     assert v.magnitude == pytest.approx(-0.05)
     g = Candidate("joint_friction", "joint:back_left_knee", 0.0, 0.1)   # bounds start at 0
-    physid._start_side(None, [], g, [], [0], [])
-    assert g.magnitude == 0.1
+    assert physid._start_side(None, [], g, [], [0], []) == {} and g.magnitude == 0.1
+    # the side's J is handed to the fit, which then does not simulate it again: same result
+    monkeypatch.setattr(physid, "_J", lambda errs, w: 1.0)
+    runs, fits = [], []
+    for known in (False, True):
+        v = Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, 0.075)
+        side = physid._start_side(None, [], v, [None], [0], [])
+        runs.clear()
+        monkeypatch.setattr(physid, "_evaluate", lambda *a: (runs.extend(a[3]), evaluate(*a)))
+        physid._refine(None, [], v, [None], [0], [], known=side if known else None)
+        fits.append((v.fitted, v.J, len(runs)))
+        monkeypatch.setattr(physid, "_evaluate", evaluate)
+    assert fits[0][:2] == fits[1][:2] and fits[1][2] == fits[0][2] - 1
 
 
 @pytest.mark.slow
