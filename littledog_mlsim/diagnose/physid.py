@@ -347,7 +347,8 @@ def _rpy(orient: np.ndarray) -> np.ndarray:
 
 def _simulate(task: tuple[int, list[tuple[str, str, dict]], str]) -> dict[str, np.ndarray]:
     """Re-simulate move ``i`` with the hypotheses' plug-ins: segments (4, 100, 18) of
-    [q (12), position (3), roll, pitch, yaw]; ``full`` mode also the 4 s replay (400, 18)."""
+    [q (12), position (3), roll, pitch, yaw]; ``full`` mode also the 4 s replay (400, 18),
+    ``segs`` mode the four segments without it, ``short`` mode the segments SCREEN_SEGMENTS."""
     from ..robot.sim import simulate_move
     i, hyps, mode = task
     mv: _Move = _WORKER["moves"][i]
@@ -368,6 +369,9 @@ def _simulate(task: tuple[int, list[tuple[str, str, dict]], str]) -> dict[str, n
         full = run(0, mv.cmd.shape[0])
         out["full"] = full
         segs = [full[:SEG_LEN]] + [run(k0, SEG_LEN) for k0 in SEG_STARTS[1:]]
+        out["seg_idx"] = np.arange(len(SEG_STARTS))
+    elif mode == "segs":
+        segs = [run(k0, SEG_LEN) for k0 in SEG_STARTS]
         out["seg_idx"] = np.arange(len(SEG_STARTS))
     else:   # "short": the 1 s segments SCREEN_SEGMENTS only
         segs = [run(SEG_STARTS[k], SEG_LEN) for k in SCREEN_SEGMENTS]
@@ -704,6 +708,9 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
                 _fit(runner, base, twin, base_err, FS, F, meas)
                 top.append(twin)
             top += _scope_variants(runner, base, top, cands, base_err, FS, meas)
+            for c in top:   # joint magnitudes too on every fit move, once the scope is chosen
+                if FAMILIES[c.family].kind == "joints":
+                    _wide_magnitude(runner, base, c, base_err, F, meas, (0.7, 1.0, 1.4))
             top.sort(key=lambda c: c.J / c.J0)
             say(f"physics round {rnd + 1}: fitted " + "; ".join(
                 f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}" for c in top))
@@ -958,10 +965,13 @@ def _J_hyp(runner: _Runner, base: list, hyp: tuple[str, str, dict], F: list[int]
 
 def _evaluate(runner: _Runner, base: list, c: Candidate, mags: list[float], F: list[int],
               meas: list, w: np.ndarray, evals: dict[float, float]) -> None:
-    """J (weighted output-error SSE on the moves F) of ``c`` at each magnitude, into ``evals``."""
+    """J (weighted output-error SSE on the moves F) of ``c`` at each magnitude, into ``evals``.
+    A joint family's J leaves out the 4 s replays (:func:`_fit_weights`), so they are not
+    simulated for it."""
     if not mags:
         return
-    sims = runner.map([(i, base + [(c.family, c.scope, c.params(m))], "full")
+    mode = "segs" if FAMILIES[c.family].kind == "joints" else "full"
+    sims = runner.map([(i, base + [(c.family, c.scope, c.params(m))], mode)
                        for m in mags for i in F])
     for k, m in enumerate(mags):
         evals[m] = _J([_errors(sims[k * len(F) + n], meas[i]) for n, i in enumerate(F)], w)
@@ -1066,10 +1076,13 @@ def _wide_magnitude(runner: _Runner, base: list, c: Candidate, base_err: list, F
                     meas: list, fractions: Sequence[float],
                     known: Mapping[float, float] | None = None) -> None:
     """The magnitude step of :func:`_refine_wide` (its docstring); ``known``: J already
-    evaluated on these moves along the current direction, by magnitude."""
+    evaluated on these moves along the current direction, by magnitude. A joint family's
+    magnitude is refitted so too, with its own weights (:func:`_fit_weights`), once its scope
+    is chosen: over the few screening moves a weak joint effect's profile is flat and its
+    minimum wanders (benchmarks/blind_zoo/README.md, the fifth zoo)."""
     spec = FAMILIES[c.family]
     lo, hi = spec.bounds
-    w = _weights(base_err, F)
+    w = _fit_weights(c.family, base_err, F)
     J0 = _J([base_err[i] for i in F], w)
     dev = float(c.fitted) - spec.neutral
     if abs(dev) < 1e-9:

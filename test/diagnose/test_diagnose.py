@@ -593,6 +593,58 @@ def test_signed_family_starts_its_scope_fit_on_the_better_side(monkeypatch):
     assert fits[0][:2] == fits[1][:2] and fits[1][2] == fits[0][2] - 1
 
 
+def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments(monkeypatch):
+    """The refit on every fit move weighs a joint family on the 1 s segments' channels only
+    (a body family on all) and keeps the best of 0.7, 1, 1.4x and the parabola's vertex."""
+    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.diagnose.physid import Candidate
+    seen = []
+
+    def evaluate(runner, base, c, mags, F, meas, w, evals):
+        seen.append((c.family, float(w[physid.LONG].sum()), len(F)))
+        evals.update({m: (m - 0.062) ** 2 + 1.0 for m in mags})
+
+    monkeypatch.setattr(physid, "_evaluate", evaluate)
+    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(physid.N_CH))
+    monkeypatch.setattr(physid, "_J", lambda errs, w: 2.0)
+    c = Candidate("joint_friction", "side:right", 1.0, 0.05, fitted=0.043)
+    physid._wide_magnitude(None, [], c, [None] * 11, list(range(11)), [], (0.7, 1.0, 1.4))
+    assert c.fitted == pytest.approx(0.062) and c.J == pytest.approx(1.0) and c.J0 == 2.0
+    assert {s[1] for s in seen} == {0.0} and {s[2] for s in seen} == {11}
+    seen.clear()
+    b = Candidate("body_torque", "body", 1.0, 0.05, fitted=0.043)
+    physid._wide_magnitude(None, [], b, [None] * 11, list(range(11)), [], (0.7, 1.0, 1.4))
+    assert seen[0][1] == len(physid.LONG)
+
+
+def test_joint_fit_simulates_the_segments_without_the_replay(monkeypatch):
+    """A joint family's J leaves out the 4 s replay, so its fit asks for the four 1 s segments
+    only; a body family's for the replay too. Both give the same J for a joint family."""
+    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.diagnose.physid import Candidate
+
+    class Runner:
+        modes = []
+
+        def map(self, tasks):
+            self.modes += [t[2] for t in tasks]
+            return [{"segs": np.zeros((4, physid.SEG_LEN, 18)), "seg_idx": np.arange(4)}
+                    for _ in tasks]
+
+    monkeypatch.setattr(physid, "_errors", lambda s, m: {"short": s["segs"] + 1.0})
+    r, evals = Runner(), {}
+    w = np.ones(physid.N_CH)
+    w[physid.LONG] = 0.0
+    physid._evaluate(r, [], Candidate("joint_friction", "all", 1.0, 0.05), [0.05, 0.1],
+                     [0, 1], [None, None], w, evals)
+    assert set(r.modes) == {"segs"} and len(r.modes) == 4
+    assert evals[0.05] == pytest.approx(2 * 4 * physid.SEG_LEN * 18)
+    r.modes.clear()
+    physid._evaluate(r, [], Candidate("body_torque", "body", 1.0, 0.05), [0.05], [0], [None],
+                     w, {})
+    assert r.modes == ["full"]
+
+
 @pytest.mark.slow
 def test_physical_servo_gain_of_one_joint(recorded):
     data = _record_small(recorded, "p_gain", 123,
