@@ -144,6 +144,8 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("servo_gain", "joints", "gain_ratio", "1", -0.25, (0.05, 3.0), neutral=1.0),
     FamilySpec("joint_friction", "joints", "coulomb_Nm", "N m", 0.05, (0.0, 0.6)),
     FamilySpec("backlash", "joints", "width_rad", "rad", 0.03, (0.0, 0.3)),
+    FamilySpec("setpoint_backlash", "joints", "width_rad", "rad", 0.04, (0.0, 0.4),
+               command_path=True, reported_as="backlash"),
     FamilySpec("torque_saturation", "joints", "torque_limit_ratio", "1", -0.5, (0.05, 1.0),
                neutral=1.0),
     FamilySpec("encoder_offset", "joints", "offset_rad", "rad", 0.03, (-0.3, 0.3)),
@@ -221,6 +223,8 @@ def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[
         return [fx.JointFriction(coulomb=max(v, 0.0), joints=joints)]
     if family == "backlash":
         return [fx.ServoDeadband(max(v, 0.0), joints)]
+    if family == "setpoint_backlash":
+        return [fx.SetpointBacklash(max(v, 0.0), joints)]
     if family == "torque_saturation":
         return [_TorqueRatio(max(params["torque_limit_ratio"], 0.0), joints)]
     if family == "encoder_offset":
@@ -1373,6 +1377,10 @@ def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
     if c.family == "swing_drag":
         return {"magnitude": float(m), "phase": "swing",
                 "quantity": "drag force on the swinging foot [N]", "force_N": float(m)}
+    if c.family in ("backlash", "setpoint_backlash"):
+        return {"width_rad": float(m), "form": ("play on the set-point path"
+                                                if c.family == "setpoint_backlash"
+                                                else "play in the joint (servo dead zone)")}
     if c.family == "foot_adhesion":
         return {"magnitude": float(m), "phase": "lift-off",
                 "quantity": "downward pull on the foot from touch-down until it has risen "
@@ -1417,6 +1425,9 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     if family == "backlash":
         return (f"{W}: about {v:.3f} rad of play (backlash): the servo drives no torque while "
                 f"the joint is within {v / 2:.3f} rad of its set-point")
+    if family == "setpoint_backlash":
+        return (f"{W}: about {v:.3f} rad of play (backlash) on the set-point path: the servo's "
+                f"set-point holds until the command has moved {v / 2:.3f} rad past it")
     if family == "torque_saturation":
         return (f"{W}: servo torque saturates at about {100 * params['torque_limit_ratio']:.0f} "
                 f"% of the normal limit ({params['torque_limit_Nm']:.2f} N m)")

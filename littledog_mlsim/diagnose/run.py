@@ -261,7 +261,7 @@ def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
         return CommandFilter(time_constant_ms=round(tau, 1), joints=group) if tau > 1 else None
     if family == "joint_friction":
         return JointRateSign(smoothing=0.05, joints=group, error_smoothing=0.02)
-    if family == "backlash":
+    if family in ("backlash", "setpoint_backlash"):
         w = float(params["width_rad"])
         return Play(width=round(w, 4), source="u") if w > 1e-4 else None
     if family == "torque_saturation":

@@ -88,6 +88,7 @@ def test_physical_effect_features_are_the_same_in_batch_and_online(synthetic_mov
              ("command_filter", "side:left", {"time_constant_ms": 25.0}),
              ("joint_friction", "type:knees", {"coulomb_Nm": 0.05}),
              ("backlash", "all", {"width_rad": 0.03}),
+             ("setpoint_backlash", "leg:back_right", {"width_rad": 0.08}),
              ("torque_saturation", "type:knees", {"torque_limit_ratio": 0.7}),
              ("odom_force", "body", {"force_N": 1.0}), ("time_drift", "all", {"rate_per_s": -0.1})]
     for fam, scope, par in cases:
@@ -482,7 +483,7 @@ def test_physical_scopes_and_shortlist():
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             same_leg = r.startswith("joint:") and r.split("_")[:2] == scope.split("_")[:2]
             assert a < b or b < a or (len(a) == len(b) == 1 and same_leg), (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 7 * 22 + 1 + 8 + 4 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 8 * 22 + 1 + 8 + 4 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
@@ -684,3 +685,15 @@ def test_physical_torque_axes_and_foot_friction_names():
     assert pp["scale"] == pp["friction_ratio"] == 0.15
     assert pp["friction_coefficient"] == pytest.approx(0.12)
     assert "15 % of normal" in statement("foot_slip", "leg:back_right", pp)
+    # backlash's two forms: play in the joint, and a play operator on the set-point path
+    (play,) = build_effects("setpoint_backlash", "leg:back_right", {"width_rad": 0.08})
+    u = np.zeros(12)
+    play.reset(None)
+    play.command(u, 0.0)
+    u[9:12] = 0.1     # the back-right leg's set-points (contract order) move 0.1 rad
+    assert play.command(u, 0.01)[9:12] == pytest.approx(0.06)
+    pp = physical_params(Candidate("setpoint_backlash", "leg:back_right", 1.0, 0.08,
+                                   fitted=0.08))
+    assert vocabulary_family("setpoint_backlash") == "backlash" and pp["width_rad"] == 0.08
+    assert pp["form"] != physical_params(Candidate("backlash", "all", 1.0, 0.08))["form"]
+    assert "0.040 rad past it" in statement("setpoint_backlash", "leg:back_right", pp)
