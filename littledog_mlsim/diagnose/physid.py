@@ -270,6 +270,18 @@ MASS_POSITIONS: tuple[tuple[float, float, float], ...] = (
     (0.0, -0.04, 0.02))
 
 
+# Where a carried load's centre of mass can be (base_link [m]): within the body's box
+# (0.33 x 0.11 x 0.14 m, centred 4.5 cm above the origin; littledog.urdf) or a load strapped to
+# its sides or top. The position search stays inside: a gram at 70 cm is not a payload.
+PAYLOAD_REACH_M: tuple[tuple[float, float], ...] = ((-0.165, 0.165), (-0.08, 0.08),
+                                                    (-0.03, 0.2))
+
+
+def within_reach(pos: Sequence[float]) -> bool:
+    """Whether a payload position lies within :data:`PAYLOAD_REACH_M`."""
+    return all(lo <= float(x) <= hi for x, (lo, hi) in zip(pos, PAYLOAD_REACH_M))
+
+
 # ground_tilt is screened as a tilt of the floor towards each of these many directions (uphill
 # every 45 deg): a floor tilted the wrong way puts the measured stance into or above it, so the
 # response is far from linear in the two tilt components and a first-order fit of them fails.
@@ -1162,7 +1174,8 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
                      valley_steps: Sequence[float] = (1.5, 1.2)) -> None:
     """mass_com's position searched around the best screening position at the fitted mass:
     +-4 cm ahead and +-3 cm to the side, then +-2 and +-1.5 cm around the best so far, then
-    3 cm higher or lower. Then along the valley of a constant first moment: a lighter mass
+    3 cm higher or lower, within the body's reach (:data:`PAYLOAD_REACH_M`). Then along the
+    valley of a constant first moment: a lighter mass
     further out tilts the body as a heavier one nearer in does, so a search at a fixed mass
     stops on the first mass it fitted (benchmarks/blind_zoo/README.md, before the fifth
     zoo); the mass is scaled by each step in ``valley_steps`` and its offset divided by it, up
@@ -1183,6 +1196,8 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
         start = best
         for d in tries:
             pos = tuple(round(a + b, 4) for a, b in zip(start, d))
+            if not within_reach(pos):
+                continue
             j = J_at(pos)
             if j < best_J:
                 best, best_J = pos, j
@@ -1193,6 +1208,8 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
             moved = False
             while lo <= mass * f <= hi:
                 pos = tuple(round(a / f, 4) for a in best)
+                if not within_reach(pos):
+                    break
                 j = J_at(pos, mass * f)
                 if j >= best_J:
                     break

@@ -558,6 +558,21 @@ def test_mass_com_position_walks_the_valley_of_constant_first_moment(monkeypatch
     c.J, refits[:] = J(None, None, c.hyp(), None, None, None), []
     physid._refine_position(None, [], c, [], [0], [])
     assert refits == [] and c.extra["com_offset_m"] == (-0.05, 0, 0)
+    # an objective that always prefers a lighter mass further back: the walk stops at the
+    # body's reach instead of a gram far behind it
+    seen = []
+
+    def lighter(runner, base, hyp, F, meas, w):
+        m, pos = mass_com_of(hyp[2])
+        seen.append(pos)
+        return m
+    monkeypatch.setattr(physid, "_J_hyp", lighter)
+    c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.2, extra={"com_offset_m": (-0.1, 0, 0)})
+    c.J, refits[:] = 0.2, []
+    physid._refine_position(None, [], c, [], [0], [])
+    assert seen and all(physid.within_reach(p) for p in seen)
+    assert physid.within_reach(c.extra["com_offset_m"]) and c.extra["com_offset_m"][0] < -0.11
+    assert not physid.within_reach((-0.709, 0.0, 0.253))
 
 
 def test_signed_family_starts_its_scope_fit_on_the_better_side(monkeypatch):
