@@ -116,7 +116,9 @@ class FamilySpec:
     ``components``: the parameters screened jointly (one per sensitivity simulation; joint
     families have one, the magnitude); ``probe``: the magnitude of a sensitivity simulation (per
     component); ``bounds``: the 1-D fit's range of the magnitude; ``kind``: ``joints``,
-    ``body`` or ``leg`` (one foot).
+    ``body`` or ``leg`` (one foot); ``deep_probe``: a joint family's second screening probe,
+    for a threshold effect (a torque limit) that does nothing until it is strong: at the
+    first probe its sensitivity can be zero however strong the effect is.
     """
 
     name: str
@@ -130,6 +132,7 @@ class FamilySpec:
     command_path: bool = False        # acts on the set-points (identifiable with excitation)
     reported_as: str = ""             # the vocabulary's family if the search splits one
     phase: str = ""                   # contact_phase: the phase the term acts in
+    deep_probe: float | None = None   # a joint family's second screening probe
 
     @property
     def vocabulary(self) -> str:
@@ -147,7 +150,7 @@ FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
     FamilySpec("setpoint_backlash", "joints", "width_rad", "rad", 0.04, (0.0, 0.4),
                command_path=True, reported_as="backlash"),
     FamilySpec("torque_saturation", "joints", "torque_limit_ratio", "1", -0.5, (0.05, 1.0),
-               neutral=1.0),
+               neutral=1.0, deep_probe=-0.8),
     FamilySpec("encoder_offset", "joints", "offset_rad", "rad", 0.03, (-0.3, 0.3)),
     FamilySpec("time_drift", "joints", "rate_per_s", "1/s", -0.08, (-0.24, 0.24)),
     FamilySpec("odom_force", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
@@ -771,8 +774,9 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     for fam in fams:
         spec = FAMILIES[fam]
         if spec.kind == "joints" and fam != "time_drift":
-            for j in range(N_JOINTS):
-                jobs.append((fam, 0, j))
+            for k in range(1 if spec.deep_probe is None else 2):
+                for j in range(N_JOINTS):
+                    jobs.append((fam, k, j))
         elif spec.kind == "leg":
             for g in range(len(LEGS)):
                 jobs.append((fam, 0, g))
@@ -788,7 +792,8 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     for fam, c, j in jobs:
         spec = FAMILIES[fam]
         mode = "short" if spec.kind == "joints" and fam != "time_drift" else "full"
-        probe = spec.neutral + spec.probe
+        probe = spec.neutral + (spec.deep_probe if c == 1 and spec.kind == "joints"
+                                else spec.probe)
         if spec.kind == "joints":
             scope = "all" if j is None else f"joint:{JOINT_NAMES[j]}"
             par = {spec.primary: probe}
@@ -840,15 +845,22 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     for fam in fams:
         spec = FAMILIES[fam]
         if spec.kind == "joints" and fam != "time_drift":
-            J = [(fam, 0, j) for j in range(N_JOINTS)]
-            G = np.zeros((N_JOINTS, N_JOINTS))
-            b = np.zeros(N_JOINTS)
-            for i in F:
-                D = np.stack([sens[jb][i] for jb in J])
-                r = r_short[i]
-                G += D @ D.T
-                b += D @ r
-            cands += _scope_scores(fam, G, b)
+            best: dict[str, Candidate] = {}
+            for k in range(1 if spec.deep_probe is None else 2):
+                J = [(fam, k, j) for j in range(N_JOINTS)]
+                G = np.zeros((N_JOINTS, N_JOINTS))
+                b = np.zeros(N_JOINTS)
+                for i in F:
+                    D = np.stack([sens[jb][i] for jb in J])
+                    r = r_short[i]
+                    G += D @ D.T
+                    b += D @ r
+                for c in _scope_scores(fam, G, b):   # per scope, the probe that explains more
+                    if k == 1:   # in units of the first probe (converted below)
+                        c.magnitude *= spec.deep_probe / spec.probe
+                    if c.scope not in best or c.score > best[c.scope].score:
+                        best[c.scope] = c
+            cands += list(best.values())
         elif spec.kind == "leg":
             for g in range(len(LEGS)):
                 score, a = fit_1d(sens[(fam, 0, g)])

@@ -633,6 +633,47 @@ def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments(monkeypatch):
     assert seen[0][1] == len(physid.LONG)
 
 
+def test_threshold_family_is_screened_at_its_deep_probe_too():
+    """A torque limit does nothing until it is low: a stand-in robot whose hip rolls change
+    the outputs only below 30 % of their limit. The screen's first probe (50 %) sees nothing;
+    its deep probe (20 %) names the hip rolls, at about the 20 % that reproduces the data."""
+    from littledog_mlsim.diagnose import physid
+    rng = np.random.default_rng(3)
+    sig = rng.normal(size=(4, physid.SEG_LEN, 18))
+    sig_full = rng.normal(size=(4 * physid.SEG_LEN, 18))
+    other = rng.normal(size=(4, physid.SEG_LEN, 18))
+    hip_rolls = set(physid.scope_joints("type:hip_rolls").tolist())
+
+    class Runner:
+        def map(self, tasks):
+            out = []
+            for i, hyps, mode in tasks:
+                k = sum(0.25 for fam, sc, par in hyps if fam == "torque_saturation"
+                        and par["torque_limit_ratio"] <= 0.3
+                        and set(physid.scope_joints(sc).tolist()) <= hip_rolls)
+                # the other joints, that low, change the outputs another way
+                n = sum(len(physid.scope_joints(sc)) for fam, sc, par in hyps
+                        if par["torque_limit_ratio"] <= 0.3
+                        and not set(physid.scope_joints(sc).tolist()) <= hip_rolls)
+                idx = (np.arange(4) if mode != "short"
+                       else np.array(physid.SCREEN_SEGMENTS))
+                o = {"segs": (1.0 - k) * sig[idx] + 0.3 * n * other[idx], "seg_idx": idx}
+                if mode == "full":
+                    o["full"] = (1.0 - k) * sig_full
+                out.append(o)
+            return out
+
+    meas = [physid._Measured(np.zeros((4, physid.SEG_LEN, 18)),
+                             np.zeros((4 * physid.SEG_LEN, 18)))]
+    runner = Runner()
+    base_err = [physid._errors(runner.map([(0, [], "full")])[0], meas[0])]
+    cands = physid._screen(runner, [], base_err, meas, [0], ["torque_saturation"],
+                           lambda s: None)
+    assert physid.FAMILIES["torque_saturation"].deep_probe is not None
+    assert cands[0].scope == "type:hip_rolls"
+    assert cands[0].magnitude == pytest.approx(0.2, abs=0.01)
+
+
 def test_joint_fit_simulates_the_segments_without_the_replay(monkeypatch):
     """A joint family's J leaves out the 4 s replay, so its fit asks for the four 1 s segments
     only; a body family's for the replay too. Both give the same J for a joint family."""
