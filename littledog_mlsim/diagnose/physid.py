@@ -197,7 +197,7 @@ def vocabulary_family(family: str) -> str:
 def scopes_for(family: str) -> list[str]:
     spec = FAMILIES[family]
     if spec.kind == "joints":
-        return ["all"] if family == "time_drift" else joint_scopes()
+        return joint_scopes()
     if spec.kind == "leg":
         return [f"leg:{g}" for g in LEGS]
     return ["body"]
@@ -773,7 +773,7 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     tasks = []
     for fam in fams:
         spec = FAMILIES[fam]
-        if spec.kind == "joints" and fam != "time_drift":
+        if spec.kind == "joints":
             for k in range(1 if spec.deep_probe is None else 2):
                 for j in range(N_JOINTS):
                     jobs.append((fam, k, j))
@@ -844,7 +844,7 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     cands: list[Candidate] = []
     for fam in fams:
         spec = FAMILIES[fam]
-        if spec.kind == "joints" and fam != "time_drift":
+        if spec.kind == "joints":   # time_drift on the whole moves (it grows over 4 s)
             best: dict[str, Candidate] = {}
             for k in range(1 if spec.deep_probe is None else 2):
                 J = [(fam, k, j) for j in range(N_JOINTS)]
@@ -852,7 +852,7 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
                 b = np.zeros(N_JOINTS)
                 for i in F:
                     D = np.stack([sens[jb][i] for jb in J])
-                    r = r_short[i]
+                    r = r_full[i] if fam == "time_drift" else r_short[i]
                     G += D @ D.T
                     b += D @ r
                 for c in _scope_scores(fam, G, b):   # per scope, the probe that explains more
@@ -886,7 +886,7 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
                 b += D @ r
             a = np.linalg.lstsq(G + 1e-12 * np.eye(nc), b, rcond=None)[0]
             score = float(b @ a)
-            scope = "all" if fam == "time_drift" else "body"
+            scope = "body"
             if nc > 1:
                 mag = float(np.linalg.norm(a)) * spec.probe
                 direction = a / np.linalg.norm(a) if np.linalg.norm(a) > 0 else np.eye(nc)[0]
@@ -1254,8 +1254,7 @@ def _scope_variants(runner: _Runner, base: list, top: list[Candidate], cands: li
     scope's fit on the side that fits it better: the neighbouring joint's offset that best
     imitates the true one can have the other sign (benchmarks/blind_zoo/README.md, before the
     fifth zoo)."""
-    joint = [c for c in top if FAMILIES[c.family].kind == "joints" and c.family != "time_drift"
-             and c.J is not None]
+    joint = [c for c in top if FAMILIES[c.family].kind == "joints" and c.J is not None]
     if not joint:
         return []
     c0 = min(joint, key=lambda c: c.J)
