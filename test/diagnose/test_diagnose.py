@@ -633,6 +633,26 @@ def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments(monkeypatch):
     assert seen[0][1] == len(physid.LONG)
 
 
+def test_segments_mode_equals_the_full_runs_segments():
+    """A joint family's fits simulate the four 1 s segments alone (mode ``segs``); they are the
+    full run's segments, bit for bit (the first is the 4 s replay's first second)."""
+    from dataclasses import replace
+    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.gait.trot import TrotParams, trot_commands
+    from littledog_mlsim.robot.config import as_config
+    from littledog_mlsim.robot.sim import InitialState, simulate_move
+    cfg = replace(as_config("measured"), sensor_noise=False)
+    rec = simulate_move(trot_commands(TrotParams("F", (0.1, 0.0), 0.0, 0.5, 0.03)), robot=cfg)
+    mv = physid._Move(rec.name, rec.move_type, np.asarray(rec.cmd, dtype=float),
+                      {k: InitialState.from_recording(rec, k) for k in physid.SEG_STARTS})
+    physid._init_worker(cfg, [mv])
+    hyp = [("joint_friction", "side:right", {"coulomb_Nm": 0.06})]
+    full, segs = physid._simulate((0, hyp, "full")), physid._simulate((0, hyp, "segs"))
+    assert "full" not in segs
+    np.testing.assert_array_equal(segs["segs"], full["segs"])
+    np.testing.assert_array_equal(segs["seg_idx"], full["seg_idx"])
+
+
 def test_threshold_family_is_screened_at_its_deep_probe_too():
     """A torque limit does nothing until it is low: a stand-in robot whose hip rolls change
     the outputs only below 30 % of their limit. The screen's first probe (50 %) sees nothing;
