@@ -526,8 +526,10 @@ def build_physical_report(pid: Any, effect_augs: Sequence[Any], effect_stage: Se
         "before": stages[0], "after": stages[-1], "stages": list(stages), "rounds": [],
         "search": {"kind": "physical identification", "alpha": pid.alpha,
                    "min_gain": pid.min_gain, "library_size": pid.library_size,
-                   "test": "one-sided t-test over held-out moves of per-move output-error SSE "
-                           "cuts (pooled over channels and per channel), Bonferroni"},
+                   "test": "one-sided tests over held-out moves of per-move output-error SSE "
+                           "cuts: pooled over channels, t-test and signed-rank of bounded cuts "
+                           "(max over the hypotheses compared, common sign flips); per channel, "
+                           "t-test; Bonferroni over channels, hypotheses and the three tests"},
         "physics": pid.describe(),
         **info,
     }

@@ -773,3 +773,41 @@ def test_physical_torque_axes_and_foot_friction_names():
     assert vocabulary_family("setpoint_backlash") == "backlash" and pp["width_rad"] == 0.08
     assert pp["form"] != physical_params(Candidate("backlash", "all", 1.0, 0.08))["form"]
     assert "0.040 rad past it" in statement("setpoint_backlash", "leg:back_right", pp)
+
+
+def test_held_out_rank_test_has_power_on_uneven_cuts_and_keeps_its_level():
+    """The held-out rank test (``physid.rank_max_p`` of ``physid.move_cuts``): a cut carried by a
+    few moves and small but consistent on the rest is found where a t-test over moves misses
+    it; one channel re-rolled on one move cannot outweigh the rest; under the null (cuts
+    symmetric about zero) p is uniform; comparing copies of one hypothesis costs nothing."""
+    from littledog_mlsim.diagnose import physid as P
+    rng = np.random.default_rng(3)
+    uneven = np.r_[[6.0, 5.0, 4.0], rng.uniform(0.01, 0.1, 19)]
+    p_t = float(P._t_greater(uneven[:, None])[0])
+    p_rank = float(P.rank_max_p([uneven])[0])
+    assert p_t > 0.002 and p_rank < 1e-4, (p_t, p_rank)
+    # the null: 300 sets of 22 heavy-tailed symmetric cuts; the fraction below 0.05 stays near it
+    ps = np.array([P.rank_max_p([rng.standard_t(2, 22)], n_flips=999, seed=k)[0]
+                   for k in range(300)])
+    assert 0.02 <= np.mean(ps < 0.05) <= 0.09, np.mean(ps < 0.05)
+    assert 0.35 <= np.mean(ps < 0.5) <= 0.65
+    # three copies and the one: the same p (the flips are common); an unrelated rival raises it
+    c = rng.normal(0.3, 1.0, 22)
+    one = P.rank_max_p([c])[0]
+    assert np.allclose(P.rank_max_p([c, c, c]), one)
+    assert P.rank_max_p([c, rng.normal(0.0, 1.0, 22)])[0] >= one
+    # a move the hypothesis leaves unchanged (cut 0) counts for neither side
+    assert P.rank_max_p([np.r_[c, np.zeros(5)]])[0] == pytest.approx(one, abs=0.01)
+    # every move about 20 % better on each channel (noisily); on 2 moves one channel's replay is
+    # re-rolled (100x its error): the bounded cuts keep every move, the t-tests do not
+    S0 = rng.uniform(0.5, 1.5, (22, P.N_CH))
+    S1 = S0 * rng.uniform(0.2, 1.4, (22, P.N_CH))
+    S1[:2, 20] = 100.0 * S0[:2, 20]
+    cuts = P.move_cuts(S0, S1)
+    assert np.all(np.abs(cuts) <= P.N_CH) and np.all(cuts > 0)
+    gain, p_ch, p_adj, sig, mat = P.decide_all(S0, [S1, S0.copy()], 0.01, 0.05)[0]
+    p_r = P.rank_max_p([cuts, np.zeros(22)])[0]
+    assert sig and p_adj == pytest.approx(P.N_TESTS * p_r) and p_r < 1e-3
+    d = 22 * (S0 - S1) / S0.sum(axis=0)   # the t-tests alone would not pass
+    assert P._t_greater(d.sum(axis=1, keepdims=True))[0] * 2 > 0.01
+    assert p_ch.min() * P.N_CH * 2 > 0.01
