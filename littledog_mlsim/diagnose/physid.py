@@ -42,9 +42,11 @@ Method
    first-order one and refit the magnitude (:func:`_refine_direction`).
    This is the transducer: the parameter is the plug-in's value that reproduces the data.
 5. **Decision on held-out moves.** The fitted shortlist is re-simulated on other TrainPool moves
-   (not used to screen or fit): the hypothesis with the largest summed held-out SSE cut is the
-   finding (the 4 s replays are chaotic, so a fit on a few moves alone can prefer a hypothesis
-   that only re-rolls the dice); per-move SSE cuts, one-sided tests over moves: pooled over
+   (not used to screen or fit): the hypothesis with the largest mean per-move cut
+   (:func:`move_cuts`, bounded per move and channel) is the finding (the 4 s replays are
+   chaotic, so a fit on a few moves alone can prefer a hypothesis that only re-rolls the dice,
+   and a cut summed relative to each channel's total lets a few moves' re-rolled replays
+   decide); per-move SSE cuts, one-sided tests over moves: pooled over
    channels a t-test and a signed-rank max test over the shortlist (:func:`rank_max_p` of
    :func:`move_cuts`), per channel t-tests, Bonferroni over the three, the shortlist (the
    t-tests) and the 36 channels; it counts if significant
@@ -1363,7 +1365,8 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
     """Held-out decision and TestPool before/after (module doc, step 5).
 
     Every fitted hypothesis of the shortlist is re-simulated on the held-out moves V; the one
-    with the largest summed held-out SSE cut is the finding, and its tests are adjusted for
+    with the largest mean per-move cut (:func:`move_cuts`: each move's and channel's cut
+    relative to that move's own error, bounded) is the finding, and its tests are adjusted for
     that choice (:func:`decide_all`: the rank test's max over the shortlist, the t-tests x the
     shortlist's size). The library's size does not
     enter: the held-out moves took no part in screening or fitting.
@@ -1378,8 +1381,8 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
     results = [r + (dec,) for r, dec in zip(results, decide_all(S0, [r[2] for r in results],
                                                                 alpha, min_gain))]
     held = [float(np.nansum(r[3][0])) for r in results]
-    g_best = max(held)
-    kb = int(np.argmax(held))
+    score = [float(np.mean(move_cuts(S0, r[2]))) for r in results]
+    kb = int(np.argmax(score))
     best = results[kb][0]
     if best.family in PUSH_CLASS:
         twins = [k for k, r in enumerate(results) if r[0].family in PUSH_CLASS
@@ -1394,6 +1397,7 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
             results = [r[:3] + (dec,) for r, dec in
                        zip(results, decide_all(S0, [r[2] for r in results], alpha, min_gain))]
             held.append(float(np.nansum(results[-1][3][0])))
+            score.append(float(np.mean(move_cuts(S0, S1w))))
             twins = [len(results) - 1]
         # A recording's odometry is taken as level in the world (motion capture, or an estimate
         # aided by an IMU), where a slope is a tilted floor (ground_tilt) and a turned gravity is
@@ -1401,7 +1405,7 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
         # the ground. So where the two push alike, the push is the finding.
         k = twins[0]
         if best.family == "ground_slope" and results[k][3][3] and \
-                held[k] >= INSEPARABLE_SHARE * g_best:
+                score[k] >= INSEPARABLE_SHARE * score[kb]:
             kb = k
     best, err1, S1, (gain, p_ch, p_adj, sig, mat) = results[kb]
     if T:
@@ -1413,8 +1417,8 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
     alts = [{"family": vocabulary_family(c.family), "searched_family": c.family,
              "scope": c.scope, "params": physical_params(c, mu),
              "J_relative": None if c.J is None else c.J / c.J0,
-             "held_out_total_gain": h, "held_out_p": r[3][2]}
-            for c, h, r in zip(top, held, results)]
+             "held_out_total_gain": h, "held_out_move_cut": m, "held_out_p": r[3][2]}
+            for c, h, m, r in zip(top, held, score, results)]
     screening = [{"family": c.family, "scope": c.scope, "score": c.score,
                   "first_order_magnitude": c.magnitude} for c in cands[:10]]
     return Finding(best.family, best.scope, params, statement(best.family, best.scope, params),
