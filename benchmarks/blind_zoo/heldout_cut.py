@@ -3,9 +3,12 @@
 
 Re-simulates a dataset's held-out TrainPool moves (2 of each type after the fit move, as
 ``physid.identify`` picks them) with and without each hypothesis and prints the decision
-(``physid.decide``: summed cut, adjusted p, significant, material), every channel's cut, the
-per-move pooled cuts and the moves that lose most. With ``--also`` the hypotheses are compared as
-``diagnose`` compares a shortlist (``physid.decide_all``). This is how the README's account of zoo2's torque-limit miss was measured:
+(``physid.decide``: summed cut, adjusted p, significant, material), the pooled t-test alone,
+the summed cut of the short (1 s) and long (4 s) channels, every channel's cut, the per-move cuts
+(pooled relative to each channel's total, and bounded, as the rank test takes them) and the moves
+that lose most. With ``--also`` the hypotheses are compared as ``diagnose`` compares a shortlist
+(``physid.decide_all``). This is how the README's account of zoo2's torque-limit miss was
+measured:
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/heldout_cut.py \
         DATA torque_saturation type:hip_pitches '{"torque_limit_ratio": 0.518}'
@@ -63,15 +66,18 @@ def main() -> None:
     else:
         decisions = P.decide_all(S0, S1s, 0.01, 0.05)
     for hyp, S1, (gain, p_ch, p_adj, sig, mat) in zip(hyps, S1s, decisions):
-        cuts = P.move_cuts(S0, S1)
-        print(f"{hyp}: {len(recs)} held-out moves: summed cut {np.nansum(gain):+.2f}, adjusted "
-              f"p {p_adj:.3g}, significant {sig}, material {mat}")
+        share = (S0 - S1) / np.where(S0.sum(axis=0) > 0, S0.sum(axis=0), 1.0)
+        pooled = len(recs) * np.nansum(share, axis=1)   # decide's pooled per-move cut
+        print(f"{hyp}: {len(recs)} held-out moves: summed cut {np.nansum(gain):+.2f} (short "
+              f"{np.nansum(gain[P.SHORT]):+.2f}, long {np.nansum(gain[P.LONG]):+.2f}), adjusted "
+              f"p {p_adj:.3g}, significant {sig}, material {mat}; pooled t-test alone p "
+              f"{float(P._t_greater(pooled[:, None])[0]):.3g}")
+        print("  per-move pooled cuts, sorted: " + " ".join(f"{c:+.2f}" for c in np.sort(pooled)))
         print("  per-move cuts of the rank test, sorted: "
-              + " ".join(f"{c:+.2f}" for c in np.sort(cuts)))
+              + " ".join(f"{c:+.2f}" for c in np.sort(P.move_cuts(S0, S1))))
         for j in np.argsort(gain):
             print(f"  {P.CHANNELS[j]:30s} cut {gain[j]:+8.3f}  p {p_ch[j]:.3g}  "
                   f"baseline SSE {S0[:, j].sum():.3g}")
-        share = (S0 - S1) / np.where(S0.sum(axis=0) > 0, S0.sum(axis=0), 1.0)
         for m in np.argsort(share.sum(axis=1))[:3]:
             print(f"  move {recs[m].name}: its part of the summed cut {share[m].sum():+.2f}")
 

@@ -52,7 +52,8 @@ def show(paths: list[str]) -> None:
         dec = P.decide_all(S0, S1s, 0.01, 0.05)
         summed = [float(np.nansum(d[0])) for d in dec]
         bounded = [float(np.mean(P.move_cuts(S0, S1))) for S1 in S1s]
-        print(f"{path}: {len(S1s)} hypotheses, {S0.shape[0]} held-out moves")
+        print(f"{path}: {len(S1s)} hypotheses, {S0.shape[0]} held-out moves, smallest adjusted "
+              f"p of any {min(d[2] for d in dec):.2g}")
         for rule, vals in (("summed cut (to zoo6)", summed), ("bounded per-move cut", bounded)):
             k = int(np.argmax(vals))
             fam, scope, fitted, _ = top[k]
