@@ -14,6 +14,10 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+# the hang guards and the leak check, shared with test/test_guards.py's inner runs
+from guards import (leaves_no_threads_or_children, pytest_runtest_protocol,  # noqa: E402,F401
+                    pytest_sessionfinish)
+
 
 @pytest.fixture(scope="session")
 def small_dataset(tmp_path_factory) -> Path:

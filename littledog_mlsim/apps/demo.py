@@ -188,25 +188,19 @@ class _Link:
     ``/littledog/cmd`` publisher and subscriptions to its outputs, messages kept by stamp."""
 
     def __init__(self, label: str, node_name: str, domain: int, cond: threading.Condition) -> None:
-        import rclpy
         from nav_msgs.msg import Odometry
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.node import Node
-        from rclpy.signals import SignalHandlerOptions
         from sensor_msgs.msg import JointState
 
         from ..layout import TOPIC_CMD, TOPIC_JOINT_STATES, TOPIC_ODOM
         from ..nodes.simulator import QOS
+        from ..nodes.spinner import Spinner
 
         self.label, self.domain, self.cond = label, domain, cond
         self.js: dict[int, Any] = {}
         self.odom: dict[int, Any] = {}
         self.state: dict[int, Any] = {}
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain,
-                   signal_handler_options=SignalHandlerOptions.NO)
-        self.node = Node(f"demo_{label}_{os.getpid()}", context=self.context)
+        self.spinner = Spinner(domain, name=f"demo-{label}")
+        self.node = self.spinner.node(f"demo_{label}_{os.getpid()}")
         n = self.node
         self.cmd = n.create_publisher(JointState, TOPIC_CMD, QOS)
         self.subs = [
@@ -224,16 +218,6 @@ class _Link:
         self._ping = n.create_client(GetParameters, f"/{node_name}/get_parameters")
         self._ping_future: Any = None
         self.pinged = False
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(n)
-        self.thread = threading.Thread(target=self._spin, name=f"demo-{label}", daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:   # the context was shut down
-            pass
 
     def _add(self, store: dict[int, Any], msg: Any) -> None:
         from ..nodes.messages import stamp_ns
@@ -267,9 +251,7 @@ class _Link:
         self.cmd.publish(joint_state_msg(0, u))
 
     def close(self) -> None:
-        from ..nodes._run import close_domain
-
-        close_domain(self.executor, self.node, self.context, self.thread)
+        self.spinner.close()
 
 
 def _wait(cond: threading.Condition, pred: Callable[[], bool], timeout: float, what: str,

@@ -208,15 +208,3 @@ def _interrupted(logger: Any, interrupted: tuple[int, str]) -> int:
     if text:
         (logger.fatal if status else logger.info)(text)
     return status
-
-
-def close_domain(executor: Any, node: Node, context: Any, thread: Any) -> None:
-    """Tear down a node that spins in its own rclpy context (one ROS domain) on a thread:
-    remove and destroy the node, shut the context and the executor down, join the thread."""
-    try:
-        executor.remove_node(node)
-        node.destroy_node()
-    finally:
-        rclpy.try_shutdown(context=context)
-        executor.shutdown(timeout_sec=1.0)
-        thread.join(5.0)

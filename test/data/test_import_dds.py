@@ -11,9 +11,7 @@ event with a timeout.
 """
 from __future__ import annotations
 
-import os
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -21,14 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-DOMAIN_ID = str(120 + os.getpid() % 20)
-os.environ["ROS_DOMAIN_ID"] = DOMAIN_ID
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-import rclpy  # noqa: E402
+from rosharness import BIN, ENV, Proc, Ros  # noqa: E402  (first: it sets the test domain)
 from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
@@ -41,32 +33,10 @@ from littledog_mlsim.layout import JOINT_NAMES  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from waiting import TIMEOUT, wait_until  # noqa: E402
 
-BIN = Path(sys.executable).parent
-ENV = dict(os.environ, PYTHONUNBUFFERED="1")
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                  reliability=ReliabilityPolicy.RELIABLE)
 CTRL_ORDER = list(reversed(JOINT_NAMES))
 N_STEPS = 250            # commands per move (2.5 s)
-
-
-class Proc:
-    def __init__(self, exe: str, params: dict, tmp: Path) -> None:
-        self.name = exe
-        self.err = tmp / f"{exe}.{time.monotonic_ns()}.err"
-        args = [str(BIN / exe), "--ros-args"]
-        for k, v in params.items():
-            args += ["-p", f"{k}:={v}"]
-        with open(self.err, "w") as e:
-            self.p = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=e, env=ENV)
-
-    def stop(self) -> int:
-        if self.p.poll() is None:
-            self.p.send_signal(2)
-        try:
-            return self.p.wait(TIMEOUT)
-        except subprocess.TimeoutExpired:
-            self.p.kill()
-            return self.p.wait()
 
 
 class Recorder:
@@ -143,12 +113,8 @@ class Controller:
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("dds")
-    rclpy.init(domain_id=int(DOMAIN_ID))   # this module's domain, whatever other modules set
-    ex = SingleThreadedExecutor()
-    node = Node("import_test")
-    ex.add_node(node)
-    thread = threading.Thread(target=lambda: _spin(ex), daemon=True)
-    thread.start()
+    ros = Ros()
+    node = ros.node("import_test")
     sim = Proc("pybullet_node", {"step_mode": "timer", "publish_clock": "false"}, tmp)
     try:
         rec = Recorder(node)
@@ -174,18 +140,10 @@ def recording(tmp_path_factory):
             msgs = list(rec.msgs)
         yield tmp, bag, np.array(ctrl.sent), node, msgs
     finally:
-        sim.stop()
-        ex.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
-        thread.join(5)
-
-
-def _spin(ex) -> None:
-    try:
-        ex.spin()
-    except Exception:
-        pass
+        try:
+            sim.stop()
+        finally:
+            ros.shutdown()
 
 
 def test_dds_recording_imports(recording):

@@ -7,7 +7,7 @@ counted and survived; trainer_node writes a model sim_node loads and fails clean
 bag; a missing/corrupt/incompatible model is one line and a non-zero exit; pybullet_node
 replays exactly like ``simulate_move``; bag_player and bag_recorder close the loop.
 
-One ROS domain for the module (``ROS_DOMAIN_ID`` derived from the pid), localhost discovery;
+One ROS domain (``rosharness.DOMAIN_ID``, derived from the pid), localhost discovery;
 simulators run one at a time (class-scoped fixtures) since they share the contract topics.
 Every wait is on an event with a timeout; the only fixed-length windows are measurement windows.
 """
@@ -16,9 +16,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -26,24 +24,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-# LITTLEDOG_TEST_DOMAIN_ID: a fixed domain (e.g. one reserved for this checkout)
-DOMAIN_ID = os.environ.get("LITTLEDOG_TEST_DOMAIN_ID") or str(1 + os.getpid() % 100)
-os.environ["ROS_DOMAIN_ID"] = DOMAIN_ID          # before rclpy.init (read from the environment)
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-import rclpy  # noqa: E402  (after the environment above)
-from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rosharness import (BIN, ENV, Probe, Proc, Ros, error_lines,  # noqa: I001  (first: it
+                        run)                                     # sets the test domain)
+import rclpy
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import (  # noqa: E402
     DurabilityPolicy,
-    HistoryPolicy,
     QoSProfile,
     ReliabilityPolicy,
 )
-from rosgraph_msgs.msg import Clock as ClockMsg  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_srvs.srv import SetBool, Trigger  # noqa: E402
 
@@ -71,203 +60,6 @@ from littledog_mlsim.rollout.learned_sim import standing_train_state  # noqa: E4
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
 from littledog_mlsim.rotations import quat_to_rpy  # noqa: E402
 from waiting import TIMEOUT, wait_until  # noqa: E402
-
-BIN = Path(sys.executable).parent
-ENV = dict(os.environ, PYTHONUNBUFFERED="1")
-
-
-# ---------------------------------------------------------------------------------------------
-# processes
-
-
-class Proc:
-    """A node in its own process; output goes to files (no pipe to fill up)."""
-
-    def __init__(self, exe: str, params: dict | None, tmp: Path, *extra: str) -> None:
-        self.name = exe
-        self.out = tmp / f"{exe}.{time.monotonic_ns()}.out"
-        self.err = self.out.with_suffix(".err")
-        args = [str(BIN / exe), "--ros-args"]
-        for k, v in (params or {}).items():
-            args += ["-p", f"{k}:={_param(v)}"]
-        args += list(extra)
-        with open(self.out, "w") as o, open(self.err, "w") as e:
-            self.p = subprocess.Popen(args, stdout=o, stderr=e, env=ENV)
-
-    def alive(self) -> bool:
-        return self.p.poll() is None
-
-    def stderr(self) -> str:
-        return self.err.read_text()
-
-    def wait(self, timeout: float = 120.0) -> int:
-        return self.p.wait(timeout)
-
-    def stop(self) -> int:
-        if self.alive():
-            self.p.send_signal(signal.SIGINT)
-        try:
-            return self.p.wait(TIMEOUT)
-        except subprocess.TimeoutExpired:
-            self.p.kill()
-            self.p.wait()
-            raise AssertionError(f"{self.name} did not stop on SIGINT") from None
-
-
-def _param(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return "[" + ",".join(_param(x) for x in v) + "]"
-    if isinstance(v, (float, np.floating)):
-        return repr(float(v))
-    return str(v)
-
-
-def run(exe: str, params: dict, tmp: Path, timeout: float = 120.0) -> tuple[int, str]:
-    p = Proc(exe, params, tmp)
-    try:
-        rc = p.wait(timeout)
-    except subprocess.TimeoutExpired:
-        p.stop()
-        raise
-    return rc, p.stderr()
-
-
-def error_lines(text: str) -> list[str]:
-    return [ln for ln in text.splitlines() if ln.strip() and "[INFO]" not in ln]
-
-
-# ---------------------------------------------------------------------------------------------
-# the controller side: one rclpy context, an executor in a background thread
-
-
-class Ros:
-    def __init__(self) -> None:
-        rclpy.init(domain_id=int(DOMAIN_ID))   # this module's domain, whatever other modules set
-        self.executor = SingleThreadedExecutor()
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # shutdown
-            pass
-
-    def node(self, name: str) -> Node:
-        n = Node(name)
-        self.executor.add_node(n)
-        return n
-
-    def close(self, node: Node) -> None:
-        self.executor.remove_node(node)
-        node.destroy_node()
-
-    def shutdown(self) -> None:
-        rclpy.try_shutdown()
-        self.thread.join(5)
-
-
-class Probe:
-    """Subscribes to a simulator's topics and records what arrives (with receive times)."""
-
-    def __init__(self, ros: Ros, sim: str = "sim_node", name: str = "probe",
-                 light: bool = False) -> None:
-        self.ros = ros
-        self.node = ros.node(f"{name}_{time.monotonic_ns()}")
-        self.cond = threading.Condition()
-        # (source timestamp [system ns, the sim's publish time], stamp, q, dq)
-        self.js: list[tuple[int, int, np.ndarray, np.ndarray]] = []
-        self.odom: list[tuple[int, dict]] = []
-        self.state: dict[int, np.ndarray] = {}
-        self.applied: dict[int, np.ndarray] = {}
-        self.clock: list[int] = []
-        self.stats: list[dict[str, str]] = []
-        n = self.node
-        # light: fewer subscriptions, for a test process that must keep up with 100 Hz
-        self.subs = [
-            n.create_subscription(JointState, "/littledog/joint_states", self._js, QOS),
-            n.create_subscription(Odometry, "/littledog/odom", self._odom, QOS),
-            n.create_subscription(JointState, f"/{sim}/cmd_applied", self._applied, QOS),
-            n.create_subscription(DiagnosticStatus, f"/{sim}/stats", self._stats, QOS),
-        ]
-        if not light:
-            self.subs += [
-                n.create_subscription(JointState, f"/{sim}/state", self._state, QOS),
-                n.create_subscription(ClockMsg, "/clock", self._clock, QOS)]
-        # depth 100: a burst of 20 bad commands must not overwrite itself in the writer's history
-        self.cmd = n.create_publisher(JointState, "/littledog/cmd", QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE))
-        self.reset_client = n.create_client(Trigger, f"/{sim}/reset")
-        self.pause_client = n.create_client(SetBool, f"/{sim}/pause")
-
-    def _add(self, fn) -> None:
-        with self.cond:
-            fn()
-            self.cond.notify_all()
-
-    def _js(self, msg, info):
-        q, dq = m.joint_state_arrays(msg)
-        src = int(info["source_timestamp"])
-        self._add(lambda: self.js.append((src, m.stamp_ns(msg.header.stamp), q, dq)))
-
-    def _odom(self, msg):
-        self._add(lambda: self.odom.append((m.stamp_ns(msg.header.stamp), m.odometry_arrays(msg))))
-
-    def _state(self, msg):
-        self._add(lambda: self.state.__setitem__(m.stamp_ns(msg.header.stamp), m.state_array(msg)))
-
-    def _applied(self, msg):
-        self._add(lambda: self.applied.__setitem__(m.stamp_ns(msg.header.stamp),
-                                                   m.joint_state_arrays(msg)[0]))
-
-    def _clock(self, msg):
-        self._add(lambda: self.clock.append(m.stamp_ns(msg.clock)))
-
-    def _stats(self, msg):
-        self._add(lambda: self.stats.append(m.status_values(msg)))
-
-    def wait(self, pred, timeout: float = TIMEOUT, what: str = "") -> None:
-        with self.cond:
-            if not self.cond.wait_for(pred, timeout):
-                raise AssertionError(f"timed out after {timeout} s waiting for {what or pred}")
-
-    def connect(self, proc: Proc | None = None) -> None:
-        """Wait until the simulator's endpoints are matched both ways."""
-        def ready() -> bool:
-            if proc is not None and not proc.alive():
-                raise AssertionError(f"{proc.name} exited: {proc.stderr()}")
-            return (self.cmd.get_subscription_count() >= 1
-                    and all(s.get_publisher_count() >= 1 for s in self.subs)
-                    and self.reset_client.service_is_ready()
-                    and self.pause_client.service_is_ready())
-        wait_until(ready, what="discovery of the simulator")
-
-    def counter(self, key: str) -> int:
-        with self.cond:
-            return int(self.stats[-1][key]) if self.stats else 0
-
-    def wait_counter(self, key: str, at_least: int) -> dict[str, str]:
-        self.wait(lambda: bool(self.stats) and int(self.stats[-1][key]) >= at_least,
-                  what=f"stats {key} >= {at_least}")
-        with self.cond:
-            return dict(self.stats[-1])
-
-    def send(self, u: np.ndarray, names=JOINT_NAMES) -> None:
-        msg = JointState()
-        msg.name = list(names)
-        msg.position = [float(x) for x in u]
-        self.cmd.publish(msg)
-
-    def call(self, client, request):
-        fut = client.call_async(request)
-        wait_until(fut.done, what=f"service {client.srv_name}")
-        return fut.result()
-
-    def close(self) -> None:
-        self.ros.close(self.node)
-
 
 # ---------------------------------------------------------------------------------------------
 # fixtures
@@ -675,10 +467,10 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     urdf: list[str] = []
-    desc = Node(f"description_{time.monotonic_ns()}")   # subscribed before the executor spins it
+    desc = Node(f"description_{time.monotonic_ns()}", context=ros.context)   # subscribed before the executor spins it
     desc.create_subscription(String, "/robot_description",
                              lambda msg: probe._add(lambda: urdf.append(msg.data)), latched)
-    ros.executor.add_node(desc)
+    ros.add(desc)
     try:
         probe.connect(proc)
         probe.send(HOME_POSE)

@@ -1,0 +1,106 @@
+"""Guards every test run here has: a stuck test cannot hang the run, and no module leaks.
+
+- ``pytest-timeout`` (setup.cfg: ``timeout``, SIGALRM) fails a test that runs too long with a
+  traceback, and the run goes on.
+- The hard guard: :func:`faulthandler.dump_traceback_later` is armed for each test at the
+  pytest-timeout bound plus ``HARD_MARGIN_S``. Its watchdog is a C thread that needs no GIL, so
+  it fires even when a thread holds the GIL in C code and SIGALRM's Python handler never runs: it
+  writes every thread's stack to ``.pytest-hang.log`` in the rootdir and ends the process.
+- ``.pytest-running`` (rootdir) names the test running now; ``.ci/run`` prints it when the
+  whole suite runs out of time.
+- :func:`leaves_no_threads_or_children`: every test module leaves the process as it found it
+  (no new thread, no child process), or its last test errors naming what it left.
+"""
+from __future__ import annotations
+
+import faulthandler
+import os
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+# the test running now (one line, rewritten at each test's start): `.ci/run` prints it when the
+# whole suite runs out of time
+RUNNING = ".pytest-running"
+# where the hard guard writes every thread's stack before it ends a stuck run
+HANG_LOG = ".pytest-hang.log"
+# s added to pytest-timeout's bound for the hard guard (faulthandler's watchdog, a C thread that
+# needs no GIL: it fires even when a thread holds the GIL in C code and pytest-timeout cannot)
+HARD_MARGIN_S = float(os.environ.get("LITTLEDOG_HARD_MARGIN_S", "120"))
+
+
+def _timeout_s(item: pytest.Item) -> float:
+    marker = item.get_closest_marker("timeout")
+    if marker is not None and marker.args:
+        return float(marker.args[0])
+    return float(item.config.getini("timeout") or 0)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
+    """Write the test's id to ``RUNNING`` and arm the hard guard for its duration."""
+    root = item.config.rootpath
+    (root / RUNNING).write_text(item.nodeid + "\n")
+    bound = _timeout_s(item)
+    log = None
+    if bound > 0:
+        log = open(root / HANG_LOG, "w")
+        log.write(f"{item.nodeid}: still running after {bound + HARD_MARGIN_S:g} s; "
+                  "every thread's stack follows, then the run ends\n")
+        log.flush()
+        faulthandler.dump_traceback_later(bound + HARD_MARGIN_S, exit=True, file=log)
+    try:
+        yield
+    finally:
+        if log is not None:
+            faulthandler.cancel_dump_traceback_later()
+            log.close()
+            (root / HANG_LOG).unlink(missing_ok=True)
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    (session.config.rootpath / RUNNING).unlink(missing_ok=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# every test module leaves the process as it found it: no new threads, no child processes
+
+
+# s a module's threads and children get to end after its last test
+LEAK_WAIT_S = float(os.environ.get("LITTLEDOG_LEAK_WAIT_S", "10"))
+
+
+def _children() -> set[int]:
+    """This process's live children (Linux /proc), zombies included."""
+    out: set[int] = set()
+    me = os.getpid()
+    for task in Path(f"/proc/{me}/task").iterdir():
+        try:
+            out.update(int(p) for p in (task / "children").read_text().split())
+        except OSError:
+            continue
+    return out
+
+
+def _threads() -> dict[int, str]:
+    return {t.ident: t.name for t in threading.enumerate() if t.ident is not None}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def leaves_no_threads_or_children(request):
+    """Fail the module's last test if it left a thread or a child process behind."""
+    threads, children = _threads(), _children()
+    yield
+    wait_s = LEAK_WAIT_S
+    deadline = time.monotonic() + wait_s
+    while True:
+        new_threads = {i: n for i, n in _threads().items() if i not in threads}
+        new_children = _children() - children
+        if not (new_threads or new_children) or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    assert not new_threads and not new_children, (
+        f"{request.module.__name__} left behind threads {sorted(new_threads.values())} and "
+        f"child processes {sorted(new_children)} (still there after {wait_s:g} s)")

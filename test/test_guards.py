@@ -1,0 +1,83 @@
+"""The suite's own guards (test/guards.py), each made to fire in an inner pytest run.
+
+The hard guard's case holds the GIL in C for good (a ctypes.PyDLL call that blocks on a mutex
+it already holds), the way a C extension can: SIGALRM's Python handler cannot run then, and only
+the GIL-free watchdog ends the run.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+CONFTEST = "from guards import (leaves_no_threads_or_children, pytest_runtest_protocol,\n" \
+           "                    pytest_sessionfinish)  # noqa: F401\n"
+
+STUCK = textwrap.dedent("""
+    import ctypes, time
+    import pytest
+
+    @pytest.mark.timeout(1)
+    def test_sleeps():
+        time.sleep(30)
+
+    def test_after():
+        pass
+
+    @pytest.mark.timeout(1)
+    def test_holds_the_gil_in_c():
+        libc = ctypes.PyDLL(None)          # PyDLL: the call keeps the GIL
+        mutex = ctypes.create_string_buffer(64)
+        libc.pthread_mutex_init(mutex, None)
+        libc.pthread_mutex_lock(mutex)
+        libc.pthread_mutex_lock(mutex)     # a default mutex locked twice: blocks for good
+
+    def test_never_reached():
+        pass
+""")
+
+LEAKS = textwrap.dedent("""
+    import threading
+
+    STOP = threading.Event()
+
+    def test_leaves_a_thread():
+        threading.Thread(target=STOP.wait, name="leaked-by-test", daemon=True).start()
+""")
+
+
+def _inner(tmp_path: Path, source: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    (tmp_path / "conftest.py").write_text(CONFTEST)
+    (tmp_path / "test_inner.py").write_text(source)
+    env = dict(os.environ, PYTHONPATH=str(HERE), LITTLEDOG_HARD_MARGIN_S="2",
+               LITTLEDOG_LEAK_WAIT_S="0.5")
+    return subprocess.run([sys.executable, "-m", "pytest", "-v", "-p", "no:cacheprovider",
+                           "-o", "timeout=0", "test_inner.py"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout)
+
+
+def test_soft_then_hard_timeout(tmp_path):
+    r = _inner(tmp_path, STUCK)
+    out = r.stdout
+    # pytest-timeout fails the sleeping test and the run goes on
+    assert "test_inner.py::test_sleeps FAILED" in out
+    assert "test_inner.py::test_after PASSED" in out
+    # the GIL held in C: only the watchdog ends the run, with the stuck test's stack
+    assert r.returncode == 1 and "test_never_reached" not in out
+    log = (tmp_path / ".pytest-hang.log").read_text()
+    assert log.startswith("test_inner.py::test_holds_the_gil_in_c: still running after 3 s")
+    assert "test_holds_the_gil_in_c" in log.split("\n", 1)[1]       # its frame, in the stack
+    assert (tmp_path / ".pytest-running").read_text().strip() == \
+        "test_inner.py::test_holds_the_gil_in_c"
+
+
+def test_a_module_that_leaves_a_thread_errors_naming_it(tmp_path):
+    r = _inner(tmp_path, LEAKS)
+    assert r.returncode == 1
+    assert "ERROR at teardown of test_leaves_a_thread" in r.stdout
+    assert "left behind threads ['leaked-by-test']" in r.stdout
+    assert not (tmp_path / ".pytest-running").exists()             # a finished run removes it
