@@ -33,7 +33,7 @@ import numpy as np
 import yaml
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parents[2]))
+sys.path.insert(0, str(HERE.parents[3]))
 from littledog_mlsim.data.bags import read_bag  # noqa: E402
 
 TILT_FALL = 0.35
@@ -117,7 +117,8 @@ def main(argv: list[str] | None = None) -> int:
             cpath = base / f"clean_e{exc:g}"
             record(cpath, a.seed, a.moves_per_type, exc, None)
             epath = base / t["id"]
-            record(epath, a.seed, a.moves_per_type, exc, zoo / t.get("file", f"{t['id']}.yaml"))
+            efile = zoo / "effects" / t.get("file", f"{t['id']}.yaml")
+            record(epath, a.seed, a.moves_per_type, exc, efile)
         else:
             cpath = Path(a.data) / "clean" / f"s{a.seed}_e{exc:g}"
             epath = Path(a.data) / "effects" / t["id"]
@@ -126,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         r = compare(load(epath), cleans[exc])
         rows.append((t["id"], exc, r))
         print(t["id"], "done", file=sys.stderr, flush=True)
-    lines = ["Command (from benchmarks/blind_zoo/zoo5, PYTHONPATH=<repository root>, "
+    lines = ["Command (from benchmarks/blind_zoo/zoos/zoo5, PYTHONPATH=<repository root>, "
              "OPENBLAS_NUM_THREADS=1): `" + " ".join(["python"] + [str(x) for x in sys.argv]) + "`",
              "", "Same seed, effect versus clean, move by move; see check_visible.py for the "
              "columns. A move counts as fallen above %.2f rad of tilt or %.2f m of drop." % (

@@ -3,11 +3,11 @@
 Prints, per move, the measured body twist at measurement 0 and 1 (a spurious twist at 0 shows
 a start that the recording's first finite difference got wrong), then the final (x, y) error
 of the move re-simulated with each given effects file, once from the measured state 0 and once
-from the home stance (as ``record`` starts it). This is how the README's z04 numbers ("After
+from the home stance (as ``record`` starts it). This is how LOG.md's z04 numbers ("After
 zoo4") were measured:
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/first_twist.py \\
-        WORK/effects/z04 F_00,L_00,BL_00 benchmarks/blind_zoo/zoo4/z04.yaml OURS.yaml
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/first_twist.py \\
+        WORK/effects/z04 F_00,L_00,BL_00 benchmarks/blind_zoo/zoos/zoo4/effects/z04.yaml OURS.yaml
 
 with OURS.yaml a ``littledog_mlsim.robot.effects:GroundTilt`` of the same slope and direction.
 """

@@ -3,9 +3,9 @@
 It wraps ``physid._Runner.map`` and prints, at the end of the session, the tasks of each mode
 and the control steps they simulate (``full`` 700: the 4 s replay and three more 1 s segments;
 ``segs`` 400: the four 1 s segments; ``short`` 200: the two screening segments). This is how
-the README's step counts before and after the joint refit (the sixth zoo) were made:
+LOG.md's step counts before and after the joint refit (the sixth zoo) were made:
 
-    PYTHONPATH=benchmarks/blind_zoo:$PWD OPENBLAS_NUM_THREADS=1 .venv/bin/python -m pytest -q \\
+    PYTHONPATH=benchmarks/blind_zoo/harness:$PWD OPENBLAS_NUM_THREADS=1 .venv/bin/python -m pytest -q \\
         -p sim_tally test/diagnose/test_diagnose.py -k "physical_one_leg_delay or \\
         physical_clean or heavy_leg or odom_fixed or scopes_and_shortlist or \\
         mass_com_position_and or torque_axes"

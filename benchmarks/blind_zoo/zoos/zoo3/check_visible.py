@@ -5,7 +5,7 @@ For every move: how far the end (x, y) moved [cm], the change of the final yaw [
 joint tracking RMS |q - command| [rad], the largest |roll| or |pitch| [rad] and the lowest body
 height [m] (upright check). Printed per effect: medians and extremes over the moves.
 
-    python benchmarks/blind_zoo/zoo3/check_visible.py CLEAN_DIR EFFECT_DIR [EFFECT_DIR ...]
+    python benchmarks/blind_zoo/zoos/zoo3/check_visible.py CLEAN_DIR EFFECT_DIR [EFFECT_DIR ...]
 """
 from __future__ import annotations
 

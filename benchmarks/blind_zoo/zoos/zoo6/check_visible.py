@@ -7,10 +7,11 @@ change, and a fall check on the effect's move (worst tilt from the start orienta
 or the body more than 0.03 m below its start height above the floor under it).
 
     # small check: records 2 moves per type, seed 16, into /work/data/zoo6_small/ itself
-    python benchmarks/blind_zoo/zoo6/check_visible.py --small --out benchmarks/blind_zoo/zoo6/check_small.md
+    python benchmarks/blind_zoo/zoos/zoo6/check_visible.py --small \\
+        --out benchmarks/blind_zoo/zoos/zoo6/check_small.md
     # full check on the datasets run.py --record-only wrote
-    python benchmarks/blind_zoo/zoo6/check_visible.py --work /work/data/blind7 --seed 18 \\
-        --out benchmarks/blind_zoo/zoo6/check_full.md
+    python benchmarks/blind_zoo/zoos/zoo6/check_visible.py --work /work/data/blind7 --seed 18 \\
+        --out benchmarks/blind_zoo/zoos/zoo6/check_full.md
 """
 from __future__ import annotations
 
@@ -135,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         for t in truth:
             exc = float((t.get("recording") or {}).get("excitation", 0.0))
             record(work / "clean" / f"s{a.seed}_e{exc:g}", a.seed, 2, exc, None)
-            record(work / "effects" / t["id"], a.seed, 2, exc, ZOO / f"{t['id']}.yaml")
+            record(work / "effects" / t["id"], a.seed, 2, exc, ZOO / "effects" / f"{t['id']}.yaml")
     lines = [
         "OPENBLAS_NUM_THREADS=%s python %s" % (os.environ.get("OPENBLAS_NUM_THREADS"),
                                                 " ".join(sys.argv)),
@@ -156,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     for t in truth:
         exc = float((t.get("recording") or {}).get("excitation", 0.0))
         rows = compare(work / "effects" / t["id"], work / "clean" / f"s{a.seed}_e{exc:g}",
-                       ZOO / f"{t['id']}.yaml")
+                       ZOO / "effects" / f"{t['id']}.yaml")
         line, vis, fallen = summary_line(t["id"], exc, rows)
         lines.append(line)
         all_ok &= vis and fallen == 0

@@ -6,11 +6,11 @@ hypothesis of the shortlist, and the shortlist itself, are written to ``SAVE`` (
 diagnosis runs; ``show`` prints, for each saved file, the finding chosen by the largest summed
 cut relative to each channel's total (the rule up to zoo6) and by the largest mean bounded
 per-move cut (``physid.move_cuts``, the rule since), with the decision's adjusted p
-(``physid.decide_all``). How the README's section "Before the seventh zoo" was measured:
+(``physid.decide_all``). How LOG.md's section "Before the seventh zoo" was measured:
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/heldout_decisions.py run \\
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/heldout_decisions.py run \\
         WORK/effects/z02.pkl -- diagnose --data WORK/effects/z02 --out O --jobs 1 --no-figures
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/heldout_decisions.py show \\
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/heldout_decisions.py show \\
         WORK/effects/*.pkl
 """
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 Prints, per magnitude, the weighted output-error SSE relative to no effect (the J of
 ``diagnose/physid.py``) over all channels, over the 1 s segments' channels only and over the
-4 s replays' only. This is how the README's side-friction profile was measured:
+4 s replays' only. This is how LOG.md's side-friction profile was measured:
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/fit_profile.py \
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/fit_profile.py \
         DATA joint_friction side:right coulomb_Nm 0.06,0.09,0.12,0.15,0.19,0.24
 
 with DATA the side-friction effect dataset that ``run.py`` records (seed 4 for run 2). A

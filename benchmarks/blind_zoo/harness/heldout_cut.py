@@ -7,10 +7,10 @@ Re-simulates a dataset's held-out TrainPool moves (2 of each type after the fit 
 the summed cut of the short (1 s) and long (4 s) channels, every channel's cut, the per-move cuts
 (pooled relative to each channel's total, and bounded, as the rank test takes them) and the moves
 that lose most. With ``--also`` the hypotheses are compared as ``diagnose`` compares a shortlist
-(``physid.decide_all``). This is how the README's account of zoo2's torque-limit miss was
+(``physid.decide_all``). This is how LOG.md's account of zoo2's torque-limit miss was
 measured:
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/heldout_cut.py \
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/heldout_cut.py \
         DATA torque_saturation type:hip_pitches '{"torque_limit_ratio": 0.518}'
 
 with DATA zoo2's ``y07`` dataset (seed 7) that ``run.py`` records.

@@ -1,9 +1,10 @@
 """The blind benchmark of the residual diagnosis (``benchmarks/blind_zoo/README.md``).
 
-For every effect of a zoo directory (``<id>.yaml`` effect files plus a sealed ``truth.yaml``
-written by someone who did not read the diagnosis), this script records a dataset with the
-effect switched on, records clean datasets of the same seeds and recording conditions, runs
-``littledog-mlsim diagnose`` on each, and scores the reports against the truth:
+For every effect of a zoo directory (a sealed ``truth.yaml`` and the ``<id>.yaml`` effect files
+in its ``effects/`` folder or beside it, written by someone who did not read the diagnosis), this
+script records a dataset with the effect switched on, records clean datasets of the same seeds
+and recording conditions, runs ``littledog-mlsim diagnose`` on each, and scores the reports
+against the truth:
 
 - found: the report names an effect of the true family *and* scope (vocabulary:
   ``docs/diagnosis.md``); also whether the family alone or the scope alone was right;
@@ -18,8 +19,8 @@ effect switched on, records clean datasets of the same seeds and recording condi
 The truth file is read by this script only; nothing of it is printed before every diagnosis of
 the run has finished. Example (the command of the committed run is in its ``results.json``)::
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/run.py \\
-        --zoo benchmarks/blind_zoo/zoo --work /tmp/blind --out benchmarks/blind_zoo/run1
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/run.py \\
+        --zoo benchmarks/blind_zoo/zoos/zoo1 --work /tmp/blind --out /tmp/blind/run
 """
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ from typing import Any
 
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))   # the repository root
 from benchmarks._common import git_state  # noqa: E402
 
 #: Primary parameter of each family (docs/diagnosis.md, "Vocabulary").
@@ -229,7 +230,8 @@ def markdown(rows: list[dict[str, Any]], clean: list[dict[str, Any]], summary: d
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--zoo", required=True, help="directory with truth.yaml and effect files")
+    ap.add_argument("--zoo", required=True,
+                    help="directory with truth.yaml and the effect files (in effects/ or beside it)")
     ap.add_argument("--work", required=True, help="where datasets and reports go")
     ap.add_argument("--out", required=True, help="results directory (results.json, table.md)")
     ap.add_argument("--moves-per-type", type=int, default=10)
@@ -256,9 +258,10 @@ def main(argv: list[str] | None = None) -> int:
     truth = [t for t in truth if not only or t["id"] in only]
     t_start = time.time()
 
+    files = zoo / "effects" if (zoo / "effects").is_dir() else zoo
     effect_sets = [Dataset(t["id"], work / "effects" / t["id"], a.seed,
                            float((t.get("recording") or {}).get("excitation", 0.0)),
-                           (zoo / t.get("file", f"{t['id']}.yaml")).resolve()) for t in truth]
+                           (files / t.get("file", f"{t['id']}.yaml")).resolve()) for t in truth]
     excitations = sorted({0.0} | {d.excitation for d in effect_sets})
     clean_sets = [Dataset(f"clean_s{s}_e{e:g}", work / "clean" / f"s{s}_e{e:g}", s, e)
                   for e in excitations

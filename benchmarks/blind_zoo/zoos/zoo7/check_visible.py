@@ -2,7 +2,7 @@
 
 Compares each effect dataset with the clean dataset of the same seed and excitation, bag by bag
 (same move name = same gait randomisation and sensor-noise seed), and checks every effect move
-for a fall. Datasets are laid out as ``benchmarks/blind_zoo/run.py`` makes them:
+for a fall. Datasets are laid out as ``benchmarks/blind_zoo/harness/run.py`` makes them:
 ``WORK/effects/<id>`` and ``WORK/clean/s<seed>_e<excitation>``. With ``--record`` the missing
 datasets are recorded first (``littledog-mlsim record``), with ``--moves-per-type`` moves per type.
 
@@ -17,8 +17,8 @@ than 0.35 rad from its start, or the body drops more than 0.03 m below its start
 the floor plane: for an inclined floor the height is taken normal to gravity above the floor
 under the body).
 
-    PYTHONPATH=. python benchmarks/blind_zoo/zoo7/check_visible.py --work /work/data/blind8 \\
-        --seed 21 --out benchmarks/blind_zoo/zoo7/check_full.md
+    PYTHONPATH=. python benchmarks/blind_zoo/zoos/zoo7/check_visible.py --work /work/data/blind8 \\
+        --seed 21 --out benchmarks/blind_zoo/zoos/zoo7/check_full.md
 """
 from __future__ import annotations
 
@@ -111,9 +111,9 @@ def main(argv=None) -> int:
     control_yaml = work / f"{CONTROL}.yaml"
     work.mkdir(parents=True, exist_ok=True)
     control_yaml.write_text(
-        f"- class: {zoo / 'zoo7_effects.py'}:WorldPush\n  params: {{force: 0.02, direction_deg: 0.0}}\n")
+        f"- class: {zoo / 'effects' / 'zoo7_effects.py'}:WorldPush\n  params: {{force: 0.02, direction_deg: 0.0}}\n")
     rows = [(t["id"], float((t.get("recording") or {}).get("excitation", 0.0)),
-             zoo / t.get("file", f"{t['id']}.yaml"), t) for t in truth]
+             zoo / "effects" / t.get("file", f"{t['id']}.yaml"), t) for t in truth]
     rows.append((CONTROL, 0.0, control_yaml, None))
     for ex in sorted({r[1] for r in rows}):
         d = work / "clean" / f"s{a.seed}_e{ex:g}"

@@ -8,7 +8,7 @@ wrong the model of the healthy robot is on the faulty one. A clean dataset with 
 gives the noise floor of the comparison.
 
 Usage (from the repository root, PYTHONPATH set to it):
-    nice -n 10 python benchmarks/blind_zoo/zoo/check_materiality.py --work /work/data/zoo
+    nice -n 10 python benchmarks/blind_zoo/zoos/zoo1/check_materiality.py --work /work/data/zoo
 Writes materiality.json and materiality.md next to this script.
 """
 from __future__ import annotations
@@ -109,7 +109,7 @@ def main() -> None:
         if only and e["id"] not in only:
             continue
         x = float(e["recording"]["excitation"])
-        d = dataset(a.work, e["id"], a.seed, x, HERE / e["file"], a.moves_per_type)
+        d = dataset(a.work, e["id"], a.seed, x, HERE / "effects" / e["file"], a.moves_per_type)
         base_d, base_m, base = clean[x]
         self_c = compare(base, metrics(a.work, model(a.work, d), d, "self"))
         cm = compare(base, metrics(a.work, base_m, d, "cleanmodel"))
