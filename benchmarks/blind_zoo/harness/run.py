@@ -1,0 +1,359 @@
+"""The blind benchmark of the residual diagnosis (``benchmarks/blind_zoo/README.md``).
+
+For every effect of a zoo directory (a sealed ``truth.yaml`` and the ``<id>.yaml`` effect files
+in its ``effects/`` folder or beside it, written by someone who did not read the diagnosis), this
+script records a dataset with the effect switched on, records clean datasets of the same seeds
+and recording conditions, runs ``littledog-mlsim diagnose`` on each, and scores the reports
+against the truth:
+
+- found: the report names an effect of the true family *and* scope (vocabulary:
+  ``docs/diagnosis.md``); also whether the family alone or the scope alone was right;
+- parameter error: ``|estimate / truth - 1|`` of the family's primary parameter;
+- one-step (mean TestPool nMSE) and rollout (mean final (x, y) error) before and after, and the
+  same model's error on clean data of the same seed and recording condition;
+- clean runs: ``significant`` must be false (a false alarm otherwise);
+- where the effect was not found and the report names a recording that would settle it
+  (``suspected[*].recording`` with ``--excitation``), that recording is made and diagnosed too
+  and scored in its own columns (the loop closed by the report's own advice).
+
+The truth file is read by this script only; nothing of it is printed before every diagnosis of
+the run has finished. Example (the command of the committed run is in its ``results.json``)::
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/run.py \\
+        --zoo benchmarks/blind_zoo/zoos/zoo1 --work /tmp/blind --out /tmp/blind/run
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))   # the repository root
+from benchmarks._common import git_state  # noqa: E402
+
+#: Primary parameter of each family (docs/diagnosis.md, "Vocabulary").
+PRIMARY = {
+    "command_delay": "delay_ms", "command_filter": "time_constant_ms", "servo_gain": "gain_ratio",
+    "joint_friction": "coulomb_Nm", "backlash": "width_rad",
+    "torque_saturation": "torque_limit_Nm", "encoder_offset": "offset_rad",
+    "odom_force": "force_N", "body_wrench": "force_N", "ground_slope": "slope_deg",
+    "mass_com": "added_mass_kg", "leg_difference": "scale", "contact_phase": "magnitude",
+    "time_drift": "rate_per_s",
+}
+#: The primary parameter where the truth's is zero: a pure torque (vocabulary: body_wrench
+#: "or torque_Nm for a pure torque").
+PRIMARY_IF_ZERO = {"body_wrench": "torque_Nm"}
+#: Secondary parameters compared where both sides give them (angles: error in degrees).
+ANGLES = ("direction_deg", "uphill_direction_deg")
+PARAM_TOLERANCE = 0.25
+CLEAN_RATIO_TARGET = 1.25
+CLI = [sys.executable, "-m", "littledog_mlsim.cli"]
+
+
+@dataclass
+class Dataset:
+    name: str
+    path: Path
+    seed: int
+    excitation: float
+    effects: Path | None = None
+    diag_seconds: float | None = None
+    report: dict[str, Any] | None = field(default=None, repr=False)
+
+
+def _run(cmd: list[str], log: Path) -> float:
+    t0 = time.perf_counter()
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "w") as f:
+        f.write(" ".join(cmd) + "\n")
+        f.flush()
+        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
+    if r.returncode != 0:
+        tail = log.read_text().strip().splitlines()[-1:]
+        raise RuntimeError(f"{' '.join(cmd[2:4])} failed ({log}): {tail}")
+    return time.perf_counter() - t0
+
+
+def record(ds: Dataset, moves: int, jobs: int, logs: Path) -> None:
+    if (ds.path / "dataset.yaml").is_file():
+        return
+    cmd = CLI + ["record", "--out", str(ds.path), "--moves-per-type", str(moves), "--seed",
+                 str(ds.seed), "--jobs", str(jobs), "--quiet"]
+    if ds.excitation:
+        cmd += ["--excitation", f"{ds.excitation:g}"]
+    if ds.effects is not None:
+        cmd += ["--effects", str(ds.effects)]
+    _run(cmd, logs / f"record_{ds.name}.log")
+
+
+def diagnose(ds: Dataset, work: Path, extra: list[str], logs: Path) -> None:
+    out = work / "diag" / ds.name
+    report = out / "report.json"
+    if not report.is_file():
+        cmd = CLI + ["diagnose", "--data", str(ds.path), "--out", str(out)] + extra
+        t0 = time.perf_counter()
+        try:
+            ds.diag_seconds = _run(cmd, logs / f"diagnose_{ds.name}.log")
+        except RuntimeError as exc:          # a failed diagnosis is a result, not a stop
+            ds.diag_seconds = time.perf_counter() - t0
+            ds.report = {"error": str(exc), "significant": False, "effects": []}
+            return
+        (out / "seconds.txt").write_text(f"{ds.diag_seconds:.1f}\n")
+    elif (out / "seconds.txt").is_file():
+        ds.diag_seconds = float((out / "seconds.txt").read_text())
+    ds.report = json.loads(report.read_text())
+
+
+def _first_rollout(stage: dict[str, Any] | None) -> tuple[str | None, float | None]:
+    roll = (stage or {}).get("rollout") or {}
+    for label, r in roll.items():
+        if isinstance(r, dict) and r.get("final_xy_error_m") is not None:
+            return label, float(r["final_xy_error_m"])
+    return None, None
+
+
+def errors(report: dict[str, Any]) -> dict[str, Any]:
+    label, before = _first_rollout(report.get("before"))
+    _, after = _first_rollout(report.get("after"))
+    return {"projection": label,
+            "onestep_before": report.get("before", {}).get("nmse_mean"),
+            "onestep_after": report.get("after", {}).get("nmse_mean"),
+            "rollout_before": before, "rollout_after": after}
+
+
+def _angle_err(a: float, b: float) -> float:
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
+    fam, scope = truth["family"], truth["scope"]
+    named = [e.get("physical") or {} for e in report.get("effects", [])]
+    out: dict[str, Any] = {
+        "named": [{"family": p.get("family"), "scope": p.get("scope"), "params": p.get("params"),
+                   "statement": p.get("statement")} for p in named],
+        "family_right": any(p.get("family") == fam for p in named),
+        "scope_right": any(p.get("scope") == scope for p in named),
+    }
+    match = [p for p in named if p.get("family") == fam and p.get("scope") == scope]
+    out["found"] = bool(match) and bool(report.get("significant"))
+    out["param_error"] = None
+    out["angle_error_deg"] = None
+    key = PRIMARY.get(fam)
+    true_v = (truth.get("params") or {}).get(key) if key else None
+    if true_v in (None, 0) and fam in PRIMARY_IF_ZERO:
+        key = PRIMARY_IF_ZERO[fam]
+        true_v = (truth.get("params") or {}).get(key)
+    if match and key and true_v not in (None, 0):
+        est = (match[0].get("params") or {}).get(key)
+        if isinstance(est, (int, float)):
+            out["param_error"] = abs(float(est) / float(true_v) - 1.0)
+        for a in ANGLES:
+            t, e = (truth.get("params") or {}).get(a), (match[0].get("params") or {}).get(a)
+            if isinstance(t, (int, float)) and isinstance(e, (int, float)):
+                out["angle_error_deg"] = _angle_err(float(e), float(t))
+    out["identified"] = bool(out["found"] and out["param_error"] is not None
+                             and out["param_error"] <= PARAM_TOLERANCE)
+    out["suspected"] = report.get("suspected") or []
+    # the truth named as a rival the report says these data cannot tell from its finding
+    rivals = [s_ for s_ in out["suspected"] if s_.get("kind") == "inseparable"]
+    out["found_or_inseparable"] = bool(out["found"] or (
+        report.get("significant") and any(s_.get("family") == fam and s_.get("scope") == scope
+                                          for s_ in rivals)))
+    return out
+
+
+def recommended_excitation(report: dict[str, Any]) -> float | None:
+    for s in report.get("suspected") or []:
+        m = re.search(r"--excitation[ =]([0-9.eE+-]+)", str(s.get("recording", "")))
+        if m:
+            return float(m.group(1))
+    return None
+
+
+def _fmt(x: Any, f: str = ".4g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, float):
+        return format(x, f)
+    return str(x)
+
+
+def _named(s: dict[str, Any]) -> str:
+    parts = []
+    for p in s["named"]:
+        params = ", ".join(f"{k}={_fmt(v, '.3g') if isinstance(v, float) else v}"
+                           for k, v in (p.get("params") or {}).items())
+        parts.append(f"{p.get('family')} @ {p.get('scope')} ({params})")
+    return "; ".join(parts) or "nothing"
+
+
+def markdown(rows: list[dict[str, Any]], clean: list[dict[str, Any]], summary: dict) -> str:
+    h = ["| effect | truth (family @ scope: primary) | exc. | found | family / scope right | "
+         "named by the diagnosis | or named as inseparable | param error | one-step nMSE before -> after (clean) | "
+         "rollout final (x,y) [m] before -> after (clean) | after / clean | diagnose [s] |",
+         "|" + "---|" * 12]
+    for r in rows:
+        t, s, e, c = r["truth"], r["score"], r["errors"], r["clean"]
+        key = PRIMARY.get(t["family"])
+        tv = (t.get("params") or {}).get(key) if key else None
+        ratio = (e["rollout_after"] / c["rollout_before"]
+                 if e["rollout_after"] is not None and c["rollout_before"] else None)
+        h.append(
+            f"| {r['id']} | {t['family']} @ {t['scope']}: {key}={_fmt(tv)} | "
+            f"{_fmt(r['excitation'], 'g')} | {_fmt(s['found'])} | "
+            f"{_fmt(s['family_right'])} / {_fmt(s['scope_right'])} | {_named(s)} | "
+            f"{_fmt(s.get('found_or_inseparable'))} | "
+            f"{_fmt(s['param_error'], '.0%')} | {_fmt(e['onestep_before'])} -> "
+            f"{_fmt(e['onestep_after'])} ({_fmt(c['onestep_before'])}) | "
+            f"{_fmt(e['rollout_before'])} -> {_fmt(e['rollout_after'])} "
+            f"({_fmt(c['rollout_before'])}) | {_fmt(ratio, '.2f')} | {_fmt(r['seconds'], '.0f')} |")
+    h += ["", "| clean dataset | seed | excitation | significant (false alarm) | named | "
+          "diagnose [s] |", "|---|---|---|---|---|---|"]
+    for c in clean:
+        h.append(f"| {c['name']} | {c['seed']} | {_fmt(c['excitation'], 'g')} | "
+                 f"{_fmt(c['significant'])} | {c['named']} | {_fmt(c['seconds'], '.0f')} |")
+    h += ["", "Summary: " + "; ".join(f"{k} {_fmt(v, '.3g')}" for k, v in summary.items())]
+    return "\n".join(h) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--zoo", required=True,
+                    help="directory with truth.yaml and the effect files (in effects/ or beside it)")
+    ap.add_argument("--work", required=True, help="where datasets and reports go")
+    ap.add_argument("--out", required=True, help="results directory (results.json, table.md)")
+    ap.add_argument("--moves-per-type", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=1, help="seed of every effect dataset")
+    ap.add_argument("--clean-seeds", default="1,2,3", help="clean seeds without excitation")
+    ap.add_argument("--clean-seeds-excited", default="1",
+                    help="clean seeds under each excitation the zoo uses (the effect seed "
+                         "is needed for the clean reference)")
+    ap.add_argument("--jobs", type=int, default=2, help="diagnoses run side by side")
+    ap.add_argument("--only", default="", help="comma-separated effect ids (default: all)")
+    ap.add_argument("--record-only", action="store_true",
+                    help="only record the datasets (they are reused by a later run)")
+    ap.add_argument("--no-follow-up", action="store_true",
+                    help="do not make the recordings the reports recommend")
+    ap.add_argument("--diagnose-arg", action="append", default=[],
+                    help="extra argument for every diagnose run (repeatable)")
+    a = ap.parse_args(argv)
+    zoo, work, out = Path(a.zoo), Path(a.work), Path(a.out)
+    logs = work / "logs"
+    truth = yaml.safe_load((zoo / "truth.yaml").read_text())
+    if isinstance(truth, dict):
+        truth = truth.get("effects", truth)
+    only = {s for s in a.only.split(",") if s}
+    truth = [t for t in truth if not only or t["id"] in only]
+    t_start = time.time()
+
+    files = zoo / "effects" if (zoo / "effects").is_dir() else zoo
+    effect_sets = [Dataset(t["id"], work / "effects" / t["id"], a.seed,
+                           float((t.get("recording") or {}).get("excitation", 0.0)),
+                           (files / t.get("file", f"{t['id']}.yaml")).resolve()) for t in truth]
+    excitations = sorted({0.0} | {d.excitation for d in effect_sets})
+    clean_sets = [Dataset(f"clean_s{s}_e{e:g}", work / "clean" / f"s{s}_e{e:g}", s, e)
+                  for e in excitations
+                  for s in (int(x) for x in (a.clean_seeds if e == 0 else
+                                             a.clean_seeds_excited).split(","))]
+    for ds in clean_sets + effect_sets:
+        print(f"record {ds.name}", flush=True)
+        record(ds, a.moves_per_type, 2, logs)
+    if a.record_only:
+        return 0
+
+    def run(ds: Dataset) -> Dataset:
+        diagnose(ds, work, a.diagnose_arg, logs)
+        print(f"diagnosed {ds.name} in {_fmt(ds.diag_seconds, '.0f')} s", flush=True)
+        return ds
+
+    with ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        list(pool.map(run, clean_sets + effect_sets))
+
+    clean_by = {(d.seed, d.excitation): d for d in clean_sets}
+    rows = []
+    follow = []
+    for t, ds in zip(truth, effect_sets):
+        s = score(t, ds.report)
+        c = errors(clean_by[(ds.seed, ds.excitation)].report)
+        rows.append({"id": t["id"], "truth": {k: t.get(k) for k in ("family", "scope", "params",
+                                                                    "description")},
+                     "excitation": ds.excitation, "score": s, "errors": errors(ds.report),
+                     "clean": c, "seconds": ds.diag_seconds})
+        exc = recommended_excitation(ds.report)
+        if not s["found"] and exc and exc != ds.excitation and not a.no_follow_up:
+            follow.append((t, Dataset(f"{t['id']}_e{exc:g}", work / "effects" / f"{t['id']}_e{exc:g}",
+                                      a.seed, exc, ds.effects)))
+    # the loop closed by the report's advice: record what it asks for, diagnose again
+    for t, ds in follow:
+        record(ds, a.moves_per_type, 2, logs)
+        key = (ds.seed, ds.excitation)
+        if key not in clean_by:
+            cd = Dataset(f"clean_s{ds.seed}_e{ds.excitation:g}",
+                         work / "clean" / f"s{ds.seed}_e{ds.excitation:g}", ds.seed, ds.excitation)
+            record(cd, a.moves_per_type, 2, logs)
+            clean_by[key] = cd
+            clean_sets.append(cd)
+    with ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        list(pool.map(run, [ds for _, ds in follow] +
+                      [c for c in clean_sets if c.report is None]))
+    for t, ds in follow:
+        s = score(t, ds.report)
+        rows.append({"id": f"{t['id']} (recommended recording)",
+                     "truth": {k: t.get(k) for k in ("family", "scope", "params", "description")},
+                     "excitation": ds.excitation, "score": s, "errors": errors(ds.report),
+                     "clean": errors(clean_by[(ds.seed, ds.excitation)].report),
+                     "seconds": ds.diag_seconds})
+
+    clean = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
+              "significant": bool(d.report.get("significant")),
+              "named": _named(score({"family": "", "scope": ""}, d.report)),
+              "seconds": d.diag_seconds} for d in clean_sets]
+    first = [r for r in rows if "(recommended" not in r["id"]]
+    n = len(first)
+    ratios = [r["errors"]["rollout_after"] / r["clean"]["rollout_before"] for r in first
+              if r["score"]["found"] and r["errors"]["rollout_after"] is not None
+              and r["clean"]["rollout_before"]]
+    times = [d.diag_seconds for d in effect_sets + clean_sets if d.diag_seconds]
+    summary = {
+        "effects": n,
+        "found (family and scope)": sum(r["score"]["found"] for r in first),
+        "found, or named as a rival the data cannot tell apart": sum(
+            r["score"].get("found_or_inseparable", False) for r in first),
+        "identified (found, parameter within 25 %)": sum(r["score"]["identified"] for r in first),
+        "identified fraction": (sum(r["score"]["identified"] for r in first) / n) if n else None,
+        "found after the recommended recording": sum(r["score"]["found"] for r in rows
+                                                     if "(recommended" in r["id"]),
+        "found with rollout after <= 1.25x clean": sum(x <= CLEAN_RATIO_TARGET for x in ratios),
+        "found with a rollout ratio": len(ratios),
+        "false alarms": sum(c["significant"] for c in clean),
+        "clean runs": len(clean),
+        "diagnose seconds max": max(times) if times else None,
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    doc = {"command": "OPENBLAS_NUM_THREADS=%s .venv/bin/python %s" % (
+               os.environ.get("OPENBLAS_NUM_THREADS"), " ".join(sys.argv)), "started": time.strftime("%Y-%m-%d %H:%M:%S UTC",
+                                                               time.gmtime(t_start)),
+           "wall_seconds": time.time() - t_start, "load_average": os.getloadavg(),
+           "code": git_state(),
+           "moves_per_type": a.moves_per_type, "seed": a.seed, "clean_seeds": a.clean_seeds,
+           "diagnose_args": a.diagnose_arg, "summary": summary, "rows": rows, "clean": clean}
+    (out / "results.json").write_text(json.dumps(doc, indent=1, default=str) + "\n")
+    (out / "table.md").write_text(markdown(rows, clean, summary))
+    print(markdown(rows, clean, summary))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
