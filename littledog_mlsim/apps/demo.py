@@ -10,7 +10,7 @@
    mix), with localhost discovery: ``sim_node`` (the learned model, lockstep) in domain D and
    ``pybullet_node`` (measured robot, lockstep) in domain D + 1. D is derived from the process
    id unless ``--domain`` is given. sim_node runs with its own default projection, the gated
-   alpha-PROJ (alpha 0.5, the radius stored in the model; README "Which projection"), unless
+   alpha-PROJ (alpha 0.5, the radius stored in the model; docs/cli.md "Which projection"), unless
    ``--projection`` says otherwise.
 3. One TestPool move's recorded commands go to both on ``/littledog/cmd``, one command per step,
    the next one only after both simulators published that step's ``/littledog/joint_states``,

@@ -410,7 +410,7 @@ def gate_radius(train_states: np.ndarray, groups: np.ndarray, quantile: float = 
     The radius is the ``quantile`` of ``leave_move_out_distances`` (every ``every``-th state):
     real states of a move the TrainPool does not hold are that close to it in that share of
     cases, so states as well covered as those stay untouched and only the excess is pulled.
-    ``GATE_QUANTILE`` (0.9) is the documented default (README "Which projection",
+    ``GATE_QUANTILE`` (0.9) is the documented default (docs/cli.md "Which projection",
     ``benchmarks/sim_node_10x``)."""
     d = leave_move_out_distances(train_states, groups, every=every)
     return {"radius": float(np.quantile(d, float(quantile))), "quantile": float(quantile),
