@@ -238,3 +238,269 @@ def test_disk_full_writing_a_dataset_keeps_the_old_one(work, dataset, capsys, mo
     assert snapshot(out) == before and staging_of(out) == []
     assert [e.name for e in read_index(out).entries] == ["S_00"]
     assert len(load_moves(out, "all")) == 1
+
+
+# ---------------------------------------------------------------------------------------------
+# the ROS side: one executor thread for the module, simulators one at a time
+
+
+@pytest.fixture(scope="module")
+def ros():
+    r = Ros()
+    yield r
+    r.shutdown()
+
+
+@pytest.fixture(scope="module")
+def test_move(dataset):
+    from littledog_mlsim.rollout.simulate import prepare_test_move
+
+    return prepare_test_move(load_moves(dataset, split="test")[0])
+
+
+def lockstep_params(work: Path, name: str, node: str, extra: dict) -> Path:
+    """A params file for ``node`` in lockstep (a file: arrays through -p are clumsy)."""
+    f = work / f"{name}.yaml"
+    f.write_text(json.dumps({node: {"ros__parameters": {
+        "step_mode": "lockstep", "stats_period": 0.2, **extra}}}))
+    return f
+
+
+class Controller:
+    """A controller in its own thread that publishes a command every 10 ms whatever happens,
+    and a watchdog on the simulator's output: ``silent_for()`` is how long no joint state came."""
+
+    def __init__(self, probe: Probe, commands: np.ndarray) -> None:
+        self.probe, self.commands = probe, commands
+        self.sent = 0
+        self.errors: list[BaseException] = []
+        self.hold = threading.Event()          # set: publish nothing (a controller's own pause)
+        self.stop_ev = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="fault-controller", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        t = time.monotonic()
+        while not self.stop_ev.wait(max(0.0, t - time.monotonic())):
+            t += 0.01
+            if self.hold.is_set():
+                continue
+            try:
+                self.probe.send(self.commands[self.sent % len(self.commands)])
+                self.sent += 1
+            except BaseException as e:         # a controller that crashes would show here
+                self.errors.append(e)
+                return
+
+    def last_js(self) -> float:
+        """Receive time (monotonic) of the newest joint state, or -inf."""
+        with self.probe.cond:
+            return self.probe.js_received[-1] if self.probe.js_received else -np.inf
+
+    def stop(self) -> None:
+        self.stop_ev.set()
+        self.thread.join(5)
+        assert not self.thread.is_alive(), "the controller thread did not stop"
+
+
+class WatchedProbe(Probe):
+    """A :class:`Probe` that also notes when each joint state arrived (monotonic) and keeps a
+    transient-local ``/clock`` subscription (a restarted node's history reaches it)."""
+
+    def __init__(self, ros: Ros, sim: str) -> None:
+        super().__init__(ros, sim=sim, light=True)
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock as ClockMsg
+
+        self.js_received: list[float] = []
+        latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                             reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.subs.append(self.node.create_subscription(ClockMsg, "/clock", self._clock, latched))
+
+    def _js(self, msg, info):
+        super()._js(msg, info)
+        with self.cond:
+            self.js_received.append(time.monotonic())
+
+
+# s: how long without a joint state the controller calls the simulator silent (10 steps)
+SILENT_S = 0.1
+# s: the bound on noticing a killed simulator
+NOTICE_BOUND_S = 1.0
+
+
+@pytest.mark.parametrize("node,graph", [
+    ("sim_node", False),
+    # also waits for DDS to drop the killed node from the graph: Fast DDS's participant lease,
+    # about 20 s
+    pytest.param("pybullet_node", True, marks=pytest.mark.slow)])
+def test_simulator_killed_mid_run(ros, work, model_path, dataset, node, graph):
+    extra = {"model_path": str(model_path)} if node == "sim_node" else {"seed": 3}
+    params = lockstep_params(work, f"killed_{node}", node, extra)
+    commands = load_moves(dataset, split="train")[0].cmd
+    proc = Proc(node, None, work, "--params-file", str(params))
+    probe = WatchedProbe(ros, node)
+    ctl = None
+    try:
+        probe.connect(proc)
+        ctl = Controller(probe, commands)
+        probe.wait(lambda: len(probe.js) >= 50, what="50 steps")
+        clock_before = list(probe.clock)
+        proc.p.send_signal(signal.SIGKILL)
+        t_kill = time.monotonic()
+        assert proc.p.wait(TIMEOUT) == -signal.SIGKILL
+        # the controller notices: no joint state for SILENT_S, within NOTICE_BOUND_S
+        wait_until(lambda: time.monotonic() - ctl.last_js() > SILENT_S,
+                   timeout=NOTICE_BOUND_S + SILENT_S, what="the controller to notice")
+        noticed = time.monotonic() - t_kill
+        assert noticed <= NOTICE_BOUND_S + SILENT_S
+        # ... and goes on publishing, neither hung nor crashed
+        sent = ctl.sent
+        wait_until(lambda: ctl.sent >= sent + 20, what="the controller to keep publishing")
+        assert not ctl.errors and ctl.thread.is_alive()
+        gone = float("nan")
+        if graph:   # the simulator's graph entries go away too (DDS liveliness; slower)
+            t0 = time.monotonic()
+            wait_until(lambda: probe.cmd.get_subscription_count() == 0, timeout=40,
+                       what=f"the killed {node}'s subscription to leave the graph")
+            gone = time.monotonic() - t0 + noticed
+        # restarted: serves again, /clock from its start (0 s) on
+        ctl.hold.set()
+        with probe.cond:
+            n_clock = len(probe.clock)
+        proc = Proc(node, None, work, "--params-file", str(params))
+        probe.wait(lambda: len(probe.clock) > n_clock, timeout=30,
+                   what=f"/clock from the restarted {node}")
+        with probe.cond:
+            assert probe.clock[n_clock] == 0, probe.clock[n_clock:]
+        probe.connect(proc)
+        ctl.hold.clear()
+        probe.wait(lambda: len(probe.clock) >= n_clock + 21, what="20 steps after the restart")
+        with probe.cond:
+            after = probe.clock[n_clock:n_clock + 21]
+        assert after == [k * CONTROL_DT_NS for k in range(21)], after
+        assert clock_before[-1] >= 50 * CONTROL_DT_NS
+        assert not ctl.errors
+        print(f"{node} killed: the controller noticed after {noticed:.3f} s; the graph "
+              f"dropped its subscription after {gone:.2f} s")
+    finally:
+        if ctl is not None:
+            ctl.stop()
+        probe.close()
+        if proc.alive():
+            assert proc.stop() == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# a command flood with NaN in every tenth message, sim_node in lockstep
+
+
+FLOOD_HZ = 10_000.0        # what the flood aims at
+FLOOD_FLOOR_HZ = 3_000.0   # what it must reach here (a Python publisher on a shared 2-core box)
+ANSWER_BOUND_S = 1.0       # a service call during the flood answers within this
+
+
+def flood_messages(good: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """``good`` with a NaN command in every tenth message; (messages, is_bad)."""
+    msgs, bad = [], []
+    it = iter(good)
+    k = 0
+    while True:
+        if k % 10 == 9:
+            u = good[0].copy()
+            u[k % 12] = np.nan
+            msgs.append(u)
+            bad.append(True)
+        else:
+            u = next(it, None)
+            if u is None:
+                break
+            msgs.append(u)
+            bad.append(False)
+        k += 1
+    return msgs, np.array(bad)
+
+
+@pytest.mark.parametrize("repeat", [1, pytest.param(4, marks=pytest.mark.slow)])
+def test_lockstep_flood_with_nan_loses_no_good_command(ros, work, dataset, model_path,
+                                                       test_move, repeat):
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import SetBool
+
+    from littledog_mlsim.layout import JOINT_NAMES
+    from littledog_mlsim.rollout.simulate import rollout
+
+    good = np.concatenate([m.cmd for m in load_moves(dataset, split="all")] * repeat)
+    msgs, is_bad = flood_messages(good)
+    n_good, n_bad = int((~is_bad).sum()), int(is_bad.sum())
+    assert n_good == len(good) and np.all(is_bad[9::10]) and is_bad.sum() == len(msgs) // 10
+    params = lockstep_params(work, "flood", "sim_node", {
+        "model_path": str(model_path),
+        "initial_state": [float(x) for x in test_move.s0],
+        "initial_pose": [float(test_move.pose0.x0), float(test_move.pose0.y0),
+                         float(test_move.pose0.yaw0)]})
+    proc = Proc("sim_node", {"projection": "alpha", "alpha": 0.5, "radius": 0.0}, work,
+                "--params-file", str(params))
+    probe = Probe(ros)
+    # the flood's own publisher: deep enough that its history never drops an unsent message
+    pub = probe.node.create_publisher(JointState, "/littledog/cmd", QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=len(msgs),
+        reliability=ReliabilityPolicy.RELIABLE))
+    try:
+        probe.connect(proc)
+        wait_until(lambda: pub.get_subscription_count() >= 1, what="the flood's match")
+        out = []
+        for u in msgs:                        # built before, so the loop only publishes
+            msg = JointState()
+            msg.name = list(JOINT_NAMES)
+            msg.position = [float(x) for x in u]
+            out.append(msg)
+        answered: list[tuple[float, int]] = []   # (when, the newest step's stamp then)
+
+        def on_answer(_fut) -> None:
+            with probe.cond:
+                answered.append((time.monotonic(), max(probe.state, default=0)))
+        call_at = len(out) // 2
+        period = 1.0 / FLOOD_HZ
+        t0 = time.perf_counter()
+        for k, msg in enumerate(out):
+            while time.perf_counter() < t0 + k * period:   # pace (never ahead of 10 kHz)
+                pass
+            pub.publish(msg)
+            if k == call_at:    # mid-flood: the node must still answer a service call
+                t_call = time.monotonic()
+                fut = probe.pause_client.call_async(SetBool.Request(data=False))
+                fut.add_done_callback(on_answer)
+        rate = (len(out) - 1) / (time.perf_counter() - t0)
+        t_end = n_good * CONTROL_DT_NS
+        probe.wait(lambda: bool(answered), timeout=ANSWER_BOUND_S, what="the service answer")
+        latency = answered[0][0] - t_call
+        probe.wait(lambda: t_end in probe.state, timeout=60, what=f"step {n_good}")
+        st = probe.wait_counter("cmd_received", len(msgs))
+        print(f"flood: {len(msgs)} commands ({n_bad} NaN) at {rate:.0f} Hz; service answered "
+              f"in {latency * 1e3:.1f} ms; stats {st}")
+        assert rate >= FLOOD_FLOOR_HZ, f"the flood reached only {rate:.0f} Hz"
+        assert fut.result().success and latency <= ANSWER_BOUND_S
+        assert answered[0][1] < t_end, "answered only after the flood was stepped"
+        # ~/stats counts every message, each good one as one step, each NaN one as refused
+        assert int(st["cmd_received"]) == len(msgs)
+        assert int(st["cmd_rejected_nonfinite"]) == n_bad
+        assert int(st["cmd_accepted"]) == n_good and int(st["steps"]) == n_good
+        assert int(st["diverged"]) == 0 and proc.alive()
+        # in order: the last state is the core's rollout of the good commands, in order; each
+        # applied command that reached this process is the good command of its step
+        pose0 = np.array([test_move.pose0.x0, test_move.pose0.y0, test_move.pose0.yaw0])
+        model = OneStepModel.load(model_path)
+        ref = rollout(model, test_move.s0, good, model.projection("alpha", 0.5), pose0=pose0)
+        np.testing.assert_allclose(probe.state[t_end], ref[-1], rtol=0, atol=1e-12)
+        with probe.cond:
+            applied = dict(probe.applied)
+        assert applied and all(np.array_equal(u, good[t // CONTROL_DT_NS])
+                               for t, u in applied.items())
+    finally:
+        probe.node.destroy_publisher(pub)
+        probe.close()
+        if proc.alive():
+            assert proc.stop() == 0
