@@ -504,3 +504,72 @@ def test_lockstep_flood_with_nan_loses_no_good_command(ros, work, dataset, model
         probe.close()
         if proc.alive():
             assert proc.stop() == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# a recorder killed mid-bag
+
+
+def killed_recorder_mcap(dataset: Path, out: Path, fraction: float) -> Path:
+    """What a recorder killed mid-bag leaves: a bag directory without ``metadata.yaml`` whose
+    MCAP file is cut at ``fraction`` of its bytes (inside its chunk: no summary, no footer)."""
+    src = next((dataset / "F_00").glob("*.mcap"))
+    raw = src.read_bytes()
+    out.mkdir()
+    (out / f"{out.name}.mcap").write_bytes(raw[: int(len(raw) * fraction)])
+    return out
+
+
+def test_import_recovers_a_cut_short_mcap(work, dataset, capsys):
+    from littledog_mlsim.data.bags import read_bag
+
+    bag = killed_recorder_mcap(dataset, work / "killed_mcap", 0.55)
+    out = work / "imported_cut"
+    rc, stdout, err = cli(capsys, "import", str(bag), "--out", str(out), "--test-fraction", "0",
+                          "--no-figure")
+    assert rc == 0, err
+    # one warning naming the file, what was dropped and why
+    warn = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(warn) == 1 and str(bag / "killed_mcap.mcap") in warn[0], err
+    assert "no summary section" in warn[0] and "dropped" in warn[0], warn[0]
+    report = json.loads((out / "import_report.json").read_text())
+    assert report["bags"][0]["recovered"] in warn[0]
+    assert "Recovered (cut short)" in (out / "import_report.md").read_text()
+    # what was recovered is the source move's beginning, exactly
+    src = read_bag(dataset / "F_00")
+    (move,) = load_moves(out, "all")
+    n = move.n_steps
+    assert 0.4 * src.n_steps <= n < 0.6 * src.n_steps, (n, src.n_steps)
+    np.testing.assert_array_equal(move.stamps_ns, src.stamps_ns[: n + 1])
+    np.testing.assert_allclose(move.cmd, src.cmd[:n], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(move.q, src.q[: n + 1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(move.position, src.position[: n + 1], rtol=0, atol=1e-12)
+
+
+def test_import_refuses_an_unreadable_cut_in_one_line(work, dataset, capsys):
+    bag = killed_recorder_mcap(dataset, work / "killed_early", 0.0001)   # inside the header
+    out = work / "imported_early"
+    rc, stdout, err = cli(capsys, "import", str(bag), "--out", str(out), "--no-figure")
+    assert rc == 2 and stdout == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and str(bag / "killed_early.mcap") in lines[0], err
+    assert "nothing to salvage" in lines[0]
+    assert not out.exists() and staging_of(out) == []
+
+
+def test_import_reads_a_sqlite3_bag_without_metadata(work, dataset, capsys):
+    from littledog_mlsim.data.bags import read_bag, write_bag
+
+    src = read_bag(dataset / "F_00")
+    bag = work / "sq" / "F_00"
+    bag.parent.mkdir()
+    write_bag(bag, src, storage="sqlite3")
+    (bag / "metadata.yaml").unlink()
+    out = work / "imported_sqlite"
+    rc, stdout, err = cli(capsys, "import", str(bag), "--out", str(out), "--test-fraction", "0",
+                          "--no-figure")
+    assert rc == 0, err
+    (move,) = load_moves(out, "all")
+    assert move.n_steps == src.n_steps
+    np.testing.assert_allclose(move.cmd, src.cmd, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(move.q, src.q, rtol=0, atol=1e-12)
