@@ -123,25 +123,37 @@ def block():
     MARK.write_text(str(os.getpid()))
     time.sleep(600)
 {hook}
-from littledog_mlsim.cli import main
+from {module} import main
 sys.exit(main(sys.argv[2:]))
 """
 
 
-@pytest.mark.parametrize("point", list(KILL_HOOKS))
-def test_train_killed_while_writing_keeps_the_old_model(work, dataset, model_path, point, capsys):
-    out = work / f"model_{point}"
+def writer_args(writer: str, dataset: Path, out: Path) -> tuple[str, list[str]]:
+    """(module with ``main``, its arguments) to train a next-state LR model on ``dataset``."""
+    if writer == "train":
+        return "littledog_mlsim.cli", ["train", "--data", str(dataset), "--method", "lr",
+                                       "--target", "next", "--out", str(out), "--quiet"]
+    return "littledog_mlsim.nodes.trainer_node", [
+        "--ros-args", "-p", f"data:={dataset}", "-p", f"out:={out}", "-p", "method:=lr",
+        "-p", "target:=next"]
+
+
+@pytest.mark.parametrize("point,writer", [(p, "train") for p in KILL_HOOKS] + [
+    pytest.param("mid_file", "trainer_node", marks=pytest.mark.slow)])
+def test_train_killed_while_writing_keeps_the_old_model(work, dataset, model_path, point, writer,
+                                                        capsys):
+    out = work / f"model_{point}_{writer}"
     assert cli(capsys, "train", "--data", str(dataset), "--method", "lr", "--out", str(out),
                "--quiet")[0] == 0
     before = snapshot(out)
     old = OneStepModel.load(out)
     X, _, _ = features_responses(load_moves(dataset, split="test"))
-    mark = work / f"mark_{point}"
+    mark = work / f"mark_{point}_{writer}"
     mark.unlink(missing_ok=True)
-    code = CHILD.format(hook=textwrap.dedent(KILL_HOOKS[point]))
     # a different model (next-state target), so a swapped-in new one would show
-    p = subprocess.Popen([sys.executable, "-c", code, str(mark), "train", "--data", str(dataset),
-                          "--method", "lr", "--target", "next", "--out", str(out), "--quiet"],
+    module, args = writer_args(writer, dataset, out)
+    code = CHILD.format(hook=textwrap.dedent(KILL_HOOKS[point]), module=module)
+    p = subprocess.Popen([sys.executable, "-c", code, str(mark), *args],
                          env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         wait_until(lambda: mark.exists() or p.poll() is not None, timeout=120,
