@@ -270,6 +270,31 @@ def test_move(dataset):
     return prepare_test_move(load_moves(dataset, split="test")[0])
 
 
+def children_of(pid: int) -> dict[int, str]:
+    """The live child processes of ``pid`` (Linux /proc): pid -> command line."""
+    out = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            kids = (task / "children").read_text().split()
+        except OSError:
+            continue
+        for k in map(int, kids):
+            try:
+                out[k] = (Path(f"/proc/{k}/cmdline").read_bytes().replace(b"\0", b" ")
+                          .decode(errors="replace"))
+            except OSError:
+                continue
+    return out
+
+
+def gone(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return True
+    return state in ("Z", "X")
+
+
 def lockstep_params(work: Path, name: str, node: str, extra: dict) -> Path:
     """A params file for ``node`` in lockstep (a file: arrays through -p are clumsy)."""
     f = work / f"{name}.yaml"
@@ -394,8 +419,8 @@ def test_simulator_killed_mid_run(ros, work, model_path, dataset, node, graph):
         assert after == [k * CONTROL_DT_NS for k in range(21)], after
         assert clock_before[-1] >= 50 * CONTROL_DT_NS
         assert not ctl.errors
-        print(f"{node} killed: the controller noticed after {noticed:.3f} s; the graph "
-              f"dropped its subscription after {gone:.2f} s")
+        print(f"{node} killed: the controller noticed after {noticed:.3f} s"
+              + (f"; the graph dropped its subscription after {gone:.2f} s" if graph else ""))
     finally:
         if ctl is not None:
             ctl.stop()
@@ -585,3 +610,38 @@ def test_import_reads_a_sqlite3_bag_without_metadata(work, dataset, capsys):
     assert move.n_steps == src.n_steps
     np.testing.assert_allclose(move.cmd, src.cmd, rtol=0, atol=1e-12)
     np.testing.assert_allclose(move.q, src.q, rtol=0, atol=1e-12)
+
+
+def test_demo_controller_reports_a_killed_simulator(work, dataset, model_path):
+    """The package's own controller (the demo: both simulators in lockstep) when sim_node is
+    killed mid-replay: it ends within a bound with one line naming the node and the signal,
+    and stops the other simulator."""
+    from rosharness import DOMAIN_ID
+
+    log = work / "demo.log"
+    err = work / "demo.err"
+    domain = (DOMAIN_ID + 50) % 100 + 1       # its own pair of domains, not the module's
+    with open(log, "w") as o, open(err, "w") as e:
+        p = subprocess.Popen([sys.executable, "-m", "littledog_mlsim.apps.demo", "--data",
+                              str(dataset), "--model", str(model_path), "--projection", "none",
+                              "--domain", str(domain)], stdout=o, stderr=e, env=ENV)
+    try:
+        wait_until(lambda: "replaying" in log.read_text() or p.poll() is not None, timeout=120,
+                   what="the demo's replay to start")
+        assert p.poll() is None, err.read_text()
+        kids = children_of(p.pid)
+        sim = [k for k, cmd in kids.items() if "littledog_mlsim.nodes.sim_node" in cmd]
+        assert len(sim) == 1 and len(kids) == 2, kids
+        os.kill(sim[0], signal.SIGKILL)
+        t_kill = time.monotonic()
+        rc = p.wait(TIMEOUT)
+        ended = time.monotonic() - t_kill
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert rc == 1 and ended < 5.0, (rc, ended)
+    lines = [ln for ln in err.read_text().splitlines() if ln.strip()]
+    assert len(lines) == 1 and "sim_node was killed by SIGKILL" in lines[0], lines
+    assert "replayed" not in log.read_text()        # killed mid-replay, not after it
+    assert all(gone(k) for k in kids), "a simulator survived the demo"
