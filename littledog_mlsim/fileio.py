@@ -9,9 +9,9 @@
   when the block succeeds the directory is fsynced and put in place of the target (replacing
   an existing one only if allowed), when it fails it is removed. Model files, recorded datasets
   and bags are all written through it, so there is one set of rules for partial output:
-  - a failed write (``OSError``, e.g. ENOSPC: the disk is full) is re-raised as an ``OSError``
-    of the same errno whose one-line message names the target and says that nothing was
-    written there, or that the previous one is kept;
+  - a failed write (``OSError``, e.g. ENOSPC: the disk is full) is re-raised as a
+    :class:`WriteFailed` (an ``OSError`` of the same errno) whose one-line message names the
+    target and says that nothing was written there, or that the previous one is kept;
   - the writer holds an ``flock`` on its staging directory while it writes; a staging directory
     whose writer was killed (SIGKILL, a power cut: nothing could remove it) is unlocked, and
     the next write of the same target removes it.
@@ -34,7 +34,8 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 __all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory", "to_plain",
-           "format_problem", "read_document", "write_synced", "remove_stale_staging"]
+           "format_problem", "read_document", "write_synced", "remove_stale_staging",
+           "WriteFailed"]
 
 log = logging.getLogger(__name__)
 
@@ -226,11 +227,30 @@ def remove_stale_staging(path: str | os.PathLike, tag: str) -> list[Path]:
     return removed
 
 
+class WriteFailed(OSError):
+    """A write of ``target`` failed (the OS error's errno kept); ``str()`` is one line naming
+    the target, the reason and what is left at the target."""
+
+    def __init__(self, err: int, target: Path, reason: str, existed: bool) -> None:
+        kept = "the previous one is kept" if existed else "nothing was written there"
+        super().__init__(err, f"writing {target} failed: {reason}; {kept}")
+        self.target, self.reason, self.existed = target, reason, existed
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+    def __reduce__(self):  # picklable across process pools despite the 4-argument __init__
+        return WriteFailed, (self.errno, self.target, self.reason, self.existed)
+
+
 def _write_failed(path: Path, existed: bool, e: OSError) -> OSError:
-    """``e`` as one line naming the target ``path`` (same errno, so the same OSError subclass)."""
-    where = f" ({e.filename})" if e.filename and str(e.filename) != str(path) else ""
-    kept = "the previous one is kept" if existed else "nothing was written there"
-    return OSError(e.errno, f"writing {path} failed: {e.strerror or e}{where}; {kept}")
+    """``e`` as a :class:`WriteFailed` of ``path`` (a nested one keeps its first reason)."""
+    if isinstance(e, WriteFailed):
+        reason = f"{e.reason} (at {e.target})"
+    else:
+        where = f" ({e.filename})" if e.filename and str(e.filename) != str(path) else ""
+        reason = f"{e.strerror or e}{where}"
+    return WriteFailed(e.errno, path, reason, existed)
 
 
 @contextlib.contextmanager
@@ -266,7 +286,7 @@ def atomic_directory(path: str | os.PathLike, *, replace: bool = False, tag: str
             fsync_path(tmp)
             replace_directory(tmp, path)
         except OSError as e:
-            if e.errno is None or str(path) in str(e):
+            if e.errno is None:
                 raise
             raise _write_failed(path, existed, e) from e
         fsync_path(path.parent)

@@ -183,6 +183,21 @@ def test_train_killed_while_writing_keeps_the_old_model(work, dataset, model_pat
     assert OneStepModel.load(out).target == "next"
 
 
+def test_a_live_writers_staging_is_never_removed(work):
+    """Only a killed writer's staging directory is removed: one whose writer still runs (it
+    holds its lock) is left alone, also by a concurrent writer of the same target."""
+    target = work / "shared_target"
+    with fileio.atomic_directory(target, replace=True, tag="partial") as tmp:
+        (tmp / "a").write_text("x")
+        assert fileio.remove_stale_staging(target, "partial") == []
+        assert (tmp / "a").is_file()
+        with fileio.atomic_directory(target, replace=True, tag="partial") as other:
+            (other / "b").write_text("y")
+            assert (tmp / "a").is_file()
+    assert sorted(p.name for p in target.iterdir()) == ["a"]   # the last one to finish wins
+    assert staging_of(target) == []
+
+
 # ---------------------------------------------------------------------------------------------
 # disk full (a write that fails with ENOSPC) while writing a model or a dataset
 
@@ -225,6 +240,16 @@ def test_disk_full_writing_a_model_keeps_the_old_one(work, dataset, model_path, 
     assert rc == 2 and len(err.strip().splitlines()) == 1 and str(new) in err
     assert "nothing was written there" in err
     assert not new.exists() and staging_of(new) == []
+
+
+def test_write_failed_is_one_line_and_survives_a_process_pool():
+    import pickle
+
+    e = fileio.WriteFailed(errno.ENOSPC, Path("/d/m"), "No space left on device", True)
+    back = pickle.loads(pickle.dumps(e))
+    assert isinstance(back, OSError) and back.errno == errno.ENOSPC
+    assert str(back) == str(e) == ("writing /d/m failed: No space left on device; the previous "
+                                   "one is kept")
 
 
 def test_disk_full_writing_a_dataset_keeps_the_old_one(work, dataset, capsys, monkeypatch):
