@@ -388,8 +388,9 @@ class WatchedProbe(Probe):
 
 # s: how long without a joint state the controller calls the simulator silent (10 steps)
 SILENT_S = 0.1
-# s: the bound on noticing a killed simulator
-NOTICE_BOUND_S = 1.0
+# s: the bound on noticing a killed simulator (generous for a loaded 2-core machine; it takes
+# about SILENT_S + 5 ms on a quiet one)
+NOTICE_BOUND_S = 2.0
 
 
 @pytest.mark.parametrize("node,graph", [
@@ -442,7 +443,8 @@ def test_simulator_killed_mid_run(ros, work, model_path, dataset, node, graph):
         with probe.cond:
             after = probe.clock[n_clock:n_clock + 21]
         assert after == [k * CONTROL_DT_NS for k in range(21)], after
-        assert clock_before[-1] >= 50 * CONTROL_DT_NS
+        # the killed node was well past its start (so 0 above is a start, not a late message)
+        assert clock_before[-1] >= 40 * CONTROL_DT_NS and np.all(np.diff(clock_before) > 0)
         assert not ctl.errors
         print(f"{node} killed: the controller noticed after {noticed:.3f} s"
               + (f"; the graph dropped its subscription after {gone:.2f} s" if graph else ""))
@@ -460,7 +462,7 @@ def test_simulator_killed_mid_run(ros, work, model_path, dataset, node, graph):
 
 FLOOD_HZ = 10_000.0        # what the flood aims at
 FLOOD_FLOOR_HZ = 3_000.0   # what it must reach here (a Python publisher on a shared 2-core box)
-ANSWER_BOUND_S = 1.0       # a service call during the flood answers within this
+ANSWER_BOUND_S = 2.0       # a service call during the flood answers within this (10-200 ms)
 
 
 def flood_messages(good: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
@@ -643,6 +645,8 @@ def test_demo_controller_reports_a_killed_simulator(work, dataset, model_path):
     and stops the other simulator."""
     from rosharness import DOMAIN_ID
 
+    from littledog_mlsim.apps.demo import STOP_TIMEOUT
+
     log = work / "demo.log"
     err = work / "demo.err"
     domain = (DOMAIN_ID + 50) % 100 + 1       # its own pair of domains, not the module's
@@ -659,13 +663,15 @@ def test_demo_controller_reports_a_killed_simulator(work, dataset, model_path):
         assert len(sim) == 1 and len(kids) == 2, kids
         os.kill(sim[0], signal.SIGKILL)
         t_kill = time.monotonic()
-        rc = p.wait(TIMEOUT)
+        rc = p.wait(STOP_TIMEOUT + 10.0)
         ended = time.monotonic() - t_kill
     finally:
         if p.poll() is None:
             p.kill()
             p.wait()
-    assert rc == 1 and ended < 5.0, (rc, ended)
+    # it notices within 0.2 s, then stops pybullet_node (SIGINT, SIGKILL after STOP_TIMEOUT)
+    print(f"the demo ended {ended:.2f} s after sim_node was killed")
+    assert rc == 1 and ended < STOP_TIMEOUT + 5.0, (rc, ended)
     lines = [ln for ln in err.read_text().splitlines() if ln.strip()]
     assert len(lines) == 1 and "sim_node was killed by SIGKILL" in lines[0], lines
     assert "replayed" not in log.read_text()        # killed mid-replay, not after it
