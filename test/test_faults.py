@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rosharness import BIN, ENV, Probe, Proc, Ros  # noqa: I001  (first: it sets the test domain)
+from rosharness import ENV, Probe, Proc, Ros  # noqa: I001  (first: it sets the test domain)
 from littledog_mlsim import fileio
 from littledog_mlsim.cli import main as cli_main
 from littledog_mlsim.data.dataset import features_responses, load_moves, read_index
-from littledog_mlsim.layout import CONTROL_DT_NS, HOME_POSE
+from littledog_mlsim.layout import CONTROL_DT_NS
 from littledog_mlsim.models.lr import LinearRegression
 from littledog_mlsim.models.onestep import OneStepModel
 from waiting import TIMEOUT, wait_until
