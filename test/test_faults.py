@@ -676,3 +676,59 @@ def test_demo_controller_reports_a_killed_simulator(work, dataset, model_path):
     assert len(lines) == 1 and "sim_node was killed by SIGKILL" in lines[0], lines
     assert "replayed" not in log.read_text()        # killed mid-replay, not after it
     assert all(gone(k) for k in kids), "a simulator survived the demo"
+
+
+def _zstd_copy(src: Path, out_dir: Path) -> Path:
+    """``src`` (an MCAP file) rewritten with zstd-compressed chunks; returns the new file."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+
+    writer = Writer(out_dir, version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)   # before open
+    with AnyReader([src]) as reader, writer:
+        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=reader.typestore)
+                 for c in reader.connections}
+        for c, t, data in reader.messages():
+            writer.write(conns[c.id], t, data)
+    return next(out_dir.glob("*.mcap"))
+
+
+@pytest.mark.parametrize("compressed", [False, True])
+def test_salvage_keeps_the_whole_records_before_the_cut(work, dataset, compressed):
+    """An MCAP file of several chunks cut inside its second chunk: the salvaged file holds the
+    bag's first messages, exactly; an uncompressed chunk's whole records before the cut are
+    kept, a compressed chunk cut short is dropped (said)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag2.storage_mcap import McapReader
+
+    from littledog_mlsim.data.bags import read_bag
+    from littledog_mlsim.data.realstyle import write_realstyle_bag
+    from littledog_mlsim.data.salvage import salvage_mcap
+
+    src = work / "multi.mcap"
+    if not src.exists():
+        write_realstyle_bag(src, [read_bag(dataset / f"F_0{i}") for i in range(3)])
+    if compressed:
+        src = _zstd_copy(src, work / "multi_zstd")
+    storage = McapReader(src)
+    storage.open()
+    chunks = sorted(storage.chunks, key=lambda c: c.chunk_start_offset)
+    storage.close()
+    assert len(chunks) >= 2 and {c.compression for c in chunks} == {"zstd" if compressed else ""}
+    with AnyReader([src]) as reader:
+        full = [(c.topic, t, bytes(d)) for c, t, d in reader.messages()]
+    first = sum(chunks[0].channel_count.values())
+    second = chunks[1]
+    cut = work / f"cut_{compressed}.mcap"
+    cut.write_bytes(src.read_bytes()[: second.chunk_start_offset + second.chunk_length // 2])
+    s = salvage_mcap(cut, work / f"salvaged_{compressed}.mcap")
+    with AnyReader([s.out]) as reader:
+        got = [(c.topic, t, bytes(d)) for c, t, d in reader.messages()]
+    assert got == full[: len(got)] and s.messages == len(got)
+    assert s.chunks_whole == 1
+    if compressed:
+        assert len(got) == first
+        assert "zstd-compressed chunk cut short" in s.dropped
+    else:
+        assert first < len(got) < first + sum(second.channel_count.values())
+        assert "after the cut inside its last chunk" in s.dropped
