@@ -269,11 +269,9 @@ def _import_options(a: argparse.Namespace):
 
 
 def cmd_import(a: argparse.Namespace) -> int:
-    import logging
-
     from .data.importer import import_bags
 
-    logging.basicConfig(level=logging.WARNING, format="littledog-mlsim import: %(message)s")
+    # warnings (a skipped or salvaged bag) come through main's package log handler, once
     opts = _import_options(a)
     r = import_bags(a.bags, a.out, opts, overwrite=a.overwrite, figure=not a.no_figure)
     types = ", ".join(f"{t} {n}" for t, n in _type_counts(r.report).items())

@@ -8,7 +8,15 @@
 - :func:`atomic_directory`: a context manager that yields an empty temporary sibling directory;
   when the block succeeds the directory is fsynced and put in place of the target (replacing
   an existing one only if allowed), when it fails it is removed. Model files, recorded datasets
-  and bags are all written through it, so there is one set of rules for partial output.
+  and bags are all written through it, so there is one set of rules for partial output:
+  - a failed write (``OSError``, e.g. ENOSPC: the disk is full) is re-raised as a
+    :class:`WriteFailed` (an ``OSError`` of the same errno) whose one-line message names the
+    target and says that nothing was written there, or that the previous one is kept;
+  - the writer holds an ``flock`` on its staging directory while it writes; a staging directory
+    whose writer was killed (SIGKILL, a power cut: nothing could remove it) is unlocked, and
+    the next write of the same target removes it.
+- :func:`write_synced`: one file's bytes, flushed and fsynced (the model writer's file write;
+  tests replace it to make a write fail part-way).
 """
 from __future__ import annotations
 
@@ -16,6 +24,8 @@ import contextlib
 import ctypes
 import ctypes.util
 import errno
+import fcntl
+import logging
 import os
 import secrets
 import shutil
@@ -24,7 +34,10 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 __all__ = ["atomic_write_text", "atomic_directory", "fsync_path", "replace_directory", "to_plain",
-           "format_problem", "read_document"]
+           "format_problem", "read_document", "write_synced", "remove_stale_staging",
+           "WriteFailed"]
+
+log = logging.getLogger(__name__)
 
 
 def format_problem(doc: Any, fmt: str, version: int, what: str) -> str | None:
@@ -106,6 +119,14 @@ def atomic_write_text(path: str | os.PathLike, text: str, mode: int = 0o644) -> 
     return path
 
 
+def write_synced(path: str | os.PathLike, data: bytes) -> None:
+    """Write ``data`` to a new file ``path``, flushed and fsynced."""
+    with open(path, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+
+
 def fsync_path(path: str | os.PathLike) -> None:
     """fsync a file or directory by path (a directory: its entries)."""
     fd = os.open(path, os.O_RDONLY)
@@ -167,6 +188,71 @@ def replace_directory(tmp: Path, path: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
+def _lock(directory: Path) -> int:
+    """An exclusive ``flock`` on ``directory`` (an open descriptor; closing it unlocks)."""
+    fd = os.open(directory, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise
+    return fd
+
+
+def remove_stale_staging(path: str | os.PathLike, tag: str) -> list[Path]:
+    """Remove the staging directories ``.NAME.<tag>-*`` next to ``path`` whose writer is gone
+    (nobody holds their lock: the writer was killed); returns what was removed."""
+    path = Path(path)
+    removed = []
+    try:
+        candidates = sorted(path.parent.glob(f".{path.name}.{tag}-*"))
+    except OSError:
+        return removed
+    for d in candidates:
+        if not d.is_dir() or d.is_symlink():
+            continue
+        try:
+            fd = _lock(d)
+        except OSError:        # locked: a live writer; or gone meanwhile
+            continue
+        try:
+            shutil.rmtree(d, ignore_errors=True)
+            removed.append(d)
+        finally:
+            os.close(fd)
+    if removed:
+        log.info("removed %d staging director%s left by a killed writer of %s: %s",
+                 len(removed), "y" if len(removed) == 1 else "ies", path,
+                 ", ".join(d.name for d in removed))
+    return removed
+
+
+class WriteFailed(OSError):
+    """A write of ``target`` failed (the OS error's errno kept); ``str()`` is one line naming
+    the target, the reason and what is left at the target."""
+
+    def __init__(self, err: int, target: Path, reason: str, existed: bool) -> None:
+        kept = "the previous one is kept" if existed else "nothing was written there"
+        super().__init__(err, f"writing {target} failed: {reason}; {kept}")
+        self.target, self.reason, self.existed = target, reason, existed
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+    def __reduce__(self):  # picklable across process pools despite the 4-argument __init__
+        return WriteFailed, (self.errno, self.target, self.reason, self.existed)
+
+
+def _write_failed(path: Path, existed: bool, e: OSError) -> OSError:
+    """``e`` as a :class:`WriteFailed` of ``path`` (a nested one keeps its first reason)."""
+    if isinstance(e, WriteFailed):
+        reason = f"{e.reason} (at {e.target})"
+    else:
+        where = f" ({e.filename})" if e.filename and str(e.filename) != str(path) else ""
+        reason = f"{e.strerror or e}{where}"
+    return WriteFailed(e.errno, path, reason, existed)
+
+
 @contextlib.contextmanager
 def atomic_directory(path: str | os.PathLike, *, replace: bool = False, tag: str = "partial",
                      create: bool = True) -> Iterator[Path]:
@@ -178,20 +264,32 @@ def atomic_directory(path: str | os.PathLike, *, replace: bool = False, tag: str
     writer names after its directory get the final name. On success ``tmp`` is fsynced and
     renamed to ``path``; an existing ``path`` is replaced if ``replace``, else FileExistsError
     (checked before and after the block). On any exception (also KeyboardInterrupt) the
-    temporary directory is removed and ``path`` is untouched.
+    temporary directory is removed and ``path`` is untouched; an ``OSError`` with an errno
+    (a full disk, ENOSPC) comes out as one line naming ``path`` (module doc). The staging
+    directory is locked while the block runs; unlocked ones of the same target and tag (left
+    by a killed writer) are removed first.
     """
     path = Path(path)
     if not replace and (path.exists() or path.is_symlink()):
         raise FileExistsError(f"{path} exists already, not overwriting")
+    existed = path.exists()
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_staging(path, tag)
     staging = sibling_dir(path, tag)
+    lock = _lock(staging)
     tmp = staging if create else staging / path.name
     try:
-        yield tmp
-        if not replace and (path.exists() or path.is_symlink()):
-            raise FileExistsError(f"{path} appeared while writing, not overwriting")
-        fsync_path(tmp)
-        replace_directory(tmp, path)
+        try:
+            yield tmp
+            if not replace and (path.exists() or path.is_symlink()):
+                raise FileExistsError(f"{path} appeared while writing, not overwriting")
+            fsync_path(tmp)
+            replace_directory(tmp, path)
+        except OSError as e:
+            if e.errno is None:
+                raise
+            raise _write_failed(path, existed, e) from e
         fsync_path(path.parent)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+        os.close(lock)

@@ -163,8 +163,17 @@ class Child:
 
     def check(self) -> None:
         if not self.alive():
-            raise DemoError(f"{self.name} exited with status {self.p.returncode}: "
-                            f"{self.reason()}")
+            rc = self.p.returncode
+            if rc < 0:     # killed by a signal: it could not say why itself
+                try:
+                    sig = signal.Signals(-rc).name
+                except ValueError:
+                    sig = f"signal {-rc}"
+                last = self.reason()
+                raise DemoError(f"{self.name} was killed by {sig} (exit status {rc})"
+                                + ("" if last == "no error message" else
+                                   f"; its last line: {last}"))
+            raise DemoError(f"{self.name} exited with status {rc}: {self.reason()}")
 
     def stop(self) -> int:
         """SIGINT, wait up to STOP_TIMEOUT s, then SIGKILL; returns the exit status."""

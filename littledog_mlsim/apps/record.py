@@ -86,6 +86,16 @@ def plan_jobs(moves_per_type: int, types: Sequence[str], seed: int) -> list[Move
     return [MoveJob(t, i, seed) for t in types for i in range(moves_per_type)]
 
 
+class _NoProgress:
+    """A progress bar that shows nothing (``record_dataset(progress=False)``)."""
+
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    types: Sequence[str] = MOVE_TYPES, seed: int = 0, robot: str = "measured",
                    effects_file: str | None = None, storage: str = "mcap",
@@ -117,7 +127,10 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     with atomic_directory(out, replace=overwrite) as tmp:  # swapped in only after success
         results = []
         args = [(j, str(tmp / j.name), robot, effects_file, storage, excitation) for j in plan]
-        bar = tqdm(total=len(plan), desc=f"record {out.name}", unit="move", disable=not progress)
+        # no tqdm object at all without progress: even a disabled one starts tqdm's monitor
+        # thread, which then outlives the call
+        bar = (tqdm(total=len(plan), desc=f"record {out.name}", unit="move") if progress
+               else _NoProgress())
         if jobs == 1:
             for a in args:
                 results.append(_record_one(*a))

@@ -140,7 +140,7 @@ def write_bag(path: str | os.PathLike, rec: MoveRecording, storage: str = "mcap"
     directory must exist; ``path`` must not (FileExistsError). The bag is written into a hidden
     temporary sibling directory and renamed into place, so a failure leaves nothing behind
     (:func:`..fileio.atomic_directory`; only a hard kill can leave a ``.<name>.partial-*``
-    directory). ValueError if ``rec`` is
+    directory, which the next write of the same bag removes). ValueError if ``rec`` is
     inconsistent (shapes, NaN/inf, stamps not on one 100 Hz clock, non-unit quaternions) or
     ``storage`` is not ``mcap``/``sqlite3``.
     """

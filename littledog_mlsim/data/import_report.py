@@ -95,6 +95,8 @@ def _markdown(doc: dict) -> str:
         if b.get("skipped"):
             L += [f"Skipped: {b['skipped']}", ""]
             continue
+        if b.get("recovered"):
+            L += [f"Recovered (cut short): {b['recovered']}.", ""]
         L += [f"{b['kind']}, {b['messages']} messages on the three topics "
               f"({b['messages_in_bag']} in the bag).", "",
               "| role | topic | type | count | rate [Hz] | interval p1/p50/p99/max [ms] | "

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import logging
 import os
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
@@ -182,6 +183,7 @@ class RecordingStreams:
     streams: dict[str, Stream]
     n_messages: int                    # messages read (the three topics)
     n_messages_bag: int                # messages in the bag (all topics)
+    recovered: str = ""                # what was salvaged of a cut-short bag and what dropped
 
 
 @lru_cache(maxsize=1)
@@ -201,10 +203,10 @@ def _bag_kind(path: Path) -> str:
 def read_recording(path: str | os.PathLike, opts: ImportOptions) -> RecordingStreams:
     """Read and decode the three topics of one bag onto the bag clock (steps 1 and 2).
 
-    BagError (one line naming bag, topic and message) for anything unusable.
+    BagError (one line naming bag, topic and message) for anything unusable. A bare MCAP file
+    cut short (a killed recorder) is read as far as its records are whole; what was dropped and
+    why is in ``RecordingStreams.recovered`` and logged as a warning.
     """
-    from rosbags.highlevel import AnyReader
-
     path = Path(path)
     bag = str(path)
     kind = _bag_kind(path)
@@ -213,11 +215,50 @@ def read_recording(path: str | os.PathLike, opts: ImportOptions) -> RecordingStr
     if kind == "unknown":
         raise BagError(bag, None, "not a bag: expected a rosbag2 directory or a .mcap, .db3 "
                                   "or ROS 1 .bag file")
+    scratch = tempfile.TemporaryDirectory(prefix="littledog-salvage-")
+    try:
+        reader, recovered = _open_reader(path, bag, kind, Path(scratch.name))
+        rs = _read_streams(reader, path, bag, kind, opts)
+    finally:
+        scratch.cleanup()
+    rs.recovered = recovered
+    return rs
+
+
+def _open_reader(path: Path, bag: str, kind: str, scratch: Path):
+    """An open AnyReader of the bag, and what was salvaged ("" if the bag opened as it is).
+
+    A bare MCAP file that rosbags cannot open (a recorder killed before it wrote the summary)
+    is read through a copy of its whole records in ``scratch`` (``data.salvage``)."""
+    from rosbags.highlevel import AnyReader
+
+    from .salvage import SalvageError, salvage_mcap
+
     try:
         reader = AnyReader([path], default_typestore=_default_typestore())
         reader.open()
+        return reader, ""
     except Exception as exc:
-        raise BagError(bag, None, f"cannot open: {type(exc).__name__}: {exc}") from None
+        why = f"cannot open: {type(exc).__name__}: {str(exc).rstrip('.')}"
+        if kind != "rosbag2 mcap file":
+            raise BagError(bag, None, why) from None
+    try:
+        s = salvage_mcap(path, scratch / path.name)
+        reader = AnyReader([s.out], default_typestore=_default_typestore())
+        reader.open()
+    except (SalvageError, OSError) as exc:
+        raise BagError(bag, None, f"{why}; nothing to salvage: {exc}") from None
+    except Exception as exc:
+        raise BagError(bag, None, f"{why}; its salvaged records do not read either: "
+                                  f"{type(exc).__name__}: {exc}") from None
+    recovered = (f"read {s.messages} whole messages of {s.size} bytes; {s.dropped}")
+    log.warning("%s: %s", bag, recovered)
+    return reader, recovered
+
+
+def _read_streams(reader, path: Path, bag: str, kind: str,
+                  opts: ImportOptions) -> RecordingStreams:
+    """Read, decode and time the three topics from the open ``reader`` (closes it)."""
     try:
         conns: dict[str, list] = {}
         for role in ("cmd", "joint_states", "pose"):
@@ -942,6 +983,7 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
                 seg_rows.append(part)
         bag_reports.append({"path": str(path), "kind": rs.kind, "messages": rs.n_messages,
                             "messages_in_bag": rs.n_messages_bag,
+                            **({"recovered": rs.recovered} if rs.recovered else {}),
                             "topics": {r: s.report for r, s in rs.streams.items()},
                             "_segments": seg_rows, **seg_report})
     if not moves:

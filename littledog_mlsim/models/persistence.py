@@ -46,6 +46,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .. import fileio
 from ..fileio import atomic_directory, read_document, to_plain
 from .base import Regressor
 from .gp import GPR
@@ -174,10 +175,7 @@ def save_model(path: str | os.PathLike, model: Regressor,
         raise ModelError(f"cannot save model metadata as JSON: {e}") from e
     with atomic_directory(path, replace=True, tag="tmp") as tmp:
         for name, data in ((ARRAYS_FILE, blob), (META_FILE, (text + "\n").encode("utf-8"))):
-            with open(tmp / name, "wb") as f:
-                f.write(data)
-                f.flush()
-                os.fsync(f.fileno())
+            fileio.write_synced(tmp / name, data)
     return path
 
 

@@ -11,7 +11,8 @@ of the core and its outputs into messages.
 Topics (docs/interface.md §2; publishers reliable, keep-last 10, transient-local so that a
 late-joining transient-local subscriber such as bag_recorder gets the last 10 messages):
 
-- subscribes ``/littledog/cmd`` (JointState; reliable, keep-last ``cmd_queue_depth``);
+- subscribes ``/littledog/cmd`` (JointState; reliable; timer mode keep-last ``cmd_queue_depth``,
+  lockstep keep-all: see Step modes);
 - publishes ``/littledog/joint_states`` (position + velocity, contract order),
   ``/littledog/odom`` (odom -> base_link, twist in base_link), ``/clock`` (if
   ``publish_clock``), and, under the node's name: ``~/state`` (the paper's 33-element state
@@ -53,8 +54,13 @@ Step modes (``step_mode``):
   arrives the robot is commanded ``stand_command`` (default ``layout.HOME_POSE``).
 - ``lockstep``: exactly one step per accepted command, computed and published in the command's
   callback; no timer, no timeout. For deterministic replay a controller sends command k after it
-  received state k (a controller that sends faster than the node steps can lose commands to the
-  queue depths).
+  received state k. A controller may also send faster than the node steps: the command
+  subscription then keeps all (reliable, keep-all history), so a burst waits in the node's
+  queue, or, once DDS's resource limits are reached, in the controller's writer (it is not
+  acknowledged until there is room), and every valid command makes its step, in order. The
+  controller's own publisher must keep what it has not yet delivered: keep-all, or keep-last
+  with a depth of at least its longest burst (a shallower one overwrites its own unsent
+  commands).
 
 Command rule: ``messages.check_command`` (names, lengths, NaN/inf rejected; out-of-limit angles
 clipped). Counted in ``~/stats``: ``cmd_received``, ``cmd_accepted``, ``cmd_clipped``,
@@ -145,7 +151,8 @@ COMMON_PARAMS: tuple[Param, ...] = (
     Param("stand_command", Parameter.Type.DOUBLE_ARRAY, "12 joint angles [rad], contract order, "
           "commanded before the first command, after a reset and by the stand timeout action "
           "(unset: layout.HOME_POSE)", "12 finite values"),
-    Param("cmd_queue_depth", 100, "depth of the /littledog/cmd subscription queue", ">= 1"),
+    Param("cmd_queue_depth", 100, "timer mode: depth of the /littledog/cmd subscription queue "
+          "(lockstep keeps all commands)", ">= 1"),
     Param("stats_period", 1.0, "seconds between ~/stats messages (0: none)", ">= 0"),
     Param("log_throttle", 2.0, "seconds between two warnings about the same kind of bad "
           "command", ">= 0"),
@@ -215,9 +222,14 @@ class SimulatorNode(ConfiguredNode):
                 self.pub_tf = self.create_publisher(tf_type, TOPIC_TF, QOS,
                                                     event_callbacks=quiet)
                 self._tf = m.TfOdometry(tf_type)
-        cmd_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                             reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.VOLATILE)
+        # lockstep: one step per command, so none may be dropped (module doc, Step modes)
+        cmd_qos = (QoSProfile(history=HistoryPolicy.KEEP_ALL,
+                              reliability=ReliabilityPolicy.RELIABLE,
+                              durability=DurabilityPolicy.VOLATILE)
+                   if self.step_mode == "lockstep" else
+                   QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                              reliability=ReliabilityPolicy.RELIABLE,
+                              durability=DurabilityPolicy.VOLATILE))
         log = self.get_logger()
         self.core = SimulatorCore(self.backend, config, self._publish,
                                   logs=Logs(info=log.info, warning=log.warning, error=log.error))

@@ -263,11 +263,12 @@ def test_bad_input_is_one_line_and_writes_nothing(sources, tmp_path):
     assert str(bad) in msg and "/littledog/cmd" in msg and "message 0" in msg
     # wrong type for a role
     msg = fails([good], "cannot be the pose topic", pose_topic="/littledog/joint_states")
-    # corrupt storage
+    # corrupt storage: cut inside its header, nothing to salvage (a file cut later is read as
+    # far as it is whole: test/test_faults.py)
     broken = tmp_path / "broken.mcap"
     write_realstyle_bag(broken, sources[:1], RealStyle(seed=9))
     data = broken.read_bytes()
-    broken.write_bytes(data[: len(data) // 2])
+    broken.write_bytes(data[:20])
     msg = fails([good, broken], str(broken))
     # skip: the good bag alone is imported, the bad one reported
     r = import_bags([good, broken], out, ImportOptions(skip_bad_bags=True, test_fraction=0))
