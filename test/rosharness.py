@@ -193,15 +193,19 @@ class Probe:
                 raise AssertionError(f"timed out after {timeout} s waiting for {what or pred}")
 
     def connect(self, proc: Proc | None = None) -> None:
-        """Wait until the simulator's endpoints are matched both ways."""
+        """Wait until the simulator's endpoints are matched both ways: here (our subscriptions
+        and clients see it) and there (its ``~/stats`` counts our command publisher), so that
+        the first command is not lost to one-sided discovery."""
         def ready() -> bool:
             if proc is not None and not proc.alive():
                 raise AssertionError(f"{proc.name} exited: {proc.stderr()}")
-            return (self.cmd.get_subscription_count() >= 1
+            with self.cond:
+                heard = bool(self.stats) and int(self.stats[-1].get("cmd_publishers", 0)) >= 1
+            return (heard and self.cmd.get_subscription_count() >= 1
                     and all(s.get_publisher_count() >= 1 for s in self.subs)
                     and self.reset_client.service_is_ready()
                     and self.pause_client.service_is_ready())
-        wait_until(ready, what="discovery of the simulator")
+        wait_until(ready, what="discovery of the simulator (both ways)")
 
     def counter(self, key: str) -> int:
         with self.cond:

@@ -63,7 +63,10 @@ Step modes (``step_mode``):
   commands).
 
 Command rule: ``messages.check_command`` (names, lengths, NaN/inf rejected; out-of-limit angles
-clipped). Counted in ``~/stats``: ``cmd_received``, ``cmd_accepted``, ``cmd_clipped``,
+clipped). ``~/stats`` also says ``cmd_publishers``, the publishers of ``/littledog/cmd`` the node
+has matched: a controller that sees itself counted there knows its commands reach the node
+(discovery is two-sided, and its own matched count says only that it sees the node). Counted in
+``~/stats``: ``cmd_received``, ``cmd_accepted``, ``cmd_clipped``,
 ``cmd_rejected_<names|length|nonfinite>``; each kind of problem is logged as a warning at most
 once per ``log_throttle`` seconds (with the number suppressed since). A flood (commands faster
 than the step rate) is not an error: in timer mode only the newest command before a tick is
@@ -235,7 +238,7 @@ class SimulatorNode(ConfiguredNode):
                                   logs=Logs(info=log.info, warning=log.warning, error=log.error))
         self._js = m.JointStateWriter()
         self._odom = m.OdometryWriter()
-        self.create_subscription(JointState, TOPIC_CMD, self._on_cmd, cmd_qos)
+        self.sub_cmd = self.create_subscription(JointState, TOPIC_CMD, self._on_cmd, cmd_qos)
         self.create_service(Trigger, "~/reset", self._on_reset)
         self.create_service(SetBool, "~/pause", self._on_pause)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -293,6 +296,10 @@ class SimulatorNode(ConfiguredNode):
 
     def _publish_stats(self) -> None:
         values, level = self.core.stats()
+        # this side's view of the match: a controller that sees its publisher counted here
+        # knows its next command reaches the node (its own matched count says only that it
+        # sees the node's subscription)
+        values["cmd_publishers"] = self.sub_cmd.get_publisher_count()
         self.pub_stats.publish(m.status_msg(self.get_name(), values, level))
 
     # -- services -------------------------------------------------------------------------------
