@@ -2,11 +2,29 @@
 cluster, with results in input order. LGPR fits its clusters through :func:`run_tasks`."""
 from __future__ import annotations
 
+import socket
 from typing import Any, Callable, Iterable, Sequence
+from urllib.parse import urlsplit
 
 __all__ = ["run_tasks", "DASK_CONNECT_TIMEOUT"]
 
 DASK_CONNECT_TIMEOUT = "30s"
+# s for the plain TCP check of a tcp:// scheduler address before a Client is made
+DASK_REACH_TIMEOUT_S = 10.0
+
+
+def _check_reachable(address: str) -> None:
+    """Refuse a ``tcp://host:port`` scheduler nobody listens on before a ``distributed.Client``
+    is made: a Client whose connection fails keeps its IO-loop thread for the life of the
+    process (its constructor raises, so nothing can close it)."""
+    parts = urlsplit(address)
+    if parts.scheme != "tcp" or parts.hostname is None or parts.port is None:
+        return              # other transports: the Client reports them itself
+    try:
+        socket.create_connection((parts.hostname, parts.port), DASK_REACH_TIMEOUT_S).close()
+    except OSError as e:
+        raise ValueError(f"cannot connect to the Dask scheduler {address}: "
+                         f"{e.strerror or type(e).__name__}") from e
 
 
 def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
@@ -35,6 +53,7 @@ def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: 
         except ImportError as e:  # pragma: no cover - distributed is a dependency
             raise ValueError(f"dask_scheduler needs the 'distributed' package: {e}") from e
         from joblib import parallel_config
+        _check_reachable(dask_scheduler)
         try:
             client = Client(dask_scheduler, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
         except (OSError, ValueError, TypeError) as e:
