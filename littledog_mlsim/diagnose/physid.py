@@ -65,10 +65,13 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
-from scipy import stats
 
 from ..data.recording import MoveRecording
 from ..layout import JOINT_NAMES, LEGS, N_JOINTS
+from . import stats as _stats
+from .stats import (N_TESTS, RANK_FLIPS, Decision, move_cuts,  # noqa: F401  (re-exported)
+                    rank_max_p)
+from .stats import t_greater as _t_greater  # noqa: F401  (benchmarks/blind_zoo tools)
 
 __all__ = ["FAMILIES", "FamilySpec", "scopes_for", "scope_joints", "build_effects",
            "identify", "PhysIdResult", "statement", "DEFAULT_HORIZONS_S"]
@@ -638,82 +641,21 @@ def _pick_moves(recs: Sequence[MoveRecording], per_type: int, skip: int = 0) -> 
     return sorted(out)
 
 
-def _t_greater(d: np.ndarray) -> np.ndarray:
-    M = d.shape[0]
-    mean = d.mean(axis=0)
-    sd = d.std(axis=0, ddof=1) if M > 1 else np.zeros_like(mean)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(sd > 0, mean / (sd / math.sqrt(max(M, 1))),
-                     np.where(mean > 0, np.inf, 0.0))
-    return stats.t.sf(t, df=max(M - 1, 1))
-
-
-RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null
-
-
-def move_cuts(S0: np.ndarray, S1: np.ndarray) -> np.ndarray:
-    """Per-move held-out cut (M,) for the rank test: the sum over channels of
-    (S0 - S1) / (S0 + S1), each move's cut relative to its own error on that channel, in [-1, 1].
-    A channel whose 4 s replay a hypothesis re-rolls on one move (chaos, not the effect) cannot
-    outweigh the other channels and moves, as it can in sums relative to the channel's total."""
-    den = S0 + S1
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(den > 0, (S0 - S1) / den, 0.0)
-    return np.nansum(r, axis=1)
-
-
-def rank_max_p(cuts: Sequence[np.ndarray], n_flips: int = RANK_FLIPS, seed: int = 0
-               ) -> np.ndarray:
-    """One-sided adjusted p per hypothesis (H,) from per-move cuts (each (M,)): Wilcoxon
-    signed-rank statistics over moves, with the null of their maximum over the hypotheses from
-    common random sign flips of the moves (Westfall-Young single-step max-T).
-
-    Ranks do not let a few moves that change a lot (a slipping foot) drown a consistent cut on
-    the others, as a t-test's variance does; the common flips keep the hypotheses' correlation,
-    so choosing the best of the shortlist costs less than Bonferroni's factor. Zero cuts (a
-    move the hypothesis does not change) count for neither side."""
-    D = np.nan_to_num(np.column_stack([np.asarray(c, dtype=np.float64) for c in cuts]))
-    M, H = D.shape
-    R = np.column_stack([stats.rankdata(np.abs(D[:, h])) for h in range(H)])
-    SR = np.sign(D) * R                                    # signed ranks (M, H)
-    w_obs = SR.sum(axis=0)
-    rng = np.random.default_rng(seed)
-    flips = rng.choice(np.array([-1.0, 1.0]), size=(n_flips, M))
-    w_max = (flips @ SR).max(axis=1)                       # (B,) null of the max statistic
-    exceed = (w_max[:, None] >= w_obs[None, :] - 1e-9).sum(axis=0)
-    return (1.0 + exceed) / (n_flips + 1.0)
-
-
-N_TESTS = 3   # pooled t, pooled rank, best channel's t
+def _as_tuple(d: Decision) -> tuple[np.ndarray, np.ndarray, float, bool, bool]:
+    return d.gain, d.p_channel, d.p_value, d.significant, d.material
 
 
 def decide(S0: np.ndarray, S1: np.ndarray, n_choice: int, alpha: float, min_gain: float,
            p_rank: float) -> tuple[np.ndarray, np.ndarray, float, bool, bool]:
-    """(gain (36,), p per channel, adjusted p, significant, material) from per-move SSEs
-    (M, 36) without/with an effect on held-out moves and the rank test's p (already adjusted
-    for the ``n_choice`` hypotheses compared, :func:`rank_max_p` of :func:`move_cuts`). Three
-    one-sided tests over moves, Bonferroni over them: the t-test of the per-move cut pooled over
-    channels (x ``n_choice``), the rank test, and the best channel's t-test (x 36 channels x
-    ``n_choice``)."""
-    M = S0.shape[0]
-    tot0 = S0.sum(axis=0)
-    tot0 = np.where(tot0 > 0, tot0, 1.0)
-    gain = 1.0 - S1.sum(axis=0) / tot0
-    d = M * (S0 - S1) / tot0
-    p_ch = _t_greater(d)
-    p_pool = float(_t_greater(d.sum(axis=1, keepdims=True))[0])
-    p_adj = min(1.0, N_TESTS * min(p_rank, p_pool * n_choice,
-                                   float(np.min(p_ch)) * N_CH * n_choice))
-    significant = p_adj < alpha
-    material = bool(np.any((p_ch < alpha) & (gain >= min_gain)))
-    return gain, p_ch, p_adj, bool(significant), material
+    """(gain, p per channel, adjusted p, significant, material): :func:`.stats.decide` with a
+    rank test, as a tuple (the benchmark tools' form)."""
+    return _as_tuple(_stats.decide(S0, S1, n_choice, alpha, min_gain, p_rank))
 
 
 def decide_all(S0: np.ndarray, S1s: Sequence[np.ndarray], alpha: float, min_gain: float
                ) -> list[tuple[np.ndarray, np.ndarray, float, bool, bool]]:
-    """:func:`decide` for every hypothesis compared on the same held-out moves."""
-    p_rank = rank_max_p([move_cuts(S0, S1) for S1 in S1s])
-    return [decide(S0, S1, len(S1s), alpha, min_gain, float(p)) for S1, p in zip(S1s, p_rank)]
+    """:func:`.stats.decide_all` as tuples (the benchmark tools' form)."""
+    return [_as_tuple(d) for d in _stats.decide_all(S0, S1s, alpha, min_gain)]
 
 
 def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (), *,

@@ -61,12 +61,12 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
-from scipy import stats
 from scipy.linalg import cho_factor, cho_solve
 
 from ..data.recording import MoveRecording
 from ..layout import MOVE_TYPES, N_FEATURE, N_STATE, STATE_NAMES
 from ..models.features import Augmentation, CommandLag, FeatureSet
+from .stats import SSEDecision, sse_decision  # noqa: F401  (re-exported: physics.py)
 
 __all__ = ["SearchModel", "CandidateScore", "Round", "SelectionResult", "move_folds",
            "screen", "select_effects", "candidate_columns", "residual_input_ccf",
@@ -249,51 +249,6 @@ class CandidateScore:
                 "max_gain": self.max_gain, "total_gain": self.total_gain,
                 "outputs": self.outputs,
                 "top_gains": {STATE_NAMES[j]: float(self.gain[j]) for j in order}}
-
-
-def _t_test_greater(d: np.ndarray) -> np.ndarray:
-    """One-sided one-sample t-test of mean > 0 over axis 0 (the moves); p per column."""
-    M = d.shape[0]
-    mean = d.mean(axis=0)
-    sd = d.std(axis=0, ddof=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(sd > 0, mean / (sd / math.sqrt(M)), np.where(mean > 0, np.inf, 0.0))
-    return stats.t.sf(t, df=M - 1)
-
-
-@dataclass
-class SSEDecision:
-    """What held-out per-move SSEs say about one candidate (module doc, 3-4)."""
-
-    gain: np.ndarray          # (33,) held-out nMSE cut per element
-    d: np.ndarray             # (M, 33) per-move contributions (mean over moves = gain)
-    p_element: np.ndarray     # (33,) one-sided t-test p per element (unadjusted)
-    p_pooled: float           # unadjusted p of the pooled (all-element) test
-    p_value: float            # Bonferroni over the two tests, the elements and n_candidates
-    significant: bool
-    material: bool
-    outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2
-
-
-def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
-                 min_gain: float) -> SSEDecision:
-    """Gains, move-grouped tests and the decision from per-move held-out SSEs (M, 33) without
-    (S0) and with (S1) a candidate; shared by the learned and the physics diagnosis."""
-    M = S0.shape[0]
-    tot0 = S0.sum(axis=0)
-    tot0 = np.where(tot0 > 0, tot0, 1.0)
-    gain = 1.0 - S1.sum(axis=0) / tot0
-    d = M * (S0 - S1) / tot0                       # (M, 33); mean over moves = gain
-    p_el = _t_test_greater(d)                      # per element
-    p_pool = float(_t_test_greater(d.sum(axis=1, keepdims=True))[0])  # all elements pooled
-    # Bonferroni: two tests (pooled, best element of 33) per candidate, n_candidates candidates
-    p_cand = min(1.0, n_candidates * 2.0 * min(p_pool, N_STATE * float(p_el.min())))
-    significant = p_cand < alpha
-    nominal = p_el < alpha
-    material = bool(significant and np.any(nominal & (gain >= min_gain)))
-    out_mask = nominal & (gain >= 0.5 * min_gain) if significant else np.zeros(N_STATE, bool)
-    return SSEDecision(gain, d, p_el, p_pool, p_cand, bool(significant), material,
-                       [STATE_NAMES[j] for j in np.flatnonzero(out_mask)])
 
 
 def _score_from_sse(aug: Augmentation, S0: np.ndarray, S1: np.ndarray, n_library: int,
