@@ -68,6 +68,11 @@ import numpy as np
 
 from ..data.recording import MoveRecording
 from ..layout import JOINT_NAMES, LEGS, N_JOINTS
+from .families import (FAMILIES, TYPE_SCOPES, Family, joint_scopes,  # noqa: F401  (re-exported)
+                       scope_joints, scope_words, vocabulary_family)
+from .families.body import (MASS_POSITIONS, PAYLOAD_REACH_M,  # noqa: F401  (re-exported)
+                            TILT_DIRECTIONS, mass_com_of, within_reach)
+from .families.joints import NORMAL_TORQUE  # noqa: F401  (re-exported)
 from . import stats as _stats
 from .stats import (N_TESTS, RANK_FLIPS, Decision, move_cuts,  # noqa: F401  (re-exported)
                     rank_max_p)
@@ -89,125 +94,11 @@ N_CH = len(CHANNELS)
 SHORT = np.arange(18)
 LONG = np.arange(18, 36)
 
-TYPE_SCOPES = {"hip_rolls": "hip_roll", "hip_pitches": "hip_pitch", "knees": "knee"}
-
-
-def scope_joints(scope: str) -> np.ndarray:
-    """Joint indices (contract order) of a vocabulary scope ('all', 'leg:front_left',
-    'type:knees', 'side:left', 'joint:back_left_knee')."""
-    names = np.array(JOINT_NAMES)
-    if scope == "all":
-        return np.arange(N_JOINTS)
-    kind, _, what = scope.partition(":")
-    if kind == "leg" and what in LEGS:
-        return np.flatnonzero(np.char.startswith(names, what + "_"))
-    if kind == "type" and what in TYPE_SCOPES:
-        return np.flatnonzero(np.char.endswith(names, "_" + TYPE_SCOPES[what]))
-    if kind == "side" and what in ("left", "right"):
-        return np.flatnonzero([f"_{what}_" in n for n in names])
-    if kind == "joint" and what in JOINT_NAMES:
-        return np.array([JOINT_NAMES.index(what)])
-    raise ValueError(f"unknown scope {scope!r}")
-
-
-def joint_scopes() -> list[str]:
-    """Every joint scope of the vocabulary, coarse to fine (all -> groups -> joints)."""
-    return (["all"] + [f"leg:{g}" for g in LEGS] + [f"type:{t}" for t in TYPE_SCOPES]
-            + ["side:left", "side:right"] + [f"joint:{j}" for j in JOINT_NAMES])
-
-
-@dataclass(frozen=True)
-class FamilySpec:
-    """One family of the vocabulary as the search sees it.
-
-    ``components``: the parameters screened jointly (one per sensitivity simulation; joint
-    families have one, the magnitude); ``probe``: the magnitude of a sensitivity simulation (per
-    component); ``bounds``: the 1-D fit's range of the magnitude; ``kind``: ``joints``,
-    ``body`` or ``leg`` (one foot); ``deep_probe``: a joint family's second screening probe,
-    for a threshold effect (a torque limit) that does nothing until it is strong: at the
-    first probe its sensitivity can be zero however strong the effect is.
-    """
-
-    name: str
-    kind: str
-    primary: str
-    unit: str
-    probe: float
-    bounds: tuple[float, float]
-    components: tuple[str, ...] = ("value",)
-    neutral: float = 0.0              # the magnitude of "no effect"
-    command_path: bool = False        # acts on the set-points (identifiable with excitation)
-    reported_as: str = ""             # the vocabulary's family if the search splits one
-    phase: str = ""                   # contact_phase: the phase the term acts in
-    deep_probe: float | None = None   # a joint family's second screening probe
-
-    @property
-    def vocabulary(self) -> str:
-        return self.reported_as or self.name
-
-
-FAMILIES: dict[str, FamilySpec] = {f.name: f for f in (
-    FamilySpec("command_delay", "joints", "delay_ms", "ms", 10.0, (0.0, 120.0),
-               command_path=True),
-    FamilySpec("command_filter", "joints", "time_constant_ms", "ms", 20.0, (0.0, 300.0),
-               command_path=True),
-    FamilySpec("servo_gain", "joints", "gain_ratio", "1", -0.25, (0.05, 3.0), neutral=1.0),
-    FamilySpec("joint_friction", "joints", "coulomb_Nm", "N m", 0.05, (0.0, 0.6)),
-    FamilySpec("backlash", "joints", "width_rad", "rad", 0.03, (0.0, 0.3)),
-    FamilySpec("setpoint_backlash", "joints", "width_rad", "rad", 0.04, (0.0, 0.4),
-               command_path=True, reported_as="backlash"),
-    FamilySpec("torque_saturation", "joints", "torque_limit_ratio", "1", -0.5, (0.05, 1.0),
-               neutral=1.0, deep_probe=-0.8),
-    FamilySpec("encoder_offset", "joints", "offset_rad", "rad", 0.03, (-0.3, 0.3)),
-    FamilySpec("time_drift", "joints", "rate_per_s", "1/s", -0.08, (-0.24, 0.24)),
-    FamilySpec("odom_force", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
-    FamilySpec("body_wrench", "body", "force_N", "N", 1.0, (0.0, 20.0), ("fx", "fy")),
-    FamilySpec("body_torque", "body", "torque_Nm", "N m", 0.05, (-1.0, 1.0),
-               reported_as="body_wrench"),
-    FamilySpec("body_roll_torque", "body", "torque_Nm", "N m", 0.1, (-1.0, 1.0),
-               reported_as="body_wrench"),
-    FamilySpec("body_pitch_torque", "body", "torque_Nm", "N m", 0.1, (-1.0, 1.0),
-               reported_as="body_wrench"),
-    FamilySpec("ground_slope", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy")),
-    FamilySpec("ground_tilt", "body", "slope_deg", "deg", 2.0, (0.0, 20.0), ("sx", "sy"),
-               reported_as="ground_slope"),
-    FamilySpec("mass_com", "body", "added_mass_kg", "kg", 0.3, (0.01, 3.0)),
-    FamilySpec("leg_difference", "leg", "scale", "1", 0.5, (0.2, 4.0), neutral=1.0),
-    FamilySpec("foot_slip", "leg", "friction_ratio", "1", -0.85, (0.02, 1.5), neutral=1.0,
-               reported_as="leg_difference"),
-    FamilySpec("swing_drag", "leg", "force_N", "N", 1.0, (0.0, 10.0),
-               reported_as="contact_phase", phase="swing"),
-    FamilySpec("foot_adhesion", "leg", "force_N", "N", 1.0, (0.0, 10.0),
-               reported_as="contact_phase", phase="lift-off"),
-)}
-# A pure torque fixed to the body, about one of base_link's axes (x roll, y pitch, z yaw).
-TORQUE_AXES = {"body_roll_torque": 0, "body_pitch_torque": 1, "body_torque": 2}
-_AXIS_WORDS = {0: "x (base_link, roll)", 1: "y (base_link, pitch)", 2: "z (base_link)"}
-# (what it does, its sense when > 0, when < 0) in a finding's statement
-_TORQUE_WORDS = {
-    "body_torque": ("twisting the body about its vertical axis",
-                    "counter-clockwise seen from above", "clockwise seen from above"),
-    "body_roll_torque": ("rolling the body about its forward axis", "its left side pushed up",
-                         "its right side pushed up"),
-    "body_pitch_torque": ("pitching the body about its lateral axis", "nose down", "nose up")}
-
-# Families that act alike on data whose odometry frame stays level with the ground: a slope
-# tilts gravity, i.e. adds m g sin(slope) downhill, fixed in odom, like a world-fixed push.
-PUSH_CLASS = ("odom_force", "ground_slope")
-
-
-def vocabulary_family(family: str) -> str:
-    """The vocabulary's family of a searched family (``swing_drag`` -> ``contact_phase``)."""
-    return FAMILIES[family].vocabulary if family in FAMILIES else family
+FamilySpec = Family   # the family's contract (families/base.py), by its former name
 
 
 def scopes_for(family: str) -> list[str]:
-    spec = FAMILIES[family]
-    if spec.kind == "joints":
-        return joint_scopes()
-    if spec.kind == "leg":
-        return [f"leg:{g}" for g in LEGS]
-    return ["body"]
+    return FAMILIES[family].scopes()
 
 
 def library_size() -> int:
@@ -217,129 +108,14 @@ def library_size() -> int:
 def build_effects(family: str, scope: str, params: Mapping[str, float]) -> list[Any]:
     """The effect plug-ins of one hypothesis (family, scope, params in the vocabulary's units
     and, for vector families, components)."""
-    from ..robot import effects as fx
-    spec = FAMILIES[family]
-    joints = None
-    if spec.kind == "joints":
-        joints = [JOINT_NAMES[j] for j in scope_joints(scope)]
-    v = params.get(spec.primary)
-    if family == "command_delay":
-        return [fx.SetpointDelay(max(v, 0.0), joints)]
-    if family == "command_filter":
-        return [fx.SetpointFilter(max(v, 0.0), joints)]
-    if family == "servo_gain":
-        return [fx.ServoGain(max(v, 0.0), joints)]
-    if family == "joint_friction":
-        return [fx.JointFriction(coulomb=max(v, 0.0), joints=joints)]
-    if family == "backlash":
-        return [fx.ServoDeadband(max(v, 0.0), joints)]
-    if family == "setpoint_backlash":
-        return [fx.SetpointBacklash(max(v, 0.0), joints)]
-    if family == "torque_saturation":
-        return [_TorqueRatio(max(params["torque_limit_ratio"], 0.0), joints)]
-    if family == "encoder_offset":
-        return [fx.EncoderOffset(v, joints, servo_loop=True)]
-    if family == "time_drift":
-        return [fx.ServoGain(1.0, joints, drift_per_s=v, time_offset_s=params.get("t0_s", 0.0))]
-    if family == "odom_force":
-        return [fx.ConstantWind([params["fx"], params["fy"]])]
-    if family == "body_wrench":
-        return [fx.BodyWrench(force=[params["fx"], params["fy"], 0.0])]
-    if family in TORQUE_AXES:
-        torque = [0.0, 0.0, 0.0]
-        torque[TORQUE_AXES[family]] = v
-        return [fx.BodyWrench(torque=torque)]
-    if family == "ground_slope":
-        sx, sy = params["sx"], params["sy"]
-        return [fx.GroundSlope(math.hypot(sx, sy), math.degrees(math.atan2(sy, sx)))]
-    if family == "ground_tilt":
-        sx, sy = params["sx"], params["sy"]
-        return [fx.GroundTilt(math.hypot(sx, sy), math.degrees(math.atan2(sy, sx)),
-                              params.get("origin_xy", (0.0, 0.0)))]
-    if family == "mass_com":
-        m, off = mass_com_of(params)
-        return [fx.Payload(m, off)]
-    if family == "leg_difference":
-        return [fx.LegMass(max(v, 1e-3), scope.split(":", 1)[1])]
-    if family == "foot_slip":
-        return [fx.FootFriction(max(v, 1e-3), scope.split(":", 1)[1])]
-    if family == "swing_drag":
-        return [fx.SwingDrag(max(v, 0.0), scope.split(":", 1)[1])]
-    if family == "foot_adhesion":
-        return [fx.FootAdhesion(max(v, 0.0), scope.split(":", 1)[1])]
-    raise ValueError(f"unknown family {family!r}")
-
-
-# mass_com is screened as a point mass at each of these positions on the body (base_link [m]:
-# the centre, 8 cm ahead and behind, 4 cm to each side, 2 cm up, where a payload is strapped).
-# A payload's signature is mostly the moment its weight makes about the body's centre of mass,
-# which is far from linear in the mass and position over a 4 s replay, so the position is
-# searched directly (:func:`_refine_position`) rather than solved from first-order components.
-MASS_POSITIONS: tuple[tuple[float, float, float], ...] = (
-    (0.0, 0.0, 0.02), (0.08, 0.0, 0.02), (-0.08, 0.0, 0.02), (0.0, 0.04, 0.02),
-    (0.0, -0.04, 0.02))
-
-
-# Where a carried load's centre of mass can be (base_link [m]): within the body's box
-# (0.33 x 0.11 x 0.14 m, centred 4.5 cm above the origin; littledog.urdf) or a load strapped to
-# its sides or top. The position search stays inside: a gram at 70 cm is not a payload.
-PAYLOAD_REACH_M: tuple[tuple[float, float], ...] = ((-0.165, 0.165), (-0.08, 0.08),
-                                                    (-0.03, 0.2))
-
-
-def within_reach(pos: Sequence[float]) -> bool:
-    """Whether a payload position lies within :data:`PAYLOAD_REACH_M`."""
-    return all(lo <= float(x) <= hi for x, (lo, hi) in zip(pos, PAYLOAD_REACH_M))
-
-
-# ground_tilt is screened as a tilt of the floor towards each of these many directions (uphill
-# every 45 deg): a floor tilted the wrong way puts the measured stance into or above it, so the
-# response is far from linear in the two tilt components and a first-order fit of them fails.
-TILT_DIRECTIONS = 8
-
-
-def _tilt_direction(k: int) -> np.ndarray:
-    a = 2.0 * math.pi * k / TILT_DIRECTIONS
-    return np.array([math.cos(a), math.sin(a)])
-
-
-def mass_com_of(params: Mapping[str, Any]) -> tuple[float, tuple[float, float, float]]:
-    """(added mass [kg], its position in base_link [m]) of a mass_com hypothesis
-    (``added_mass_kg``, ``com_offset_m``; a mass below 1 g is taken as 1 g)."""
-    off = tuple(float(x) for x in params.get("com_offset_m", (0.0, 0.0, 0.0)))
-    return max(float(params["added_mass_kg"]), 1e-3), off   # type: ignore[return-value]
-
-
-class _TorqueRatio:
-    """TorqueLimit with the limit given relative to each joint's normal one."""
-
-    def __init__(self, ratio: float, joints: list[str] | None) -> None:
-        from ..robot.effects import TorqueLimit
-        self.ratio = ratio
-        self._inner = [TorqueLimit(1.0, [j]) for j in (joints or JOINT_NAMES)]
-
-    def reset(self, sim: Any) -> None:
-        for e in self._inner:
-            e.reset(sim)
-            e.torque_limit_Nm = float(self.ratio * e._lim0[0])
-
-    def command(self, u: np.ndarray, t: float) -> np.ndarray:
-        for e in self._inner:
-            e.command(u, t)
-        return u
-
-    def substep(self, sim: Any, t: float) -> None:
-        for e in self._inner:
-            e.substep(sim, t)
+    if family not in FAMILIES:
+        raise ValueError(f"unknown family {family!r}")
+    return FAMILIES[family].build_effects(scope, params)
 
 
 def _params_from(family: str, mag: float, direction: np.ndarray | None) -> dict[str, float]:
     """Plug-in parameters of a hypothesis: a magnitude (and a unit direction for vectors)."""
-    spec = FAMILIES[family]
-    if len(spec.components) > 1:
-        d = np.zeros(len(spec.components)) if direction is None else direction
-        return {c: float(mag * d[i]) for i, c in enumerate(spec.components)}
-    return {spec.primary: float(mag)}
+    return FAMILIES[family].params_from(mag, direction)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -407,16 +183,14 @@ def _simulate(task: tuple[int, list[tuple[str, str, dict]], str]) -> dict[str, n
 
 
 def true_start(initial: Any, hyps: Sequence[tuple[str, str, Mapping[str, Any]]]) -> Any:
-    """The state to start a re-simulation from, given the measured one and the hypotheses: an
-    encoder offset means the measured joint angle is the true one plus the offset, so the
-    joints start at the measured angle minus it (starting them at the measured angle would put
-    the legs, and so the body, in a pose the robot was not in)."""
-    q = None
+    """The state to start a re-simulation from, given the measured one and the hypotheses
+    (each family's :meth:`~.families.Family.start_q`: an encoder offset starts the joints at
+    the measured angle minus it)."""
+    q0 = initial.q
+    q = q0
     for fam, sc, par in hyps:
-        if fam == "encoder_offset":
-            q = np.array(initial.q, dtype=float) if q is None else q
-            q[scope_joints(sc)] -= float(par["offset_rad"])
-    return initial if q is None else replace(initial, q=q)
+        q = FAMILIES[fam].start_q(q, sc, par)
+    return initial if q is q0 else replace(initial, q=q)
 
 
 class _Runner:
@@ -717,7 +491,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
                 _fit(runner, base, c, base_err, FS, F, meas)
             # the push class's other form, fitted on its own: the held-out moves then compare
             # a push and a slope each at its best magnitude (the shortlist holds one of them)
-            for c in [c for c in top if c.family in PUSH_CLASS]:
+            for c in [c for c in top if FAMILIES[c.family].twin_family]:
                 twin = push_twin(c, robot_mass)
                 twin.magnitude, twin.fitted = float(twin.fitted), None
                 _fit(runner, base, twin, base_err, FS, F, meas)
@@ -764,140 +538,129 @@ def _screen(runner: _Runner, base: list, base_err: list, meas: list, F: list[int
     t0 = time.perf_counter()
     S0 = np.array([_sse(base_err[i]) for i in F]).sum(axis=0)
     w = 1.0 / np.where(S0 > 0, S0, 1.0)
-    # (family, component, joint or None) -> sensitivity simulations
-    jobs: list[tuple[str, int, int | None]] = []
-    tasks = []
-    for fam in fams:
-        spec = FAMILIES[fam]
-        if spec.kind == "joints":
-            for k in range(1 if spec.deep_probe is None else 2):
-                for j in range(N_JOINTS):
-                    jobs.append((fam, k, j))
-        elif spec.kind == "leg":
-            for g in range(len(LEGS)):
-                jobs.append((fam, 0, g))
-        elif fam == "mass_com":
-            for k in range(len(MASS_POSITIONS)):
-                jobs.append((fam, k, None))
-        elif fam == "ground_tilt":
-            for k in range(TILT_DIRECTIONS):
-                jobs.append((fam, k, None))
-        else:
-            for c in range(len(spec.components)):
-                jobs.append((fam, c, None))
-    for fam, c, j in jobs:
-        spec = FAMILIES[fam]
-        mode = "short" if spec.kind == "joints" and fam != "time_drift" else "full"
-        probe = spec.neutral + (spec.deep_probe if c == 1 and spec.kind == "joints"
-                                else spec.probe)
-        if spec.kind == "joints":
-            scope = "all" if j is None else f"joint:{JOINT_NAMES[j]}"
-            par = {spec.primary: probe}
-        elif spec.kind == "leg":
-            scope = f"leg:{LEGS[j]}"
-            par = {spec.primary: probe}
-        elif fam == "mass_com":
-            scope = "body"
-            par = {spec.primary: probe, "com_offset_m": MASS_POSITIONS[c]}
-        elif fam == "ground_tilt":
-            scope = "body"
-            par = _params_from(fam, spec.probe, _tilt_direction(c))
-        else:
-            scope = "body"
-            direction = np.zeros(len(spec.components))
-            direction[c] = 1.0
-            par = _params_from(fam, spec.probe, direction) if len(spec.components) > 1 else \
-                {spec.primary: probe}
-        for i in F:
-            tasks.append((i, base + [(fam, scope, par)], mode))
+    # (family, probe key) -> sensitivity simulations, one per screening move
+    jobs = [(fam, p) for fam in fams for p in FAMILIES[fam].screen_probes()]
+    tasks = [(i, base + [(fam, p.scope, p.params)],
+              "full" if FAMILIES[fam].long_screen else "short") for fam, p in jobs for i in F]
     sims = runner.map(tasks)
-    # sensitivities: flat weighted vectors per (job, move)
-    r_short = {i: _flat({"short": -base_err[i]["short"][list(SCREEN_SEGMENTS)]}, w, False)
-               for i in F}  # meas - sim0 on the screening segments
-    r_full = {i: _flat({"short": -base_err[i]["short"], "long": -base_err[i]["long"]}, w, True)
-              for i in F}
-    sens: dict[tuple[str, int, int | None], dict[int, np.ndarray]] = {}
+    sens: dict[tuple[str, tuple], dict[int, np.ndarray]] = {}
     k = 0
-    for job in jobs:
-        long = FAMILIES[job[0]].kind != "joints" or job[0] == "time_drift"
-        sens[job] = {}
+    for fam, p in jobs:
+        long = FAMILIES[fam].long_screen
+        sens[(fam, p.key)] = {}
         for i in F:
             e = _errors(sims[k], meas[i])
+            d = {"short": e["short"] - base_err[i]["short"][sims[k]["seg_idx"]]}
             k += 1
-            d = {"short": e["short"] - base_err[i]["short"][sims[k - 1]["seg_idx"]]}
             if long:
                 d["long"] = e["long"] - base_err[i]["long"]
-            sens[job][i] = _flat(d, w, long)
-
-    def fit_1d(sens_job: Mapping[int, np.ndarray]) -> tuple[float, float]:
-        """(score, scale a) of one sensitivity fitted to the whole-move residual by least
-        squares, summed over the screening moves."""
-        gg = sum(float(sens_job[i] @ sens_job[i]) for i in F)
-        bb = sum(float(sens_job[i] @ r_full[i]) for i in F)
-        a = bb / gg if gg > 0 else 0.0
-        return bb * a, a
-
+            sens[(fam, p.key)][i] = _flat(d, w, long)
+    res = _Residual(
+        {i: _flat({"short": -base_err[i]["short"][list(SCREEN_SEGMENTS)]}, w, False)
+         for i in F},  # meas - sim0 on the screening segments
+        {i: _flat({"short": -base_err[i]["short"], "long": -base_err[i]["long"]}, w, True)
+         for i in F}, F)
     cands: list[Candidate] = []
     for fam in fams:
         spec = FAMILIES[fam]
-        if spec.kind == "joints":   # time_drift on the whole moves (it grows over 4 s)
-            best: dict[str, Candidate] = {}
-            for k in range(1 if spec.deep_probe is None else 2):
-                J = [(fam, k, j) for j in range(N_JOINTS)]
-                G = np.zeros((N_JOINTS, N_JOINTS))
-                b = np.zeros(N_JOINTS)
-                for i in F:
-                    D = np.stack([sens[jb][i] for jb in J])
-                    r = r_full[i] if fam == "time_drift" else r_short[i]
-                    G += D @ D.T
-                    b += D @ r
-                for c in _scope_scores(fam, G, b):   # per scope, the probe that explains more
-                    if k == 1:   # in units of the first probe (converted below)
-                        c.magnitude *= spec.deep_probe / spec.probe
-                    if c.scope not in best or c.score > best[c.scope].score:
-                        best[c.scope] = c
-            cands += list(best.values())
-        elif spec.kind == "leg":
-            for g in range(len(LEGS)):
-                score, a = fit_1d(sens[(fam, 0, g)])
-                cands.append(Candidate(fam, f"leg:{LEGS[g]}", score, a))
-        elif fam == "ground_tilt":   # a tilt towards each screening direction, scaled in 1-D
-            for k in range(TILT_DIRECTIONS):
-                score, a = fit_1d(sens[(fam, k, None)])
-                cands.append(Candidate(fam, "body", score if a > 0 else 0.0,
-                                       max(a, 0.0) * spec.probe, _tilt_direction(k)))
-        elif fam == "mass_com":   # a mass at each screening position; only added mass counts
-            for k, pos in enumerate(MASS_POSITIONS):
-                score, a = fit_1d(sens[(fam, k, None)])
-                cands.append(Candidate(fam, "body", score if a > 0 else 0.0, a,
-                                       extra={"com_offset_m": pos}))
-        else:
-            nc = len(spec.components)
-            G = np.zeros((nc, nc))
-            b = np.zeros(nc)
-            for i in F:
-                D = np.stack([sens[(fam, c, None)][i] for c in range(nc)])
-                r = r_full[i]
-                G += D @ D.T
-                b += D @ r
-            a = np.linalg.lstsq(G + 1e-12 * np.eye(nc), b, rcond=None)[0]
-            score = float(b @ a)
-            scope = "body"
-            if nc > 1:
-                mag = float(np.linalg.norm(a)) * spec.probe
-                direction = a / np.linalg.norm(a) if np.linalg.norm(a) > 0 else np.eye(nc)[0]
-                cands.append(Candidate(fam, scope, score, mag, direction))
-            else:
-                cands.append(Candidate(fam, scope, score, float(a[0])))
-    for c in cands:   # first-order magnitude in the family's units
-        spec = FAMILIES[c.family]
-        if c.direction is None:
-            c.magnitude = spec.neutral + c.magnitude * spec.probe
+        found = _SCREEN_STYLES[spec.screen_style](spec, {key[1]: v for key, v in sens.items()
+                                                         if key[0] == fam}, res)
+        for c in found:   # first-order magnitude in the family's units
+            if c.direction is None:
+                c.magnitude = spec.neutral + c.magnitude * spec.probe
+        cands += found
     cands.sort(key=lambda c: -c.score)
     say(f"physics screening: {len(cands)} family x scope hypotheses from {len(tasks)} "
         f"sensitivity simulations in {time.perf_counter() - t0:.1f} s; best " + ", ".join(
             f"{c.family} {c.scope} {c.score:.2f}" for c in cands[:5]))
     return cands
+
+
+@dataclass(frozen=True)
+class _Residual:
+    """The screen's residuals (measured minus simulated, weighted, flat per move): on the
+    screening segments (``short``) and on the whole move (``full``), and the moves ``F``."""
+
+    short: Mapping[int, np.ndarray]
+    full: Mapping[int, np.ndarray]
+    F: Sequence[int]
+
+    def fit_1d(self, sens: Mapping[int, np.ndarray]) -> tuple[float, float]:
+        """(score, scale a) of one sensitivity fitted to the whole-move residual by least
+        squares, summed over the screening moves."""
+        gg = sum(float(sens[i] @ sens[i]) for i in self.F)
+        bb = sum(float(sens[i] @ self.full[i]) for i in self.F)
+        a = bb / gg if gg > 0 else 0.0
+        return bb * a, a
+
+
+def _screen_joints(spec: Family, sens: Mapping[tuple, Mapping[int, np.ndarray]],
+                   res: _Residual) -> list[Candidate]:
+    """Every joint scope from one probe per joint (first order: a scope's sensitivity is the
+    sum of its joints'), per scope the probe that explains more; a family screened on the whole
+    move (a drift that grows over 4 s) against the whole-move residual."""
+    best: dict[str, Candidate] = {}
+    for k in range(1 if spec.deep_probe is None else 2):
+        G = np.zeros((N_JOINTS, N_JOINTS))
+        b = np.zeros(N_JOINTS)
+        for i in res.F:
+            D = np.stack([sens[(k, j)][i] for j in range(N_JOINTS)])
+            r = res.full[i] if spec.long_screen else res.short[i]
+            G += D @ D.T
+            b += D @ r
+        for c in _scope_scores(spec.name, G, b):
+            if k == 1:   # in units of the first probe (converted by the caller)
+                c.magnitude *= spec.deep_probe / spec.probe
+            if c.scope not in best or c.score > best[c.scope].score:
+                best[c.scope] = c
+    return list(best.values())
+
+
+def _screen_legs(spec: Family, sens: Mapping[tuple, Mapping[int, np.ndarray]],
+                 res: _Residual) -> list[Candidate]:
+    out = []
+    for p in spec.screen_probes():
+        score, a = res.fit_1d(sens[p.key])
+        out.append(Candidate(spec.name, p.scope, score, a))
+    return out
+
+
+def _screen_each(spec: Family, sens: Mapping[tuple, Mapping[int, np.ndarray]],
+                 res: _Residual) -> list[Candidate]:
+    """Every probe a hypothesis of its own (a tilt towards one direction, a mass at one
+    position), scaled in 1-D; only a positive scale counts."""
+    out = []
+    for k, p in enumerate(spec.screen_probes()):
+        score, a = res.fit_1d(sens[p.key])
+        mag, direction, extra = spec.probe_candidate(k, a)
+        out.append(Candidate(spec.name, p.scope, score if a > 0 else 0.0, mag, direction,
+                             extra=extra))
+    return out
+
+
+def _screen_components(spec: Family, sens: Mapping[tuple, Mapping[int, np.ndarray]],
+                       res: _Residual) -> list[Candidate]:
+    """A vector family's components fitted jointly (one probe per component)."""
+    keys = [p.key for p in spec.screen_probes()]
+    nc = len(keys)
+    G = np.zeros((nc, nc))
+    b = np.zeros(nc)
+    for i in res.F:
+        D = np.stack([sens[key][i] for key in keys])
+        G += D @ D.T
+        b += D @ res.full[i]
+    a = np.linalg.lstsq(G + 1e-12 * np.eye(nc), b, rcond=None)[0]
+    score = float(b @ a)
+    if nc > 1:
+        mag = float(np.linalg.norm(a)) * spec.probe
+        direction = a / np.linalg.norm(a) if np.linalg.norm(a) > 0 else np.eye(nc)[0]
+        return [Candidate(spec.name, "body", score, mag, direction)]
+    return [Candidate(spec.name, "body", score, float(a[0]))]
+
+
+_SCREEN_STYLES: dict[str, Callable[..., list[Candidate]]] = {
+    "joints": _screen_joints, "legs": _screen_legs, "each": _screen_each,
+    "components": _screen_components}
 
 
 def _scope_scores(fam: str, G: np.ndarray, b: np.ndarray) -> list[Candidate]:
@@ -924,7 +687,7 @@ def _shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
     pos = [c for c in cands if c.score > 0]
 
     def cls(c: Candidate) -> str:
-        return "push" if c.family in PUSH_CLASS else c.family
+        return FAMILIES[c.family].shortlist_class
 
     n_joint = min((n + 1) // 2, 3)
     n_body = max(1, n - n_joint - 1)
@@ -1188,7 +951,7 @@ def _refine_position(runner: _Runner, base: list, c: Candidate, base_err: list, 
     stops on the first mass it fitted (benchmarks/blind_zoo/README.md, before the fifth
     zoo); the mass is scaled by each step in ``valley_steps`` and its offset divided by it, up
     or down while the fit improves. The mass is refitted at the best position."""
-    if c.family != "mass_com" or c.fitted is None or c.J is None:
+    if not FAMILIES[c.family].searches_position or c.fitted is None or c.J is None:
         return
     w = _weights(base_err, F)
 
@@ -1287,17 +1050,15 @@ def _start_side(runner: _Runner, base: list, c: Candidate, base_err: list, F: li
 
 
 def push_twin(c: Candidate, robot_mass: float) -> Candidate:
-    """The slope that pushes like an odom-fixed force, or the force a slope exerts: a slope of
-    theta adds m g sin(theta) downhill, fixed in odom."""
+    """The hypothesis of the family that pushes alike (:attr:`~.families.Family.twin_family`:
+    a slope of theta adds m g sin(theta) downhill, fixed in odom, like a force), opposite in
+    direction (uphill against the push)."""
     from ..robot.sim import GRAVITY
     d = c.direction if c.direction is not None else np.array([1.0, 0.0])
     m = c.fitted if c.fitted is not None else c.magnitude
-    w = robot_mass * GRAVITY
-    if c.family == "odom_force":
-        slope = math.degrees(math.asin(min(m / w, 0.99)))
-        return Candidate("ground_slope", "body", 0.0, slope, -d, fitted=slope)
-    force = w * math.sin(math.radians(m))
-    return Candidate("odom_force", "body", 0.0, force, -d, fitted=force)
+    fam = FAMILIES[c.family]
+    mag = fam.twin_magnitude(m, robot_mass * GRAVITY)
+    return Candidate(fam.twin_family, "body", 0.0, mag, -d, fitted=mag)
 
 
 def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list, V: list[int],
@@ -1326,9 +1087,9 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
     score = [float(np.mean(move_cuts(S0, r[2]))) for r in results]
     kb = int(np.argmax(score))
     best = results[kb][0]
-    if best.family in PUSH_CLASS:
-        twins = [k for k, r in enumerate(results) if r[0].family in PUSH_CLASS
-                 and r[0].family != best.family]
+    if FAMILIES[best.family].twin_family:
+        twins = [k for k, r in enumerate(results)
+                 if r[0].family == FAMILIES[best.family].twin_family]
         if not twins:   # its physical twin, for the "cannot tell" statement
             twin = push_twin(best, robot_mass)
             sims_w = runner.map([(i, base + [twin.hyp()], "full") for i in V])
@@ -1346,7 +1107,7 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
         # not physical; the gravity form stays the named rival for odometry that tilts with
         # the ground. So where the two push alike, the push is the finding.
         k = twins[0]
-        if best.family == "ground_slope" and results[k][3][3] and \
+        if FAMILIES[best.family].yields_to_twin and results[k][3][3] and \
                 score[k] >= INSEPARABLE_SHARE * score[kb]:
             kb = k
     best, err1, S1, (gain, p_ch, p_adj, sig, mat) = results[kb]
@@ -1369,141 +1130,18 @@ def _validate(runner: _Runner, base: list, top: list[Candidate], base_err: list,
                    horizon_errors([err1[i] for i in H], horizons_s), best.hyp(), alts)
 
 
-NORMAL_TORQUE = {"hip_roll": 1.7, "hip_pitch": 1.7, "knee": 0.61}
-
-
 def physical_params(c: Candidate, foot_mu: float = 0.81) -> dict[str, Any]:
     """The vocabulary's parameters of a fitted candidate (primary first); ``foot_mu``: the
     transducer's normal foot-ground friction coefficient (pybullet multiplies foot and ground)."""
-    spec = FAMILIES[c.family]
-    m = c.fitted if c.fitted is not None else c.magnitude
-    if c.family in ("odom_force", "body_wrench"):
-        d = c.direction if c.direction is not None else np.array([1.0, 0.0])
-        return {"force_N": float(m), "direction_deg": float(math.degrees(math.atan2(d[1], d[0]))),
-                "force_xy_N": [float(m * d[0]), float(m * d[1])]}
-    if c.family in TORQUE_AXES:
-        return {"torque_Nm": float(m), "force_N": 0.0,
-                "torque_axis": _AXIS_WORDS[TORQUE_AXES[c.family]]}
-    if c.family in ("ground_slope", "ground_tilt"):
-        d = c.direction if c.direction is not None else np.array([1.0, 0.0])
-        return {"slope_deg": float(m),
-                "uphill_direction_deg": float(math.degrees(math.atan2(d[1], d[0]))),
-                "odom": ("level with the ground (gravity tilted)" if c.family == "ground_slope"
-                         else "level in the world (the floor tilted under it)")}
-    if c.family == "torque_saturation":
-        kinds = {JOINT_NAMES[j].rsplit("_", 1)[-1] for j in scope_joints(c.scope)}
-        kinds = {("hip_roll" if k == "roll" else "hip_pitch" if k == "pitch" else k)
-                 for k in kinds}
-        lim = {k: float(m * NORMAL_TORQUE[k]) for k in sorted(kinds)}
-        primary = lim.get("knee", next(iter(lim.values())))
-        return {"torque_limit_Nm": primary, "torque_limit_ratio": float(m),
-                "torque_limit_Nm_by_joint_type": lim}
-    if c.family == "mass_com":
-        mass, off = mass_com_of(c.params(m))
-        return {"added_mass_kg": float(mass), "com_offset_m": [float(x) for x in off]}
-    if c.family == "leg_difference":
-        return {"scale": float(m), "quantity": "leg link masses and inertias"}
-    if c.family == "foot_slip":   # a scaled property of one leg: the vocabulary's leg_difference
-        return {"scale": float(m), "quantity": "foot-ground friction coefficient",
-                "friction_ratio": float(m), "friction_coefficient": float(m * foot_mu)}
-    if c.family == "swing_drag":
-        return {"magnitude": float(m), "phase": "swing",
-                "quantity": "drag force on the swinging foot [N]", "force_N": float(m)}
-    if c.family in ("backlash", "setpoint_backlash"):
-        return {"width_rad": float(m), "form": ("play on the set-point path"
-                                                if c.family == "setpoint_backlash"
-                                                else "play in the joint (servo dead zone)")}
-    if c.family == "foot_adhesion":
-        return {"magnitude": float(m), "phase": "lift-off",
-                "quantity": "downward pull on the foot from touch-down until it has risen "
-                            "1 cm [N]", "force_N": float(m)}
-    return {spec.primary: float(m)}
-
-
-_JOINT_WORDS = {"hip_roll": "hip roll", "hip_pitch": "hip pitch", "knee": "knee"}
-
-
-def scope_words(scope: str) -> str:
-    """'back-left knee', 'the front-left leg', 'all knees', 'the left side', 'all joints'."""
-    if scope == "all":
-        return "all joints"
-    if scope == "body":
-        return "the body"
-    kind, _, what = scope.partition(":")
-    if kind == "leg":
-        return f"the {what.replace('_', '-')} leg"
-    if kind == "type":
-        return f"all {what.replace('_', ' ')}"
-    if kind == "side":
-        return f"the {what} side's joints"
-    leg = next(g for g in LEGS if what.startswith(g + "_"))
-    return f"{leg.replace('_', '-')} {_JOINT_WORDS[what[len(leg) + 1:]]}"
+    return FAMILIES[c.family].physical_params(c, foot_mu)
 
 
 def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
     """A roboticist's sentence for a finding."""
     where = scope_words(scope)
-    W = where[0].upper() + where[1:]
-    v = params.get(FAMILIES[family].primary, None)
-    if family == "command_delay":
-        return f"{W}: set-points arrive about {v:.0f} ms late"
-    if family == "command_filter":
-        return (f"{W}: set-points pass a first-order lag of about {v:.0f} ms "
-                f"(time constant)")
-    if family == "servo_gain":
-        return f"{W} tracks about {100 * v:.0f} % of each set-point change (servo P gain ratio)"
-    if family == "joint_friction":
-        return f"{W}: about {v:.3f} N m of extra Coulomb friction"
-    if family == "backlash":
-        return (f"{W}: about {v:.3f} rad of play (backlash): the servo drives no torque while "
-                f"the joint is within {v / 2:.3f} rad of its set-point")
-    if family == "setpoint_backlash":
-        return (f"{W}: about {v:.3f} rad of play (backlash) on the set-point path: the servo's "
-                f"set-point holds until the command has moved {v / 2:.3f} rad past it")
-    if family == "torque_saturation":
-        return (f"{W}: servo torque saturates at about {100 * params['torque_limit_ratio']:.0f} "
-                f"% of the normal limit ({params['torque_limit_Nm']:.2f} N m)")
-    if family == "encoder_offset":
-        return (f"{W}: the encoder reads about {v:+.3f} rad off the true angle (the servo holds "
-                f"the joint that far from the set-point while the report shows it on it)")
-    if family == "time_drift":
-        return (f"{W}: servo gain drifts by about {100 * v:+.1f} % per second since the start "
-                f"of a move")
-    if family == "odom_force":
-        return (f"About {v:.2f} N pushing the body along {params['direction_deg']:.0f} deg in odom "
-                f"(fixed in the world: its body-frame effect turns with the heading)")
-    if family == "body_wrench":
-        return (f"About {v:.2f} N pushing the body along {params['direction_deg']:.0f} deg in "
-                f"base_link (fixed to the body)")
-    if family in TORQUE_AXES:
-        what, positive, negative = _TORQUE_WORDS[family]
-        return (f"About {abs(v):.3f} N m {what} ({positive if v >= 0 else negative}; a torque "
-                f"fixed to the body, no net force)")
-    if family == "ground_slope":
-        return (f"Ground inclined by about {v:.1f} deg, uphill towards "
-                f"{params['uphill_direction_deg']:.0f} deg in odom")
-    if family == "ground_tilt":
-        return (f"Floor inclined by about {v:.1f} deg, uphill towards "
-                f"{params['uphill_direction_deg']:.0f} deg in a level odom (the body's attitude "
-                f"and height follow the floor)")
-    if family == "mass_com":
-        off = params.get("com_offset_m", (0.0, 0.0, 0.0))
-        return (f"About {v:.2f} kg of extra mass carried on the body, its centre about "
-                f"{100 * off[0]:+.0f} cm ahead and {100 * off[1]:+.0f} cm to the left of the "
-                f"body origin")
-    if family == "leg_difference":
-        return f"{W} differs: its links weigh about {v:.2f} times the others'"
-    if family == "foot_slip":
-        return (f"{W}'s foot slips in stance: foot-ground friction coefficient about "
-                f"{params['friction_coefficient']:.2f} ({100 * params['friction_ratio']:.0f} % "
-                f"of normal)")
-    if family == "swing_drag":
-        return (f"{W}'s foot is dragged while it swings: about {params['force_N']:.1f} N "
-                f"against its motion, none in stance")
-    if family == "foot_adhesion":
-        return (f"{W}'s foot sticks to the ground: about {params['force_N']:.1f} N pulling it "
-                f"down from touch-down until it has risen 1 cm")
-    return f"{family} on {where}: {dict(params)}"
+    if family not in FAMILIES:
+        return f"{family} on {where}: {dict(params)}"
+    return FAMILIES[family].statement(where, params)
 
 
 INSEPARABLE_SHARE = 0.8   # a rival with this share of the finding's held-out cut: data can't tell
@@ -1527,37 +1165,31 @@ def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
                 not a["held_out_p"] < alpha:
             continue
         seen.add(searched)
-        pair = {mine, a["family"]}
-        if "ground_tilt" in (f.family, searched):
-            how = "both explain the held-out moves about equally well"
-            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 "
-                   "[same options, a new seed]")
-        elif {f.family, searched} & set(TORQUE_AXES):
-            how = ("a torque about the vertical axis and a push or a leg effect that turns the "
-                   "trot both bend its path; moves with other headings and speeds separate "
-                   "them (a torque turns the body the same way at any speed)")
-            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 --types FL,FR,BL,BR "
-                   "[same options, a new seed]")
-        elif pair == set(PUSH_CLASS):
-            how = ("a slope tilts gravity (m g sin(slope) downhill, fixed in odom) and a "
-                   "world-fixed push act alike on odometry that stays level with the ground; "
-                   "the gravity direction in base_link (an IMU's accelerometer) separates them")
-            rec = ("record the same moves with an IMU topic (sensor_msgs/Imu, linear "
-                   "acceleration); this project's recorder has none")
-        elif pair <= {"odom_force", "ground_slope", "body_wrench"}:
-            how = ("a push fixed in odom and one fixed to the body differ only when the heading "
-                   "changes; more turning moves separate them")
-            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 --types FL,FR,BL,BR "
-                   "[same options, a new seed]")
-        else:
-            how = "both explain the held-out moves about equally well"
-            rec = ("littledog-mlsim record --out DIR --moves-per-type 20 --excitation 0.03 "
-                   "[same options, a new seed]")
+        how, rec = _separation(f.family, searched)
         out.append({"family": a["family"], "scope": a["scope"], "params": a["params"],
                     "why": (f"cannot be told from the accepted {mine} on these data: held-out "
                             f"cut {g:.3g} against {g0:.3g}; {how}"),
                     "recording": rec, "kind": "inseparable"})
     return out
+
+
+def _separation(a: str, b: str) -> tuple[str, str]:
+    """Why families ``a`` and ``b`` act alike and the recording that separates them: the
+    stronger of the two families' views (:meth:`~.families.Family.separation`), else more
+    moves with command excitation."""
+    fa, fb = FAMILIES[a], FAMILIES[b]
+    views = [v for v in (fa.separation(fb), fb.separation(fa)) if v is not None]
+    if not views:
+        return ("both explain the held-out moves about equally well",
+                "littledog-mlsim record --out DIR --moves-per-type 20 --excitation 0.03 "
+                "[same options, a new seed]")
+    best = max(views, key=lambda v: v.priority)
+    return best.how, best.recording
+
+
+def _timing(alt: Mapping[str, Any]) -> bool:
+    fam = FAMILIES.get(alt.get("searched_family", alt["family"]))
+    return fam is not None and fam.timing_rival
 
 
 def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitation: float,
@@ -1580,7 +1212,7 @@ def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitat
         fit_cut = None
         if f.profile:
             fit_cut = 1.0 - min(p["J_relative"] for p in f.profile)
-        path = FAMILIES[f.family].command_path or f.family == "backlash"
+        path = FAMILIES[f.family].needs_excitation
         held = bool(np.nanmin(f.p_channel) < alpha) and float(np.nansum(f.gain)) > 0
         if path and excitation <= 0 and (fit_cut or 0) >= 2 * min_gain and held:
             out.append({"family": f.family, "scope": f.scope, "params": f.params,
@@ -1597,10 +1229,9 @@ def suspicions(findings: Sequence[Finding], rejected: Sequence[Finding], excitat
     for f in findings:
         out += inseparable(f, alpha)
     for f in findings:
-        if f.family in ("command_delay", "command_filter") and excitation <= 0:
-            rival = [a for a in f.alternatives if a["family"] in ("command_delay",
-                                                                  "command_filter")
-                     and a["family"] != f.family and a["J_relative"] is not None]
+        if FAMILIES[f.family].timing_rival and excitation <= 0:
+            rival = [a for a in f.alternatives if _timing(a) and a["family"] != f.family
+                     and a["J_relative"] is not None]
             mine = [a for a in f.alternatives if a["family"] == f.family
                     and a["scope"] == f.scope and a["J_relative"] is not None]
             if rival and mine and rival[0]["J_relative"] <= mine[0]["J_relative"] * 1.05:

@@ -242,36 +242,10 @@ def _stages(feature_sets, loaded, method, options, train, test, target, seed, da
 def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
     """The online feature (an :class:`..models.features.Augmentation`) that lets a learned model
     carry a physically identified effect, or None if the model trained on the data carries it
-    already (a constant change of the robot is a function of the model's inputs).
-
-    command_delay -> u_{t-d} of the scope's joints; command_filter -> the low-passed commands;
-    joint_friction -> the rate/push signs; backlash -> a play operator on the commands;
-    torque_saturation -> the clipped tracking error; odom_force and ground_slope (either kind)
-    -> the heading (a world-fixed push acts in the body frame through it); time_drift -> the
-    elapsed time.
-    """
-    from ..models.features import (CommandFilter, CommandLag, ElapsedTime, Heading,
-                                   JointRateSign, Play, TrackingSaturation)
-    group = "all" if scope in ("all", "body") else scope.split(":", 1)[1]
-    if family == "command_delay":
-        lag = int(round(float(params["delay_ms"]) / 10.0))
-        return CommandLag(lag=lag, joints=group) if lag >= 1 else None
-    if family == "command_filter":
-        tau = float(params["time_constant_ms"])
-        return CommandFilter(time_constant_ms=round(tau, 1), joints=group) if tau > 1 else None
-    if family == "joint_friction":
-        return JointRateSign(smoothing=0.05, joints=group, error_smoothing=0.02)
-    if family in ("backlash", "setpoint_backlash"):
-        w = float(params["width_rad"])
-        return Play(width=round(w, 4), source="u") if w > 1e-4 else None
-    if family == "torque_saturation":
-        lim = float(params["torque_limit_ratio"]) * 0.61 / 6.7
-        return TrackingSaturation(limit=round(max(lim, 1e-3), 4))
-    if family in ("odom_force", "ground_slope", "ground_tilt"):
-        return Heading()
-    if family == "time_drift":
-        return ElapsedTime()
-    return None
+    already (a constant change of the robot is a function of the model's inputs): the family's
+    :meth:`.families.Family.augmentation`."""
+    from .families import FAMILIES
+    return FAMILIES[family].augmentation(scope, params)
 
 
 def _fit_with_fallback(fs, method, options, train, target, seed, info, say):
