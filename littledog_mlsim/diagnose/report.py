@@ -485,7 +485,8 @@ def _write(out: str | os.PathLike, info: dict[str, Any], build: Any, figs: Any,
 # the physical identification's report (``diagnose`` with physics on; docs/diagnosis.md)
 
 def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dict[str, Any]:
-    from .physid import CHANNELS, vocabulary_family
+    from .physical import CHANNELS
+    from .families import vocabulary_family
     ev = f.evidence()
     outputs = [CHANNELS[j] for j in np.flatnonzero((f.p_channel < 0.01) & (f.gain >= 0.025))]
     cut = {}

@@ -89,11 +89,11 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
     figures and ``out/model``. Returns the report (the JSON document).
 
     ``physics``: ``"on"``/``"auto"`` (default): name effects by physical identification
-    (:mod:`.physid`: family x scope x parameter by re-simulation with the dataset's robot,
+    (:mod:`.physical`: family x scope x parameter by re-simulation with the dataset's robot,
     multi-step output errors), then add each found effect's online feature to the learned
     model; ``"auto"`` falls back to ``"off"`` if the dataset names no known robot.
     ``"off"``: the residual loop of :mod:`.selection` on the learned model alone.
-    ``physics_options``: keyword arguments of :func:`.physid.identify`.
+    ``physics_options``: keyword arguments of :func:`.physical.identify`.
 
     ``model``: start from this model file (its feature set, method, options and target; its
     "before" scores are its own). Otherwise the starting feature set is ``baseline``
@@ -171,8 +171,8 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
 def _diagnose_physical(data, out, index, train, test, start, loaded, method, options, target,
                        seed, baseline_desc, projections, projection_alpha, save_model, figures,
                        say, t_start, robot, alpha, min_gain, physics_options):
-    """Physical identification (:mod:`.physid`), then the learned model before/after."""
-    from .physid import identify
+    """Physical identification (:mod:`.physical`), then the learned model before/after."""
+    from .physical import identify
     from .report import write_physical_report
     opts = {"alpha": alpha, "min_gain": min_gain, **dict(physics_options)}
     excitation = float(index.info.get("command_excitation_rad", 0.0) or 0.0)

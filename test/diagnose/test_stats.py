@@ -58,7 +58,8 @@ def test_decide_by_hand():
     p_ch = sps.ttest_1samp(d, 0.0, axis=0, alternative="greater").pvalue
     p_pool = sps.ttest_1samp(d.sum(axis=1), 0.0, alternative="greater").pvalue
     r = decide(S0, S1, 5, alpha=0.05, min_gain=0.1)
-    np.testing.assert_allclose(r.gain, [0.4, 0.0], atol=1e-12)
+    np.testing.assert_allclose(r.gain, gain, atol=1e-12)
+    np.testing.assert_allclose(gain, [0.4, 0.0], atol=1e-12)
     np.testing.assert_allclose(r.d, d)
     np.testing.assert_allclose(r.p_channel, p_ch, rtol=1e-10)
     assert r.p_pooled == pytest.approx(p_pool, rel=1e-10)

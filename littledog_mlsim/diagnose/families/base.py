@@ -19,10 +19,10 @@ from typing import Any, ClassVar, Mapping, Protocol, Sequence
 import numpy as np
 
 from ...layout import JOINT_NAMES, LEGS
-from .scopes import joint_scopes, leg_scopes, scope_joints
+from .scopes import joint_scopes, leg_scopes
 
 __all__ = ["Family", "FAMILIES", "register_family", "ScreenProbe", "FittedEffect",
-           "Separation", "vocabulary_family", "KINDS"]
+           "Separation", "vocabulary_family", "library_size", "KINDS"]
 
 KINDS = ("joints", "body", "leg")
 
@@ -226,6 +226,11 @@ def register_family(cls: type[Family]) -> type[Family]:
         raise ValueError(f"family {cls.name!r}: kind must be one of {', '.join(KINDS)}")
     FAMILIES[cls.name] = cls()
     return cls
+
+
+def library_size() -> int:
+    """Family x scope hypotheses of the registered families."""
+    return sum(len(f.scopes()) for f in FAMILIES.values())
 
 
 def vocabulary_family(family: str) -> str:

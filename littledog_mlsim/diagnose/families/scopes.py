@@ -11,7 +11,7 @@ import numpy as np
 from ...layout import JOINT_NAMES, LEGS, N_JOINTS
 
 __all__ = ["TYPE_SCOPES", "scope_joints", "joint_scopes", "leg_scopes", "scope_words",
-           "scope_group"]
+           "scope_group", "related_scopes"]
 
 TYPE_SCOPES = {"hip_rolls": "hip_roll", "hip_pitches": "hip_pitch", "knees": "knee"}
 _JOINT_WORDS = {"hip_roll": "hip roll", "hip_pitch": "hip pitch", "knee": "knee"}
@@ -66,3 +66,26 @@ def scope_words(scope: str) -> str:
         return f"the {what} side's joints"
     leg = next(g for g in LEGS if what.startswith(g + "_"))
     return f"{leg.replace('_', '-')} {_JOINT_WORDS[what[len(leg) + 1:]]}"
+
+
+def related_scopes(scope: str) -> list[str]:
+    """The scopes a joint finding is compared with before it is named: for a single joint, the
+    other joints of its leg (an offset or a fault on one joint of a leg moves the foot much as
+    one on its neighbour does, and the linear screen can prefer the wrong one:
+    benchmarks/blind_zoo/README.md, after zoo4) and the groups that hold it; the coarser groups
+    of a group; the finer groups of ``all``."""
+    if scope == "all":
+        return ["side:left", "side:right"] + [f"type:{t}" for t in TYPE_SCOPES]
+    kind, _, what = scope.partition(":")
+    if kind == "joint":
+        leg = next(g for g in LEGS if what.startswith(g + "_"))
+        jt = what[len(leg) + 1:]
+        typ = next(t for t, k in TYPE_SCOPES.items() if k == jt)
+        side = "left" if leg.endswith("left") else "right"
+        siblings = [f"joint:{leg}_{k}" for k in TYPE_SCOPES.values() if k != jt]
+        return siblings + [f"leg:{leg}", f"type:{typ}", f"side:{side}", "all"]
+    if kind == "leg":
+        return [f"side:{'left' if what.endswith('left') else 'right'}", "all"]
+    if kind == "side":
+        return [f"leg:{g}" for g in LEGS if g.endswith(what)] + ["all"]
+    return ["all"]
