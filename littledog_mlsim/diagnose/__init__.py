@@ -16,10 +16,11 @@ Two routes share one statistics module and one report:
 - :mod:`.physid`: the physical route under its former name (re-exports for tools).
 """
 from .candidates import BASELINES, default_library, measured_robot_features, paper_features
+from .options import AutoRoute, DiagnoseOptions, LearnedRoute, PhysicalRoute
 from .run import diagnose
 from .selection import (DEFAULT_ALPHA, DEFAULT_MIN_GAIN, CandidateScore, SearchModel,
                         SelectionResult, select_effects)
 
-__all__ = ["diagnose", "select_effects", "SearchModel", "SelectionResult", "CandidateScore",
+__all__ = ["diagnose", "DiagnoseOptions", "PhysicalRoute", "LearnedRoute", "AutoRoute", "select_effects", "SearchModel", "SelectionResult", "CandidateScore",
            "default_library", "measured_robot_features", "paper_features", "BASELINES",
            "DEFAULT_ALPHA", "DEFAULT_MIN_GAIN"]
