@@ -348,6 +348,13 @@ class SelectionResult:
         return bool(self.accepted)
 
 
+def _fresh(search: SearchModel) -> SearchModel:
+    """An unfitted search model with the settings of ``search``."""
+    return SearchModel(**{k: getattr(search, k) for k in (
+        "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
+        "n_folds", "seed")})
+
+
 def _already_in(aug: Augmentation, fs: FeatureSet) -> bool:
     """True if ``aug`` is in ``fs`` or shares a column with it (it could not be added)."""
     return bool(set(aug.columns()) & set(fs.extra_names))
@@ -376,9 +383,7 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
         t1 = time.perf_counter()
         X, Y, move_index = fs.features_responses(train)
         D = Y - X[:, :N_STATE]
-        m = SearchModel(**{kk: getattr(search, kk) for kk in (
-            "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
-            "n_folds", "seed")}).fit(X, D, move_index, move_types, length_scales)
+        m = _fresh(search).fit(X, D, move_index, move_types, length_scales)
         length_scales = m.length_scales_
         var = Y.var(axis=0) / m.d_std_ ** 2
         search_nmse = np.where(var > 1e-24, (m.residual_ ** 2).mean(axis=0)
@@ -387,41 +392,9 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
         scores = screen(m, columns, todo, alpha=alpha, min_gain=min_gain,
                         n_library=len(library))
         ok = [s for s in scores if s.significant and s.material]
-        picked = None
-        delay_profile = None
-        ccf = None
-        notes: list[str] = []
-        families = sorted({s.augmentation.family for s in ok},
-                          key=lambda f: -max(c.total_gain for c in ok
-                                             if c.augmentation.family == f))
-        for family in (families if k < max_rounds else []):
-            members = [s for s in scores if s.augmentation.family == family]
-            picked = estimate_member(family, members)
-            if family != "command delay":
-                break
-            lags = sorted({s.augmentation.lag for s in members
-                           if s.augmentation.name == "command_lag"})
-            delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
-            d_hat = delay_from_scan(delay_profile)
-            say("delay scan (u_t replaced by u_t-d): " + ", ".join(
-                f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
-                + f" -> delay {d_hat}")
-            by_lag = {s.augmentation.lag: s for s in members
-                      if s.augmentation.name == "command_lag"}
-            if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
-                picked = by_lag[d_hat]
-                ccf = _command_ccf(m.residual_, X, move_index, picked)
-                break
-            # the replacement scan sees no delay, or a delay whose own column is not significant
-            # and material (e.g. already in the model): the command columns' gain is not a delay
-            scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
-            why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
-                   f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}) column is not "
-                   "significant and material by itself")
-            notes.append("command-delay candidates were significant and material, but the "
-                         f"delay scan {why}: not accepted; scan " + scan)
-            say(notes[-1])
-            picked, delay_profile = None, None
+        picked, delay_profile, ccf, notes = (
+            _pick(m, X, D, move_index, move_types, columns, scores, ok, say)
+            if k < max_rounds else (None, None, None, []))
         corr = m.candidate_fit(columns[picked.label])[1] if picked is not None else None
         rounds.append(Round(k, fs, scores, picked, m.residual_, corr, search_nmse,
                             time.perf_counter() - t1, delay_profile, notes, ccf))
@@ -438,6 +411,52 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
     return SelectionResult(rounds=rounds, feature_set=fs, start=start, move_types=move_types,
                            move_index=move_index, search_model=search.describe(), alpha=alpha,
                            min_gain=min_gain, library=library)
+
+
+def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
+          move_types: Sequence[str], columns: dict[str, np.ndarray],
+          scores: Sequence[CandidateScore], ok: Sequence[CandidateScore],
+          say: Callable[[str], None]
+          ) -> tuple[CandidateScore | None, list[dict[str, Any]] | None, dict[str, Any] | None,
+                     list[str]]:
+    """The member picked among the significant and material candidates ``ok`` (module doc,
+    step 5): (picked or None, delay profile, residual-input ccf, notes)."""
+    picked = None
+    delay_profile = None
+    ccf = None
+    notes: list[str] = []
+    families = sorted({s.augmentation.family for s in ok},
+                      key=lambda f: -max(c.total_gain for c in ok
+                                         if c.augmentation.family == f))
+    for family in families:
+        members = [s for s in scores if s.augmentation.family == family]
+        picked = estimate_member(family, members)
+        if family != "command delay":
+            break
+        lags = sorted({s.augmentation.lag for s in members
+                       if s.augmentation.name == "command_lag"})
+        delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
+        d_hat = delay_from_scan(delay_profile)
+        say("delay scan (u_t replaced by u_t-d): " + ", ".join(
+            f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
+            + f" -> delay {d_hat}")
+        by_lag = {s.augmentation.lag: s for s in members
+                  if s.augmentation.name == "command_lag"}
+        if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
+            picked = by_lag[d_hat]
+            ccf = _command_ccf(m.residual_, X, move_index, picked)
+            break
+        # the replacement scan sees no delay, or a delay whose own column is not significant
+        # and material (e.g. already in the model): the command columns' gain is not a delay
+        scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
+        why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
+               f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}) column is not "
+               "significant and material by itself")
+        notes.append("command-delay candidates were significant and material, but the "
+                     f"delay scan {why}: not accepted; scan " + scan)
+        say(notes[-1])
+        picked, delay_profile = None, None
+    return picked, delay_profile, ccf, notes
 
 
 def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
@@ -457,9 +476,7 @@ def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.
     for d in lags:
         Xd = np.array(X, copy=True)
         Xd[:, N_STATE:N_FEATURE] = columns[CommandLag(lag=d).label()]
-        md = SearchModel(**{k: getattr(model, k) for k in (
-            "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
-            "n_folds", "seed")}).fit(Xd, D, move_index, move_types, model.length_scales_)
+        md = _fresh(model).fit(Xd, D, move_index, move_types, model.length_scales_)
         gain = 1.0 - md.sse_.sum(axis=0) / tot0
         out.append({"delay": int(d), "total_gain": float(gain.sum()),
                     "gain": [float(g) for g in gain]})
