@@ -182,3 +182,11 @@ def test_registry_refuses_a_second_class_under_a_taken_name():
     with pytest.raises(ValueError, match="kind"):
         register_family(NoKind)
     assert "nowhere" not in FAMILIES
+
+
+def test_the_reference_lists_every_registered_family():
+    """docs/families.md's table names every registered family with its kind and parameter."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[2] / "docs" / "families.md").read_text()
+    for f in FAMILIES.values():
+        assert f"| `{f.name}` | {f.kind} | `{f.primary}` [{f.unit}] |" in text, f.name
