@@ -160,7 +160,8 @@ def learned_physical(aug: Any) -> dict[str, Any]:
     fam = _LEARNED_TO_VOCAB.get(aug.family, "other")
     params = aug.params()
     joints = params.get("joints", "all")
-    if fam in ("odom_force", "contact_phase") or fam == "other":
+    from .families import FAMILIES
+    if fam not in FAMILIES or FAMILIES[fam].kind != "joints":   # a push, a contact term, other
         scope = "body"
     elif joints == "all":
         scope = "all"
