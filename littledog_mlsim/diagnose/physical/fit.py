@@ -18,7 +18,7 @@ from ..families import FAMILIES
 from ..families.body import within_reach
 from ..families.scopes import related_scopes
 from .context import Objective
-from .records import Candidate
+from .records import Candidate, Hypothesis
 
 __all__ = ["fit", "fit_magnitude", "refine_wide", "wide_magnitude", "refine_direction",
            "refine_position", "start_side", "scope_variants", "segments_only"]
@@ -189,7 +189,7 @@ def _turn(obj: Objective, c: Candidate, F: Sequence[int], w: np.ndarray,
 
     def J_of(vec: np.ndarray) -> float:
         par = spec.params_from(float(np.linalg.norm(vec)), vec / np.linalg.norm(vec))
-        return obj.evaluate([(c.family, c.scope, par)], F, w)[0]
+        return obj.evaluate([Hypothesis(c.family, c.scope, par)], F, w)[0]
 
     best = float(c.fitted) * np.asarray(c.direction, dtype=float)
     best_J = float(c.J)
@@ -223,8 +223,8 @@ def refine_position(obj: Objective, c: Candidate, F: Sequence[int],
     w = obj.weights(F)
 
     def J_at(pos: tuple[float, ...], mass: float | None = None) -> float:
-        return obj.evaluate([(c.family, c.scope, {**c.params(mass), "com_offset_m": pos})],
-                            F, w)[0]
+        hyp = Hypothesis(c.family, c.scope, {**c.params(mass), "com_offset_m": pos})
+        return obj.evaluate([hyp], F, w)[0]
 
     best = tuple(float(x) for x in c.extra.get("com_offset_m", (0.0, 0.0, 0.0)))
     best, best_J = _position_steps(J_at, best, float(c.J), steps_m, step_up_m)

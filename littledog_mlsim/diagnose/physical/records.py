@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -12,8 +12,13 @@ from .channels import CHANNELS
 
 __all__ = ["Hypothesis", "Candidate", "Finding", "PhysIdResult"]
 
-# What is simulated: (family, scope, params), the form the transducer's tasks carry.
-Hypothesis = tuple[str, str, dict]
+class Hypothesis(NamedTuple):
+    """What is simulated: an effect family on a scope with its plug-in parameters (immutable;
+    a tuple, the form the transducer's tasks carry to the worker processes)."""
+
+    family: str
+    scope: str
+    params: dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -37,7 +42,7 @@ class Candidate:
                                                     self.direction), **self.extra}
 
     def hyp(self, mag: float | None = None) -> Hypothesis:
-        return (self.family, self.scope, self.params(mag))
+        return Hypothesis(self.family, self.scope, self.params(mag))
 
 
 @dataclass(frozen=True)

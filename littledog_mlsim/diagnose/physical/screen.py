@@ -20,7 +20,7 @@ from ...layout import N_JOINTS
 from ..families import FAMILIES, Family, scope_joints
 from .channels import SCREEN_SEGMENTS, errors, flat
 from .context import SearchContext
-from .records import Candidate
+from .records import Candidate, Hypothesis
 
 __all__ = ["screen", "shortlist"]
 
@@ -33,7 +33,7 @@ def screen(ctx: SearchContext, F: Sequence[int], fams: Sequence[str],
     t0 = time.perf_counter()
     w = ctx.weights(F)
     jobs = [(fam, p) for fam in fams for p in FAMILIES[fam].screen_probes()]
-    tasks = [(i, list(ctx.base) + [(fam, p.scope, p.params)],
+    tasks = [(i, list(ctx.base) + [Hypothesis(fam, p.scope, p.params)],
               "full" if FAMILIES[fam].long_screen else "short") for fam, p in jobs for i in F]
     sens = _sensitivities(ctx, jobs, ctx.runner.map(tasks), F, w)
     res = _Residual(
