@@ -66,11 +66,11 @@ from scipy.linalg import cho_factor, cho_solve
 from ..data.recording import MoveRecording
 from ..layout import MOVE_TYPES, N_FEATURE, N_STATE, STATE_NAMES
 from ..models.features import Augmentation, CommandLag, FeatureSet
-from .stats import SSEDecision, sse_decision  # noqa: F401  (re-exported: physics.py)
+from .stats import SSEDecision, sse_decision  # re-exported (physics.py imports them here)
 
 __all__ = ["SearchModel", "CandidateScore", "Round", "SelectionResult", "move_folds",
            "screen", "select_effects", "candidate_columns", "residual_input_ccf",
-           "DEFAULT_ALPHA", "DEFAULT_MIN_GAIN"]
+           "DEFAULT_ALPHA", "DEFAULT_MIN_GAIN", "sse_decision", "SSEDecision"]
 
 DEFAULT_ALPHA = 0.01
 DEFAULT_MIN_GAIN = 0.05
