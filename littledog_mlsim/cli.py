@@ -200,7 +200,8 @@ def _fraction(text: str) -> float:
 
 
 def cmd_diagnose(a: argparse.Namespace) -> int:
-    from .diagnose import SearchModel, diagnose
+    from .diagnose import DiagnoseOptions, LearnedRoute, PhysicalRoute, SearchModel, diagnose
+    from .diagnose.options import route_from_mode
 
     if not a.data.is_dir():
         raise CliError(f"{a.data}: no such dataset directory")
@@ -219,11 +220,12 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
     physics_options = {"fit_per_type": a.fit_moves, "validate_per_type": a.validate_moves,
                        "max_rounds": a.physics_rounds, "jobs": a.jobs,
                        "horizons_s": tuple(a.horizons)}
-    r = diagnose(a.data, a.out, model=a.model, baseline=a.baseline, method=a.method,
-                 options=options, alpha=a.significance, min_gain=a.min_gain,
-                 max_rounds=a.max_rounds, projections=a.projections, projection_alpha=a.alpha,
-                 search=search, seed=a.seed, figures=not a.no_figures, progress=not a.quiet,
-                 physics=a.physics, physics_options=physics_options)
+    route = route_from_mode(a.physics, PhysicalRoute(physics_options),
+                            LearnedRoute(search=search, max_rounds=a.max_rounds))
+    r = diagnose(a.data, a.out, DiagnoseOptions(
+        route=route, model=a.model, baseline=a.baseline, method=a.method, options=options,
+        alpha=a.significance, min_gain=a.min_gain, projections=a.projections,
+        projection_alpha=a.alpha, seed=a.seed, figures=not a.no_figures, progress=not a.quiet))
     for e in r.get("effects", []):
         if "physical" in e:
             print(f"effect {e['round']}: {e['physical']['family']} on {e['physical']['scope']} "

@@ -160,7 +160,8 @@ def learned_physical(aug: Any) -> dict[str, Any]:
     fam = _LEARNED_TO_VOCAB.get(aug.family, "other")
     params = aug.params()
     joints = params.get("joints", "all")
-    if fam in ("odom_force", "contact_phase") or fam == "other":
+    from .families import FAMILIES
+    if fam not in FAMILIES or FAMILIES[fam].kind != "joints":   # a push, a contact term, other
         scope = "body"
     elif joints == "all":
         scope = "all"
@@ -245,62 +246,81 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
     figs: dict[str, list[str]] = {"effects": [], "summary": []}
     picked_rounds = [r for r in sel.rounds if r.picked is not None]
     for k, (r, eff) in enumerate(zip(picked_rounds, doc["effects"])):
-        s = r.picked
-        # residual vs candidate: binned held-out residual against the held-out correction
-        outs = [STATE_NAMES.index(n) for n in eff["outputs"]] or list(np.argsort(-s.gain)[:3])
-        outs = sorted(outs, key=lambda j: -s.gain[j])[:3]
-        scan = eff["evidence"].get("delay_scan")
-        n_panels = len(outs) + 1 + (scan is not None)
-        fig, axes = plt.subplots(1, n_panels, figsize=(4.2 * n_panels, 3.6))
-        for ax, j in zip(axes, outs):
-            x, y = r.correction[:, j], r.residual[:, j]
-            q = np.quantile(x, np.linspace(0, 1, 21))
-            q[-1] += 1e-12
-            b = np.clip(np.searchsorted(q, x, side="right") - 1, 0, 19)
-            cx = np.array([x[b == i].mean() if np.any(b == i) else np.nan for i in range(20)])
-            cy = np.array([y[b == i].mean() if np.any(b == i) else np.nan for i in range(20)])
-            se = np.array([y[b == i].std() / math.sqrt(max((b == i).sum(), 1))
-                           for i in range(20)])
-            ax.errorbar(cx, cy, yerr=se, fmt="o", ms=3, label="binned mean")
-            lim = np.nanmax(np.abs(np.concatenate([cx, cy])))
-            ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.8, label="residual = effect")
-            ax.axhline(0, color="0.7", lw=0.5)
-            ax.set_xlabel(f"{s.label.split('(')[0]} term (held-out fit)")
-            ax.set_ylabel(f"held-out residual {STATE_NAMES[j]}")
-            ax.set_title(f"{STATE_NAMES[j]}: cut {s.gain[j]:.1%}", fontsize=9)
-            ax.legend(fontsize=7)
-        if scan is not None:
-            ax = axes[-2]
-            ds = [d["delay"] for d in scan]
-            tg = [d["total_gain"] for d in scan]
-            ax.bar(ds, tg, color=["C3" if d == s.augmentation.params().get("lag") else "C0"
-                                  for d in ds])
-            ax.set_xlabel("d: search model refitted with u_{t-d} in place of u_t")
-            ax.set_ylabel("total held-out gain vs d = 0")
-            ax.set_title("delay scan (red: estimate)", fontsize=9)
-        ax = axes[-1]
-        prof = eff["evidence"]["parameter_profile"]
-        labels = [p["candidate"].replace(f"{p['candidate'].split('(')[0]}", "")[:22]
-                  for p in prof]
-        tg = [p["total_gain"] for p in prof]
-        colors = ["C3" if p["candidate"] == s.label else
-                  ("C0" if p["p_value"] < sel.alpha else "0.6") for p in prof]
-        ax.barh(range(len(prof)), tg, color=colors)
-        ax.set_yticks(range(len(prof)))
-        ax.set_yticklabels([f"{p['candidate'].split('(')[0]}{lab}" for p, lab in zip(prof, labels)],
-                           fontsize=6)
-        ax.invert_yaxis()
-        ax.set_xlabel("total held-out gain (sum over elements)")
-        ax.set_title(f"{s.augmentation.family}: parameter profile\n(red: chosen; blue: p < alpha)",
-                     fontsize=8)
-        fig.tight_layout()
-        name = f"effect{k + 1}_{s.augmentation.name}.png"
-        fig.savefig(out / name, dpi=90)
-        plt.close(fig)
-        figs["effects"].append(name)
+        figs["effects"].append(_effect_figure(out, plt, k, r, eff, sel))
+    figs["summary"].append(_nmse_figure(out, plt, doc["stages"]))
+    if list(doc["stages"][0]["rollout"]):
+        figs["summary"].append(_rollout_figure(out, doc["stages"], "effect", "rollout"))
+    figs["summary"].append(_last_round_figure(out, plt, sel))
+    return figs
 
-    # before/after bars of the one-step nMSE (TestPool), every stage
-    stages = doc["stages"]
+
+def _effect_figure(out: Path, plt: Any, k: int, r: Round, eff: dict, sel: SelectionResult
+                   ) -> str:
+    """Residual vs candidate for the most affected elements, the delay scan (if any) and the
+    family's parameter profile."""
+    s = r.picked
+    # residual vs candidate: binned held-out residual against the held-out correction
+    outs = [STATE_NAMES.index(n) for n in eff["outputs"]] or list(np.argsort(-s.gain)[:3])
+    outs = sorted(outs, key=lambda j: -s.gain[j])[:3]
+    scan = eff["evidence"].get("delay_scan")
+    n_panels = len(outs) + 1 + (scan is not None)
+    fig, axes = plt.subplots(1, n_panels, figsize=(4.2 * n_panels, 3.6))
+    for ax, j in zip(axes, outs):
+        _residual_panel(ax, r, s, j)
+    if scan is not None:
+        ax = axes[-2]
+        ds = [d["delay"] for d in scan]
+        tg = [d["total_gain"] for d in scan]
+        ax.bar(ds, tg, color=["C3" if d == s.augmentation.params().get("lag") else "C0"
+                              for d in ds])
+        ax.set_xlabel("d: search model refitted with u_{t-d} in place of u_t")
+        ax.set_ylabel("total held-out gain vs d = 0")
+        ax.set_title("delay scan (red: estimate)", fontsize=9)
+    _profile_panel(axes[-1], eff["evidence"]["parameter_profile"], s, sel)
+    fig.tight_layout()
+    name = f"effect{k + 1}_{s.augmentation.name}.png"
+    fig.savefig(out / name, dpi=90)
+    plt.close(fig)
+    return name
+
+
+def _residual_panel(ax: Any, r: Round, s: CandidateScore, j: int) -> None:
+    x, y = r.correction[:, j], r.residual[:, j]
+    q = np.quantile(x, np.linspace(0, 1, 21))
+    q[-1] += 1e-12
+    b = np.clip(np.searchsorted(q, x, side="right") - 1, 0, 19)
+    cx = np.array([x[b == i].mean() if np.any(b == i) else np.nan for i in range(20)])
+    cy = np.array([y[b == i].mean() if np.any(b == i) else np.nan for i in range(20)])
+    se = np.array([y[b == i].std() / math.sqrt(max((b == i).sum(), 1))
+                   for i in range(20)])
+    ax.errorbar(cx, cy, yerr=se, fmt="o", ms=3, label="binned mean")
+    lim = np.nanmax(np.abs(np.concatenate([cx, cy])))
+    ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.8, label="residual = effect")
+    ax.axhline(0, color="0.7", lw=0.5)
+    ax.set_xlabel(f"{s.label.split('(')[0]} term (held-out fit)")
+    ax.set_ylabel(f"held-out residual {STATE_NAMES[j]}")
+    ax.set_title(f"{STATE_NAMES[j]}: cut {s.gain[j]:.1%}", fontsize=9)
+    ax.legend(fontsize=7)
+
+
+def _profile_panel(ax: Any, prof: list[dict], s: CandidateScore, sel: SelectionResult) -> None:
+    labels = [p["candidate"].replace(f"{p['candidate'].split('(')[0]}", "")[:22]
+              for p in prof]
+    tg = [p["total_gain"] for p in prof]
+    colors = ["C3" if p["candidate"] == s.label else
+              ("C0" if p["p_value"] < sel.alpha else "0.6") for p in prof]
+    ax.barh(range(len(prof)), tg, color=colors)
+    ax.set_yticks(range(len(prof)))
+    ax.set_yticklabels([f"{p['candidate'].split('(')[0]}{lab}" for p, lab in zip(prof, labels)],
+                       fontsize=6)
+    ax.invert_yaxis()
+    ax.set_xlabel("total held-out gain (sum over elements)")
+    ax.set_title(f"{s.augmentation.family}: parameter profile\n(red: chosen; blue: p < alpha)",
+                 fontsize=8)
+
+
+def _nmse_figure(out: Path, plt: Any, stages: list[dict]) -> str:
+    """Before/after bars of the one-step nMSE (TestPool), every stage."""
     fig, ax = plt.subplots(figsize=(14, 4))
     w = 0.8 / len(stages)
     for i, st in enumerate(stages):
@@ -316,11 +336,10 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
     fig.tight_layout()
     fig.savefig(out / "nmse_before_after.png", dpi=90)
     plt.close(fig)
-    figs["summary"].append("nmse_before_after.png")
+    return "nmse_before_after.png"
 
-    if list(stages[0]["rollout"]):
-        figs["summary"].append(_rollout_figure(out, stages, "effect", "rollout"))
 
+def _last_round_figure(out: Path, plt: Any, sel: SelectionResult) -> str:
     last = sel.rounds[-1]
     best = sorted(last.scores, key=lambda c: -c.max_gain)[:15]
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -336,8 +355,7 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
     fig.tight_layout()
     fig.savefig(out / "last_round.png", dpi=90)
     plt.close(fig)
-    figs["summary"].append("last_round.png")
-    return figs
+    return "last_round.png"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -348,6 +366,18 @@ def _num(x: Any, fmt: str = ".4g") -> str:
 
 
 def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
+    L: list[str] = _md_head(doc)
+    add = L.append
+    for e, fig in zip(doc["effects"], figs.get("effects", [])):
+        L += _md_effect(e, fig)
+    L += _md_before_after(doc, figs)
+    L += _md_rounds(doc)
+    add(f"Final model: `{doc.get('model')}`. Schema of report.json: "
+        f"`littledog_mlsim/diagnose/report.py`.")
+    return "\n".join(L) + "\n"
+
+
+def _md_head(doc: dict) -> list[str]:
     L: list[str] = []
     add = L.append
     add("# Residual diagnosis\n")
@@ -370,44 +400,55 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
         f"cross-fitted over {srch.get('n_folds')} folds of moves; each candidate is added as a "
         f"linear term and scored by the held-out MSE cut per element; {srch['test']}. "
         f"See `littledog_mlsim/diagnose/selection.py`.\n")
-    for e, fig in zip(doc["effects"], figs.get("effects", [])):
-        add(f"## Effect {e['round']}: {e['family']} — `{e['label']}`\n")
-        ev = e["evidence"]
-        add(f"- parameters: `{json.dumps(e['params'])}`; adds {len(e['columns'])} columns "
-            f"(`{e['columns'][0]}` ...)")
-        add(f"- affects: {', '.join(e['outputs']) or '(no single element on its own)'}")
-        add(f"- p = {e['p_value']:.2g} (family, adjusted); pooled p (unadjusted) = "
-            f"{ev['p_pooled']:.2g}; held-out TrainPool cut: max {ev['max_gain']:.1%}, "
-            f"total {ev['total_gain']:.2f} over {ev['n_moves']} moves\n")
-        if ev.get("residual_input_ccf"):
-            c = ev["residual_input_ccf"]
-            add("- residual-input cross-correlation (held-out residual vs the joint's command "
-                "increment u_{t-k} - u_{t-k-1}; evidence only):\n")
-            add("| element | " + " | ".join(f"k={k}" for k in c["lags"]) + " |")
-            add("|---|" + "---|" * len(c["lags"]))
-            for n, v in c["ccf"].items():
-                add(f"| {n} | " + " | ".join(f"{x:+.2f}" for x in v) + " |")
-            add(f"\n(rough 95 % band +-{c['band_95']:.2f})\n")
-        if ev.get("delay_scan"):
-            add("- delay scan (search model refitted with u_{t-d} in place of u_t; total held-out "
-                "gain over the 33 elements): " + ", ".join(
-                    f"d = {d['delay']}: {d['total_gain']:+.3f}" for d in ev["delay_scan"]) + "\n")
-        add(f"![effect {e['round']}]({fig})\n")
-        add("Left: held-out residual of the most affected elements against the candidate's "
-            "held-out fitted term (binned means; on the dashed line the term explains the "
-            "residual). Right: total held-out gain of each member of the family (the "
-            "parameter estimate).\n")
-        add("TestPool, report model, before -> after:\n")
-        add("| element | nMSE before | nMSE after | cut |")
-        add("|---|---|---|---|")
-        for n in e["outputs"]:
-            add(f"| {n} | {_num(e['before']['nmse'].get(n))} | {_num(e['after']['nmse'].get(n))} "
-                f"| {_num(e['nmse_cut'].get(n), '.1%')} |")
-        for lab in e["before"]["rollout"]:
-            b, a = e["before"]["rollout"][lab], e["after"]["rollout"][lab]
-            add(f"| rollout {lab}: final (x, y) error [m] | {_num(b['final_xy_error_m'])} | "
-                f"{_num(a['final_xy_error_m'])} | |")
-        add("")
+    return L
+
+
+def _md_effect(e: dict, fig: str) -> list[str]:
+    L: list[str] = []
+    add = L.append
+    add(f"## Effect {e['round']}: {e['family']} — `{e['label']}`\n")
+    ev = e["evidence"]
+    add(f"- parameters: `{json.dumps(e['params'])}`; adds {len(e['columns'])} columns "
+        f"(`{e['columns'][0]}` ...)")
+    add(f"- affects: {', '.join(e['outputs']) or '(no single element on its own)'}")
+    add(f"- p = {e['p_value']:.2g} (family, adjusted); pooled p (unadjusted) = "
+        f"{ev['p_pooled']:.2g}; held-out TrainPool cut: max {ev['max_gain']:.1%}, "
+        f"total {ev['total_gain']:.2f} over {ev['n_moves']} moves\n")
+    if ev.get("residual_input_ccf"):
+        c = ev["residual_input_ccf"]
+        add("- residual-input cross-correlation (held-out residual vs the joint's command "
+            "increment u_{t-k} - u_{t-k-1}; evidence only):\n")
+        add("| element | " + " | ".join(f"k={k}" for k in c["lags"]) + " |")
+        add("|---|" + "---|" * len(c["lags"]))
+        for n, v in c["ccf"].items():
+            add(f"| {n} | " + " | ".join(f"{x:+.2f}" for x in v) + " |")
+        add(f"\n(rough 95 % band +-{c['band_95']:.2f})\n")
+    if ev.get("delay_scan"):
+        add("- delay scan (search model refitted with u_{t-d} in place of u_t; total held-out "
+            "gain over the 33 elements): " + ", ".join(
+                f"d = {d['delay']}: {d['total_gain']:+.3f}" for d in ev["delay_scan"]) + "\n")
+    add(f"![effect {e['round']}]({fig})\n")
+    add("Left: held-out residual of the most affected elements against the candidate's "
+        "held-out fitted term (binned means; on the dashed line the term explains the "
+        "residual). Right: total held-out gain of each member of the family (the "
+        "parameter estimate).\n")
+    add("TestPool, report model, before -> after:\n")
+    add("| element | nMSE before | nMSE after | cut |")
+    add("|---|---|---|---|")
+    for n in e["outputs"]:
+        add(f"| {n} | {_num(e['before']['nmse'].get(n))} | {_num(e['after']['nmse'].get(n))} "
+            f"| {_num(e['nmse_cut'].get(n), '.1%')} |")
+    for lab in e["before"]["rollout"]:
+        b, a = e["before"]["rollout"][lab], e["after"]["rollout"][lab]
+        add(f"| rollout {lab}: final (x, y) error [m] | {_num(b['final_xy_error_m'])} | "
+            f"{_num(a['final_xy_error_m'])} | |")
+    add("")
+    return L
+
+
+def _md_before_after(doc: dict, figs: Mapping[str, list[str]]) -> list[str]:
+    L: list[str] = []
+    add = L.append
     add("## Before and after (TestPool)\n")
     stages = doc["stages"]
     for i, st in enumerate(stages):
@@ -431,6 +472,12 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
                 _num(_mean_or_none(st["rollout"][lab]["nmse_at_horizon"].get(h, {}).get("nmse")))
                 for st in stages) + " |")
     add("")
+    return L
+
+
+def _md_rounds(doc: dict) -> list[str]:
+    L: list[str] = []
+    add = L.append
     add("## Rounds\n")
     for r in doc["rounds"]:
         add(f"Round {r['round']} ({r['feature_set']}): {r['n_significant']} significant, "
@@ -445,9 +492,7 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
             add(f"| `{c['candidate']}` | {c['family']} | {c['max_gain']:.1%} | "
                 f"{c['total_gain']:.2f} | {c['p_value']:.2g} |")
         add("")
-    add(f"Final model: `{doc.get('model')}`. Schema of report.json: "
-        f"`littledog_mlsim/diagnose/report.py`.")
-    return "\n".join(L) + "\n"
+    return L
 
 
 def _mean_or_none(d: Mapping[str, Any] | None) -> float | None:
@@ -485,7 +530,8 @@ def _write(out: str | os.PathLike, info: dict[str, Any], build: Any, figs: Any,
 # the physical identification's report (``diagnose`` with physics on; docs/diagnosis.md)
 
 def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dict[str, Any]:
-    from .physid import CHANNELS, vocabulary_family
+    from .physical import CHANNELS
+    from .families import vocabulary_family
     ev = f.evidence()
     outputs = [CHANNELS[j] for j in np.flatnonzero((f.p_channel < 0.01) & (f.gain >= 0.025))]
     cut = {}

@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -27,7 +28,8 @@ from ..data.dataset import load_moves, read_index
 from ..data.recording import MoveRecording
 from ..models.features import FeatureSet
 from .candidates import BASELINES, default_library
-from .selection import (DEFAULT_ALPHA, DEFAULT_MIN_GAIN, SearchModel, select_effects)
+from .options import AutoRoute, DiagnoseOptions, LearnedRoute, PhysicalRoute
+from .selection import SearchModel, select_effects
 
 __all__ = ["diagnose", "fit_report_model", "score_on_test", "DEFAULT_METHOD",
            "DEFAULT_OPTIONS"]
@@ -76,109 +78,121 @@ def _say(progress: bool) -> Callable[[str], None]:
     return say
 
 
-def diagnose(data: str | os.PathLike, out: str | os.PathLike, *,
-             model: str | os.PathLike | None = None, baseline: str = "measured",
-             method: str | None = None, options: Mapping[str, Any] | None = None,
-             alpha: float = DEFAULT_ALPHA, min_gain: float = DEFAULT_MIN_GAIN, max_rounds: int = 4,
-             projections: Sequence[str] = ("alpha",), projection_alpha: float = 0.5,
-             search: SearchModel | None = None, library: Sequence | None = None,
-             seed: int = 0, save_model: bool = True, figures: bool = True,
-             progress: bool = True, physics: str = "auto",
-             physics_options: Mapping[str, Any] | None = None) -> dict[str, Any]:
+@dataclass(frozen=True)
+class _Run:
+    """One diagnosis run: the dataset, where it writes, the starting model and the options."""
+
+    data: str | os.PathLike
+    out: Path
+    index: Any
+    train: Sequence[MoveRecording]
+    test: Sequence[MoveRecording]
+    start: FeatureSet
+    loaded: Any                  # the model file started from, or None
+    method: str
+    model_options: dict[str, Any]
+    target: str
+    baseline_desc: str
+    o: DiagnoseOptions
+    say: Callable[[str], None]
+    t_start: float
+
+
+def diagnose(data: str | os.PathLike, out: str | os.PathLike,
+             diagnose_options: DiagnoseOptions | None = None, /, **keywords: Any
+             ) -> dict[str, Any]:
     """Run the residual loop on the dataset ``data``; write ``out/report.json``, ``report.md``,
     figures and ``out/model``. Returns the report (the JSON document).
 
-    ``physics``: ``"on"``/``"auto"`` (default): name effects by physical identification
-    (:mod:`.physid`: family x scope x parameter by re-simulation with the dataset's robot,
-    multi-step output errors), then add each found effect's online feature to the learned
-    model; ``"auto"`` falls back to ``"off"`` if the dataset names no known robot.
-    ``"off"``: the residual loop of :mod:`.selection` on the learned model alone.
-    ``physics_options``: keyword arguments of :func:`.physid.identify`.
+    ``diagnose_options`` (positional): a :class:`.options.DiagnoseOptions` (its ``route``:
+    physical, learned or auto); or, instead, its fields as keywords (``options`` is the report
+    model's options) with the route given by ``physics`` (``"on"``,
+    ``"off"``, ``"auto"``, default), ``physics_options`` (keyword arguments of
+    :func:`.physical.identify`), ``search``, ``library`` and ``max_rounds`` (the learned
+    route's), as :meth:`.options.DiagnoseOptions.from_keywords` maps them.
 
-    ``model``: start from this model file (its feature set, method, options and target; its
-    "before" scores are its own). Otherwise the starting feature set is ``baseline``
-    (``"measured"``: the default model's, :func:`.candidates.measured_robot_features`;
-    ``"paper"``: the 45 features) and the report model is ``method`` (default
-    :data:`DEFAULT_METHOD`) with ``options``.
+    The physical route names effects by family x scope x parameter by re-simulation with the
+    dataset's robot (multi-step output errors), then adds each found effect's online feature to
+    the learned model; the learned route runs the residual loop of :mod:`.selection` on the
+    learned model alone; auto takes the physical route if the dataset names a known robot.
     """
-    from ..models.onestep import OneStepModel
-    from .report import write_report
-    say = _say(progress)
+    if diagnose_options is not None and keywords:
+        raise ValueError("diagnose: give DiagnoseOptions or keywords, not both")
+    o = (diagnose_options if diagnose_options is not None
+         else DiagnoseOptions.from_keywords(**keywords))
+    say = _say(o.progress)
     t_start = time.perf_counter()
-    out = Path(out)
     index = read_index(data)
     train = load_moves(data, "train")
     test = load_moves(data, "test")
     say(f"{len(train)} TrainPool and {len(test)} TestPool moves from {data}")
-    loaded = None
-    target = "delta"
-    if model is not None:
-        loaded = OneStepModel.load(model, feature_names=None)
-        start = loaded.feature_set
-        method = loaded.method
-        options = loaded.estimator.get_params()
-        target = loaded.target
-        baseline_desc = f"model {model}"
-    else:
-        if baseline not in BASELINES:
-            raise ValueError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
-        start = BASELINES[baseline]()
-        method = method or DEFAULT_METHOD
-        if options is None:
-            options = DEFAULT_OPTIONS.get(method, {})
-        baseline_desc = f"{baseline} feature set"
-    options = dict(options or {})
+    start, loaded, method, model_options, target, baseline_desc = _starting_model(o)
+    run = _Run(data, Path(out), index, train, test, start, loaded, method, model_options,
+               target, baseline_desc, o, say, t_start)
     robot = index.info.get("robot")
-    if physics not in ("on", "off", "auto"):
-        raise ValueError(f"physics must be on, off or auto, got {physics!r}")
-    if physics == "auto":
-        from ..robot.config import ROBOT_NAMES
-        physics = "on" if robot in ROBOT_NAMES else "off"
-    if physics == "on":
-        return _diagnose_physical(data, out, index, train, test, start, loaded, method, options,
-                                  target, seed, baseline_desc, projections, projection_alpha,
-                                  save_model, figures, say, t_start, robot or "measured",
-                                  alpha, min_gain, physics_options or {})
-    search = SearchModel(seed=seed) if search is None else search
-    library = list(default_library() if library is None else library)
+    route = o.route.resolve(robot) if isinstance(o.route, AutoRoute) else o.route
+    if isinstance(route, PhysicalRoute):
+        return _diagnose_physical(run, route, robot or "measured")
+    return _diagnose_learned(run, route)
 
-    sel = select_effects(train, start, library, search=search, alpha=alpha, min_gain=min_gain,
-                         max_rounds=max_rounds, progress=say)
 
-    # report model before and after every accepted effect
-    fs = start
-    feature_sets = [start] + [start for _ in sel.accepted]
-    for k, picked in enumerate(sel.accepted):
-        fs = fs.with_augmentation(picked.augmentation)
-        feature_sets[k + 1] = fs
-    stages, last_model = _stages(feature_sets, loaded, method, options, train, test, target,
-                                 seed, data, projections, projection_alpha, say)
-    out.mkdir(parents=True, exist_ok=True)
-    model_path = None
-    if save_model and last_model is not None:   # None if the last stage's fit failed
-        model_path = last_model.save(out / "model")
-    report = write_report(out, sel, stages, data=os.fspath(data), dataset_info=index.info,
-                          baseline=baseline_desc, method=method, options=options,
-                          model_path=None if model_path is None else os.fspath(model_path),
-                          n_train=len(train), n_test=len(test), figures=figures,
-                          seconds=time.perf_counter() - t_start)
+def _starting_model(o: DiagnoseOptions) -> tuple[FeatureSet, Any, str, dict[str, Any], str, str]:
+    """(feature set, loaded model or None, method, its options, target, description) of the
+    model the diagnosis starts from."""
+    from ..models.onestep import OneStepModel
+    if o.model is not None:
+        loaded = OneStepModel.load(o.model, feature_names=None)
+        return (loaded.feature_set, loaded, loaded.method,
+                dict(loaded.estimator.get_params() or {}), loaded.target, f"model {o.model}")
+    if o.baseline not in BASELINES:
+        raise ValueError(f"baseline must be one of {', '.join(BASELINES)}, got {o.baseline!r}")
+    method = o.method or DEFAULT_METHOD
+    options = o.options if o.options is not None else DEFAULT_OPTIONS.get(method, {})
+    return (BASELINES[o.baseline](), None, method, dict(options or {}), "delta",
+            f"{o.baseline} feature set")
+
+
+def _diagnose_learned(run: _Run, route: LearnedRoute) -> dict[str, Any]:
+    """The residual loop of :mod:`.selection`, then the report model before/after."""
+    from .report import write_report
+    search = SearchModel(seed=run.o.seed) if route.search is None else route.search
+    library = list(default_library() if route.library is None else route.library)
+    sel = select_effects(run.train, run.start, library, search=search, alpha=run.o.alpha,
+                         min_gain=run.o.min_gain, max_rounds=route.max_rounds, progress=run.say)
+    feature_sets = [run.start]
+    for picked in sel.accepted:
+        feature_sets.append(feature_sets[-1].with_augmentation(picked.augmentation))
+    stages, last_model = _stages(run, feature_sets)
+    report = write_report(run.out, sel, stages, **_report_keywords(run, last_model))
     found = ", ".join(e["label"] for e in report["effects"])
-    say(f"{'found ' + found if found else 'nothing significant'}; wrote {out / 'report.md'} in "
-        f"{time.perf_counter() - t_start:.1f} s")
+    run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
+            f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
 
 
-def _diagnose_physical(data, out, index, train, test, start, loaded, method, options, target,
-                       seed, baseline_desc, projections, projection_alpha, save_model, figures,
-                       say, t_start, robot, alpha, min_gain, physics_options):
-    """Physical identification (:mod:`.physid`), then the learned model before/after."""
-    from .physid import identify
+def _report_keywords(run: _Run, last_model: Any) -> dict[str, Any]:
+    """Writes the last model (if asked and fitted) and returns the report writers' keywords."""
+    run.out.mkdir(parents=True, exist_ok=True)
+    model_path = None
+    if run.o.save_model and last_model is not None:   # None if the last stage's fit failed
+        model_path = last_model.save(run.out / "model")
+    return dict(data=os.fspath(run.data), dataset_info=run.index.info,
+                baseline=run.baseline_desc, method=run.method, options=run.model_options,
+                model_path=None if model_path is None else os.fspath(model_path),
+                n_train=len(run.train), n_test=len(run.test), figures=run.o.figures,
+                seconds=time.perf_counter() - run.t_start)
+
+
+def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: str) -> dict[str, Any]:
+    """Physical identification (:mod:`.physical`), then the learned model before/after."""
+    from .physical import identify
     from .report import write_physical_report
-    opts = {"alpha": alpha, "min_gain": min_gain, **dict(physics_options)}
-    excitation = float(index.info.get("command_excitation_rad", 0.0) or 0.0)
-    pid = identify(train, test, robot=robot, excitation=excitation, progress=say, **opts)
-    fs = start
-    feature_sets = [start]
+    excitation = float(run.index.info.get("command_excitation_rad", 0.0) or 0.0)
+    pid = identify(run.train, run.test,
+                   route.options(run.o.alpha, run.o.min_gain, robot, excitation),
+                   progress=run.say)
+    fs = run.start
+    feature_sets = [run.start]
     effect_augs, effect_stage = [], []
     for f in pid.findings:
         aug = augmentation_for(f.family, f.scope, f.params)
@@ -189,41 +203,34 @@ def _diagnose_physical(data, out, index, train, test, start, loaded, method, opt
             aug = None
         effect_augs.append(aug)
         effect_stage.append(len(feature_sets) - 1)
-    stages, last_model = _stages(feature_sets, loaded, method, options, train, test, target,
-                                 seed, data, projections, projection_alpha, say)
-    out.mkdir(parents=True, exist_ok=True)
-    model_path = None
-    if save_model and last_model is not None:
-        model_path = last_model.save(out / "model")
-    report = write_physical_report(
-        out, pid, effect_augs, effect_stage, stages, data=os.fspath(data),
-        dataset_info=index.info, baseline=baseline_desc, method=method, options=options,
-        model_path=None if model_path is None else os.fspath(model_path), n_train=len(train),
-        n_test=len(test), figures=figures, seconds=time.perf_counter() - t_start)
+    stages, last_model = _stages(run, feature_sets)
+    report = write_physical_report(run.out, pid, effect_augs, effect_stage, stages,
+                                   **_report_keywords(run, last_model))
     found = "; ".join(e["physical"]["statement"] for e in report["effects"])
-    say(f"{'found: ' + found if found else 'nothing significant'}"
-        + (f"; suspected: {', '.join(s['family'] for s in report['suspected'])}"
-           if report["suspected"] else "")
-        + f"; wrote {out / 'report.md'} in {time.perf_counter() - t_start:.1f} s")
+    run.say(f"{'found: ' + found if found else 'nothing significant'}"
+            + (f"; suspected: {', '.join(s['family'] for s in report['suspected'])}"
+               if report["suspected"] else "")
+            + f"; wrote {run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
 
 
-def _stages(feature_sets, loaded, method, options, train, test, target, seed, data,
-            projections, projection_alpha, say):
+def _stages(run: _Run, feature_sets: Sequence[FeatureSet]) -> tuple[list[dict[str, Any]], Any]:
     """Fit and score the report model for every feature set (the loop's stages)."""
+    o = run.o
     stages: list[dict[str, Any]] = []
     last_model = None
     for k, fs_k in enumerate(feature_sets):
         t0 = time.perf_counter()
-        if k == 0 and loaded is not None:
-            m, note = loaded, None
+        if k == 0 and run.loaded is not None:
+            m, note = run.loaded, None
         else:
-            info = {"diagnosis_stage": k, "data_dir": os.fspath(data)}
-            m, note = _fit_with_fallback(fs_k, method, options, train, target, seed, info, say)
+            info = {"diagnosis_stage": k, "data_dir": os.fspath(run.data)}
+            m, note = _fit_with_fallback(fs_k, run.method, run.model_options, run.train,
+                                         run.target, o.seed, info, run.say)
         if m is None:
-            scores = _failed_stage(note, projections, projection_alpha)
+            scores = _failed_stage(note, o.projections, o.projection_alpha)
         else:
-            scores = score_on_test(m, test, projections, projection_alpha)
+            scores = score_on_test(m, run.test, o.projections, o.projection_alpha)
             if note:
                 scores["note"] = note
         scores["feature_set"] = fs_k.to_dict()
@@ -232,46 +239,20 @@ def _stages(feature_sets, loaded, method, options, train, test, target, seed, da
         stages.append(scores)
         last_model = m
         if m is None:
-            say(f"stage {k} ({fs_k.describe()}): {note}")
+            run.say(f"stage {k} ({fs_k.describe()}): {note}")
             continue
-        say(f"stage {k} ({fs_k.describe()}): TestPool nMSE mean {scores['nmse_mean']:.4f}, "
-            f"final xy error {_fmt(scores['rollout'])} in {time.perf_counter() - t0:.1f} s")
+        run.say(f"stage {k} ({fs_k.describe()}): TestPool nMSE mean {scores['nmse_mean']:.4f}, "
+                f"final xy error {_fmt(scores['rollout'])} in {time.perf_counter() - t0:.1f} s")
     return stages, last_model
 
 
 def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
     """The online feature (an :class:`..models.features.Augmentation`) that lets a learned model
     carry a physically identified effect, or None if the model trained on the data carries it
-    already (a constant change of the robot is a function of the model's inputs).
-
-    command_delay -> u_{t-d} of the scope's joints; command_filter -> the low-passed commands;
-    joint_friction -> the rate/push signs; backlash -> a play operator on the commands;
-    torque_saturation -> the clipped tracking error; odom_force and ground_slope (either kind)
-    -> the heading (a world-fixed push acts in the body frame through it); time_drift -> the
-    elapsed time.
-    """
-    from ..models.features import (CommandFilter, CommandLag, ElapsedTime, Heading,
-                                   JointRateSign, Play, TrackingSaturation)
-    group = "all" if scope in ("all", "body") else scope.split(":", 1)[1]
-    if family == "command_delay":
-        lag = int(round(float(params["delay_ms"]) / 10.0))
-        return CommandLag(lag=lag, joints=group) if lag >= 1 else None
-    if family == "command_filter":
-        tau = float(params["time_constant_ms"])
-        return CommandFilter(time_constant_ms=round(tau, 1), joints=group) if tau > 1 else None
-    if family == "joint_friction":
-        return JointRateSign(smoothing=0.05, joints=group, error_smoothing=0.02)
-    if family in ("backlash", "setpoint_backlash"):
-        w = float(params["width_rad"])
-        return Play(width=round(w, 4), source="u") if w > 1e-4 else None
-    if family == "torque_saturation":
-        lim = float(params["torque_limit_ratio"]) * 0.61 / 6.7
-        return TrackingSaturation(limit=round(max(lim, 1e-3), 4))
-    if family in ("odom_force", "ground_slope", "ground_tilt"):
-        return Heading()
-    if family == "time_drift":
-        return ElapsedTime()
-    return None
+    already (a constant change of the robot is a function of the model's inputs): the family's
+    :meth:`.families.Family.augmentation`."""
+    from .families import FAMILIES
+    return FAMILIES[family].augmentation(scope, params)
 
 
 def _fit_with_fallback(fs, method, options, train, target, seed, info, say):

@@ -61,16 +61,16 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
-from scipy import stats
 from scipy.linalg import cho_factor, cho_solve
 
 from ..data.recording import MoveRecording
 from ..layout import MOVE_TYPES, N_FEATURE, N_STATE, STATE_NAMES
 from ..models.features import Augmentation, CommandLag, FeatureSet
+from .stats import SSEDecision, sse_decision  # re-exported (physics.py imports them here)
 
 __all__ = ["SearchModel", "CandidateScore", "Round", "SelectionResult", "move_folds",
            "screen", "select_effects", "candidate_columns", "residual_input_ccf",
-           "DEFAULT_ALPHA", "DEFAULT_MIN_GAIN"]
+           "DEFAULT_ALPHA", "DEFAULT_MIN_GAIN", "sse_decision", "SSEDecision"]
 
 DEFAULT_ALPHA = 0.01
 DEFAULT_MIN_GAIN = 0.05
@@ -251,51 +251,6 @@ class CandidateScore:
                 "top_gains": {STATE_NAMES[j]: float(self.gain[j]) for j in order}}
 
 
-def _t_test_greater(d: np.ndarray) -> np.ndarray:
-    """One-sided one-sample t-test of mean > 0 over axis 0 (the moves); p per column."""
-    M = d.shape[0]
-    mean = d.mean(axis=0)
-    sd = d.std(axis=0, ddof=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(sd > 0, mean / (sd / math.sqrt(M)), np.where(mean > 0, np.inf, 0.0))
-    return stats.t.sf(t, df=M - 1)
-
-
-@dataclass
-class SSEDecision:
-    """What held-out per-move SSEs say about one candidate (module doc, 3-4)."""
-
-    gain: np.ndarray          # (33,) held-out nMSE cut per element
-    d: np.ndarray             # (M, 33) per-move contributions (mean over moves = gain)
-    p_element: np.ndarray     # (33,) one-sided t-test p per element (unadjusted)
-    p_pooled: float           # unadjusted p of the pooled (all-element) test
-    p_value: float            # Bonferroni over the two tests, the elements and n_candidates
-    significant: bool
-    material: bool
-    outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2
-
-
-def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
-                 min_gain: float) -> SSEDecision:
-    """Gains, move-grouped tests and the decision from per-move held-out SSEs (M, 33) without
-    (S0) and with (S1) a candidate; shared by the learned and the physics diagnosis."""
-    M = S0.shape[0]
-    tot0 = S0.sum(axis=0)
-    tot0 = np.where(tot0 > 0, tot0, 1.0)
-    gain = 1.0 - S1.sum(axis=0) / tot0
-    d = M * (S0 - S1) / tot0                       # (M, 33); mean over moves = gain
-    p_el = _t_test_greater(d)                      # per element
-    p_pool = float(_t_test_greater(d.sum(axis=1, keepdims=True))[0])  # all elements pooled
-    # Bonferroni: two tests (pooled, best element of 33) per candidate, n_candidates candidates
-    p_cand = min(1.0, n_candidates * 2.0 * min(p_pool, N_STATE * float(p_el.min())))
-    significant = p_cand < alpha
-    nominal = p_el < alpha
-    material = bool(significant and np.any(nominal & (gain >= min_gain)))
-    out_mask = nominal & (gain >= 0.5 * min_gain) if significant else np.zeros(N_STATE, bool)
-    return SSEDecision(gain, d, p_el, p_pool, p_cand, bool(significant), material,
-                       [STATE_NAMES[j] for j in np.flatnonzero(out_mask)])
-
-
 def _score_from_sse(aug: Augmentation, S0: np.ndarray, S1: np.ndarray, n_library: int,
                     alpha: float, min_gain: float) -> CandidateScore:
     """Gains, tests and the decision for one candidate from per-move held-out SSEs (M, 33)."""
@@ -393,6 +348,13 @@ class SelectionResult:
         return bool(self.accepted)
 
 
+def _fresh(search: SearchModel) -> SearchModel:
+    """An unfitted search model with the settings of ``search``."""
+    return SearchModel(**{k: getattr(search, k) for k in (
+        "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
+        "n_folds", "seed")})
+
+
 def _already_in(aug: Augmentation, fs: FeatureSet) -> bool:
     """True if ``aug`` is in ``fs`` or shares a column with it (it could not be added)."""
     return bool(set(aug.columns()) & set(fs.extra_names))
@@ -421,9 +383,7 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
         t1 = time.perf_counter()
         X, Y, move_index = fs.features_responses(train)
         D = Y - X[:, :N_STATE]
-        m = SearchModel(**{kk: getattr(search, kk) for kk in (
-            "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
-            "n_folds", "seed")}).fit(X, D, move_index, move_types, length_scales)
+        m = _fresh(search).fit(X, D, move_index, move_types, length_scales)
         length_scales = m.length_scales_
         var = Y.var(axis=0) / m.d_std_ ** 2
         search_nmse = np.where(var > 1e-24, (m.residual_ ** 2).mean(axis=0)
@@ -432,41 +392,9 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
         scores = screen(m, columns, todo, alpha=alpha, min_gain=min_gain,
                         n_library=len(library))
         ok = [s for s in scores if s.significant and s.material]
-        picked = None
-        delay_profile = None
-        ccf = None
-        notes: list[str] = []
-        families = sorted({s.augmentation.family for s in ok},
-                          key=lambda f: -max(c.total_gain for c in ok
-                                             if c.augmentation.family == f))
-        for family in (families if k < max_rounds else []):
-            members = [s for s in scores if s.augmentation.family == family]
-            picked = estimate_member(family, members)
-            if family != "command delay":
-                break
-            lags = sorted({s.augmentation.lag for s in members
-                           if s.augmentation.name == "command_lag"})
-            delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
-            d_hat = delay_from_scan(delay_profile)
-            say("delay scan (u_t replaced by u_t-d): " + ", ".join(
-                f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
-                + f" -> delay {d_hat}")
-            by_lag = {s.augmentation.lag: s for s in members
-                      if s.augmentation.name == "command_lag"}
-            if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
-                picked = by_lag[d_hat]
-                ccf = _command_ccf(m.residual_, X, move_index, picked)
-                break
-            # the replacement scan sees no delay, or a delay whose own column is not significant
-            # and material (e.g. already in the model): the command columns' gain is not a delay
-            scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
-            why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
-                   f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}) column is not "
-                   "significant and material by itself")
-            notes.append("command-delay candidates were significant and material, but the "
-                         f"delay scan {why}: not accepted; scan " + scan)
-            say(notes[-1])
-            picked, delay_profile = None, None
+        picked, delay_profile, ccf, notes = (
+            _pick(m, X, D, move_index, move_types, columns, scores, ok, say)
+            if k < max_rounds else (None, None, None, []))
         corr = m.candidate_fit(columns[picked.label])[1] if picked is not None else None
         rounds.append(Round(k, fs, scores, picked, m.residual_, corr, search_nmse,
                             time.perf_counter() - t1, delay_profile, notes, ccf))
@@ -483,6 +411,52 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
     return SelectionResult(rounds=rounds, feature_set=fs, start=start, move_types=move_types,
                            move_index=move_index, search_model=search.describe(), alpha=alpha,
                            min_gain=min_gain, library=library)
+
+
+def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
+          move_types: Sequence[str], columns: dict[str, np.ndarray],
+          scores: Sequence[CandidateScore], ok: Sequence[CandidateScore],
+          say: Callable[[str], None]
+          ) -> tuple[CandidateScore | None, list[dict[str, Any]] | None, dict[str, Any] | None,
+                     list[str]]:
+    """The member picked among the significant and material candidates ``ok`` (module doc,
+    step 5): (picked or None, delay profile, residual-input ccf, notes)."""
+    picked = None
+    delay_profile = None
+    ccf = None
+    notes: list[str] = []
+    families = sorted({s.augmentation.family for s in ok},
+                      key=lambda f: -max(c.total_gain for c in ok
+                                         if c.augmentation.family == f))
+    for family in families:
+        members = [s for s in scores if s.augmentation.family == family]
+        picked = estimate_member(family, members)
+        if family != "command delay":
+            break
+        lags = sorted({s.augmentation.lag for s in members
+                       if s.augmentation.name == "command_lag"})
+        delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
+        d_hat = delay_from_scan(delay_profile)
+        say("delay scan (u_t replaced by u_t-d): " + ", ".join(
+            f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
+            + f" -> delay {d_hat}")
+        by_lag = {s.augmentation.lag: s for s in members
+                  if s.augmentation.name == "command_lag"}
+        if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
+            picked = by_lag[d_hat]
+            ccf = _command_ccf(m.residual_, X, move_index, picked)
+            break
+        # the replacement scan sees no delay, or a delay whose own column is not significant
+        # and material (e.g. already in the model): the command columns' gain is not a delay
+        scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
+        why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
+               f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}) column is not "
+               "significant and material by itself")
+        notes.append("command-delay candidates were significant and material, but the "
+                     f"delay scan {why}: not accepted; scan " + scan)
+        say(notes[-1])
+        picked, delay_profile = None, None
+    return picked, delay_profile, ccf, notes
 
 
 def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
@@ -502,9 +476,7 @@ def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.
     for d in lags:
         Xd = np.array(X, copy=True)
         Xd[:, N_STATE:N_FEATURE] = columns[CommandLag(lag=d).label()]
-        md = SearchModel(**{k: getattr(model, k) for k in (
-            "n_random_features", "ridge", "length_scale_factor", "n_gp_points", "gp_max_iter",
-            "n_folds", "seed")}).fit(Xd, D, move_index, move_types, model.length_scales_)
+        md = _fresh(model).fit(Xd, D, move_index, move_types, model.length_scales_)
         gain = 1.0 - md.sse_.sum(axis=0) / tot0
         out.append({"delay": int(d), "total_gain": float(gain.sum()),
                     "gain": [float(g) for g in gain]})

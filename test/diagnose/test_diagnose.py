@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -470,8 +471,9 @@ def test_physical_heavy_leg_among_leg_and_contact_terms(recorded):
 
 def test_physical_scopes_and_shortlist():
     """The scope check's neighbours, the library's size and the shortlist's classes."""
-    from littledog_mlsim.diagnose.physid import (FAMILIES, Candidate, _shortlist, library_size,
+    from littledog_mlsim.diagnose.physid import (FAMILIES, Candidate, library_size,
                                                  related_scopes, scope_joints, scopes_for)
+    from littledog_mlsim.diagnose.physical import shortlist
     assert related_scopes("joint:back_left_knee") == [
         "joint:back_left_hip_roll", "joint:back_left_hip_pitch", "leg:back_left", "type:knees",
         "side:left", "all"]
@@ -492,7 +494,7 @@ def test_physical_scopes_and_shortlist():
          Candidate("swing_drag", "leg:back_left", 4.0, 1.0),
          Candidate("servo_gain", "joint:back_left_knee", 3.0, 0.8),
          Candidate("leg_difference", "leg:front_left", 2.0, 1.5)]
-    short = _shortlist(c, 4)
+    short = shortlist(c, 4)
     # one scope per family, one of the push class (slope or odom force), a leg family included
     assert [(x.family, x.scope) for x in short] == [
         ("joint_friction", "leg:front_left"), ("servo_gain", "joint:back_left_knee"),
@@ -529,126 +531,140 @@ def test_physical_mass_com_position_and_servo_saturation():
     assert play.extra(e, dq, 0.0) == pytest.approx([-0.01, -0.3, 0.0, 0.0])
 
 
-def test_mass_com_position_walks_the_valley_of_constant_first_moment(monkeypatch):
+class FakeObjective:
+    """A stand-in for re-simulation (:class:`littledog_mlsim.diagnose.physical.Objective`): J
+    as a closed-form function of the hypothesis' parameters, the base's J fixed; it records what
+    the fit asked for (the hypotheses, how many moves, whether on the segments only)."""
+
+    def __init__(self, J, base_J: float = 2.0):
+        self.J, self.base_J, self.calls = J, base_J, []
+
+    def weights(self, moves, segments_only=False):
+        from littledog_mlsim.diagnose.physical.channels import LONG, N_CH
+        w = np.ones(N_CH)
+        if segments_only:
+            w[LONG] = 0.0
+        return w
+
+    def baseline(self, moves, w):
+        return self.base_J
+
+    def evaluate(self, hyps, moves, w, segments_only=False):
+        self.calls.append((list(hyps), len(moves), segments_only))
+        return [self.J(h) for h in hyps]
+
+    def n_evaluated(self) -> int:
+        return sum(len(h) for h, _, _ in self.calls)
+
+
+def test_mass_com_position_walks_the_valley_of_constant_first_moment():
     """A lighter mass further out tilts the body as a heavier one nearer in does: the position
     search ends by trading mass against offset at a constant first moment, so it leaves the mass
     it started from when a heavier (or lighter) one fits better. A stand-in objective whose
     valley is mass x offset = 0.3 kg x -0.05 m and whose floor is lowest at 0.3 kg."""
-    from littledog_mlsim.diagnose import physid
-    from littledog_mlsim.diagnose.physid import Candidate, mass_com_of
+    from littledog_mlsim.diagnose.families.body import mass_com_of, within_reach
+    from littledog_mlsim.diagnose.physical import Candidate, refine_position
 
-    def J(runner, base, hyp, F, meas, w):
+    def J(hyp):
         m, (x, y, z) = mass_com_of(hyp[2])
         return 100 * (m * x + 0.015) ** 2 + (m - 0.3) ** 2 + y ** 2 + z ** 2
 
-    refits = []
-    monkeypatch.setattr(physid, "_J_hyp", J)
-    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(1))
-    monkeypatch.setattr(physid, "_refine", lambda runner, base, c, *a: refits.append(c.magnitude))
     c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.15,
                   extra={"com_offset_m": (-0.1, 0.0, 0.0)})
-    c.J = J(None, None, c.hyp(), None, None, None)
-    physid._refine_position(None, [], c, [], [0], [])
-    m, (x, y, z) = mass_com_of(c.params(refits[0]))
+    c = replace(c, J=J(c.hyp()))
+    r = refine_position(FakeObjective(J), c, [0])
+    # the magnitude fit starts from the mass the walk ended at, at the position it ended at:
     # up the valley by 1.5 twice (a third would pass the floor), back by 1.2
-    assert refits == [pytest.approx(0.15 * 1.5 * 1.5 / 1.2, rel=1e-9)]
+    assert r.profile and r.magnitude == pytest.approx(0.15 * 1.5 * 1.5 / 1.2, rel=1e-9)
+    m, (x, y, z) = mass_com_of(r.params(r.magnitude))
     assert m * x == pytest.approx(-0.015, rel=2e-3) and (y, z) == (0.0, 0.0)   # 0.1 mm steps
-    # a candidate already at the floor stays where it is
+    assert c.extra["com_offset_m"] == (-0.1, 0.0, 0.0) and c.fitted == 0.15   # not changed
+    # a candidate already at the floor stays where it is (and is not refitted)
     c = Candidate("mass_com", "body", 1.0, 0.3, fitted=0.3, extra={"com_offset_m": (-0.05, 0, 0)})
-    c.J, refits[:] = J(None, None, c.hyp(), None, None, None), []
-    physid._refine_position(None, [], c, [], [0], [])
-    assert refits == [] and c.extra["com_offset_m"] == (-0.05, 0, 0)
+    c = replace(c, J=J(c.hyp()))
+    assert refine_position(FakeObjective(J), c, [0]) is c
     # an objective that always prefers a lighter mass further back: the walk stops at the
     # body's reach instead of a gram far behind it
     seen = []
 
-    def lighter(runner, base, hyp, F, meas, w):
+    def lighter(hyp):
         m, pos = mass_com_of(hyp[2])
         seen.append(pos)
         return m
-    monkeypatch.setattr(physid, "_J_hyp", lighter)
-    c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.2, extra={"com_offset_m": (-0.1, 0, 0)})
-    c.J, refits[:] = 0.2, []
-    physid._refine_position(None, [], c, [], [0], [])
-    assert seen and all(physid.within_reach(p) for p in seen)
-    assert physid.within_reach(c.extra["com_offset_m"]) and c.extra["com_offset_m"][0] < -0.11
-    assert not physid.within_reach((-0.709, 0.0, 0.253))
+    c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.2, extra={"com_offset_m": (-0.1, 0, 0)},
+                  J=0.2)
+    r = refine_position(FakeObjective(lighter), c, [0])
+    assert seen and all(within_reach(p) for p in seen)
+    assert within_reach(r.extra["com_offset_m"]) and r.extra["com_offset_m"][0] < -0.11
+    assert not within_reach((-0.709, 0.0, 0.253))
 
 
-def test_signed_family_starts_its_scope_fit_on_the_better_side(monkeypatch):
+def test_signed_family_starts_its_scope_fit_on_the_better_side():
     """A neighbouring joint's encoder offset is first tried at the fitted magnitude's mirror
     image too (a stand-in objective lowest at -0.1 rad); a one-sided family is left alone."""
-    from littledog_mlsim.diagnose import physid
-    from littledog_mlsim.diagnose.physid import Candidate
+    from littledog_mlsim.diagnose.physical import Candidate, fit_magnitude, start_side
 
-    def evaluate(runner, base, c, mags, F, meas, w, evals):
-        assert w[physid.LONG].sum() == 0.0      # a joint family: the 1 s segments' channels
-        evals.update({m: (m + 0.1) ** 2 for m in mags})
+    def J(hyp):
+        return (hyp[2]["offset_rad"] + 0.1) ** 2
 
-    monkeypatch.setattr(physid, "_evaluate", evaluate)
-    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(physid.N_CH))
-    v = Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, 0.075)
-    physid._start_side(None, [], v, [], [0], [])
+    obj = FakeObjective(J, base_J=1.0)
+    v, _ = start_side(obj, Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, 0.075),
+                      [0])
     assert v.magnitude == pytest.approx(-0.075)
-    v = Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, -0.05)
-    physid._start_side(None, [], v, [], [0], [])
+    assert all(seg for _, _, seg in obj.calls)     # a joint family: the 1 s segments' channels
+    v, _ = start_side(obj, Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, -0.05),
+                      [0])
     assert v.magnitude == pytest.approx(-0.05)
     g = Candidate("joint_friction", "joint:back_left_knee", 0.0, 0.1)   # bounds start at 0
-    assert physid._start_side(None, [], g, [], [0], []) == {} and g.magnitude == 0.1
+    assert start_side(obj, g, [0]) == (g, {})
     # the side's J is handed to the fit, which then does not simulate it again: same result
-    monkeypatch.setattr(physid, "_J", lambda errs, w: 1.0)
-    runs, fits = [], []
+    fits = []
     for known in (False, True):
-        v = Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0, 0.075)
-        side = physid._start_side(None, [], v, [None], [0], [])
-        runs.clear()
-        monkeypatch.setattr(physid, "_evaluate", lambda *a: (runs.extend(a[3]), evaluate(*a)))
-        physid._refine(None, [], v, [None], [0], [], known=side if known else None)
-        fits.append((v.fitted, v.J, len(runs)))
-        monkeypatch.setattr(physid, "_evaluate", evaluate)
+        v, side = start_side(obj, Candidate("encoder_offset", "joint:back_left_hip_pitch", 0.0,
+                                            0.075), [0])
+        fitter = FakeObjective(J, base_J=1.0)
+        f = fit_magnitude(fitter, v, [0], known=side if known else None)
+        fits.append((f.fitted, f.J, fitter.n_evaluated()))
     assert fits[0][:2] == fits[1][:2] and fits[1][2] == fits[0][2] - 1
 
 
-def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments(monkeypatch):
+def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments():
     """The refit on every fit move weighs a joint family on the 1 s segments' channels only
     (a body family on all) and keeps the best of 0.7, 1, 1.4x and the parabola's vertex."""
-    from littledog_mlsim.diagnose import physid
-    from littledog_mlsim.diagnose.physid import Candidate
-    seen = []
+    from littledog_mlsim.diagnose.families import FAMILIES
+    from littledog_mlsim.diagnose.physical import Candidate, wide_magnitude
 
-    def evaluate(runner, base, c, mags, F, meas, w, evals):
-        seen.append((c.family, float(w[physid.LONG].sum()), len(F)))
-        evals.update({m: (m - 0.062) ** 2 + 1.0 for m in mags})
+    def J(hyp):
+        return (hyp[2][FAMILIES[hyp[0]].primary] - 0.062) ** 2 + 1.0
 
-    monkeypatch.setattr(physid, "_evaluate", evaluate)
-    monkeypatch.setattr(physid, "_weights", lambda base_err, F: np.ones(physid.N_CH))
-    monkeypatch.setattr(physid, "_J", lambda errs, w: 2.0)
+    obj = FakeObjective(J)
     c = Candidate("joint_friction", "side:right", 1.0, 0.05, fitted=0.043)
-    physid._wide_magnitude(None, [], c, [None] * 11, list(range(11)), [], (0.7, 1.0, 1.4))
+    c = wide_magnitude(obj, c, list(range(11)), (0.7, 1.0, 1.4))
     assert c.fitted == pytest.approx(0.062) and c.J == pytest.approx(1.0) and c.J0 == 2.0
-    assert {s[1] for s in seen} == {0.0} and {s[2] for s in seen} == {11}
-    seen.clear()
+    assert {s for _, _, s in obj.calls} == {True} and {n for _, n, _ in obj.calls} == {11}
+    obj = FakeObjective(J)
     b = Candidate("body_torque", "body", 1.0, 0.05, fitted=0.043)
-    physid._wide_magnitude(None, [], b, [None] * 11, list(range(11)), [], (0.7, 1.0, 1.4))
-    assert seen[0][1] == len(physid.LONG)
+    wide_magnitude(obj, b, list(range(11)), (0.7, 1.0, 1.4))
+    assert {s for _, _, s in obj.calls} == {False}
 
 
 def test_segments_mode_equals_the_full_runs_segments():
     """A joint family's fits simulate the four 1 s segments alone (mode ``segs``); they are the
     full run's segments, bit for bit (the first is the 4 s replay's first second)."""
-    from dataclasses import replace
-    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.diagnose.physical import Move, Runner
+    from littledog_mlsim.diagnose.physical.channels import SEG_STARTS
     from littledog_mlsim.gait.trot import TrotParams, trot_commands
     from littledog_mlsim.robot.config import as_config
     from littledog_mlsim.robot.sim import InitialState, simulate_move
     cfg = replace(as_config("measured"), sensor_noise=False)
     rec = simulate_move(trot_commands(TrotParams("F", (0.1, 0.0), 0.0, 0.5, 0.03)), robot=cfg)
-    mv = physid._Move(rec.name, rec.move_type, np.asarray(rec.cmd, dtype=float),
-                      {k: InitialState.from_recording(rec, k) for k in physid.SEG_STARTS})
-    physid._init_worker(cfg, [mv])
+    mv = Move(rec.name, rec.move_type, np.asarray(rec.cmd, dtype=float),
+              {k: InitialState.from_recording(rec, k) for k in SEG_STARTS})
+    runner = Runner(cfg, [mv], jobs=1)
     hyp = [("joint_friction", "side:right", {"coulomb_Nm": 0.06})]
-    full, segs = physid._simulate((0, hyp, "full")), physid._simulate((0, hyp, "segs"))
-    assert "full" not in segs
+    full, segs = runner.map([(0, hyp, "full"), (0, hyp, "segs")])
+    runner.close()
+    assert "full" not in segs and runner.n_sims == 2
     np.testing.assert_array_equal(segs["segs"], full["segs"])
     np.testing.assert_array_equal(segs["seg_idx"], full["seg_idx"])
 
@@ -657,12 +673,15 @@ def test_threshold_family_is_screened_at_its_deep_probe_too():
     """A torque limit does nothing until it is low: a stand-in robot whose hip rolls change
     the outputs only below 30 % of their limit. The screen's first probe (50 %) sees nothing;
     its deep probe (20 %) names the hip rolls, at about the 20 % that reproduces the data."""
-    from littledog_mlsim.diagnose import physid
+    from littledog_mlsim.diagnose.families import FAMILIES, scope_joints
+    from littledog_mlsim.diagnose.physical import SearchContext, screen
+    from littledog_mlsim.diagnose.physical.channels import (SCREEN_SEGMENTS, SEG_LEN, Measured,
+                                                            errors)
     rng = np.random.default_rng(3)
-    sig = rng.normal(size=(4, physid.SEG_LEN, 18))
-    sig_full = rng.normal(size=(4 * physid.SEG_LEN, 18))
-    other = rng.normal(size=(4, physid.SEG_LEN, 18))
-    hip_rolls = set(physid.scope_joints("type:hip_rolls").tolist())
+    sig = rng.normal(size=(4, SEG_LEN, 18))
+    sig_full = rng.normal(size=(4 * SEG_LEN, 18))
+    other = rng.normal(size=(4, SEG_LEN, 18))
+    hip_rolls = set(scope_joints("type:hip_rolls").tolist())
 
     class Runner:
         def map(self, tasks):
@@ -670,56 +689,64 @@ def test_threshold_family_is_screened_at_its_deep_probe_too():
             for i, hyps, mode in tasks:
                 k = sum(0.25 for fam, sc, par in hyps if fam == "torque_saturation"
                         and par["torque_limit_ratio"] <= 0.3
-                        and set(physid.scope_joints(sc).tolist()) <= hip_rolls)
+                        and set(scope_joints(sc).tolist()) <= hip_rolls)
                 # the other joints, that low, change the outputs another way
-                n = sum(len(physid.scope_joints(sc)) for fam, sc, par in hyps
+                n = sum(len(scope_joints(sc)) for fam, sc, par in hyps
                         if par["torque_limit_ratio"] <= 0.3
-                        and not set(physid.scope_joints(sc).tolist()) <= hip_rolls)
-                idx = (np.arange(4) if mode != "short"
-                       else np.array(physid.SCREEN_SEGMENTS))
+                        and not set(scope_joints(sc).tolist()) <= hip_rolls)
+                idx = (np.arange(4) if mode != "short" else np.array(SCREEN_SEGMENTS))
                 o = {"segs": (1.0 - k) * sig[idx] + 0.3 * n * other[idx], "seg_idx": idx}
                 if mode == "full":
                     o["full"] = (1.0 - k) * sig_full
                 out.append(o)
             return out
 
-    meas = [physid._Measured(np.zeros((4, physid.SEG_LEN, 18)),
-                             np.zeros((4 * physid.SEG_LEN, 18)))]
+    meas = [Measured(np.zeros((4, SEG_LEN, 18)), np.zeros((4 * SEG_LEN, 18)))]
     runner = Runner()
-    base_err = [physid._errors(runner.map([(0, [], "full")])[0], meas[0])]
-    cands = physid._screen(runner, [], base_err, meas, [0], ["torque_saturation"],
-                           lambda s: None)
-    assert physid.FAMILIES["torque_saturation"].deep_probe is not None
+    base_err = [errors(runner.map([(0, [], "full")])[0], meas[0])]
+    cands = screen(SearchContext(runner, (), base_err, meas), [0], ["torque_saturation"],
+                   lambda s: None)
+    assert FAMILIES["torque_saturation"].deep_probe is not None
     assert cands[0].scope == "type:hip_rolls"
     assert cands[0].magnitude == pytest.approx(0.2, abs=0.01)
 
 
-def test_joint_fit_simulates_the_segments_without_the_replay(monkeypatch):
+def test_joint_fit_simulates_the_segments_without_the_replay():
     """A joint family's J leaves out the 4 s replay, so its fit asks for the four 1 s segments
     only; a body family's for the replay too. Both give the same J for a joint family."""
-    from littledog_mlsim.diagnose import physid
-    from littledog_mlsim.diagnose.physid import Candidate
+    from littledog_mlsim.diagnose.physical import Candidate, SearchContext, fit_magnitude
+    from littledog_mlsim.diagnose.physical.channels import LONG, N_CH, SEG_LEN, Measured
 
     class Runner:
         modes = []
 
         def map(self, tasks):
             self.modes += [t[2] for t in tasks]
-            return [{"segs": np.zeros((4, physid.SEG_LEN, 18)), "seg_idx": np.arange(4)}
-                    for _ in tasks]
+            return [{"segs": np.zeros((4, SEG_LEN, 18)), "seg_idx": np.arange(4),
+                     **({"full": np.zeros((4 * SEG_LEN, 18))} if t[2] == "full" else {})}
+                    for t in tasks]
 
-    monkeypatch.setattr(physid, "_errors", lambda s, m: {"short": s["segs"] + 1.0})
-    r, evals = Runner(), {}
-    w = np.ones(physid.N_CH)
-    w[physid.LONG] = 0.0
-    physid._evaluate(r, [], Candidate("joint_friction", "all", 1.0, 0.05), [0.05, 0.1],
-                     [0, 1], [None, None], w, evals)
+    # measured -1 everywhere: every output is off by 1 (norms kept by the body-frame turn)
+    meas = [Measured(-np.ones((4, SEG_LEN, 18)), -np.ones((4 * SEG_LEN, 18)))] * 2
+    r = Runner()
+    ctx = SearchContext(r, (), [None, None], meas)
+    w = np.ones(N_CH)
+    w[LONG] = 0.0
+    J = ctx.evaluate([("joint_friction", "all", {"coulomb_Nm": m}) for m in (0.05, 0.1)],
+                     [0, 1], w, segments_only=True)
     assert set(r.modes) == {"segs"} and len(r.modes) == 4
-    assert evals[0.05] == pytest.approx(2 * 4 * physid.SEG_LEN * 18)
+    assert J[0] == pytest.approx(2 * 4 * SEG_LEN * 18)
+    assert ctx.evaluate([("joint_friction", "all", {"coulomb_Nm": 0.05})], [0, 1], w) == \
+        pytest.approx(J[:1])
+    # a fit asks for what its family needs (the base's errors give its weights)
+    base = {"short": np.ones((4, SEG_LEN, 18)), "long": np.ones((4 * SEG_LEN, 18))}
+    ctx = SearchContext(r, (), [base, base], meas)
     r.modes.clear()
-    physid._evaluate(r, [], Candidate("body_torque", "body", 1.0, 0.05), [0.05], [0], [None],
-                     w, {})
-    assert r.modes == ["full"]
+    fit_magnitude(ctx, Candidate("joint_friction", "all", 1.0, 0.05), [0])
+    assert set(r.modes) == {"segs"}
+    r.modes.clear()
+    fit_magnitude(ctx, Candidate("body_torque", "body", 1.0, 0.05), [0])
+    assert set(r.modes) == {"full"}
 
 
 @pytest.mark.slow
@@ -776,14 +803,15 @@ def test_physical_torque_axes_and_foot_friction_names():
 
 
 def test_held_out_rank_test_has_power_on_uneven_cuts_and_keeps_its_level():
-    """The held-out rank test (``physid.rank_max_p`` of ``physid.move_cuts``): a cut carried by a
+    """The held-out rank test (``stats.rank_max_p`` of ``stats.move_cuts``): a cut carried by a
     few moves and small but consistent on the rest is found where a t-test over moves misses
     it; one channel re-rolled on one move cannot outweigh the rest; under the null (cuts
     symmetric about zero) p is uniform; comparing copies of one hypothesis costs nothing."""
-    from littledog_mlsim.diagnose import physid as P
+    from littledog_mlsim.diagnose import stats as P
+    from littledog_mlsim.diagnose.physical.channels import N_CH
     rng = np.random.default_rng(3)
     uneven = np.r_[[6.0, 5.0, 4.0], rng.uniform(0.01, 0.1, 19)]
-    p_t = float(P._t_greater(uneven[:, None])[0])
+    p_t = float(P.t_greater(uneven[:, None])[0])
     p_rank = float(P.rank_max_p([uneven])[0])
     assert p_t > 0.002 and p_rank < 1e-4, (p_t, p_rank)
     # the null: 300 sets of 22 heavy-tailed symmetric cuts; the fraction below 0.05 stays near it
@@ -800,14 +828,15 @@ def test_held_out_rank_test_has_power_on_uneven_cuts_and_keeps_its_level():
     assert P.rank_max_p([np.r_[c, np.zeros(5)]])[0] == pytest.approx(one, abs=0.01)
     # every move about 20 % better on each channel (noisily); on 2 moves one channel's replay is
     # re-rolled (100x its error): the bounded cuts keep every move, the t-tests do not
-    S0 = rng.uniform(0.5, 1.5, (22, P.N_CH))
-    S1 = S0 * rng.uniform(0.2, 1.4, (22, P.N_CH))
+    S0 = rng.uniform(0.5, 1.5, (22, N_CH))
+    S1 = S0 * rng.uniform(0.2, 1.4, (22, N_CH))
     S1[:2, 20] = 100.0 * S0[:2, 20]
     cuts = P.move_cuts(S0, S1)
-    assert np.all(np.abs(cuts) <= P.N_CH) and np.all(cuts > 0)
-    gain, p_ch, p_adj, sig, mat = P.decide_all(S0, [S1, S0.copy()], 0.01, 0.05)[0]
+    assert np.all(np.abs(cuts) <= N_CH) and np.all(cuts > 0)
+    dec = P.decide_all(S0, [S1, S0.copy()], 0.01, 0.05)[0]
+    p_ch, p_adj, sig = dec.p_channel, dec.p_value, dec.significant
     p_r = P.rank_max_p([cuts, np.zeros(22)])[0]
     assert sig and p_adj == pytest.approx(P.N_TESTS * p_r) and p_r < 1e-3
     d = 22 * (S0 - S1) / S0.sum(axis=0)   # the t-tests alone would not pass
-    assert P._t_greater(d.sum(axis=1, keepdims=True))[0] * 2 > 0.01
-    assert p_ch.min() * P.N_CH * 2 > 0.01
+    assert P.t_greater(d.sum(axis=1, keepdims=True))[0] * 2 > 0.01
+    assert p_ch.min() * N_CH * 2 > 0.01

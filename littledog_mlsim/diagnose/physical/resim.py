@@ -1,0 +1,132 @@
+"""Re-simulation: the transducer that runs hypotheses on measured moves.
+
+A task is ``(move index, hypotheses, mode)`` with hypotheses as ``(family, scope, params)``
+tuples (picklable for the worker processes); :class:`Runner` maps tasks to simulated outputs
+(:func:`simulate`), in worker processes if ``jobs > 1``. Anything with the same ``map`` (and
+``config``) can stand in for it (:class:`Transducer`).
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+from dataclasses import dataclass, replace
+from typing import Any, Mapping, Protocol, Sequence
+
+import numpy as np
+
+from ..families import FAMILIES
+from .channels import SCREEN_SEGMENTS, SEG_LEN, SEG_STARTS, rpy
+
+__all__ = ["Move", "Task", "Transducer", "Runner", "simulate", "init_worker", "true_start",
+           "build_effects"]
+
+Task = tuple[int, list[tuple[str, str, dict]], str]
+
+
+class Transducer(Protocol):
+    """Maps re-simulation tasks to outputs (``segs``, ``seg_idx`` and in ``full`` mode
+    ``full``, as :func:`simulate`)."""
+
+    def map(self, tasks: list[Task]) -> list[dict[str, np.ndarray]]: ...
+
+
+def build_effects(family: str, scope: str, params: Mapping[str, Any]) -> list[Any]:
+    """The effect plug-ins of one hypothesis (family, scope, params in the vocabulary's units
+    and, for vector families, components)."""
+    if family not in FAMILIES:
+        raise ValueError(f"unknown family {family!r}")
+    return FAMILIES[family].build_effects(scope, params)
+
+
+@dataclass
+class Move:
+    """What a worker needs to re-simulate one move: commands and measured start states."""
+
+    name: str
+    move_type: str
+    cmd: np.ndarray
+    starts: dict[int, Any]
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def init_worker(robot: Any, moves: list[Move], forked: bool = False) -> None:
+    if forked:   # pybullet clients inherited from the parent are not this process's
+        from ...robot import sim
+        sim._SIMS.clear()
+    _WORKER["robot"] = robot
+    _WORKER["moves"] = moves
+
+
+def simulate(task: Task) -> dict[str, np.ndarray]:
+    """Re-simulate move ``i`` with the hypotheses' plug-ins: segments (4, 100, 18) of
+    [q (12), position (3), roll, pitch, yaw]; ``full`` mode also the 4 s replay (400, 18),
+    ``segs`` mode the four segments without it, ``short`` mode the segments SCREEN_SEGMENTS."""
+    from ...robot.sim import simulate_move
+    i, hyps, mode = task
+    mv: Move = _WORKER["moves"][i]
+    robot = _WORKER["robot"]
+    out: dict[str, np.ndarray] = {}
+
+    def run(k0: int, n: int) -> np.ndarray:
+        effects = [e for (fam, sc, par) in hyps
+                   for e in build_effects(fam, sc, {**par, "t0_s": k0 * 0.01,
+                                                    "origin_xy": mv.starts[0].position[:2]})]
+        rec = simulate_move(mv.cmd[k0:k0 + n], robot=robot, effects=effects, seed=0,
+                            name=mv.name, move_type=mv.move_type,
+                            initial=true_start(mv.starts[k0], hyps))
+        return np.hstack([rec.q[1:], rec.position[1:], rpy(rec.orientation[1:])]
+                         ).astype(np.float64)
+
+    if mode == "full":
+        full = run(0, mv.cmd.shape[0])
+        out["full"] = full
+        segs = [full[:SEG_LEN]] + [run(k0, SEG_LEN) for k0 in SEG_STARTS[1:]]
+        out["seg_idx"] = np.arange(len(SEG_STARTS))
+    elif mode == "segs":
+        segs = [run(k0, SEG_LEN) for k0 in SEG_STARTS]
+        out["seg_idx"] = np.arange(len(SEG_STARTS))
+    else:   # "short": the 1 s segments SCREEN_SEGMENTS only
+        segs = [run(SEG_STARTS[k], SEG_LEN) for k in SCREEN_SEGMENTS]
+        out["seg_idx"] = np.array(SCREEN_SEGMENTS)
+    out["segs"] = np.stack(segs)
+    return out
+
+
+def true_start(initial: Any, hyps: Sequence[tuple[str, str, Mapping[str, Any]]]) -> Any:
+    """The state to start a re-simulation from, given the measured one and the hypotheses
+    (each family's :meth:`~.families.Family.start_q`: an encoder offset starts the joints at
+    the measured angle minus it)."""
+    q0 = initial.q
+    q = q0
+    for fam, sc, par in hyps:
+        q = FAMILIES[fam].start_q(q, sc, par)
+    return initial if q is q0 else replace(initial, q=q)
+
+
+class Runner:
+    """Runs re-simulation tasks, in worker processes if ``jobs > 1``."""
+
+    def __init__(self, robot: Any, moves: list[Move], jobs: int) -> None:
+        self.jobs = max(1, int(jobs))
+        self.n_sims = 0
+        self.config = robot
+        if self.jobs > 1:
+            ctx = mp.get_context("fork")
+            self.pool = ctx.Pool(self.jobs, initializer=init_worker,
+                                 initargs=(robot, moves, True))
+        else:
+            self.pool = None
+            init_worker(robot, moves)
+
+    def map(self, tasks: list[Task]) -> list[dict[str, np.ndarray]]:
+        self.n_sims += len(tasks)
+        if self.pool is None:
+            return [simulate(t) for t in tasks]
+        return self.pool.map(simulate, tasks, chunksize=max(1, len(tasks) // (4 * self.jobs)))
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.close()
+            self.pool.join()
+            self.pool = None

@@ -1,0 +1,154 @@
+"""Held-out statistics shared by every diagnosis route: grouped t-tests, the rank test, the decision.
+
+A move is the independent unit (samples within a move are strongly autocorrelated), so every
+test here works on per-move quantities: the held-out SSE of each move and channel without
+(``S0``) and with (``S1``) a candidate effect, both (M, C) for M moves and C channels (the
+learned route's 33 state elements, the physical route's 36 output channels).
+
+- :func:`t_greater`: one-sided one-sample t-test of mean > 0 over the moves, per column;
+- :func:`move_cuts` and :func:`rank_max_p`: each move's bounded cut and a signed-rank max test
+  over several hypotheses compared on the same moves (common random sign flips);
+- :func:`decide`: gains, the tests and the decision (significant, material) for one candidate;
+  :func:`sse_decision` is the learned route's form of it, :func:`decide_all` the physical
+  route's (the rank test over a shortlist).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy import stats
+
+__all__ = ["t_greater", "move_cuts", "rank_max_p", "Decision", "decide", "decide_all",
+           "SSEDecision", "sse_decision", "RANK_FLIPS", "N_TESTS"]
+
+RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null
+N_TESTS = 3          # with a rank test: pooled t, pooled rank, best channel's t
+
+
+def t_greater(d: np.ndarray) -> np.ndarray:
+    """One-sided one-sample t-test of mean > 0 over axis 0 (the moves); p per column.
+
+    A column with zero spread has p 0 if its mean is positive, else 0.5; with one move the
+    spread is taken as zero (one degree of freedom)."""
+    M = d.shape[0]
+    mean = d.mean(axis=0)
+    sd = d.std(axis=0, ddof=1) if M > 1 else np.zeros_like(mean)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(sd > 0, mean / (sd / math.sqrt(max(M, 1))),
+                     np.where(mean > 0, np.inf, 0.0))
+    return stats.t.sf(t, df=max(M - 1, 1))
+
+
+def move_cuts(S0: np.ndarray, S1: np.ndarray) -> np.ndarray:
+    """Per-move held-out cut (M,) for the rank test: the sum over channels of
+    (S0 - S1) / (S0 + S1), each move's cut relative to its own error on that channel, in [-1, 1].
+    A channel whose 4 s replay a hypothesis re-rolls on one move (chaos, not the effect) cannot
+    outweigh the other channels and moves, as it can in sums relative to the channel's total."""
+    den = S0 + S1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(den > 0, (S0 - S1) / den, 0.0)
+    return np.nansum(r, axis=1)
+
+
+def rank_max_p(cuts: Sequence[np.ndarray], n_flips: int = RANK_FLIPS, seed: int = 0
+               ) -> np.ndarray:
+    """One-sided adjusted p per hypothesis (H,) from per-move cuts (each (M,)): Wilcoxon
+    signed-rank statistics over moves, with the null of their maximum over the hypotheses from
+    common random sign flips of the moves (Westfall-Young single-step max-T).
+
+    Ranks do not let a few moves that change a lot (a slipping foot) drown a consistent cut on
+    the others, as a t-test's variance does; the common flips keep the hypotheses' correlation,
+    so choosing the best of the shortlist costs less than Bonferroni's factor. Zero cuts (a
+    move the hypothesis does not change) count for neither side."""
+    D = np.nan_to_num(np.column_stack([np.asarray(c, dtype=np.float64) for c in cuts]))
+    M, H = D.shape
+    R = np.column_stack([stats.rankdata(np.abs(D[:, h])) for h in range(H)])
+    SR = np.sign(D) * R                                    # signed ranks (M, H)
+    w_obs = SR.sum(axis=0)
+    rng = np.random.default_rng(seed)
+    flips = rng.choice(np.array([-1.0, 1.0]), size=(n_flips, M))
+    w_max = (flips @ SR).max(axis=1)                       # (B,) null of the max statistic
+    exceed = (w_max[:, None] >= w_obs[None, :] - 1e-9).sum(axis=0)
+    return (1.0 + exceed) / (n_flips + 1.0)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What held-out per-move SSEs say about one candidate."""
+
+    gain: np.ndarray          # (C,) held-out SSE cut per channel, 1 - sum S1 / sum S0
+    d: np.ndarray             # (M, C) per-move contributions (mean over moves = gain)
+    p_channel: np.ndarray     # (C,) one-sided t-test p per channel (unadjusted)
+    p_pooled: float           # unadjusted p of the t-test pooled over channels
+    p_value: float            # adjusted over the tests, the channels and the candidates
+    significant: bool         # p_value < alpha
+    material: bool            # some channel cut by >= min_gain with its own p < alpha
+
+
+def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_gain: float,
+           p_rank: float | None = None) -> Decision:
+    """Gains, move-grouped tests and the decision from per-move SSEs (M, C) without (S0) and
+    with (S1) a candidate.
+
+    Per move m the contribution d_mc = M (S0_mc - S1_mc) / sum_m S0_mc has mean gain_c. The
+    tests are one-sided over moves: the t-test of the contribution pooled over channels and the
+    best channel's t-test (x C channels), both x ``n_candidates``. Without a rank test the
+    adjusted p is Bonferroni over these two; with ``p_rank`` (a rank test's p, already adjusted
+    for the candidates compared, :func:`rank_max_p` of :func:`move_cuts`) over the three.
+    ``material`` does not require significance (the routes combine the two as they report)."""
+    M, C = S0.shape
+    tot0 = S0.sum(axis=0)
+    tot0 = np.where(tot0 > 0, tot0, 1.0)
+    gain = 1.0 - S1.sum(axis=0) / tot0
+    d = M * (S0 - S1) / tot0
+    p_ch = t_greater(d)
+    p_pool = float(t_greater(d.sum(axis=1, keepdims=True))[0])
+    if p_rank is None:
+        p_adj = min(1.0, n_candidates * 2.0 * min(p_pool, C * float(p_ch.min())))
+    else:
+        p_adj = min(1.0, N_TESTS * min(p_rank, p_pool * n_candidates,
+                                       float(np.min(p_ch)) * C * n_candidates))
+    material = bool(np.any((p_ch < alpha) & (gain >= min_gain)))
+    return Decision(gain, d, p_ch, p_pool, p_adj, bool(p_adj < alpha), material)
+
+
+def decide_all(S0: np.ndarray, S1s: Sequence[np.ndarray], alpha: float, min_gain: float
+               ) -> list[Decision]:
+    """:func:`decide` for every hypothesis compared on the same held-out moves, with the rank
+    test's max over them."""
+    p_rank = rank_max_p([move_cuts(S0, S1) for S1 in S1s])
+    return [decide(S0, S1, len(S1s), alpha, min_gain, float(p)) for S1, p in zip(S1s, p_rank)]
+
+
+@dataclass
+class SSEDecision:
+    """The learned route's reading of :class:`Decision`: material only if significant, and the
+    elements it names (``outputs``: p < alpha and gain >= min_gain / 2)."""
+
+    gain: np.ndarray          # (C,) held-out nMSE cut per element
+    d: np.ndarray             # (M, C) per-move contributions (mean over moves = gain)
+    p_element: np.ndarray     # (C,) one-sided t-test p per element (unadjusted)
+    p_pooled: float           # unadjusted p of the pooled (all-element) test
+    p_value: float            # Bonferroni over the two tests, the elements and n_candidates
+    significant: bool
+    material: bool
+    outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2
+
+
+def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
+                 min_gain: float, names: Sequence[str] | None = None) -> SSEDecision:
+    """:func:`decide` without a rank test, as the learned route and the physics baseline
+    calibration read it; ``names``: the channels' names (default the 33 state elements)."""
+    if names is None:
+        from ..layout import STATE_NAMES
+        names = STATE_NAMES
+    r = decide(S0, S1, n_candidates, alpha, min_gain)
+    nominal = r.p_channel < alpha
+    material = bool(r.significant and r.material)
+    out_mask = (nominal & (r.gain >= 0.5 * min_gain) if r.significant
+                else np.zeros(len(r.gain), bool))
+    return SSEDecision(r.gain, r.d, r.p_channel, r.p_pooled, r.p_value, r.significant,
+                       material, [names[j] for j in np.flatnonzero(out_mask)])

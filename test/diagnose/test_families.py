@@ -1,0 +1,192 @@
+"""Conformance of every registered effect family (``littledog_mlsim.diagnose.families``).
+
+Each family is checked through its public contract only: its declared range holds its neutral
+value and its screening probes, its plug-ins build and carry the parameter they were given, its
+physical reading and its sentence state the magnitude in its unit and name where it acts, its
+learned-model feature (if any) survives a model file, its start-state adjustment touches only
+its scope, and its rivals and twin are registered families. A new family passes these checks
+or names what it does differently.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from littledog_mlsim.diagnose.families import (FAMILIES, KINDS, Family, Separation,
+                                               register_family, scope_joints, scope_words)
+from littledog_mlsim.models.features import Augmentation, augmentation_from_dict
+from littledog_mlsim.robot.effects import HOOKS
+
+NAMES = list(FAMILIES)
+# how a sentence states a magnitude of each unit
+UNIT_WORDS = {"1": ("%", "times"), "1/s": ("per second",)}
+
+
+@dataclass
+class _Fit:
+    """A fitted hypothesis as the search hands it to a family."""
+
+    family: str
+    scope: str
+    magnitude: float
+    fitted: float | None
+    direction: np.ndarray | None
+    extra: dict
+
+    def params(self, mag: float | None = None) -> dict:
+        spec = FAMILIES[self.family]
+        return {**spec.params_from(self.fitted if mag is None else mag, self.direction),
+                **self.extra}
+
+
+def _probe_value(spec: Family) -> float:
+    return spec.neutral + spec.probe
+
+
+def _fit(spec: Family, scope: str, m: float) -> _Fit:
+    direction = np.array([0.6, 0.8]) if len(spec.components) > 1 else None
+    extra = {}
+    if spec.screen_style == "each":   # a probe's fixed parameters (a mass's position)
+        extra = {k: v for k, v in spec.screen_probes()[1].params.items()
+                 if k not in spec.params_from(1.0, direction)}
+    return _Fit(spec.name, scope, m, m, direction, extra)
+
+
+def _numbers(effect) -> list[float]:
+    out = []
+    for k, v in vars(effect).items():
+        if k.startswith("_"):
+            continue
+        try:
+            out += [float(x) for x in np.ravel(np.asarray(v, dtype=float))]
+        except (TypeError, ValueError):
+            pass
+    return out
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_declared_range_probe_and_kind(name):
+    spec = FAMILIES[name]
+    assert spec.name == name and spec.kind in KINDS
+    lo, hi = spec.bounds
+    assert lo < hi and spec.probe != 0.0 and spec.unit and spec.primary
+    # neutral lies in the range; a family whose zero is not physical (no payload at all) may
+    # start just above it, within 5 % of a probe
+    assert lo <= spec.neutral <= hi or 0 < lo - spec.neutral <= 0.05 * abs(spec.probe)
+    assert lo <= _probe_value(spec) <= hi
+    if spec.deep_probe is not None:
+        assert spec.kind == "joints" and lo <= spec.neutral + spec.deep_probe <= hi
+        assert abs(spec.deep_probe) > abs(spec.probe)
+    assert spec.vocabulary and (not spec.reported_as or spec.reported_as != name)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_plug_ins_build_and_carry_the_parameter(name):
+    spec = FAMILIES[name]
+    scopes = spec.scopes()
+    assert scopes and len(set(scopes)) == len(scopes)
+    for scope in (scopes[0], scopes[-1]):
+        if spec.kind != "body":
+            assert len(scope_joints(scope)) >= 1
+        fit = _fit(spec, scope, _probe_value(spec))
+        params = {**fit.params(), "t0_s": 0.0, "origin_xy": (0.0, 0.0)}
+        effects = spec.build_effects(scope, params)
+        assert effects, (name, scope)
+        for e in effects:
+            assert any(callable(getattr(e, h, None)) for h in HOOKS), type(e)
+        # the value handed in is the plug-in's own (a component, or the vector's length)
+        want = ([abs(v) for k, v in params.items() if k in spec.components and v]
+                if len(spec.components) > 1 else [_probe_value(spec)])
+        have = [abs(x) for e in effects for x in _numbers(e)]
+        assert all(any(math.isclose(w, h, rel_tol=1e-9) for h in have) for w in want) or \
+            any(math.isclose(math.hypot(*want), h, rel_tol=1e-9) for h in have), (name, have)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_reading_and_sentence_state_the_magnitude_in_its_unit(name):
+    spec = FAMILIES[name]
+    for scope in (spec.scopes()[0], spec.scopes()[-1]):
+        m = _probe_value(spec)
+        pp = spec.physical_params(_fit(spec, scope, m), 0.8)
+        assert spec.primary in pp and pp[spec.primary] == pytest.approx(m)
+        text = spec.statement(scope_words(scope), pp)
+        assert any(w in text for w in UNIT_WORDS.get(spec.unit, (spec.unit,))), text
+        assert text[0].isupper() and f"{name} on" not in text   # its own words, not the fallback
+        if spec.kind != "body":
+            assert scope_words(scope).lower() in text.lower(), text
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_learned_feature_maps_or_says_none(name):
+    spec = FAMILIES[name]
+    for scope in spec.scopes()[:2]:
+        fit = _fit(spec, scope, spec.bounds[1])
+        aug = spec.augmentation(scope, {**spec.physical_params(fit, 0.8), **fit.params()})
+        if aug is None:
+            continue
+        assert isinstance(aug, Augmentation) and len(aug.columns()) >= 1
+        assert augmentation_from_dict(aug.to_dict()) == aug
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_start_state_changes_only_its_scope(name):
+    spec = FAMILIES[name]
+    q = np.linspace(-0.5, 0.5, 12)
+    for scope in spec.scopes():
+        params = _fit(spec, scope, _probe_value(spec)).params()
+        out = spec.start_q(q, scope, params)
+        assert out.shape == q.shape and np.array_equal(q, np.linspace(-0.5, 0.5, 12))
+        if out is q:
+            continue
+        changed = np.flatnonzero(out != q)
+        assert spec.kind == "joints" and set(changed) <= set(scope_joints(scope)), (name, scope)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_screen_probes_rivals_and_twin(name):
+    spec = FAMILIES[name]
+    probes = spec.screen_probes()
+    assert probes and len({p.key for p in probes}) == len(probes)
+    for p in probes:
+        assert p.scope in spec.scopes() or (spec.kind == "joints" and p.scope.startswith("joint:"))
+        assert spec.build_effects(p.scope, {**p.params, "t0_s": 0.0, "origin_xy": (0.0, 0.0)})
+    if spec.screen_style == "each":
+        for k in range(len(probes)):
+            mag, direction, extra = spec.probe_candidate(k, 1.0)
+            assert mag >= 0 and isinstance(extra, dict)
+    for other in FAMILIES.values():
+        sep = spec.separation(other)
+        assert sep is None or (isinstance(sep, Separation) and sep.how and sep.recording)
+    if spec.twin_family:
+        twin = FAMILIES[spec.twin_family]
+        assert twin.twin_family == name and twin.kind == spec.kind
+        m, weight = 0.5 * (spec.probe + spec.bounds[1]) / 2, 25.0
+        assert twin.twin_magnitude(spec.twin_magnitude(m, weight), weight) == pytest.approx(m)
+
+
+def test_registry_refuses_a_second_class_under_a_taken_name():
+    class Imposter(Family):
+        name = "command_delay"
+        kind = "joints"
+
+    with pytest.raises(ValueError, match="already registered"):
+        register_family(Imposter)
+
+    class NoKind(Family):
+        name = "nowhere"
+        kind = "tail"
+
+    with pytest.raises(ValueError, match="kind"):
+        register_family(NoKind)
+    assert "nowhere" not in FAMILIES
+
+
+def test_the_reference_lists_every_registered_family():
+    """docs/families.md's table names every registered family with its kind and parameter."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[2] / "docs" / "families.md").read_text()
+    for f in FAMILIES.values():
+        assert f"| `{f.name}` | {f.kind} | `{f.primary}` [{f.unit}] |" in text, f.name

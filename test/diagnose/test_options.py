@@ -1,0 +1,43 @@
+"""Typed options of the diagnosis (``littledog_mlsim.diagnose.options``): the keywords of
+``diagnose()`` and the CLI's ``--physics auto|on|off`` map onto a route object."""
+from __future__ import annotations
+
+import pytest
+
+from littledog_mlsim.diagnose import (AutoRoute, DiagnoseOptions, LearnedRoute, PhysicalRoute,
+                                      SearchModel, diagnose)
+from littledog_mlsim.diagnose.options import route_from_mode
+from littledog_mlsim.diagnose.physical import PhysicalOptions
+
+
+def test_physics_modes_map_onto_routes():
+    search = SearchModel(seed=3)
+    on = DiagnoseOptions.from_keywords(physics="on", physics_options={"jobs": 1}, alpha=0.02)
+    assert isinstance(on.route, PhysicalRoute) and on.route.overrides == {"jobs": 1}
+    assert on.alpha == 0.02
+    off = DiagnoseOptions.from_keywords(physics="off", search=search, max_rounds=2)
+    assert off.route == LearnedRoute(search=search, max_rounds=2)
+    auto = DiagnoseOptions.from_keywords()
+    assert isinstance(auto.route, AutoRoute)
+    assert isinstance(auto.route.resolve("measured"), PhysicalRoute)
+    assert isinstance(auto.route.resolve(None), LearnedRoute)
+    assert isinstance(auto.route.resolve("no such robot"), LearnedRoute)
+    assert route_from_mode("off", PhysicalRoute(), LearnedRoute()) == LearnedRoute()
+
+
+def test_physical_options_take_the_run_s_then_the_route_s():
+    o = PhysicalRoute({"alpha": 0.001, "jobs": 1}).options(0.01, 0.05, "measured", 0.03)
+    assert o == PhysicalOptions(alpha=0.001, min_gain=0.05, robot="measured", excitation=0.03,
+                                jobs=1)
+
+
+def test_bad_options_fail_with_one_line_naming_them(tmp_path):
+    with pytest.raises(ValueError, match="physics must be on, off or auto, got 'maybe'"):
+        DiagnoseOptions.from_keywords(physics="maybe")
+    with pytest.raises(ValueError, match="unknown option 'alhpa'"):
+        DiagnoseOptions.from_keywords(alhpa=0.1)
+    with pytest.raises(ValueError, match="unknown physics option 'fit_moves'"):
+        PhysicalRoute({"fit_moves": 2})
+    with pytest.raises(ValueError, match="not both"):
+        diagnose(tmp_path, tmp_path / "out", DiagnoseOptions(), method="lr")
+    assert not (tmp_path / "out").exists()

@@ -1,0 +1,92 @@
+"""The held-out statistics (``littledog_mlsim.diagnose.stats``) against scipy and hand-computed
+values: the grouped t-test, the bounded per-move cut, the signed-rank max test and the decision."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats as sps
+
+from littledog_mlsim.diagnose.stats import (N_TESTS, decide, decide_all, move_cuts,
+                                            rank_max_p, sse_decision, t_greater)
+
+
+def test_t_greater_is_scipys_one_sided_t_test_per_column():
+    rng = np.random.default_rng(0)
+    d = rng.normal(0.2, 1.0, (15, 4))
+    want = sps.ttest_1samp(d, 0.0, axis=0, alternative="greater").pvalue
+    np.testing.assert_allclose(t_greater(d), want, rtol=1e-12)
+    # no spread: a positive mean is certain, a zero mean is a coin toss
+    flat = np.column_stack([np.full(5, 0.3), np.zeros(5)])
+    np.testing.assert_array_equal(t_greater(flat), [0.0, 0.5])
+    # one move: no spread, one degree of freedom
+    assert t_greater(np.array([[0.4, -0.1]])).tolist() == [0.0, 0.5]
+
+
+def test_move_cuts_by_hand():
+    S0 = np.array([[1.0, 2.0, 0.0], [4.0, 1.0, 3.0]])
+    S1 = np.array([[0.5, 2.0, 0.0], [1.0, 3.0, np.nan]])
+    # move 0: (0.5/1.5) + 0 + (0: both zero); move 1: 3/5 - 2/4 + (NaN dropped)
+    np.testing.assert_allclose(move_cuts(S0, S1), [1.0 / 3.0, 0.6 - 0.5])
+    assert np.all(np.abs(move_cuts(S0, 1e9 * S0 + 1.0)) <= S0.shape[1])
+
+
+def test_rank_max_p_of_one_hypothesis_is_the_exact_wilcoxon_test():
+    rng = np.random.default_rng(1)
+    for shift in (0.0, 0.3, 0.8):
+        c = rng.normal(shift, 1.0, 14)
+        exact = sps.wilcoxon(c, alternative="greater", method="exact").pvalue
+        p = rank_max_p([c], n_flips=40000, seed=2)[0]
+        assert p == pytest.approx(exact, abs=0.01), (shift, p, exact)
+    # the max over copies of one hypothesis costs nothing; over a rival it can only grow
+    c = rng.normal(0.5, 1.0, 14)
+    assert np.allclose(rank_max_p([c, c]), rank_max_p([c])[0])
+    assert rank_max_p([c, rng.normal(size=14)])[0] >= rank_max_p([c])[0]
+
+
+def _example():
+    # 4 moves x 2 channels; channel 0 improves on every move, channel 1 does not
+    S0 = np.array([[2.0, 1.0], [3.0, 1.0], [1.0, 1.0], [2.0, 1.0]])
+    S1 = np.array([[1.0, 1.1], [2.0, 0.9], [0.6, 1.0], [1.2, 1.0]])
+    return S0, S1
+
+
+def test_decide_by_hand():
+    S0, S1 = _example()
+    tot0 = S0.sum(axis=0)                          # [8, 4]
+    d = 4 * (S0 - S1) / tot0                       # per-move contributions
+    gain = 1.0 - S1.sum(axis=0) / tot0             # [1 - 4.8/8, 1 - 4/4] = [0.4, 0]
+    p_ch = sps.ttest_1samp(d, 0.0, axis=0, alternative="greater").pvalue
+    p_pool = sps.ttest_1samp(d.sum(axis=1), 0.0, alternative="greater").pvalue
+    r = decide(S0, S1, 5, alpha=0.05, min_gain=0.1)
+    np.testing.assert_allclose(r.gain, gain, atol=1e-12)
+    np.testing.assert_allclose(gain, [0.4, 0.0], atol=1e-12)
+    np.testing.assert_allclose(r.d, d)
+    np.testing.assert_allclose(r.p_channel, p_ch, rtol=1e-10)
+    assert r.p_pooled == pytest.approx(p_pool, rel=1e-10)
+    # two tests, two channels, five candidates (Bonferroni)
+    assert r.p_value == pytest.approx(min(1.0, 5 * 2 * min(p_pool, 2 * p_ch.min())), rel=1e-10)
+    assert r.significant == (r.p_value < 0.05)
+    assert r.material == bool(p_ch[0] < 0.05)      # channel 0: cut 40 % >= 10 %
+    # with a rank test's p: three tests
+    r3 = decide(S0, S1, 5, 0.05, 0.1, p_rank=0.004)
+    assert r3.p_value == pytest.approx(N_TESTS * min(0.004, 5 * p_pool, 2 * 5 * p_ch.min()))
+
+
+def test_decide_all_uses_the_rank_max_over_the_shortlist():
+    S0, S1 = _example()
+    S1b = S0 * 1.01                                # a rival that makes things worse
+    dec = decide_all(S0, [S1, S1b], 0.05, 0.1)
+    p_rank = rank_max_p([move_cuts(S0, S1), move_cuts(S0, S1b)])
+    for r, S, p in zip(dec, (S1, S1b), p_rank):
+        assert r.p_value == pytest.approx(decide(S0, S, 2, 0.05, 0.1, float(p)).p_value)
+    assert not dec[1].significant and not dec[1].material
+
+
+def test_sse_decision_is_material_only_if_significant_and_names_its_outputs():
+    S0, S1 = _example()
+    r = sse_decision(S0, S1, 1, alpha=0.05, min_gain=0.1, names=["a", "b"])
+    base = decide(S0, S1, 1, 0.05, 0.1)
+    assert r.significant == base.significant and r.p_value == base.p_value
+    assert r.outputs == (["a"] if base.significant else [])
+    no = sse_decision(S0, S1, 10 ** 6, alpha=0.05, min_gain=0.1, names=["a", "b"])
+    assert not no.significant and not no.material and no.outputs == []
