@@ -1,19 +1,22 @@
 """An rclpy executor on a background thread that a controller process can always shut down.
 
 A controller (the demo, a test, a user's script) often spins its subscriptions on a thread while
-its main thread publishes commands and waits for answers. Two things must then hold:
+its main thread publishes commands and waits for answers. Two rules keep such a process from
+hanging (``benchmarks/spin_thread_hang/README.md`` has the hang they prevent):
 
-- **Entities are destroyed by the thread that waits on them.** ``Node.destroy_node`` called from
-  the main thread while the executor thread sits in ``rcl_wait`` on the node's subscriptions
-  races the executor's wait set: the executor's loop sees a woken, half-torn-down node on every
-  pass and spins without sleeping. :meth:`Spinner.destroy` therefore hands the node to the spin
-  thread, which removes and destroys it between two bounded waits, and the caller waits on an
-  event for that with a timeout.
+- **Entities are destroyed by the thread that waits on them, between two waits.** rclpy does not
+  destroy an entity another thread is using: ``Node.destroy_node`` called while the executor
+  thread sits in its wait (with every handle of the node entered) only marks the entities, and
+  the executor thread destroys them when it leaves the wait, inside a C++ call that holds the
+  GIL. If that teardown blocks, the whole process is stuck: no other thread gets the GIL back,
+  so neither a timeout nor Python's SIGINT handler can run. :meth:`Spinner.destroy` therefore
+  hands the node to the spin thread, which removes and destroys it when no wait is under way,
+  and returns only when that is done (or raises ``SpinnerError`` after ``timeout``).
 - **Every wait is bounded.** The thread calls ``spin_once(timeout_sec=period)`` in a loop that
   checks a stop flag, never ``spin()``; :meth:`Spinner.close` sets the flag, wakes the executor,
   joins the thread with a timeout, and only then destroys what is left and shuts the context
-  down. A thread that does not stop in time is reported (``SpinnerError``), never waited on
-  for ever.
+  down. A thread that does not stop in time is reported (``SpinnerError``), never waited on for
+  ever.
 
 The spinner owns its own :class:`rclpy.context.Context` (one ROS domain), so several can live
 in one process, and it installs no signal handlers: SIGINT stays the process's own.
