@@ -275,7 +275,12 @@ def cmd_import(a: argparse.Namespace) -> int:
 
     logging.basicConfig(level=logging.WARNING, format="littledog-mlsim import: %(message)s")
     opts = _import_options(a)
-    r = import_bags(a.bags, a.out, opts, overwrite=a.overwrite, figure=not a.no_figure)
+    if a.twin is not None:
+        from .robot.twin import load_twin
+        load_twin(a.twin)                  # a file, not a robot name
+    robot = a.twin if a.twin is not None else a.robot
+    r = import_bags(a.bags, a.out, opts, overwrite=a.overwrite, figure=not a.no_figure,
+                    robot=robot)
     types = ", ".join(f"{t} {n}" for t, n in _type_counts(r.report).items())
     rate = r.report.get("messages_per_s") or 0.0
     print(f"imported {r.n_moves} moves ({r.n_train} TrainPool / {r.n_test} TestPool; {types}) "
@@ -373,7 +378,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--moves-per-type", type=int, default=20, help="moves per type (default 20: 14 train / 6 test)")
     r.add_argument("--types", type=_types, default=list(MOVE_TYPES), help="comma-separated move types (default all 11)")
     r.add_argument("--seed", type=int, default=0, help="dataset seed (gait randomisation and sensor noise)")
-    r.add_argument("--robot", choices=["measured", "nominal"], default="measured", help="robot configuration")
+    r.add_argument("--robot", default="measured", metavar="NAME|TWIN.json",
+                   help="robot: measured (default), nominal, or a twin file (`calibrate --out`)")
     r.add_argument("--effects", type=str, default=None, metavar="FILE.yaml",
                    help="effects to switch on while recording (never written into the dataset)")
     r.add_argument("--excitation", type=float, default=0.0, metavar="RAD",
@@ -515,6 +521,13 @@ def build_parser() -> argparse.ArgumentParser:
     im.add_argument("--out", required=True, type=Path, metavar="DATASET",
                     help="dataset directory to create")
     add_import_arguments(im)
+    what = im.add_mutually_exclusive_group()
+    what.add_argument("--robot", default=None, metavar="NAME|TWIN.json",
+                      help="the robot the bags come from (measured, nominal or a twin file), "
+                           "recorded in dataset.yaml; default: not recorded")
+    what.add_argument("--twin", type=Path, default=None, metavar="TWIN.json",
+                      help="the twin file of the robot the bags come from (as --robot, a file "
+                           "only)")
     im.add_argument("--overwrite", action="store_true", help="replace an existing dataset directory")
     im.add_argument("--no-figure", action="store_true", help="skip import_report.png")
     im.set_defaults(func=cmd_import)

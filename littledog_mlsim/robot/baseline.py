@@ -66,7 +66,7 @@ from ..data.recording import MoveRecording
 from ..data.states import features_responses, states_from_recording
 from ..fileio import atomic_write_text, read_document
 from ..layout import MOVE_TYPES, S, STATE_NAMES
-from .config import RobotConfig, robot_config
+from .config import RobotConfig, config_from_dict, config_to_dict, robot_config
 from .sim import OBS_FIELDS, InitialState, LittleDogSim
 from ..rollout.metrics import nmse_array, rollout_metrics, xy_error
 from ..rollout.simulate import prepare_test_moves, predicted_paths
@@ -421,30 +421,6 @@ def evaluate_baseline(test_recs: Sequence[MoveRecording], config: RobotConfig, *
 
 # ---------------------------------------------------------------------------------------------
 # persistence
-
-_TUPLE_FIELDS = {f.name for f in dataclasses.fields(RobotConfig)
-                 if "tuple" in str(f.type) or "JointTriple" in str(f.type)}
-
-
-def config_to_dict(config: RobotConfig) -> dict[str, Any]:
-    """A JSON-ready dict of every RobotConfig field (tuples as lists)."""
-    return {k: (list(v) if isinstance(v, tuple) else v)
-            for k, v in dataclasses.asdict(config).items()}
-
-
-def config_from_dict(d: Mapping[str, Any]) -> RobotConfig:
-    """Inverse of :func:`config_to_dict`; ValueError naming unknown or missing fields."""
-    names = {f.name for f in dataclasses.fields(RobotConfig)}
-    unknown = sorted(set(d) - names)
-    if unknown:
-        raise ValueError(f"unknown RobotConfig field(s): {unknown}")
-    missing = sorted(f.name for f in dataclasses.fields(RobotConfig)
-                     if f.name not in d and f.default is dataclasses.MISSING)
-    if missing:
-        raise ValueError(f"RobotConfig field(s) missing: {missing}")
-    return RobotConfig(**{k: (tuple(v) if isinstance(v, list) and k in _TUPLE_FIELDS else v)
-                          for k, v in d.items()})
-
 
 def save_robot_config(config: RobotConfig, path: str | os.PathLike,
                       extra: Mapping[str, Any] | None = None) -> None:
