@@ -73,7 +73,8 @@ from ..rollout.simulate import prepare_test_moves, predicted_paths
 
 __all__ = [
     "TUNED_PARAMS", "PARAM_BOUNDS", "LOG_PARAMS", "DEFAULT_GRID", "CONFIG_FORMAT",
-    "physics_rollout", "physics_rollouts", "one_step_predictions", "tuning_moves",
+    "physics_rollout", "physics_rollouts", "one_step_predictions", "k_step_predictions",
+    "tuning_moves",
     "tuning_objective", "tune_nominal", "evaluate_baseline", "save_robot_config",
     "load_robot_config", "config_to_dict", "config_from_dict",
 ]
@@ -160,6 +161,27 @@ def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 
     ts = np.arange(1, rec.n_steps, stride)
     pred = np.stack([_replay(sim, rec, int(t), 1, effects)[0] for t in ts])
     return s[ts], pred
+
+
+def k_step_predictions(rec: MoveRecording, config: RobotConfig, horizon: int, stride: int = 1,
+                       effects: Sequence[Any] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``horizon`` physics steps from each measured state: (t, Y_true, Y_pred).
+
+    For t = 1, 1 + stride, ... with t + horizon <= N: the robot is put in the state measured at
+    t and fed the recorded u_t..u_{t+horizon-1}; ``Y_pred[i, h]`` is its s_{t+h+1} and
+    ``Y_true[i, h]`` the recorded one, each (n, horizon, 33). ``horizon`` 1 gives the samples
+    of :func:`one_step_predictions` that leave room for the horizon.
+    """
+    if int(horizon) != horizon or horizon < 1:
+        raise ValueError(f"horizon must be a positive integer, got {horizon!r}")
+    sim = _sim_for(_replay_config(config))
+    s = states_from_recording(rec)              # row j = s_{j+1}
+    ts = np.arange(1, rec.n_steps - horizon + 1, stride)
+    if ts.size == 0:
+        raise ValueError(f"{rec.name}: {rec.n_steps} commands leave no {horizon}-step sample")
+    pred = np.stack([_replay(sim, rec, int(t), int(horizon), effects) for t in ts])
+    true = np.stack([s[t:t + horizon] for t in ts])
+    return ts, true, pred
 
 
 # ----- parallel over moves: worker processes hold the recordings, tasks name them by index
