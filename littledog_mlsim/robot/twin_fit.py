@@ -18,15 +18,20 @@ Method
    the residual variance of the final fit estimates the noise, about 1).
 3. **Fit.** ``scipy.optimize.least_squares`` (trust region, bounds) over the parameters'
    coordinates: the logarithm of scale-like parameters (gains, masses, limits), the value of the
-   others (friction coefficients, armature). The Jacobian is forward differences of step
-   ``diff_step`` coordinates (2 %: large enough to step over the contact solver's tolerance,
-   small against the parameters' uncertainty), each column a full re-simulation.
+   others (friction coefficients, armature). The Jacobian is central differences of step
+   ``diff_step`` coordinates (5 %), two full re-simulations per column: the residual of a
+   contact-rich re-simulation is rough at small steps and curved at large ones, and forward
+   differences then overstate the slope, so that Gauss-Newton creeps (seen on the CI case:
+   forward differences left the gains a third of the way from the truth after 24
+   re-simulations, central ones reached it).
 4. **Uncertainty.** At the optimum, cov = s^2 (J^T J)^-1 with s^2 = SSE / (n - p), the residual
-   variance; the 95 % interval is x +- 1.96 sd in the fit's coordinate (so a log parameter's
-   interval is a factor, and stays positive). These intervals assume independent residuals of
-   a correctly structured twin: samples ``stride`` steps apart are nearly independent; a twin of
-   the wrong structure (the nominal position servo against a torque-mode PD) has systematic
-   residuals, and its intervals then measure the fit, not the robot.
+   variance, and its sandwich form clustered by sampled state (the residuals of one state, all
+   elements and horizons, may be correlated; states ``stride`` steps apart are taken as
+   independent); the 95 % interval is x +- 1.96 sd in the fit's coordinate with the wider of
+   the two sd (so a log parameter's interval is a factor, and stays positive). The intervals
+   hold for a twin of the right structure; a twin of the wrong structure (the nominal position
+   servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
+   fit, not the robot.
 5. **Identifiability.** The singular values of J scaled to the coordinates (a unit is one e-fold
    of a log parameter, ``typical`` of a linear one) give the directions the data pins worst;
    a direction whose 95 % half-width s * 1.96 / sigma_k exceeds ``weak_halfwidth`` is reported
@@ -351,7 +356,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     short = [r.name for r in train_recs if r.n_steps <= max(options.horizons)]
     if short:
         raise ValueError(f"moves too short for horizon {max(options.horizons)}: {short}")
-    base = replace(base, sensor_noise=False) if base.sensor_noise else base
+    start_robot = base
+    base = replace(base, sensor_noise=False)    # re-simulation predicts the noise-free state
     x0 = np.array([p.to_x(p.get(base)) for p in params])
     with _bl._MovePool(train_recs, options.jobs) as pool:
         prob = _Problem(pool, base, params, options, say)
@@ -361,7 +367,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
         n_evals = len(prob.cache)
     estimates, stats, covs = _estimates(prob, x, J, r, x0)
     weak, sv = _weak_directions(prob, J, covs, options.weak_halfwidth)
-    calibrated = replace(prob.config(x), name=options.name or f"{base.name}-calibrated")
+    calibrated = replace(prob.config(x), name=options.name or f"{base.name}-calibrated",
+                         sensor_noise=start_robot.sensor_noise)
     report = {"params": [_estimate_dict(e) for e in estimates],
               "weak_directions": [{"combination": w.combination, "describe": w.describe(),
                                    "singular_value": w.singular_value,
