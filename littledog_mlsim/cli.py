@@ -282,6 +282,9 @@ def format_calibration(report: dict) -> str:
     if not report["weak_directions"]:
         lines.append("every parameter direction identified (95 % half-width <= "
                      f"{report['settings']['weak_halfwidth']:g})")
+    if not report.get("converged", True):
+        lines.append(f"not converged ({report['stop']}): the intervals leave out the distance "
+                     f"to the optimum; raise --max-evals")
     if "rollout" in report:
         b, f = report["rollout"]["before"], report["rollout"]["after"]
         lines.append(f"TestPool rollout final (x, y) error: {num(b['final_xy_error_m'])} m -> "

@@ -55,7 +55,9 @@ def save_twin(twin: Twin, path: str | os.PathLike) -> Path:
     """Write ``twin`` to ``path`` atomically (temporary sibling + rename): a reader sees the old
     file or the whole new one. Non-finite numbers are refused (ValueError) before writing."""
     text = json.dumps(twin.to_document(), indent=2, allow_nan=False) + "\n"
-    return atomic_write_text(Path(path), text)
+    path = atomic_write_text(Path(path), text)
+    log.debug("wrote twin file %s (robot %r)", path, twin.robot.name)
+    return path
 
 
 def _read(path: Path) -> dict:

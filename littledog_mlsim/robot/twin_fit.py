@@ -31,7 +31,9 @@ Method
    the two sd (so a log parameter's interval is a factor, and stays positive). The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
-   fit, not the robot.
+   fit, not the robot. Nor do they cover what the optimiser left: a fit stopped by the
+   evaluation budget (``converged`` false in the report) can end outside them
+   (benchmarks/calibrate).
 5. **Identifiability.** The singular values of J scaled to the coordinates (a unit is one e-fold
    of a log parameter, ``typical`` of a linear one) give the directions the data pins worst;
    a direction whose 95 % half-width s * 1.96 / sigma_k exceeds ``weak_halfwidth`` is reported
@@ -58,7 +60,7 @@ import numpy as np
 from . import baseline as _bl
 from ..data.recording import MoveRecording
 from ..layout import STATE_NAMES
-from .config import RobotConfig, config_to_dict
+from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
 __all__ = ["CalibrationOptions", "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
@@ -238,8 +240,13 @@ class _BudgetSpent(Exception):
     pass
 
 
-def _least_squares(prob: _Problem, x0: np.ndarray, max_nfev: int) -> np.ndarray:
-    """One weighted least-squares stage from x0; the best point seen if the budget runs out."""
+_STOPS = {0: "iteration limit", 1: "converged (gradient)", 2: "converged (cost)",
+          3: "converged (step)", 4: "converged (cost and step)"}
+
+
+def _least_squares(prob: _Problem, x0: np.ndarray, max_nfev: int) -> tuple[np.ndarray, str]:
+    """One weighted least-squares stage from x0: (optimum, why it stopped); the best point
+    seen if the evaluation budget runs out."""
     from scipy.optimize import least_squares
 
     x_scale = np.array([p.x_scale for p in prob.params])
@@ -247,11 +254,11 @@ def _least_squares(prob: _Problem, x0: np.ndarray, max_nfev: int) -> np.ndarray:
         res = least_squares(prob.fun, x0, jac=prob.jac, bounds=(prob.lo, prob.hi),
                             x_scale=x_scale, method="trf", max_nfev=max_nfev,
                             xtol=1e-3, ftol=1e-4, gtol=1e-6)
-        return np.asarray(res.x, float)
+        return np.asarray(res.x, float), _STOPS.get(res.status, f"status {res.status}")
     except _BudgetSpent:
         prob.say("  evaluation budget spent; keeping the best point so far")
         best = min(prob.cache, key=lambda k: float(np.sum(prob.fun(np.array(k)) ** 2)))
-        return np.array(best)
+        return np.array(best), "evaluation budget spent"
 
 
 def _covariances(J: np.ndarray, r: np.ndarray, cluster: int) -> tuple[np.ndarray, np.ndarray,
@@ -320,12 +327,14 @@ def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
     prob.scale = _rms_scale(prob.raw(x0))
     n = prob.fun(x0).size
     stages = {"n_residuals": int(n), "cost_start_stage1": 0.5 * n}
-    x1 = _least_squares(prob, x0, max_nfev=max(2, (2 * prob.o.max_evals) // (3 * (2 * p + 1))))
+    x1, stages["stop_stage1"] = _least_squares(
+        prob, x0, max_nfev=max(2, (2 * prob.o.max_evals) // (3 * (2 * p + 1))))
     stages["cost_end_stage1"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
     prob.scale = _rms_scale(prob.raw(x1))      # reweight by the noise left at the first fit
     stages["cost_start_stage2"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
-    x2 = _least_squares(prob, x1, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)))
+    x2, stop = _least_squares(prob, x1, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)))
     stages["cost_end"] = 0.5 * float(np.sum(prob.fun(x2) ** 2))
+    stages["stop"], stages["converged"] = stop, stop.startswith("converged")
     prob.limit = math.inf
     return x2, stages
 
@@ -486,4 +495,5 @@ def calibrate_dataset(data: str | os.PathLike, robot: str | os.PathLike | RobotC
         "calibration": {k: v for k, v in cal.report.items() if k != "params"},
     }
     save_twin(Twin(cal.config, provenance), out)
+    log.info("wrote the twin %r to %s", cal.config.name, out)
     return cal

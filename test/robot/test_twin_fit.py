@@ -70,6 +70,7 @@ def test_calibrate_recovers_two_parameters_within_their_intervals(reference, tmp
     roll = prov["calibration"]["rollout"]
     assert roll["after"]["final_xy_error_m"] < 0.7 * roll["before"]["final_xy_error_m"]
     assert prov["calibration"]["weak_directions"] == []
+    assert isinstance(prov["calibration"]["converged"], bool) and prov["calibration"]["stop"]
     assert "position_gain" in p.stdout and "TestPool rollout final (x, y) error" in p.stdout
     # the twin runs where a robot name does
     p = cli(capsys, "record", "--out", tmp_path / "again", "--moves-per-type", "1",
