@@ -601,8 +601,9 @@ def build_parser() -> argparse.ArgumentParser:
     cb.add_argument("--horizons", type=lambda t: [int(x) for x in t.split(",") if x],
                     default=[1, 10], metavar="H1,H2",
                     help="re-simulated control steps with a residual (default 1,10)")
-    cb.add_argument("--max-evals", type=int, default=60,
-                    help="most re-simulations of the fitted moves (default 60)")
+    cb.add_argument("--max-evals", type=int, default=150,
+                    help="most re-simulations of the fitted moves (default 150; a Jacobian "
+                         "costs two per parameter)")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     cb.add_argument("--quiet", action="store_true", help="no progress lines")

@@ -80,7 +80,7 @@ class CalibrationOptions:
     stride: int = 20                        # steps between sampled states
     horizons: tuple[int, ...] = (1, 10)     # control steps re-simulated (residual at each)
     moves_per_type: int | None = 2          # TrainPool moves per type fitted (None: all)
-    max_evals: int = 60                     # residual evaluations, Jacobian columns included
+    max_evals: int = 150                    # residual evaluations, Jacobian columns included
     diff_step: float = 0.05                 # central-difference step in fit coordinates
     weak_halfwidth: float = 0.25            # 95 % half-width beyond which a direction is weak
     jobs: int = 2
