@@ -64,7 +64,7 @@ from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
 __all__ = ["CalibrationOptions", "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
-           "calibrate_dataset", "twin_residuals"]
+           "calibrate_dataset", "twin_residuals", "weak_directions"]
 
 log = logging.getLogger(__name__)
 
@@ -302,22 +302,41 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     return out, stats, [plain, robust]
 
 
-def _weak_directions(prob: _Problem, J: np.ndarray, covs: Sequence[np.ndarray],
-                     limit: float) -> tuple[list[WeakDirection], list[float]]:
-    """Singular directions of the coordinate-scaled Jacobian whose 95 % half-width (the wider
-    of the covariances ``covs``) exceeds ``limit``, weakest first (module doc, 5)."""
-    scale = np.array([p.x_scale for p in prob.params])
+def weak_directions(J: np.ndarray, params: Sequence[TwinParameter],
+                    covs: Sequence[np.ndarray], s2: float,
+                    limit: float) -> tuple[list[WeakDirection], list[float]]:
+    """The parameter combinations the data cannot identify (module doc, 5).
+
+    ``J``: the residuals' Jacobian (n, p) in fit coordinates; ``covs``: covariances of those
+    coordinates; ``s2``: the residual variance. The singular directions of J scaled to units of
+    ``x_scale`` are taken weakest first; a direction's 95 % half-width (in those units) is the
+    widest of the covariances and of s / sigma_k (what a singular J^T J hides from its
+    pseudo-inverse); directions wider than ``limit`` are returned, a zero singular value with
+    half-width None. Returns (weak directions, all singular values)."""
+    scale = np.array([p.x_scale for p in params])
     _, sv, vt = np.linalg.svd(J * scale[None, :], full_matrices=False)
     scaled = [c / np.outer(scale, scale) for c in covs]
     weak = []
     for s, v in zip(sv[::-1], vt[::-1]):
-        half = Z95 * math.sqrt(max(float(v @ c @ v) for c in scaled)) if s > 0 else None
+        half = None
+        if s > 0:
+            var = max([float(v @ c @ v) for c in scaled] + [s2 / s ** 2])
+            half = Z95 * math.sqrt(var)
         if half is not None and half <= limit:
             continue
         v = v if v[np.argmax(np.abs(v))] > 0 else -v
         weak.append(WeakDirection(float(s), None if half is None else float(half),
-                                  {p.name: float(c) for p, c in zip(prob.params, v)}))
+                                  {p.name: float(c) for p, c in zip(params, v)}))
     return weak, [float(s) for s in sv]
+
+
+def _unbounded(estimates: list[Estimate], weak: Sequence[WeakDirection],
+               limit: float) -> list[Estimate]:
+    """Estimates whose parameter takes part (|coefficient| >= 0.1) in a direction the data does
+    not bound at all (half-width None or over 100 ``limit``) get no interval."""
+    free = {n for w in weak if w.halfwidth95 is None or w.halfwidth95 > 100 * limit
+            for n, c in w.combination.items() if abs(c) >= 0.1}
+    return [replace(e, ci95=(None, None)) if e.name in free else e for e in estimates]
 
 
 def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
@@ -375,7 +394,9 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
         J, r = prob.jac(x), prob.fun(x)
         n_evals = len(prob.cache)
     estimates, stats, covs = _estimates(prob, x, J, r, x0)
-    weak, sv = _weak_directions(prob, J, covs, options.weak_halfwidth)
+    weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
+                               options.weak_halfwidth)
+    estimates = _unbounded(estimates, weak, options.weak_halfwidth)
     calibrated = replace(prob.config(x), name=options.name or f"{base.name}-calibrated",
                          sensor_noise=start_robot.sensor_noise)
     report = {"params": [_estimate_dict(e) for e in estimates],

@@ -113,3 +113,30 @@ def test_a_good_file_is_never_replaced_by_a_failed_fit(reference, tmp_path, caps
     p = cli(capsys, "calibrate", "--data", tmp_path / "nowhere", "--out", good, "--quiet")
     assert p.returncode == 2 and "no such dataset directory" in p.stderr
     assert good.read_bytes() == before
+
+
+def test_weak_directions_name_the_combination_the_data_cannot_see():
+    """Bullet multiplies foot and ground friction, so residuals see only their product: two
+    equal Jacobian columns. The one weak direction is their difference, with no bound; a
+    parameter with its own column is not named."""
+    import numpy as np
+
+    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
+    from littledog_mlsim.robot.twin_fit import weak_directions
+
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=200), rng.normal(size=200)
+    J = np.stack([a, a, b], axis=1)              # foot, ground (same effect), body mass
+    params = [TWIN_PARAMETERS[n] for n in ("foot_friction", "ground_friction", "body_mass")]
+    cov = np.linalg.pinv(J.T @ J)                # the pseudo-inverse hides the null direction
+    weak, sv = weak_directions(J, params, [cov], 1.0, 0.25)
+    assert len(weak) == 1 and sv[-1] < 1e-10 * sv[0]
+    w = weak[0].combination
+    assert w["foot_friction"] == pytest.approx(-w["ground_friction"], abs=1e-9)
+    assert abs(w["foot_friction"]) == pytest.approx(2 ** -0.5, abs=1e-9)
+    assert abs(w["body_mass"]) < 1e-9
+    assert weak[0].describe() in ("0.71 foot_friction - 0.71 ground_friction",
+                                  "0.71 ground_friction - 0.71 foot_friction")
+    # a well-determined set has none
+    assert weak_directions(np.stack([a, b], axis=1), params[1:], [np.eye(2) * 1e-4], 1.0,
+                           0.25)[0] == []
