@@ -65,7 +65,7 @@ from ..data.dataset import load_moves
 from ..data.recording import MoveRecording
 from ..data.states import features_responses, states_from_recording
 from ..fileio import atomic_write_text, read_document
-from ..layout import MOVE_TYPES, S, STATE_NAMES
+from ..layout import CONTROL_DT, MOVE_TYPES, S, STATE_NAMES
 from .config import RobotConfig, config_from_dict, config_to_dict, robot_config
 from .sim import OBS_FIELDS, InitialState, LittleDogSim
 from ..rollout.metrics import nmse_array, rollout_metrics, xy_error
@@ -74,6 +74,7 @@ from ..rollout.simulate import prepare_test_moves, predicted_paths
 __all__ = [
     "TUNED_PARAMS", "PARAM_BOUNDS", "LOG_PARAMS", "DEFAULT_GRID", "CONFIG_FORMAT",
     "physics_rollout", "physics_rollouts", "one_step_predictions", "k_step_predictions",
+    "delayed_recording",
     "tuning_moves",
     "tuning_objective", "tune_nominal", "evaluate_baseline", "save_robot_config",
     "load_robot_config", "config_to_dict", "config_from_dict",
@@ -119,7 +120,24 @@ def _sim_for(config: RobotConfig) -> LittleDogSim:
 
 
 def _replay_config(config: RobotConfig) -> RobotConfig:
-    return config if not config.sensor_noise else dataclasses.replace(config, sensor_noise=False)
+    """The robot a replay steps: noise-free, and without its command delay, which
+    :func:`delayed_recording` applies to the recorded commands instead (a replay starting
+    mid-move must see the commands sent before its start)."""
+    return dataclasses.replace(config, sensor_noise=False, command_delay_ms=0.0)
+
+
+def delayed_recording(rec: MoveRecording, delay_ms: float) -> MoveRecording:
+    """``rec`` with the commands as a servo ``delay_ms`` late receives them:
+    u'_k = (1 - f) u_{k-n} + f u_{k-n-1} (n whole steps and a fraction f of a 10 ms step; before
+    the move, the first command), exactly what ``effects.SetpointDelay`` feeds the servo."""
+    if delay_ms <= 0:
+        return rec
+    steps = delay_ms / (CONTROL_DT * 1e3)
+    n, f = int(np.floor(steps)), steps - np.floor(steps)
+    k = np.arange(rec.n_steps)
+    cmd = np.asarray(rec.cmd, dtype=float)
+    out = (1.0 - f) * cmd[np.maximum(k - n, 0)] + f * cmd[np.maximum(k - n - 1, 0)]
+    return dataclasses.replace(rec, cmd=out)
 
 
 def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
@@ -145,7 +163,8 @@ def physics_rollout(rec: MoveRecording, config: RobotConfig,
     """
     if rec.n_steps < 2:
         raise ValueError(f"{rec.name}: a rollout needs at least 2 commands, got {rec.n_steps}")
-    return _replay(_sim_for(_replay_config(config)), rec, 1, rec.n_steps - 1, effects)
+    return _replay(_sim_for(_replay_config(config)),
+                   delayed_recording(rec, config.command_delay_ms), 1, rec.n_steps - 1, effects)
 
 
 def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 1,
@@ -158,6 +177,7 @@ def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 
     """
     sim = _sim_for(_replay_config(config))
     s = states_from_recording(rec)              # row j = s_{j+1}
+    rec = delayed_recording(rec, config.command_delay_ms)
     ts = np.arange(1, rec.n_steps, stride)
     pred = np.stack([_replay(sim, rec, int(t), 1, effects)[0] for t in ts])
     return s[ts], pred
@@ -176,6 +196,7 @@ def k_step_predictions(rec: MoveRecording, config: RobotConfig, horizon: int, st
         raise ValueError(f"horizon must be a positive integer, got {horizon!r}")
     sim = _sim_for(_replay_config(config))
     s = states_from_recording(rec)              # row j = s_{j+1}
+    rec = delayed_recording(rec, config.command_delay_ms)
     ts = np.arange(1, rec.n_steps - horizon + 1, stride)
     if ts.size == 0:
         raise ValueError(f"{rec.name}: {rec.n_steps} commands leave no {horizon}-step sample")

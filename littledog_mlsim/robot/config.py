@@ -91,6 +91,9 @@ class RobotConfig:
     kp: JointTriple = (7.5, 7.5, 6.7)       # N m/rad
     kd: JointTriple = (0.32, 0.32, 0.32)    # N m s/rad
     torque_limit: JointTriple = (1.7, 1.7, 0.61)  # N m, both servos
+    # Set-points reach the servo this late (all joints; a fraction of a step interpolates the
+    # two neighbouring commands, as effects.SetpointDelay). Both servos.
+    command_delay_ms: float = 0.0
     armature: JointTriple = (0.0, 0.0, 0.0)  # kg m^2 added about the joint axis on the child link
     # Idealised position servo (servo == "position"): pybullet's POSITION_CONTROL gains.
     position_gain: float = 0.3

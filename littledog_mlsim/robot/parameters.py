@@ -8,8 +8,8 @@ gains, masses, limits) and which servo it belongs to (``kp``/``kd`` act only on 
 ``position_gain``/``velocity_gain`` only on pybullet's position servo); a parameter of the other
 servo has no effect and is refused.
 
-Parameters a RobotConfig cannot hold (a command delay, Coulomb joint friction: effect plug-ins
-in ``robot.effects``) are not here, because a twin file is a RobotConfig.
+Parameters a RobotConfig cannot hold (Coulomb joint friction, an effect plug-in in
+``robot.effects``) are not here, because a twin file is a RobotConfig.
 """
 from __future__ import annotations
 
@@ -96,6 +96,8 @@ TWIN_PARAMETERS: dict[str, TwinParameter] = {p.name: p for p in (
     TwinParameter("foot_friction", "foot_friction", "Coulomb coefficient", (0.1, 2.0), log=False),
     TwinParameter("ground_friction", "ground_friction", "Coulomb coefficient", (0.1, 2.0),
                   log=False),
+    TwinParameter("command_delay_ms", "command_delay_ms", "ms (set-points arrive late)",
+                  (0.0, 40.0), log=False, typical=10.0),
     TwinParameter("rate_filter_hz", "rate_filter_hz", "Hz (joint-rate low-pass; unset = 300)",
                   (5.0, 300.0), unset=300.0),
 )}

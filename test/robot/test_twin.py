@@ -168,3 +168,35 @@ def test_pybullet_node_robot_parameter_takes_a_twin(twin_file, tmp_path):
         robot_from_parameter(str(tmp_path / "nope.json"))
     with pytest.raises(StartupError, match="parameter robot: unknown robot 'x'"):
         robot_from_parameter("x")
+
+
+def test_a_twin_with_a_command_delay_records_and_replays_it(tmp_path):
+    """``command_delay_ms`` is part of the robot: the recorder applies it as the SetpointDelay
+    plug-in would, and a replay (from measured states, with the recorded commands) applies it
+    to the commands sent before its start, so the twin re-simulates its own recording and the
+    same twin without the delay does not."""
+    from littledog_mlsim.gait.trot import sample_trot_params, trot_commands
+    from littledog_mlsim.robot.baseline import k_step_predictions, physics_rollout
+    from littledog_mlsim.robot.effects import SetpointDelay
+    from littledog_mlsim.rollout.simulate import prepare_test_move
+
+    late = dataclasses.replace(robot_config("nominal"), name="late", command_delay_ms=15.0)
+    save_twin(Twin(late), tmp_path / "late.json")
+    assert robot_config_from(tmp_path / "late.json") == late
+    params = dataclasses.replace(sample_trot_params("L", np.random.default_rng(3)), n_steps=150)
+    cmd = trot_commands(params)
+    rec = simulate_move(cmd, robot=late, seed=1, name="L_00", move_type="L")
+    plugin = simulate_move(cmd, robot="nominal", effects=[SetpointDelay(15.0)], seed=1,
+                           name="L_00", move_type="L")
+    np.testing.assert_array_equal(rec.q, plugin.q)
+    np.testing.assert_array_equal(rec.cmd, cmd)          # the commands as sent
+    states = prepare_test_move(rec).states
+    q = slice(9, 21)
+    err = {d: np.sqrt(np.mean((physics_rollout(rec, dataclasses.replace(late, command_delay_ms=d))
+                               [:, q] - states[:, q]) ** 2)) for d in (15.0, 0.0)}
+    assert err[15.0] < 0.1 * err[0.0], err
+    _, true, pred = k_step_predictions(rec, late, 1, stride=7)
+    _, _, pred0 = k_step_predictions(rec, dataclasses.replace(late, command_delay_ms=0.0), 1,
+                                     stride=7)
+    one = {"late": np.abs(pred - true)[..., q].mean(), "none": np.abs(pred0 - true)[..., q].mean()}
+    assert one["late"] < 0.2 * one["none"], one
