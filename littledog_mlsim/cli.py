@@ -578,7 +578,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     cb = sub.add_parser("calibrate", help="fit a twin's physical parameters to a recording",
                         description="Fit physical parameters of a pybullet robot (masses, servo "
-                                    "gains and limits, friction, armature, rate filter) to the "
+                                    "gains and limits, friction, armature, command delay, rate "
+                                    "filter) to the "
                                     "TrainPool of a dataset by re-simulation (weighted least "
                                     "squares on one- and few-step residuals), report 95 %% "
                                     "intervals, parameters stuck at a bound, directions the data "
