@@ -581,7 +581,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "gains and limits, friction, armature, command delay, rate "
                                     "filter) to the "
                                     "TrainPool of a dataset by re-simulation (weighted least "
-                                    "squares on one- and few-step residuals), report 95 %% "
+                                    "squares on one- and few-step residuals), report 95 % "
                                     "intervals, parameters stuck at a bound, directions the data "
                                     "cannot identify and the TestPool rollout error before and "
                                     "after, and write the twin file atomically.")
