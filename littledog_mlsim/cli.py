@@ -251,6 +251,50 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_calibrate(a: argparse.Namespace) -> int:
+    from .robot.twin_fit import CalibrationOptions, calibrate_dataset
+
+    if not a.data.is_dir():
+        raise CliError(f"{a.data}: no such dataset directory")
+    options = CalibrationOptions(params=tuple(a.params) if a.params else None, stride=a.stride,
+                                 horizons=tuple(a.horizons), moves_per_type=a.moves_per_type,
+                                 max_evals=a.max_evals, jobs=a.jobs, name=a.name)
+    say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
+    cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
+                            progress=say)
+    print(format_calibration(cal.report))
+    print(f"wrote {a.out} (robot {cal.config.name!r}) in {cal.report['wall_s']:.0f} s")
+    return 0
+
+
+def format_calibration(report: dict) -> str:
+    """The calibration table ``calibrate`` prints: estimates, weak directions, rollouts."""
+    def num(v: object) -> str:
+        return "-" if v is None else f"{v:.4g}"
+
+    lines = [f"{'parameter':<20} {'start':>9} {'value':>9}   95 % interval        unit"]
+    for e in report["params"]:
+        lo, hi = e["ci95"]
+        stuck = f"  (at its {e['at_bound']} bound)" if e["at_bound"] else ""
+        lines.append(f"{e['name']:<20} {num(e['start']):>9} {num(e['value']):>9}   "
+                     f"[{num(lo)}, {num(hi)}]".ljust(64) + f" {e['unit']}{stuck}")
+    for w in report["weak_directions"]:
+        lines.append(f"not identified: {w['describe']} (95 % half-width "
+                     f"{num(w['halfwidth95'])} in log/typical units)")
+    if not report["weak_directions"]:
+        lines.append("every parameter direction identified (95 % half-width <= "
+                     f"{report['settings']['weak_halfwidth']:g})")
+    if not report.get("converged", True):
+        lines.append(f"not converged ({report['stop']}): the intervals leave out the distance "
+                     f"to the optimum; raise --max-evals")
+    if "rollout" in report:
+        b, f = report["rollout"]["before"], report["rollout"]["after"]
+        lines.append(f"TestPool rollout final (x, y) error: {num(b['final_xy_error_m'])} m -> "
+                     f"{num(f['final_xy_error_m'])} m over "
+                     f"{len(report['rollout']['test_moves'])} moves")
+    return "\n".join(lines)
+
+
 def _import_options(a: argparse.Namespace):
     """ImportOptions from the ``import`` options (shared with trainer_node's import_options)."""
     from .data.importer import ImportOptions
@@ -275,7 +319,12 @@ def cmd_import(a: argparse.Namespace) -> int:
 
     # warnings (a skipped or salvaged bag) come through main's package log handler, once
     opts = _import_options(a)
-    r = import_bags(a.bags, a.out, opts, overwrite=a.overwrite, figure=not a.no_figure)
+    if a.twin is not None:
+        from .robot.twin import load_twin
+        load_twin(a.twin)                  # a file, not a robot name
+    robot = a.twin if a.twin is not None else a.robot
+    r = import_bags(a.bags, a.out, opts, overwrite=a.overwrite, figure=not a.no_figure,
+                    robot=robot)
     types = ", ".join(f"{t} {n}" for t, n in _type_counts(r.report).items())
     rate = r.report.get("messages_per_s") or 0.0
     print(f"imported {r.n_moves} moves ({r.n_train} TrainPool / {r.n_test} TestPool; {types}) "
@@ -373,7 +422,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--moves-per-type", type=int, default=20, help="moves per type (default 20: 14 train / 6 test)")
     r.add_argument("--types", type=_types, default=list(MOVE_TYPES), help="comma-separated move types (default all 11)")
     r.add_argument("--seed", type=int, default=0, help="dataset seed (gait randomisation and sensor noise)")
-    r.add_argument("--robot", choices=["measured", "nominal"], default="measured", help="robot configuration")
+    r.add_argument("--robot", default="measured", metavar="NAME|TWIN.json",
+                   help="robot: measured (default), nominal, or a twin file (`calibrate --out`)")
     r.add_argument("--effects", type=str, default=None, metavar="FILE.yaml",
                    help="effects to switch on while recording (never written into the dataset)")
     r.add_argument("--excitation", type=float, default=0.0, metavar="RAD",
@@ -515,9 +565,50 @@ def build_parser() -> argparse.ArgumentParser:
     im.add_argument("--out", required=True, type=Path, metavar="DATASET",
                     help="dataset directory to create")
     add_import_arguments(im)
+    what = im.add_mutually_exclusive_group()
+    what.add_argument("--robot", default=None, metavar="NAME|TWIN.json",
+                      help="the robot the bags come from (measured, nominal or a twin file), "
+                           "recorded in dataset.yaml; default: not recorded")
+    what.add_argument("--twin", type=Path, default=None, metavar="TWIN.json",
+                      help="the twin file of the robot the bags come from (as --robot, a file "
+                           "only)")
     im.add_argument("--overwrite", action="store_true", help="replace an existing dataset directory")
     im.add_argument("--no-figure", action="store_true", help="skip import_report.png")
     im.set_defaults(func=cmd_import)
+
+    cb = sub.add_parser("calibrate", help="fit a twin's physical parameters to a recording",
+                        description="Fit physical parameters of a pybullet robot (masses, servo "
+                                    "gains and limits, friction, armature, command delay, rate "
+                                    "filter) to the "
+                                    "TrainPool of a dataset by re-simulation (weighted least "
+                                    "squares on one- and few-step residuals), report 95 % "
+                                    "intervals, parameters stuck at a bound, directions the data "
+                                    "cannot identify and the TestPool rollout error before and "
+                                    "after, and write the twin file atomically.")
+    cb.add_argument("--data", required=True, type=Path, help="dataset directory (the reference)")
+    cb.add_argument("--robot", default="nominal", metavar="NAME|TWIN.json",
+                    help="robot to start from: nominal (default), measured or a twin file")
+    cb.add_argument("--out", required=True, type=Path, metavar="TWIN.json",
+                    help="twin file to write (an existing twin file is replaced on success)")
+    cb.add_argument("--params", type=lambda t: [x.strip() for x in t.split(",") if x.strip()],
+                    default=None, metavar="P1,P2,...",
+                    help="parameters to fit (default: the servo's gains and limits, masses, "
+                         "ground friction); names in robot/parameters.py")
+    cb.add_argument("--moves-per-type", type=int, default=2, metavar="N",
+                    help="TrainPool moves per type fitted (default 2)")
+    cb.add_argument("--test-moves", type=int, default=None, metavar="N",
+                    help="TestPool moves per type rolled out before/after (default all)")
+    cb.add_argument("--stride", type=int, default=20, help="steps between sampled states")
+    cb.add_argument("--horizons", type=lambda t: [int(x) for x in t.split(",") if x],
+                    default=[1, 10], metavar="H1,H2",
+                    help="re-simulated control steps with a residual (default 1,10)")
+    cb.add_argument("--max-evals", type=int, default=150,
+                    help="most re-simulations of the fitted moves (default 150; a Jacobian "
+                         "costs two per parameter)")
+    cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
+    cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    cb.add_argument("--quiet", action="store_true", help="no progress lines")
+    cb.set_defaults(func=cmd_calibrate)
 
     for name in ("info", "dataset"):
         i = sub.add_parser(name, help="summarise a recorded dataset" + (" (alias of info)" if name == "dataset" else ""),

@@ -7,7 +7,7 @@ Usage (from the repo root, in the venv):
         [--test-stride 4] [--rounds 3] [--jobs 2] [--out benchmarks/physics_diagnosis/physics_diagnosis]
     .venv/bin/python benchmarks/physics_diagnosis/physics_diagnosis.py --from-json benchmarks/physics_diagnosis/physics_diagnosis.json
 
-Runs ``littledog_mlsim.diagnose.physics.diagnose_physics`` with every TrainPool move of the
+Runs ``littledog_mlsim.robot.calibrate.diagnose_physics`` with every TrainPool move of the
 dataset (screening and calibration) and every TestPool move (scored only, before and after each
 round), starting from the tuned nominal robot, and writes ``<out>.json`` (the full report) and
 ``<out>.md`` (the command, git state, date, wall time, the screening table of every round and
@@ -31,7 +31,7 @@ from _common import ROOT, git_state  # noqa: E402
 
 from littledog_mlsim.robot.baseline import load_robot_config  # noqa: E402
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
-from littledog_mlsim.diagnose.physics import diagnose_physics  # noqa: E402
+from littledog_mlsim.robot.calibrate import diagnose_physics  # noqa: E402
 from littledog_mlsim.fileio import atomic_write_text  # noqa: E402
 from littledog_mlsim.layout import STATE_NAMES  # noqa: E402
 from littledog_mlsim.robot.config import (URDF_BODY_MASS, URDF_LEG_MASS,  # noqa: E402
@@ -77,7 +77,7 @@ def markdown(rep: dict, meta: dict) -> str:
          f"{rep['test_stride']} on TestPool; {rep['n_folds']} move folds; alpha {rep['alpha']}, "
          f"materiality {rep['min_gain']:.0%}; at most {rep['max_rounds']} rounds. "
          f"Stopped: {rep['stopped']}.", "",
-         "Method (details in `littledog_mlsim/diagnose/physics.py`): the residual is one physics "
+         "Method (details in `littledog_mlsim/robot/calibrate.py`): the residual is one physics "
          "step from each measured TrainPool state; each candidate parameter is re-simulated at a "
          "few values, its value chosen on the other move folds and its one-step SSE cut measured "
          "on the held-out fold; per-move t-tests (moves are the independent unit), Bonferroni "

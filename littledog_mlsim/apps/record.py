@@ -12,7 +12,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -20,6 +20,9 @@ from tqdm import tqdm
 from .. import __version__
 from ..fileio import atomic_directory
 from ..layout import CONTROL_DT_NS, MOVE_TYPES, STEPS_PER_MOVE, bag_name
+
+if TYPE_CHECKING:
+    from ..robot.config import RobotConfig
 
 
 @dataclass(frozen=True)
@@ -57,7 +60,7 @@ class RecordSummary:
         return self.n_steps * 0.01 / self.cpu_s if self.cpu_s > 0 else float("inf")
 
 
-def _record_one(job: MoveJob, bag_path: str, robot: str, effects_file: str | None,
+def _record_one(job: MoveJob, bag_path: str, robot: "RobotConfig", effects_file: str | None,
                 storage: str, excitation: float = 0.0) -> tuple[str, int, float]:
     """Worker: simulate one move and write its bag. Returns (name, n_steps, CPU seconds)."""
     from ..data.bags import write_bag
@@ -97,18 +100,21 @@ class _NoProgress:
 
 
 def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
-                   types: Sequence[str] = MOVE_TYPES, seed: int = 0, robot: str = "measured",
+                   types: Sequence[str] = MOVE_TYPES, seed: int = 0,
+                   robot: str | os.PathLike | "RobotConfig" = "measured",
                    effects_file: str | None = None, storage: str = "mcap",
                    jobs: int | None = None, overwrite: bool = False,
                    progress: bool = True, excitation: float = 0.0) -> RecordSummary:
     """Record ``moves_per_type`` moves of each type into the dataset directory ``out``.
 
+    ``robot``: a robot name, a twin file (``robot.twin``) or a RobotConfig; the dataset's
+    ``dataset.yaml`` records it (``robot.twin.robot_source``).
     ``excitation`` [rad]: standard deviation of white noise added to every joint command
     (:func:`~littledog_mlsim.gait.trot.excite_commands`); 0 records the plain trot.
     """
     from ..data.dataset import dataset_entries, write_index
     from ..robot.effects import load_effects
-    from ..robot.sim import robot_config
+    from ..robot.twin import robot_config_from, robot_source
 
     out = Path(out)
     if out.exists() and not overwrite:
@@ -117,7 +123,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
         raise ValueError(f"--excitation must be between 0 and 0.2 rad, got {excitation}")
     if storage not in ("mcap", "sqlite3"):
         raise ValueError(f"--storage must be mcap or sqlite3, got {storage!r}")
-    robot_config(robot)                      # fails early on an unknown robot
+    config = robot_config_from(robot)        # fails early on an unknown robot or a bad twin
+    source = robot_source(robot)
     if effects_file:
         load_effects(effects_file)           # fails early on a bad effects file
     plan = plan_jobs(moves_per_type, types, seed)
@@ -126,7 +133,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     t0 = time.perf_counter()
     with atomic_directory(out, replace=overwrite) as tmp:  # swapped in only after success
         results = []
-        args = [(j, str(tmp / j.name), robot, effects_file, storage, excitation) for j in plan]
+        args = [(j, str(tmp / j.name), config, effects_file, storage, excitation) for j in plan]
         # no tqdm object at all without progress: even a disabled one starts tqdm's monitor
         # thread, which then outlives the call
         bar = (tqdm(total=len(plan), desc=f"record {out.name}", unit="move") if progress
@@ -143,7 +150,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                     bar.update()
         bar.close()
         entries = dataset_entries(moves_per_type, types)
-        info = {"robot": robot, "seed": seed, "storage": storage,
+        info = {**source, "seed": seed, "storage": storage,
                 "moves_per_type": moves_per_type, "types": list(types),
                 "steps_per_move": STEPS_PER_MOVE, "control_dt_ns": CONTROL_DT_NS,
                 "recorded_by": f"littledog_mlsim {__version__}"}

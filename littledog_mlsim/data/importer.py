@@ -920,10 +920,12 @@ class ImportResult:
 
 def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
                 opts: ImportOptions | None = None, overwrite: bool = False,
-                figure: bool = True) -> ImportResult:
+                figure: bool = True, robot: str | os.PathLike | None = None) -> ImportResult:
     """Import ``bags`` into a new dataset directory ``out`` (atomically) with its report.
 
-    ValueError/BagError (one line) for a bad option or bag; nothing is written then.
+    ``robot``: what the data came from, a robot name or a twin file (``robot.twin``), recorded
+    in ``dataset.yaml`` as ``record`` records it (``robot.twin.robot_source``); None: unknown.
+    ValueError/BagError (one line) for a bad option, robot or bag; nothing is written then.
     """
     from .. import __version__
     from ..fileio import atomic_directory
@@ -934,6 +936,10 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
 
     opts = opts or ImportOptions()
     opts.check()
+    source = {}
+    if robot is not None:
+        from ..robot.twin import robot_source
+        source = robot_source(robot)
     bags = expand_bag_paths(bags)
     if not bags:
         raise ValueError("no bags given")
@@ -1008,7 +1014,7 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
     info = {"imported_from": [str(b) for b in bags], "import_options": opt_dict,
             "storage": opts.storage, "control_dt_ns": CONTROL_DT_NS,
             "types": sorted(by_type, key=DATASET_MOVE_TYPES.index),
-            "recorded_by": f"littledog_mlsim {__version__} import"}
+            "recorded_by": f"littledog_mlsim {__version__} import", **source}
     with atomic_directory(out, replace=overwrite) as tmp:
         for m in moves:
             write_bag(tmp / m.rec.name, m.rec, storage=opts.storage)

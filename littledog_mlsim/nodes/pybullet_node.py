@@ -2,7 +2,7 @@
 
     pybullet_node --ros-args -p robot:=measured [-p step_mode:=lockstep] [-p effects:=FILE.yaml]
 
-The robot (``robot.sim.LittleDogSim``, ``measured`` or ``nominal``) stands up once at start-up
+The robot (``robot.sim.LittleDogSim``, ``measured``, ``nominal`` or a twin file) stands up once at start-up
 (settled in the home stance) and every reset restarts from that settled stance with the same
 ``seed``, so a run is a pure function of (robot, seed, effects, commands): in lockstep mode,
 replaying commands gives exactly ``simulate_move(commands, robot=..., seed=...)``'s
@@ -19,11 +19,14 @@ Parameters: ``config/pybullet.yaml``.
 from __future__ import annotations
 
 import sys
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 from ..sim.backend import Backend, PybulletBackend
 from ._run import Param, StartupError
 from .simulator import SimulatorNode, run_simulator
+
+if TYPE_CHECKING:
+    from ..robot.config import RobotConfig
 
 NODE_NAME = "pybullet_node"
 
@@ -31,9 +34,10 @@ NODE_NAME = "pybullet_node"
 class PybulletNode(SimulatorNode):
     CONFIG_FILE = "pybullet.yaml"
     PARAMS = (
-        Param("robot", "measured", "pybullet robot variant: measured (the stand-in for the real "
-              "robot the data is recorded on) or nominal (URDF values, ideal servo)",
-              "measured | nominal"),
+        Param("robot", "measured", "pybullet robot: measured (the stand-in for the real "
+              "robot the data is recorded on), nominal (URDF values, ideal servo), or the path "
+              "of a twin file (`littledog-mlsim calibrate --out`)",
+              "measured | nominal | TWIN.json"),
         Param("seed", 0, "seeds the sensor noise and the effects' rng (the same on every reset)"),
         Param("effects", "", "YAML file of effects to switch on (as `littledog-mlsim record "
               "--effects`); empty: none"),
@@ -47,13 +51,9 @@ class PybulletNode(SimulatorNode):
             + (f", defaults from {self.config_path}" if self.config_path else ""))
 
     def make_backend(self) -> Backend:
-        from ..robot.config import ROBOT_NAMES
+        robot = robot_from_parameter(self.param("robot"))   # before pybullet prints its banner
         from ..robot.effects import load_effects
 
-        robot = self.param("robot")
-        if robot not in ROBOT_NAMES:
-            raise StartupError(f"parameter robot must be one of {', '.join(ROBOT_NAMES)}, "
-                               f"got {robot!r}")
         effects = []
         if self.param("effects"):
             try:
@@ -61,6 +61,20 @@ class PybulletNode(SimulatorNode):
             except ValueError as e:
                 raise StartupError(str(e)) from None
         return PybulletBackend(robot, int(self.param("seed")), effects)
+
+
+def robot_from_parameter(value: object) -> "RobotConfig":
+    """The RobotConfig the ``robot`` parameter names (a robot name or a twin file);
+    StartupError with one line otherwise."""
+    from ..robot.twin import robot_config_from
+
+    if not isinstance(value, str):
+        raise StartupError(f"parameter robot must be a robot name or a twin file path, "
+                           f"got {value!r}")
+    try:
+        return robot_config_from(value)
+    except ValueError as e:
+        raise StartupError(f"parameter robot: {e}") from None
 
 
 def main(args: Sequence[str] | None = None) -> int:

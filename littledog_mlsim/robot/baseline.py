@@ -65,15 +65,17 @@ from ..data.dataset import load_moves
 from ..data.recording import MoveRecording
 from ..data.states import features_responses, states_from_recording
 from ..fileio import atomic_write_text, read_document
-from ..layout import MOVE_TYPES, S, STATE_NAMES
-from .config import RobotConfig, robot_config
+from ..layout import CONTROL_DT, MOVE_TYPES, S, STATE_NAMES
+from .config import RobotConfig, config_from_dict, config_to_dict, robot_config
 from .sim import OBS_FIELDS, InitialState, LittleDogSim
 from ..rollout.metrics import nmse_array, rollout_metrics, xy_error
 from ..rollout.simulate import prepare_test_moves, predicted_paths
 
 __all__ = [
     "TUNED_PARAMS", "PARAM_BOUNDS", "LOG_PARAMS", "DEFAULT_GRID", "CONFIG_FORMAT",
-    "physics_rollout", "physics_rollouts", "one_step_predictions", "tuning_moves",
+    "physics_rollout", "physics_rollouts", "one_step_predictions", "k_step_predictions",
+    "delayed_recording",
+    "tuning_moves",
     "tuning_objective", "tune_nominal", "evaluate_baseline", "save_robot_config",
     "load_robot_config", "config_to_dict", "config_from_dict",
 ]
@@ -118,7 +120,24 @@ def _sim_for(config: RobotConfig) -> LittleDogSim:
 
 
 def _replay_config(config: RobotConfig) -> RobotConfig:
-    return config if not config.sensor_noise else dataclasses.replace(config, sensor_noise=False)
+    """The robot a replay steps: noise-free, and without its command delay, which
+    :func:`delayed_recording` applies to the recorded commands instead (a replay starting
+    mid-move must see the commands sent before its start)."""
+    return dataclasses.replace(config, sensor_noise=False, command_delay_ms=0.0)
+
+
+def delayed_recording(rec: MoveRecording, delay_ms: float) -> MoveRecording:
+    """``rec`` with the commands as a servo ``delay_ms`` late receives them:
+    u'_k = (1 - f) u_{k-n} + f u_{k-n-1} (n whole steps and a fraction f of a 10 ms step; before
+    the move, the first command), exactly what ``effects.SetpointDelay`` feeds the servo."""
+    if delay_ms <= 0:
+        return rec
+    steps = delay_ms / (CONTROL_DT * 1e3)
+    n, f = int(np.floor(steps)), steps - np.floor(steps)
+    k = np.arange(rec.n_steps)
+    cmd = np.asarray(rec.cmd, dtype=float)
+    out = (1.0 - f) * cmd[np.maximum(k - n, 0)] + f * cmd[np.maximum(k - n - 1, 0)]
+    return dataclasses.replace(rec, cmd=out)
 
 
 def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
@@ -144,7 +163,8 @@ def physics_rollout(rec: MoveRecording, config: RobotConfig,
     """
     if rec.n_steps < 2:
         raise ValueError(f"{rec.name}: a rollout needs at least 2 commands, got {rec.n_steps}")
-    return _replay(_sim_for(_replay_config(config)), rec, 1, rec.n_steps - 1, effects)
+    return _replay(_sim_for(_replay_config(config)),
+                   delayed_recording(rec, config.command_delay_ms), 1, rec.n_steps - 1, effects)
 
 
 def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 1,
@@ -157,9 +177,32 @@ def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 
     """
     sim = _sim_for(_replay_config(config))
     s = states_from_recording(rec)              # row j = s_{j+1}
+    rec = delayed_recording(rec, config.command_delay_ms)
     ts = np.arange(1, rec.n_steps, stride)
     pred = np.stack([_replay(sim, rec, int(t), 1, effects)[0] for t in ts])
     return s[ts], pred
+
+
+def k_step_predictions(rec: MoveRecording, config: RobotConfig, horizon: int, stride: int = 1,
+                       effects: Sequence[Any] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``horizon`` physics steps from each measured state: (t, Y_true, Y_pred).
+
+    For t = 1, 1 + stride, ... with t + horizon <= N: the robot is put in the state measured at
+    t and fed the recorded u_t..u_{t+horizon-1}; ``Y_pred[i, h]`` is its s_{t+h+1} and
+    ``Y_true[i, h]`` the recorded one, each (n, horizon, 33). ``horizon`` 1 gives the samples
+    of :func:`one_step_predictions` that leave room for the horizon.
+    """
+    if int(horizon) != horizon or horizon < 1:
+        raise ValueError(f"horizon must be a positive integer, got {horizon!r}")
+    sim = _sim_for(_replay_config(config))
+    s = states_from_recording(rec)              # row j = s_{j+1}
+    rec = delayed_recording(rec, config.command_delay_ms)
+    ts = np.arange(1, rec.n_steps - horizon + 1, stride)
+    if ts.size == 0:
+        raise ValueError(f"{rec.name}: {rec.n_steps} commands leave no {horizon}-step sample")
+    pred = np.stack([_replay(sim, rec, int(t), int(horizon), effects) for t in ts])
+    true = np.stack([s[t:t + horizon] for t in ts])
+    return ts, true, pred
 
 
 # ----- parallel over moves: worker processes hold the recordings, tasks name them by index
@@ -421,30 +464,6 @@ def evaluate_baseline(test_recs: Sequence[MoveRecording], config: RobotConfig, *
 
 # ---------------------------------------------------------------------------------------------
 # persistence
-
-_TUPLE_FIELDS = {f.name for f in dataclasses.fields(RobotConfig)
-                 if "tuple" in str(f.type) or "JointTriple" in str(f.type)}
-
-
-def config_to_dict(config: RobotConfig) -> dict[str, Any]:
-    """A JSON-ready dict of every RobotConfig field (tuples as lists)."""
-    return {k: (list(v) if isinstance(v, tuple) else v)
-            for k, v in dataclasses.asdict(config).items()}
-
-
-def config_from_dict(d: Mapping[str, Any]) -> RobotConfig:
-    """Inverse of :func:`config_to_dict`; ValueError naming unknown or missing fields."""
-    names = {f.name for f in dataclasses.fields(RobotConfig)}
-    unknown = sorted(set(d) - names)
-    if unknown:
-        raise ValueError(f"unknown RobotConfig field(s): {unknown}")
-    missing = sorted(f.name for f in dataclasses.fields(RobotConfig)
-                     if f.name not in d and f.default is dataclasses.MISSING)
-    if missing:
-        raise ValueError(f"RobotConfig field(s) missing: {missing}")
-    return RobotConfig(**{k: (tuple(v) if isinstance(v, list) and k in _TUPLE_FIELDS else v)
-                          for k, v in d.items()})
-
 
 def save_robot_config(config: RobotConfig, path: str | os.PathLike,
                       extra: Mapping[str, Any] | None = None) -> None:

@@ -43,9 +43,11 @@ over the last 10 ms, as the real robot's motion capture would give it.
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal, Mapping
 
 import numpy as np
 
@@ -89,6 +91,9 @@ class RobotConfig:
     kp: JointTriple = (7.5, 7.5, 6.7)       # N m/rad
     kd: JointTriple = (0.32, 0.32, 0.32)    # N m s/rad
     torque_limit: JointTriple = (1.7, 1.7, 0.61)  # N m, both servos
+    # Set-points reach the servo this late (all joints; a fraction of a step interpolates the
+    # two neighbouring commands, as effects.SetpointDelay). Both servos.
+    command_delay_ms: float = 0.0
     armature: JointTriple = (0.0, 0.0, 0.0)  # kg m^2 added about the joint axis on the child link
     # Idealised position servo (servo == "position"): pybullet's POSITION_CONTROL gains.
     position_gain: float = 0.3
@@ -158,7 +163,75 @@ def as_config(robot: str | RobotConfig) -> RobotConfig:
     return robot if isinstance(robot, RobotConfig) else robot_config(robot)
 
 
+_TUPLE_FIELDS = {f.name for f in dataclasses.fields(RobotConfig)
+                 if "tuple" in str(f.type) or "JointTriple" in str(f.type)}
+
+
+def config_to_dict(config: RobotConfig) -> dict[str, Any]:
+    """A JSON-ready dict of every RobotConfig field (tuples as lists)."""
+    return {k: (list(v) if isinstance(v, tuple) else v)
+            for k, v in dataclasses.asdict(config).items()}
+
+
+# fields that must be > 0 when set (every other number must be >= 0)
+_POSITIVE_FIELDS = frozenset({"physics_dt", "body_mass", "leg_mass", "mass_scale",
+                              "rate_filter_hz", "solver_iterations", "encoder_resolution"})
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _value_problem(field: dataclasses.Field, v: Any) -> str | None:
+    """Why ``v`` cannot be the value of RobotConfig ``field`` (one phrase), or None."""
+    kind = str(field.type)
+    if v is None:
+        return None if "None" in kind else "must not be null"
+    if kind.startswith("Literal") or kind == "str":
+        return None if isinstance(v, str) else "must be a string"
+    if kind == "bool":
+        return None if isinstance(v, bool) else "must be true or false"
+    if "JointTriple" in kind or "tuple" in kind:
+        if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_number, v))):
+            return "must be 3 finite numbers (hip_roll, hip_pitch, knee)"
+        values = list(v)
+    elif kind == "int":
+        if not (_is_number(v) and int(v) == v):
+            return "must be an integer"
+        values = [v]
+    else:
+        if not _is_number(v):
+            return "must be a finite number"
+        values = [v]
+    if field.name in _POSITIVE_FIELDS:
+        return None if min(values) > 0 else "must be > 0"
+    return None if min(values) >= 0 else "must be >= 0"
+
+
+def config_from_dict(d: Mapping[str, Any]) -> RobotConfig:
+    """Inverse of :func:`config_to_dict`; ValueError (one line) naming an unknown or missing
+    field or a value of the wrong kind (types follow the field annotations; numbers finite,
+    non-negative, and positive where zero makes no robot)."""
+    if not isinstance(d, Mapping):
+        raise ValueError("a robot configuration must be a mapping of RobotConfig fields")
+    fields = {f.name: f for f in dataclasses.fields(RobotConfig)}
+    unknown = sorted(set(d) - set(fields))
+    if unknown:
+        raise ValueError(f"unknown RobotConfig field(s): {unknown}")
+    missing = sorted(f.name for f in fields.values()
+                     if f.name not in d and f.default is dataclasses.MISSING)
+    if missing:
+        raise ValueError(f"RobotConfig field(s) missing: {missing}")
+    for k, v in d.items():
+        problem = _value_problem(fields[k], v)
+        if problem:
+            raise ValueError(f"RobotConfig field {k!r} {problem}, got {v!r}")
+    return RobotConfig(**{k: (tuple(float(x) for x in v)
+                              if isinstance(v, (list, tuple)) and k in _TUPLE_FIELDS else v)
+                          for k, v in d.items()})
+
+
 __all__ = [
     "RobotConfig", "robot_config", "as_config", "per_joint", "ROBOT_NAMES", "URDF_PATH",
-    "MEASURED_ARMATURE", "ENCODER_RESOLUTION",
+    "MEASURED_ARMATURE", "ENCODER_RESOLUTION", "config_to_dict", "config_from_dict",
 ]

@@ -230,7 +230,7 @@ class LittleDogSim:
         self._write_state(state)
         self._step_count = 0
         self._encoders.reset(state.q, state.dq)
-        effects = list(effects)
+        effects = self._own_effects() + list(effects)
         self._command_hooks = [e.command for e in effects if hasattr(e, "command")]
         self._substep_hooks = [e.substep for e in effects if hasattr(e, "substep")]
         self._measure_hooks = [e.measure for e in effects if hasattr(e, "measure")]
@@ -247,6 +247,13 @@ class LittleDogSim:
         self._prev_pose = self._mocap.measure(prev_pos, prev_orn)
         self._obs = self._measure()
         return self.observe()
+
+    def _own_effects(self) -> list[Any]:
+        """The config's own plug-ins, fresh for each move: its command delay."""
+        if self.config.command_delay_ms > 0:
+            from .effects import SetpointDelay
+            return [SetpointDelay(self.config.command_delay_ms)]
+        return []
 
     def observe(self) -> dict[str, np.ndarray]:
         """The measurement taken at the current time (a copy; fields of OBS_FIELDS)."""

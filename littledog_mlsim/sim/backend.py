@@ -7,11 +7,14 @@ outputs.
 """
 from __future__ import annotations
 
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..data.states import states_from_measurements
+
+if TYPE_CHECKING:
+    from ..robot.config import RobotConfig
 
 __all__ = ["Backend", "PybulletBackend"]
 
@@ -55,7 +58,7 @@ class PybulletBackend:
     ``state`` is s_t from the last two measurements (``states_from_measurements``, the same
     extraction as the recorded data)."""
 
-    def __init__(self, robot: str, seed: int, effects: list) -> None:
+    def __init__(self, robot: "str | RobotConfig", seed: int, effects: list) -> None:
         from ..robot.sim import LittleDogSim
 
         self.sim = LittleDogSim(robot)

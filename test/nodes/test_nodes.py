@@ -525,6 +525,17 @@ def test_sim_node_refuses_bad_radius(work, model_path, params):
     assert "FATAL" in line and "radius" in line
 
 
+@pytest.mark.parametrize("case", ["missing", "corrupt"])
+def test_pybullet_node_refuses_a_bad_twin_file(work, case):
+    twin = work / f"twin_{case}.json"
+    if case == "corrupt":
+        twin.write_text('{"format": "littledog_mlsim.twin", "format_versi')
+    rc, err = run("pybullet_node", {"robot": str(twin)}, work, timeout=60)
+    assert rc != 0
+    line = _one_fatal_line(err)
+    assert "FATAL" in line and "parameter robot" in line and str(twin) in line
+
+
 def test_trainer_corrupt_bag_leaves_model_untouched(work, dataset, model_path):
     data = work / "corrupt_data"
     shutil.rmtree(data, ignore_errors=True)

@@ -1,4 +1,4 @@
-"""Physics diagnosis (littledog_mlsim.diagnose.physics) on data with a known missing effect.
+"""Physics diagnosis (littledog_mlsim.robot.calibrate) on data with a known missing effect.
 
 Independent reference: the "measured" moves are recorded by the noise-free nominal robot with a
 2-step :class:`CommandDelay` (the effect plug-in the recorder uses, not the command shift the
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from littledog_mlsim.robot.baseline import physics_rollout
-from littledog_mlsim.diagnose.physics import (PhysicsModel, diagnose_physics, evaluate_model,
-                                              shifted_recording)
+from littledog_mlsim.robot.calibrate import (PhysicsModel, diagnose_physics, evaluate_model,
+                                             shifted_recording)
 from littledog_mlsim.gait.trot import sample_trot_params, trot_commands
 from littledog_mlsim.robot.config import robot_config
 from littledog_mlsim.robot.effects import CommandDelay

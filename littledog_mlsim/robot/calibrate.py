@@ -1,9 +1,11 @@
-"""Diagnosis of the physics baseline: its residual against the measured robot, traced, calibrated.
+"""Trace-and-calibrate loop for the physics baseline: its residual against the measured robot,
+traced to a missing or wrong parameter, calibrated.
 
-The learned-model diagnosis (:mod:`.selection`) asks which feature a regression lacks; here the
-same loop is pointed at the physics simulator (the ``nominal`` pybullet robot, usually the tuned
-``benchmarks/physics_baseline/nominal_tuned.json``), the hybrid route of sim-to-real practice: find which physical
-parameter or effect the simulator lacks or has wrong, calibrate it, check on held-out moves.
+The learned-model diagnosis (:mod:`littledog_mlsim.diagnose.selection`) asks which feature a
+regression lacks; here the same loop is pointed at the physics simulator (the ``nominal`` pybullet
+robot, usually the tuned ``benchmarks/physics_baseline/nominal_tuned.json``), the hybrid route of
+sim-to-real practice: find which physical parameter or effect the simulator lacks or has wrong,
+calibrate it, check on held-out moves.
 
 Method (and why)
 ----------------
@@ -24,16 +26,16 @@ Method (and why)
    at this value make the physics match" directly and yields the estimate the calibration needs.
    The price is one pass over the sampled states per candidate value (~10 ms per sample).
 3. **Held-out test grouped by move.** The TrainPool moves are split into K folds stratified by
-   move type (:func:`.selection.move_folds`); for each fold the candidate's value is chosen on the
-   other folds (largest summed relative SSE cut) and scored on the held-out fold, so choosing among
-   values cannot by itself produce a gain. Per element j the held-out gain is
-   ``gain_j = 1 - sum_m SSE1_mj / sum_m SSE0_mj`` (the cut of the element's one-step nMSE); the
-   moves are the independent unit: per-move contributions d_mj = M (SSE0_mj - SSE1_mj) / SSE0_j
-   are t-tested across moves (one-sided, M - 1 d.o.f., :func:`.selection.sse_decision`), per
-   element and pooled over the 33 elements, Bonferroni-adjusted over the two tests, the 33
-   elements and the number of candidates, exactly as the learned diagnosis decides
-   (significant: adjusted p < ``alpha``; material: also some element with p < alpha and gain >=
-   ``min_gain``).
+   move type (:func:`littledog_mlsim.diagnose.selection.move_folds`); for each fold the
+   candidate's value is chosen on the other folds (largest summed relative SSE cut) and scored
+   on the held-out fold, so choosing among values cannot by itself produce a gain. Per element j
+   the held-out gain is ``gain_j = 1 - sum_m SSE1_mj / sum_m SSE0_mj`` (the cut of the
+   element's one-step nMSE); the moves are the independent unit: per-move contributions
+   d_mj = M (SSE0_mj - SSE1_mj) / SSE0_j are t-tested across moves (one-sided, M - 1 d.o.f.,
+   :func:`littledog_mlsim.diagnose.selection.sse_decision`), per element and pooled over the 33
+   elements, Bonferroni-adjusted over the two tests, the 33 elements and the number of
+   candidates, exactly as the learned diagnosis decides (significant: adjusted p < ``alpha``;
+   material: also some element with p < alpha and gain >= ``min_gain``).
 4. **Calibrate (one-step residual, TrainPool only).** The material candidate with the largest
    summed held-out gain is taken; its parameter is set to the value minimising the summed
    relative one-step SSE on all TrainPool moves: the best grid value for the integer delay, the
@@ -74,13 +76,14 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..robot import baseline as _bl
+from . import baseline as _bl
 from ..data.recording import MoveRecording
+# the held-out move-grouped decision is the learned diagnosis' own (one home for the statistics)
+from ..diagnose.selection import DEFAULT_ALPHA, DEFAULT_MIN_GAIN, move_folds, sse_decision
 from ..layout import N_STATE, STATE_NAMES
-from ..robot.config import RobotConfig
-from ..robot.effects import JointFriction
 from ..rollout.simulate import prepare_test_moves
-from .selection import DEFAULT_ALPHA, DEFAULT_MIN_GAIN, move_folds, sse_decision
+from .config import RobotConfig
+from .effects import JointFriction
 
 __all__ = ["PhysicsModel", "Parameter", "PARAMETERS", "diagnose_physics", "shifted_recording",
            "one_step_sse", "screen_parameters", "evaluate_model"]
@@ -516,7 +519,7 @@ def diagnose_physics(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     return {
         "method": "one-step residual of the physics robot, traced by re-simulating candidate "
                   "parameters (held-out by move folds, move-grouped t-tests), calibrated on the "
-                  "TrainPool one-step residual (littledog_mlsim.diagnose.physics)",
+                  "TrainPool one-step residual (littledog_mlsim.robot.calibrate)",
         "start_model": (config if isinstance(config, PhysicsModel)
                         else PhysicsModel(config)).to_dict(),
         "params": {p: {"family": PARAMETERS[p].family, "unit": PARAMETERS[p].unit,

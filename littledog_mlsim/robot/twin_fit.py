@@ -1,0 +1,520 @@
+"""Calibrate a twin: fit RobotConfig parameters to an ordinary recording by re-simulation.
+
+``littledog-mlsim calibrate --data REFERENCE --robot nominal --out twin.json`` runs
+:func:`calibrate_dataset`. The recording is a dataset as ``record`` or ``import`` writes it; only
+its TrainPool moves are fitted, its TestPool moves only scored.
+
+Method
+------
+1. **Residuals.** From every ``stride``-th measured state t of the fitted moves the robot is
+   re-simulated ``max(horizons)`` control steps with the recorded commands
+   (:func:`~littledog_mlsim.robot.baseline.k_step_predictions`); at each horizon h the residual is
+   s_{t+h}(simulated) - s_{t+h}(measured), per state element. One step isolates the parameters
+   of a step; a few steps (0.1 s by default) let effects accumulate that one step hides
+   (masses, friction).
+2. **Weights.** Each (horizon, element) residual is divided by its RMS: first at the starting
+   robot, then, after a first fit, at that fit's optimum, and the fit is run again from there
+   (two-stage weighted least squares, so that every channel counts by its own noise level and
+   the residual variance of the final fit estimates the noise, about 1).
+3. **Fit.** ``scipy.optimize.least_squares`` (trust region, bounds) over the parameters'
+   coordinates: the logarithm of scale-like parameters (gains, masses, limits), the value of the
+   others (friction coefficients, armature). The Jacobian is central differences of step
+   ``diff_step`` coordinates (5 %), two full re-simulations per column: the residual of a
+   contact-rich re-simulation is rough at small steps and curved at large ones, and forward
+   differences then overstate the slope, so that Gauss-Newton creeps (seen on the CI case:
+   forward differences left the gains a third of the way from the truth after 24
+   re-simulations, central ones reached it).
+4. **Uncertainty.** At the optimum, cov = s^2 (J^T J)^-1 with s^2 = SSE / (n - p), the residual
+   variance, and its sandwich form clustered by sampled state (the residuals of one state, all
+   elements and horizons, may be correlated; states ``stride`` steps apart are taken as
+   independent); the 95 % interval is x +- 1.96 sd in the fit's coordinate with the wider of
+   the two sd (so a log parameter's interval is a factor, and stays positive). The intervals
+   hold for a twin of the right structure; a twin of the wrong structure (the nominal position
+   servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
+   fit, not the robot. Nor do they cover what the optimiser left: a fit stopped by the
+   evaluation budget (``converged`` false in the report) can end outside them
+   (benchmarks/calibrate).
+5. **Identifiability.** The singular values of J scaled to the coordinates (a unit is one e-fold
+   of a log parameter, ``typical`` of a linear one) give the directions the data pins worst;
+   a direction whose 95 % half-width s * 1.96 / sigma_k exceeds ``weak_halfwidth`` is reported
+   as one the data cannot identify, named as its combination of parameters. Parameters that end
+   at a bound are reported as stuck (their interval is then not a confidence interval).
+6. **Rollouts.** The starting and the calibrated robot roll out every TestPool move
+   (:func:`~littledog_mlsim.robot.baseline.evaluate_baseline`): the final (x, y) error before and
+   after.
+
+The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from . import baseline as _bl
+from ..data.recording import MoveRecording
+from ..layout import STATE_NAMES
+from .config import RobotConfig
+from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
+
+__all__ = ["CalibrationOptions", "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
+           "calibrate_dataset", "twin_residuals", "weak_directions"]
+
+log = logging.getLogger(__name__)
+
+Z95 = 1.959964
+DIVERGED_RESIDUAL = 1e3      # a weighted residual standing in for a non-finite one
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """Settings of :func:`calibrate_twin` (module doc)."""
+
+    params: tuple[str, ...] | None = None   # None: DEFAULT_CALIBRATION_PARAMS of the servo
+    stride: int = 20                        # steps between sampled states
+    horizons: tuple[int, ...] = (1, 10)     # control steps re-simulated (residual at each)
+    moves_per_type: int | None = 2          # TrainPool moves per type fitted (None: all)
+    max_evals: int = 150                    # residual evaluations, Jacobian columns included
+    diff_step: float = 0.05                 # central-difference step in fit coordinates
+    weak_halfwidth: float = 0.25            # 95 % half-width beyond which a direction is weak
+    jobs: int = 2
+    name: str | None = None                 # the twin's name (default BASE-calibrated)
+
+    def check(self) -> None:
+        if int(self.stride) != self.stride or self.stride < 1:
+            raise ValueError(f"stride must be a positive integer, got {self.stride!r}")
+        if not self.horizons or any(int(h) != h or h < 1 or h > 100 for h in self.horizons):
+            raise ValueError(f"horizons must be integers in 1..100 steps, got {self.horizons!r}")
+        if self.moves_per_type is not None and self.moves_per_type < 1:
+            raise ValueError(f"moves_per_type must be >= 1, got {self.moves_per_type}")
+        if self.max_evals < 4:
+            raise ValueError(f"max_evals must be >= 4, got {self.max_evals}")
+        if not 1e-4 <= self.diff_step <= 0.5:
+            raise ValueError(f"diff_step must be in [1e-4, 0.5], got {self.diff_step}")
+        if self.jobs < 1:
+            raise ValueError(f"jobs must be >= 1, got {self.jobs}")
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One calibrated parameter: start and fitted value, 95 % interval, bound it is stuck at."""
+
+    name: str
+    unit: str
+    start: float
+    value: float
+    ci95: tuple[float | None, float | None]   # None: not bounded by the data
+    at_bound: str | None                      # "lower" | "upper" | None
+
+    def contains(self, v: float) -> bool:
+        lo, hi = self.ci95
+        return (lo is None or lo <= v) and (hi is None or v <= hi)
+
+
+@dataclass(frozen=True)
+class WeakDirection:
+    """A parameter combination the data pins worst: its singular value and 95 % half-width in
+    fit coordinates, and the combination (coefficients of the unit-norm direction)."""
+
+    singular_value: float
+    halfwidth95: float | None
+    combination: dict[str, float]
+
+    def describe(self) -> str:
+        terms = sorted(self.combination.items(), key=lambda kv: -abs(kv[1]))
+        text = " ".join(f"{'+' if c >= 0 else '-'} {abs(c):.2f} {n}" for n, c in terms
+                        if abs(c) >= 0.05)
+        return text.lstrip("+ ")
+
+
+@dataclass
+class Calibration:
+    """The result of :func:`calibrate_twin`; ``report`` is its JSON-ready summary."""
+
+    config: RobotConfig
+    estimates: list[Estimate]
+    weak: list[WeakDirection]
+    report: dict[str, Any] = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------------------------
+# residuals, evaluated in worker processes (one per move)
+
+
+def _residual_task(config: RobotConfig, stride: int, horizons: tuple[int, ...],
+                   i: int) -> np.ndarray:
+    """Raw residuals (n_t, len(horizons), 33) of move i (``baseline._RECS``)."""
+    _, true, pred = _bl.k_step_predictions(_bl._RECS[i], config, max(horizons), stride)
+    with np.errstate(invalid="ignore", over="ignore"):
+        r = pred[:, [h - 1 for h in horizons]] - true[:, [h - 1 for h in horizons]]
+    return np.where(np.isfinite(r), r, np.inf)
+
+
+def twin_residuals(pool: Any, config: RobotConfig, stride: int,
+                   horizons: tuple[int, ...]) -> list[np.ndarray]:
+    """Per move, the raw residuals (n_t, len(horizons), 33) of ``config`` (module doc, 1)."""
+    return pool.map(_residual_task, config, int(stride), tuple(int(h) for h in horizons))
+
+
+def _weighted(raw: Sequence[np.ndarray], scale: np.ndarray) -> np.ndarray:
+    """Residuals divided by their (horizon, element) scale, flattened; non-finite -> large."""
+    r = np.concatenate([(m / scale).reshape(-1) for m in raw])
+    return np.where(np.isfinite(r), r, DIVERGED_RESIDUAL)
+
+
+def _rms_scale(raw: Sequence[np.ndarray]) -> np.ndarray:
+    """RMS per (horizon, element) of the residuals; a zero RMS (an element nothing moves)
+    counts as 1 so that it neither divides by zero nor weighs."""
+    all_r = np.concatenate(raw, axis=0)
+    with np.errstate(invalid="ignore", over="ignore"):
+        rms = np.sqrt(np.mean(all_r ** 2, axis=0))
+    if not np.all(np.isfinite(rms)):
+        raise ValueError("the starting robot's re-simulation is not finite on the recording")
+    return np.where(rms > 0, rms, 1.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# the fit
+
+
+class _Problem:
+    """Residual function and finite-difference Jacobian over fit coordinates, memoised, with
+    an evaluation budget."""
+
+    def __init__(self, pool: Any, base: RobotConfig, params: Sequence[TwinParameter],
+                 options: CalibrationOptions, progress: Callable[[str], None]) -> None:
+        self.pool, self.base, self.params, self.o, self.say = pool, base, params, options, progress
+        self.cache: dict[tuple[float, ...], list[np.ndarray]] = {}
+        self.scale: np.ndarray | None = None
+        self.limit: float = options.max_evals   # distinct robots simulated before _BudgetSpent
+        self.lo = np.array([p.x_bounds()[0] for p in params])
+        self.hi = np.array([p.x_bounds()[1] for p in params])
+
+    def config(self, x: np.ndarray) -> RobotConfig:
+        cfg = self.base
+        for p, xi in zip(self.params, x):
+            lo, hi = p.bounds
+            cfg = p.set(cfg, float(min(max(p.from_x(float(xi)), lo), hi)))
+        return cfg
+
+    def raw(self, x: np.ndarray) -> list[np.ndarray]:
+        key = tuple(np.round(np.asarray(x, float), 12))
+        if key not in self.cache:
+            if len(self.cache) >= self.limit:
+                raise _BudgetSpent
+            t0 = time.perf_counter()
+            self.cache[key] = twin_residuals(self.pool, self.config(x), self.o.stride,
+                                             self.o.horizons)
+            cost = None if self.scale is None else 0.5 * float(np.sum(self.fun(x) ** 2))
+            self.say(f"  [{len(self.cache)}/{self.o.max_evals}] "
+                     + " ".join(f"{p.name}={p.from_x(float(v)):.4g}"
+                                for p, v in zip(self.params, x))
+                     + ("" if cost is None else f" cost {cost:.1f}")
+                     + f" ({time.perf_counter() - t0:.1f} s)")
+        return self.cache[key]
+
+    def fun(self, x: np.ndarray) -> np.ndarray:
+        return _weighted(self.raw(x), self.scale)
+
+    def jac(self, x: np.ndarray) -> np.ndarray:
+        """Central differences of step ``diff_step`` coordinates (one-sided at a bound)."""
+        cols = []
+        for k, p in enumerate(self.params):
+            h = self.o.diff_step * p.x_scale
+            up, down = np.array(x, float), np.array(x, float)
+            up[k], down[k] = min(x[k] + h, self.hi[k]), max(x[k] - h, self.lo[k])
+            if up[k] == x[k] or down[k] == x[k]:
+                up[k] = x[k] if up[k] == x[k] else up[k]
+                down[k] = x[k] if down[k] == x[k] else down[k]
+            cols.append((self.fun(up) - self.fun(down)) / (up[k] - down[k]))
+        return np.stack(cols, axis=1)
+
+
+class _BudgetSpent(Exception):
+    pass
+
+
+_STOPS = {0: "iteration limit", 1: "converged (gradient)", 2: "converged (cost)",
+          3: "converged (step)", 4: "converged (cost and step)"}
+
+
+def _least_squares(prob: _Problem, x0: np.ndarray, max_nfev: int) -> tuple[np.ndarray, str]:
+    """One weighted least-squares stage from x0: (optimum, why it stopped); the best point
+    seen if the evaluation budget runs out."""
+    from scipy.optimize import least_squares
+
+    x_scale = np.array([p.x_scale for p in prob.params])
+    try:
+        res = least_squares(prob.fun, x0, jac=prob.jac, bounds=(prob.lo, prob.hi),
+                            x_scale=x_scale, method="trf", max_nfev=max_nfev,
+                            xtol=1e-3, ftol=1e-4, gtol=1e-6)
+        return np.asarray(res.x, float), _STOPS.get(res.status, f"status {res.status}")
+    except _BudgetSpent:
+        prob.say("  evaluation budget spent; keeping the best point so far")
+        best = min(prob.cache, key=lambda k: float(np.sum(prob.fun(np.array(k)) ** 2)))
+        return np.array(best), "evaluation budget spent"
+
+
+def _covariances(J: np.ndarray, r: np.ndarray, cluster: int) -> tuple[np.ndarray, np.ndarray,
+                                                                      float, int]:
+    """(plain, per-sample robust) covariance of the fit coordinates, s^2 and the d.o.f.
+
+    plain = s^2 (J^T J)^-1, s^2 = SSE / (n - p). robust: the sandwich
+    (J^T J)^-1 [sum_c J_c^T r_c r_c^T J_c] (J^T J)^-1 C / (C - 1) over the C sampled states
+    (``cluster`` consecutive residuals each: every horizon and element of one state), which
+    lets the residuals of one state be correlated (module doc, 4)."""
+    n, p = J.shape
+    dof = max(n - p, 1)
+    s2 = float(np.sum(r ** 2)) / dof
+    bread = np.linalg.pinv(J.T @ J)
+    c = n // cluster
+    g = np.einsum("cki,ck->ci", J[:c * cluster].reshape(c, cluster, p),
+                  r[:c * cluster].reshape(c, cluster))
+    robust = bread @ (g.T @ g) @ bread * (c / max(c - 1, 1))
+    return s2 * bread, robust, s2, dof
+
+
+def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
+               start: np.ndarray) -> tuple[list[Estimate], dict[str, Any], list[np.ndarray]]:
+    """Estimates with 95 % intervals (module doc, 4): the wider of the plain and the per-sample
+    robust interval."""
+    plain, robust, s2, dof = _covariances(J, r, len(prob.o.horizons) * len(STATE_NAMES))
+    sd_plain = np.sqrt(np.clip(np.diag(plain), 0, None))
+    sd = np.maximum(sd_plain, np.sqrt(np.clip(np.diag(robust), 0, None)))
+    out = []
+    for k, par in enumerate(prob.params):
+        span = prob.hi[k] - prob.lo[k]
+        at = ("lower" if x[k] - prob.lo[k] <= 1e-3 * span else
+              "upper" if prob.hi[k] - x[k] <= 1e-3 * span else None)
+        ci: tuple[float | None, float | None] = (None, None)
+        if np.isfinite(sd[k]) and sd[k] > 0 and np.any(J[:, k] != 0):
+            ci = (par.from_x(x[k] - Z95 * sd[k]), par.from_x(x[k] + Z95 * sd[k]))
+        out.append(Estimate(par.name, par.unit, par.from_x(start[k]), par.from_x(x[k]), ci, at))
+    stats = {"residual_variance": s2, "dof": dof,
+             "sd_coordinate_plain": {p.name: float(v) for p, v in zip(prob.params, sd_plain)},
+             "sd_coordinate": {p.name: float(v) for p, v in zip(prob.params, sd)}}
+    return out, stats, [plain, robust]
+
+
+def weak_directions(J: np.ndarray, params: Sequence[TwinParameter],
+                    covs: Sequence[np.ndarray], s2: float,
+                    limit: float) -> tuple[list[WeakDirection], list[float]]:
+    """The parameter combinations the data cannot identify (module doc, 5).
+
+    ``J``: the residuals' Jacobian (n, p) in fit coordinates; ``covs``: covariances of those
+    coordinates; ``s2``: the residual variance. The singular directions of J scaled to units of
+    ``x_scale`` are taken weakest first; a direction's 95 % half-width (in those units) is the
+    widest of the covariances and of s / sigma_k (what a singular J^T J hides from its
+    pseudo-inverse); directions wider than ``limit`` are returned, a zero singular value with
+    half-width None. Returns (weak directions, all singular values)."""
+    scale = np.array([p.x_scale for p in params])
+    _, sv, vt = np.linalg.svd(J * scale[None, :], full_matrices=False)
+    scaled = [c / np.outer(scale, scale) for c in covs]
+    weak = []
+    for s, v in zip(sv[::-1], vt[::-1]):
+        half = None
+        if s > 0:
+            var = max([float(v @ c @ v) for c in scaled] + [s2 / s ** 2])
+            half = Z95 * math.sqrt(var)
+        if half is not None and half <= limit:
+            continue
+        v = v if v[np.argmax(np.abs(v))] > 0 else -v
+        weak.append(WeakDirection(float(s), None if half is None else float(half),
+                                  {p.name: float(c) for p, c in zip(params, v)}))
+    return weak, [float(s) for s in sv]
+
+
+def _unbounded(estimates: list[Estimate], weak: Sequence[WeakDirection],
+               limit: float) -> list[Estimate]:
+    """Estimates whose parameter takes part (|coefficient| >= 0.1) in a direction the data does
+    not bound at all (half-width None or over 100 ``limit``) get no interval."""
+    free = {n for w in weak if w.halfwidth95 is None or w.halfwidth95 > 100 * limit
+            for n, c in w.combination.items() if abs(c) >= 0.1}
+    return [replace(e, ci95=(None, None)) if e.name in free else e for e in estimates]
+
+
+def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+    """Two weighted stages (module doc, 2-3); returns the optimum and the stages' costs."""
+    p = len(prob.params)
+    prob.limit = prob.o.max_evals - 2 * p      # keep 2p evaluations for the final Jacobian
+    prob.scale = _rms_scale(prob.raw(x0))
+    n = prob.fun(x0).size
+    stages = {"n_residuals": int(n), "cost_start_stage1": 0.5 * n}
+    x1, stages["stop_stage1"] = _least_squares(
+        prob, x0, max_nfev=max(2, (2 * prob.o.max_evals) // (3 * (2 * p + 1))))
+    stages["cost_end_stage1"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
+    prob.scale = _rms_scale(prob.raw(x1))      # reweight by the noise left at the first fit
+    stages["cost_start_stage2"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
+    x2, stop = _least_squares(prob, x1, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)))
+    stages["cost_end"] = 0.5 * float(np.sum(prob.fun(x2) ** 2))
+    stages["stop"], stages["converged"] = stop, stop.startswith("converged")
+    prob.limit = math.inf
+    return x2, stages
+
+
+def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
+    return {"final_xy_error_m": ev["final_xy_error_m"],
+            "final_xy_error_m_median": ev.get("final_xy_error_m_median"),
+            "n_nan_moves": ev.get("n_nan_moves"),
+            "per_move": {m["name"]: m.get("final_xy_error_m") for m in ev.get("per_move", [])}}
+
+
+def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
+                   base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
+                   progress: Callable[[str], None] | None = None) -> Calibration:
+    """Fit ``options.params`` of ``base`` to ``train_recs`` (module doc); score on ``test_recs``.
+
+    Returns the calibrated robot (named ``options.name`` or BASE-calibrated), the estimates
+    with their 95 % intervals and bounds, the weak directions and a JSON-ready report.
+    Raises ValueError (one line) for bad options, parameters or recordings, or a starting
+    robot whose re-simulation diverges.
+    """
+    t0 = time.perf_counter()
+    options.check()
+    say = progress or (lambda s: None)
+    params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[base.servo], base)
+    if not train_recs:
+        raise ValueError("calibration needs at least one TrainPool move")
+    short = [r.name for r in train_recs if r.n_steps <= max(options.horizons)]
+    if short:
+        raise ValueError(f"moves too short for horizon {max(options.horizons)}: {short}")
+    start_robot = base
+    base = replace(base, sensor_noise=False)    # re-simulation predicts the noise-free state
+    x0 = np.array([p.to_x(p.get(base)) for p in params])
+    with _bl._MovePool(train_recs, options.jobs) as pool:
+        prob = _Problem(pool, base, params, options, say)
+        say(f"fitting {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool moves")
+        x, stages = _fit(prob, x0)
+        J, r = prob.jac(x), prob.fun(x)
+        n_evals = len(prob.cache)
+    estimates, stats, covs = _estimates(prob, x, J, r, x0)
+    weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
+                               options.weak_halfwidth)
+    estimates = _unbounded(estimates, weak, options.weak_halfwidth)
+    calibrated = replace(prob.config(x), name=options.name or f"{base.name}-calibrated",
+                         sensor_noise=start_robot.sensor_noise)
+    report = {"params": [_estimate_dict(e) for e in estimates],
+              "weak_directions": [{"combination": w.combination, "describe": w.describe(),
+                                   "singular_value": w.singular_value,
+                                   "halfwidth95": w.halfwidth95} for w in weak],
+              "singular_values": sv, **stats,
+              "correlation": _correlation(covs[1], params), **stages,
+              "n_evals": n_evals, "train_moves": [r.name for r in train_recs],
+              "settings": {"stride": options.stride, "horizons": list(options.horizons),
+                           "max_evals": options.max_evals, "diff_step": options.diff_step,
+                           "weak_halfwidth": options.weak_halfwidth},
+              "residual_rms": _rms_report(prob, x0, x)}
+    if test_recs:
+        say(f"rolling out {len(test_recs)} TestPool moves before and after")
+        report["rollout"] = {
+            "test_moves": [r.name for r in test_recs],
+            "before": _rollout_summary(_bl.evaluate_baseline(test_recs, base, one_step=False,
+                                                              jobs=options.jobs)),
+            "after": _rollout_summary(_bl.evaluate_baseline(test_recs, calibrated,
+                                                             one_step=False, jobs=options.jobs))}
+    report["wall_s"] = round(time.perf_counter() - t0, 1)
+    return Calibration(calibrated, estimates, weak, report)
+
+
+def _estimate_dict(e: Estimate) -> dict[str, Any]:
+    return {"name": e.name, "unit": e.unit, "start": e.start, "value": e.value,
+            "ci95": list(e.ci95), "at_bound": e.at_bound}
+
+
+def _correlation(cov: np.ndarray, params: Sequence[TwinParameter]) -> dict[str, dict[str, float]]:
+    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    c = cov / np.outer(d, d)
+    return {a.name: {b.name: float(round(c[i, j], 4)) for j, b in enumerate(params)}
+            for i, a in enumerate(params)}
+
+
+def _rms_report(prob: _Problem, x0: np.ndarray, x: np.ndarray) -> dict[str, Any]:
+    """RMS of the raw residual per horizon and element, at the start and at the optimum."""
+    out = {}
+    for label, xi in (("start", x0), ("calibrated", x)):
+        all_r = np.concatenate(prob.raw(xi), axis=0)
+        with np.errstate(invalid="ignore", over="ignore"):
+            rms = np.sqrt(np.mean(all_r ** 2, axis=0))
+        out[label] = {f"h{h}": {n: (float(v) if np.isfinite(v) else None)
+                                for n, v in zip(STATE_NAMES, rms[k])}
+                      for k, h in enumerate(prob.o.horizons)}
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# from a dataset to a twin file
+
+
+def _first_per_type(recs: Sequence[MoveRecording], per_type: int | None) -> list[MoveRecording]:
+    if per_type is None:
+        return list(recs)
+    taken: dict[str, int] = {}
+    out = []
+    for r in recs:
+        if taken.get(r.move_type, 0) < per_type:
+            taken[r.move_type] = taken.get(r.move_type, 0) + 1
+            out.append(r)
+    return out
+
+
+def _check_out(out: Path) -> None:
+    """Refuse an output that is not (and would replace something that is not) a twin file."""
+    from .twin import load_twin
+
+    if out.is_dir():
+        raise ValueError(f"{out} is a directory; --out names the twin file to write")
+    if not out.parent.is_dir():
+        raise ValueError(f"{out.parent}: no such directory for the twin file")
+    if out.exists():
+        try:
+            load_twin(out)
+        except ValueError:
+            raise ValueError(f"refusing to replace {out}: it exists and is not a twin file") \
+                from None
+
+
+def calibrate_dataset(data: str | os.PathLike, robot: str | os.PathLike | RobotConfig,
+                      out: str | os.PathLike, options: CalibrationOptions = CalibrationOptions(),
+                      test_per_type: int | None = None,
+                      progress: Callable[[str], None] | None = None) -> Calibration:
+    """``calibrate``: fit the twin of ``robot`` (a name or a twin file) to the dataset ``data``
+    and write it to ``out`` (module doc). The file is written atomically after a successful fit
+    only; an existing twin file is replaced then, anything else there is refused up front.
+
+    ``test_per_type``: TestPool moves per type rolled out before and after (None: all).
+    """
+    from .. import __version__
+    from ..data.dataset import DatasetError, load_moves, read_index
+    from .twin import Twin, robot_config_from, robot_source, save_twin
+
+    out = Path(out)
+    options.check()
+    _check_out(out)
+    base = robot_config_from(robot)
+    index = read_index(data)
+    train = _first_per_type(load_moves(data, "train"), options.moves_per_type)
+    try:
+        test = _first_per_type(load_moves(data, "test"), test_per_type)
+    except DatasetError:
+        test = []
+    cal = calibrate_twin(train, test, base, options, progress)
+    provenance = {
+        "created_by": f"littledog_mlsim {__version__} calibrate",
+        "base_robot": robot_source(robot),
+        "calibrated_from": {"data": str(Path(data).resolve()),
+                            "dataset_robot": index.info.get("robot"),
+                            "train_moves": cal.report["train_moves"],
+                            "test_moves": [r.name for r in test]},
+        "parameters": {e.name: {k: v for k, v in _estimate_dict(e).items() if k != "name"}
+                       for e in cal.estimates},
+        "calibration": {k: v for k, v in cal.report.items() if k != "params"},
+    }
+    save_twin(Twin(cal.config, provenance), out)
+    log.info("wrote the twin %r to %s", cal.config.name, out)
+    return cal

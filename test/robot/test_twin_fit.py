@@ -1,0 +1,142 @@
+"""``littledog-mlsim calibrate`` (littledog_mlsim.robot.twin_fit) end to end, CI-sized.
+
+Independent reference: the data is recorded by ``record --robot truth.json``, a twin file of the
+nominal robot with two parameters moved (position gain 0.3 -> 0.2, velocity gain 1.0 -> 0.7);
+``calibrate`` starts from the stock nominal robot and must bring both back, each inside its own
+reported 95 % interval, with intervals that are finite and narrow, and cut the TestPool rollout
+error of the uncalibrated twin.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from littledog_mlsim.robot.config import robot_config
+from littledog_mlsim.robot.twin import Twin, load_twin, save_twin
+
+TRUTH = dataclasses.replace(robot_config("nominal"), name="truth", position_gain=0.2,
+                            velocity_gain=0.7)
+FITTED = ("position_gain", "velocity_gain")
+
+
+def cli(capsys, *args: str) -> subprocess.CompletedProcess:
+    from littledog_mlsim.cli import main
+
+    capsys.readouterr()
+    rc = main([str(a) for a in args])
+    out = capsys.readouterr()
+    return subprocess.CompletedProcess(args, rc, out.out, out.err)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> Path:
+    """F, L, BR and S moves, one TrainPool and one TestPool each, recorded on the truth twin."""
+    from littledog_mlsim.apps.record import record_dataset
+
+    work = tmp_path_factory.mktemp("cal")
+    save_twin(Twin(TRUTH, {"note": "the robot the reference is recorded on"}), work / "truth.json")
+    record_dataset(work / "ref", moves_per_type=2, types=["F", "L", "BR", "S"],
+                   robot=str(work / "truth.json"), jobs=2, progress=False)
+    return work / "ref"
+
+
+def test_calibrate_recovers_two_parameters_within_their_intervals(reference, tmp_path, capsys):
+    out = tmp_path / "twin.json"
+    p = cli(capsys, "calibrate", "--data", reference, "--robot", "nominal", "--out", out,
+            "--params", ",".join(FITTED), "--moves-per-type", "1", "--horizons", "1",
+            "--max-evals", "30", "--quiet")
+    assert p.returncode == 0, p.stderr
+    twin = load_twin(out)
+    prov = twin.provenance
+    assert prov["calibrated_from"]["dataset_robot"] == "truth"
+    assert prov["base_robot"] == {"robot": "nominal"}
+    for name in FITTED:
+        e = prov["parameters"][name]
+        lo, hi = e["ci95"]
+        true = getattr(TRUTH, name)
+        assert lo is not None and hi is not None and lo <= true <= hi, (name, e)
+        assert (hi - lo) / true < 0.2, (name, e)            # not absurdly wide
+        assert abs(e["value"] - true) < 0.25 * abs(e["start"] - true), (name, e)
+        assert e["at_bound"] is None
+        assert getattr(twin.robot, name) == pytest.approx(e["value"])
+    # only the fitted parameters moved
+    assert dataclasses.replace(twin.robot, name="nominal", position_gain=0.3,
+                               velocity_gain=1.0) == robot_config("nominal")
+    assert twin.robot.name == "nominal-calibrated"
+    roll = prov["calibration"]["rollout"]
+    assert roll["after"]["final_xy_error_m"] < 0.7 * roll["before"]["final_xy_error_m"]
+    assert prov["calibration"]["weak_directions"] == []
+    assert isinstance(prov["calibration"]["converged"], bool) and prov["calibration"]["stop"]
+    assert "position_gain" in p.stdout and "TestPool rollout final (x, y) error" in p.stdout
+    # the twin runs where a robot name does
+    p = cli(capsys, "record", "--out", tmp_path / "again", "--moves-per-type", "1",
+            "--types", "F", "--robot", out, "--quiet", "--jobs", "1")
+    assert p.returncode == 0, p.stderr
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--params", "warp_drive"], "unknown parameter 'warp_drive'"),
+    (["--params", "kp_knee"], "parameter 'kp_knee' acts on the pd_torque servo"),
+    (["--horizons", "0"], "horizons must be integers in 1..100"),
+    (["--robot", "nominal.json"], "no such file"),
+    (["--max-evals", "2"], "max_evals must be >= 4"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(reference, tmp_path, capsys, argv, fragment):
+    out = tmp_path / "twin.json"
+    p = cli(capsys, "calibrate", "--data", reference, "--out", out, "--quiet", *argv)
+    assert p.returncode == 2 and fragment in p.stderr, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert sorted(tmp_path.iterdir()) == []
+
+
+def test_a_good_file_is_never_replaced_by_a_failed_fit(reference, tmp_path, capsys):
+    good = tmp_path / "twin.json"
+    save_twin(Twin(TRUTH), good)
+    before = good.read_bytes()
+    # a fit that cannot run (a horizon longer than any allowed)
+    p = cli(capsys, "calibrate", "--data", reference, "--out", good, "--horizons", "500",
+            "--quiet")
+    assert p.returncode == 2 and "horizons" in p.stderr
+    assert good.read_bytes() == before and sorted(tmp_path.iterdir()) == [good]
+    # something that is not a twin file is refused up front, and a directory too
+    other = tmp_path / "notes.json"
+    other.write_text(json.dumps({"hello": 1}))
+    p = cli(capsys, "calibrate", "--data", reference, "--out", other, "--quiet")
+    assert p.returncode == 2 and "refusing to replace" in p.stderr
+    assert json.loads(other.read_text()) == {"hello": 1}
+    p = cli(capsys, "calibrate", "--data", reference, "--out", tmp_path, "--quiet")
+    assert p.returncode == 2 and "is a directory" in p.stderr
+    p = cli(capsys, "calibrate", "--data", tmp_path / "nowhere", "--out", good, "--quiet")
+    assert p.returncode == 2 and "no such dataset directory" in p.stderr
+    assert good.read_bytes() == before
+
+
+def test_weak_directions_name_the_combination_the_data_cannot_see():
+    """Bullet multiplies foot and ground friction, so residuals see only their product: two
+    equal Jacobian columns. The one weak direction is their difference, with no bound; a
+    parameter with its own column is not named."""
+    import numpy as np
+
+    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
+    from littledog_mlsim.robot.twin_fit import weak_directions
+
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=200), rng.normal(size=200)
+    J = np.stack([a, a, b], axis=1)              # foot, ground (same effect), body mass
+    params = [TWIN_PARAMETERS[n] for n in ("foot_friction", "ground_friction", "body_mass")]
+    cov = np.linalg.pinv(J.T @ J)                # the pseudo-inverse hides the null direction
+    weak, sv = weak_directions(J, params, [cov], 1.0, 0.25)
+    assert len(weak) == 1 and sv[-1] < 1e-10 * sv[0]
+    w = weak[0].combination
+    assert w["foot_friction"] == pytest.approx(-w["ground_friction"], abs=1e-9)
+    assert abs(w["foot_friction"]) == pytest.approx(2 ** -0.5, abs=1e-9)
+    assert abs(w["body_mass"]) < 1e-9
+    assert weak[0].describe() in ("0.71 foot_friction - 0.71 ground_friction",
+                                  "0.71 ground_friction - 0.71 foot_friction")
+    # a well-determined set has none
+    assert weak_directions(np.stack([a, b], axis=1), params[1:], [np.eye(2) * 1e-4], 1.0,
+                           0.25)[0] == []
