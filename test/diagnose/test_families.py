@@ -190,3 +190,17 @@ def test_the_reference_lists_every_registered_family():
     text = (Path(__file__).resolve().parents[2] / "docs" / "families.md").read_text()
     for f in FAMILIES.values():
         assert f"| `{f.name}` | {f.kind} | `{f.primary}` [{f.unit}] |" in text, f.name
+
+
+def test_torque_saturation_reads_the_measured_robots_servo():
+    """The torque family's normal limits and its learned feature's scale are the measured
+    robot's knee servo (robot/config.py): 1.7 / 1.7 / 0.61 N m, and 0.61 N m / 6.7 N m/rad."""
+    from littledog_mlsim.robot.config import robot_config
+    spec = FAMILIES["torque_saturation"]
+    fit = _Fit(spec.name, "all", 0.5, 0.5, None, {})
+    params = {**spec.physical_params(fit, 0.8), **fit.params()}
+    assert params["torque_limit_Nm_by_joint_type"] == {
+        "hip_pitch": 0.5 * 1.7, "hip_roll": 0.5 * 1.7, "knee": 0.5 * 0.61}
+    assert params["torque_limit_Nm"] == 0.5 * 0.61
+    assert robot_config("measured").torque_limit == (1.7, 1.7, 0.61)
+    assert spec.augmentation("all", params).limit == round(0.5 * 0.61 / 6.7, 4)
