@@ -142,45 +142,12 @@ def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -
     }
 
 
-_LEARNED_TO_VOCAB = {"command delay": "command_delay", "command filter": "command_filter",
-                     "Coulomb friction": "joint_friction", "backlash/hysteresis": "backlash",
-                     "tracking error saturation": "torque_saturation",
-                     "pose (heading)": "odom_force", "elapsed time": "time_drift",
-                     "foot contact": "contact_phase", "gait phase": "contact_phase"}
-_PRIMARY = {"command_delay": "delay_ms", "command_filter": "time_constant_ms",
-            "joint_friction": "coulomb_Nm", "backlash": "width_rad",
-            "torque_saturation": "torque_limit_Nm", "odom_force": "force_N",
-            "time_drift": "rate_per_s", "contact_phase": "magnitude"}
-
-
 def learned_physical(aug: Any) -> dict[str, Any]:
     """The vocabulary's family/scope of a feature the learned loop added (docs/diagnosis.md);
     the learned loop measures no physical magnitude, so the primary parameter is null except a
-    command delay's (lag x 10 ms)."""
-    fam = _LEARNED_TO_VOCAB.get(aug.family, "other")
-    params = aug.params()
-    joints = params.get("joints", "all")
-    from .families import FAMILIES
-    if fam not in FAMILIES or FAMILIES[fam].kind != "joints":   # a push, a contact term, other
-        scope = "body"
-    elif joints == "all":
-        scope = "all"
-    elif joints in ("hip_rolls", "hip_pitches", "knees"):
-        scope = f"type:{joints}"
-    elif joints in ("left", "right"):
-        scope = f"side:{joints}"
-    elif "_" in joints and joints.count("_") == 1:
-        scope = f"leg:{joints}"
-    else:
-        scope = f"joint:{joints}"
-    value = None
-    if aug.name == "command_lag":
-        value = 10.0 * params["lag"]
-    elif aug.name == "command_filter":
-        value = params["time_constant_ms"]
-    out = {_PRIMARY.get(fam, "value"): value}
-    return {"family": fam, "scope": scope, "params": out,
-            "statement": f"the learned model lacked {aug.label()} ({aug.family})"}
+    command delay's (lag x 10 ms) and a command filter's (:mod:`.families.learned`)."""
+    from .families.learned import physical_reading
+    return physical_reading(aug)
 
 
 def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> dict[str, Any]:

@@ -11,7 +11,7 @@ import numpy as np
 from ...layout import JOINT_NAMES, LEGS, N_JOINTS
 
 __all__ = ["TYPE_SCOPES", "scope_joints", "joint_scopes", "leg_scopes", "scope_words",
-           "scope_group", "related_scopes"]
+           "scope_group", "group_scope", "related_scopes"]
 
 TYPE_SCOPES = {"hip_rolls": "hip_roll", "hip_pitches": "hip_pitch", "knees": "knee"}
 _JOINT_WORDS = {"hip_roll": "hip roll", "hip_pitch": "hip pitch", "knee": "knee"}
@@ -49,6 +49,21 @@ def scope_group(scope: str) -> str:
     """The joint group a learned feature is restricted to: ``all`` for ``all`` and ``body``,
     else the scope's name after the colon (``leg:back_left`` -> ``back_left``)."""
     return "all" if scope in ("all", "body") else scope.split(":", 1)[1]
+
+
+def group_scope(group: str) -> str:
+    """The joint scope of a learned feature's joint group (:func:`scope_group`'s inverse):
+    ``all``, a joint type (``knees`` -> ``type:knees``), a side (``left`` -> ``side:left``), a
+    leg (``back_left`` -> ``leg:back_left``) or one joint (``joint:back_left_knee``)."""
+    if group == "all":
+        return "all"
+    if group in TYPE_SCOPES:
+        return f"type:{group}"
+    if group in ("left", "right"):
+        return f"side:{group}"
+    if group.count("_") == 1:
+        return f"leg:{group}"
+    return f"joint:{group}"
 
 
 def scope_words(scope: str) -> str:
