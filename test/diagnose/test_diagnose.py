@@ -749,6 +749,56 @@ def test_joint_fit_simulates_the_segments_without_the_replay():
     assert set(r.modes) == {"full"}
 
 
+def test_held_out_decision_is_handed_to_an_observer_as_decided():
+    """``validate``'s observer receives the shortlist, the held-out SSEs, each hypothesis's
+    decision and the choice, as the decision made them (a stand-in robot on which friction
+    brings the outputs closer to the measurement than a gain change); the finding is the same
+    with and without the observer."""
+    from littledog_mlsim.diagnose import stats
+    from littledog_mlsim.diagnose.physical import Candidate, SearchContext, validate
+    from littledog_mlsim.diagnose.physical.channels import SEG_LEN, Measured, errors
+    rng = np.random.default_rng(5)
+    n = 6
+    sig = rng.normal(size=(n, 4, SEG_LEN, 18))
+    full = rng.normal(size=(n, 4 * SEG_LEN, 18))
+    jitter = rng.uniform(0.8, 1.2, n)
+
+    class Runner:
+        def map(self, tasks):
+            out = []
+            for i, hyps, mode in tasks:
+                k = jitter[i] * sum(par["coulomb_Nm"] if fam == "joint_friction"
+                                    else 1.0 - par["gain_ratio"] for fam, _, par in hyps)
+                out.append({"segs": (1.0 - k) * sig[i], "seg_idx": np.arange(4),
+                            "full": (1.0 - k) * full[i]})
+            return out
+
+    meas = [Measured(np.zeros((4, SEG_LEN, 18)), np.zeros((4 * SEG_LEN, 18)))] * n
+    runner = Runner()
+    base_err = [errors(s, m) for s, m in zip(runner.map([(i, [], "full") for i in range(n)]),
+                                               meas)]
+    ctx = SearchContext(runner, (), base_err, meas)
+    top = [Candidate("servo_gain", "all", 1.0, 0.9, fitted=0.9),
+           Candidate("joint_friction", "type:knees", 1.0, 0.4, fitted=0.4)]
+    seen = []
+    V = list(range(n))
+    args = (ctx, top, V, [], 0.01, 0.05, (0.1, 1.0), top, 3.0, 0.81)
+    found = validate(*args, observer=seen.append)
+    assert len(seen) == 1
+    d = seen[0]
+    assert d.hypotheses == tuple(top) and d.n_shortlist == 2 and d.chosen == 1
+    np.testing.assert_allclose(d.S0, ctx.sse(None, V))
+    for c, S1 in zip(top, d.S1):
+        np.testing.assert_allclose(S1, ctx.sse(c.hyp(), V))
+    again = stats.decide_all(d.S0, list(d.S1), 0.01, 0.05)
+    assert [x.p_value for x in d.decisions] == [x.p_value for x in again]
+    assert d.move_cut == tuple(float(np.mean(stats.move_cuts(d.S0, S1))) for S1 in d.S1)
+    assert (found.family, found.scope) == ("joint_friction", "type:knees") and found.accepted
+    plain = validate(*args)
+    assert (plain.family, plain.scope, plain.p_value) == (found.family, found.scope,
+                                                          found.p_value)
+
+
 @pytest.mark.slow
 def test_physical_servo_gain_of_one_joint(recorded):
     data = _record_small(recorded, "p_gain", 123,
