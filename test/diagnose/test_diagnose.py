@@ -345,6 +345,77 @@ def test_report_files_and_schema(delay_report):
     assert [a.label() for a in m.feature_set.augmentations][-1] == e["label"]
 
 
+def _documented_report_keys() -> dict[str, set[str]]:
+    """docs/report.md's key names, by section (the first column's backticked names)."""
+    import re
+    text = (Path(__file__).resolve().parents[2] / "docs" / "report.md").read_text()
+    sections: dict[str, set[str]] = {}
+    current = None
+    for line in text.splitlines():
+        if line.startswith("## "):
+            current = sections.setdefault(line[3:].strip(), set())
+        elif line.startswith("| `") and current is not None:
+            current |= set(re.findall(r"`([^`]+)`", line.split("|")[1]))
+    return sections
+
+
+def undocumented_report_keys(doc: dict) -> list[str]:
+    """Keys of a report.json document that docs/report.md does not list where they occur."""
+    known = _documented_report_keys()
+    missing: list[str] = []
+
+    def check(block: dict, section: str, where: str) -> None:
+        missing.extend(f"{where}.{k}" for k in block if k not in known[section])
+
+    def stage(block: dict, where: str) -> None:
+        check(block, "Stage blocks", where)
+        for label, r in block["rollout"].items():
+            check(r, "Stage blocks", f"{where}.rollout.{label}")
+
+    check(doc, "Top level", "")
+    for i, e in enumerate(doc["effects"]):
+        check(e, "Effects", f"effects[{i}]")
+        check(e["evidence"], "Evidence", f"effects[{i}].evidence")
+        stage(e["before"], f"effects[{i}].before")
+        stage(e["after"], f"effects[{i}].after")
+    for k, st in enumerate(doc["stages"]):
+        stage(st, f"stages[{k}]")
+    for k, r in enumerate(doc["rounds"]):
+        check(r, "Rounds", f"rounds[{k}]")
+    check(doc["search"], "Search", "search")
+    if "physics" in doc:
+        check(doc["physics"], "Physics", "physics")
+    return missing
+
+
+def test_every_report_key_of_either_route_is_documented(delay_report):
+    """docs/report.md lists every key the learned route's report holds, and every key the
+    physical route's builder writes (a finding built by hand, on the same stages)."""
+    from littledog_mlsim.diagnose.physical import Finding, Hypothesis, PhysIdResult
+    from littledog_mlsim.diagnose.physical.channels import N_CH
+    from littledog_mlsim.diagnose.report import build_physical_report
+    from littledog_mlsim.models.features import CommandLag
+    report, out = delay_report
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["effects"] and doc["rounds"]
+    assert undocumented_report_keys(doc) == []
+    hyp = Hypothesis("command_delay", "leg:back_left", {"delay_ms": 30.0})
+    finding = Finding("command_delay", "leg:back_left", {"delay_ms": 30.0}, "late", True, True,
+                      1e-4, np.full(N_CH, 0.1), np.full(N_CH, 1e-3),
+                      [{"family": "command_delay", "scope": "leg:back_left", "score": 1.0,
+                        "first_order_magnitude": 25.0}],
+                      [{"magnitude": 30.0, "J_relative": 0.5}], {}, {}, hyp, [])
+    pid = PhysIdResult([finding], [finding], [], "measured", 6, 12, 100, 1.0, 0.01, 0.05, 200,
+                       (0.1, 1.0), {})
+    info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
+                                "n_train_moves", "n_test_moves", "model", "seconds")}
+    physical = build_physical_report(pid, [CommandLag(lag=3, joints="back_left")], [1],
+                                     doc["stages"], **info)
+    assert physical["physics"] and physical["effects"][0]["augmentation"]
+    assert undocumented_report_keys(physical) == []
+    assert set(physical) == set(doc) | {"physics"}
+
+
 def test_knee_coulomb_friction_is_found_as_friction(recorded):
     data = _record(recorded, "friction", 105,
                    "- class: littledog_mlsim.robot.effects:JointFriction\n"
