@@ -87,8 +87,8 @@ def related_scopes(scope: str) -> list[str]:
     """The scopes a joint finding is compared with before it is named: for a single joint, the
     other joints of its leg (an offset or a fault on one joint of a leg moves the foot much as
     one on its neighbour does, and the linear screen can prefer the wrong one:
-    benchmarks/blind_zoo/README.md, after zoo4) and the groups that hold it; the coarser groups
-    of a group; the finer groups of ``all``."""
+    docs/decisions/013-scope-check-and-signed-start.md) and the groups that hold it; the
+    coarser groups of a group; the finer groups of ``all``."""
     if scope == "all":
         return ["side:left", "side:right"] + [f"type:{t}" for t in TYPE_SCOPES]
     kind, _, what = scope.partition(":")
