@@ -10,10 +10,13 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 from .layout import MOVE_TYPES
 from .logs import setup_logging, teardown_logging
+
+if TYPE_CHECKING:
+    from .diagnose.options import DiagnoseOptions
 
 
 class CliError(Exception):
@@ -199,8 +202,9 @@ def _fraction(text: str) -> float:
     return v
 
 
-def cmd_diagnose(a: argparse.Namespace) -> int:
-    from .diagnose import DiagnoseOptions, LearnedRoute, PhysicalRoute, SearchModel, diagnose
+def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
+    """The diagnosis options of ``diagnose``'s parsed arguments (a CliError names bad ones)."""
+    from .diagnose import DiagnoseOptions, LearnedRoute, PhysicalRoute, SearchModel
     from .diagnose.options import route_from_mode
 
     if not a.data.is_dir():
@@ -222,10 +226,16 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
                        "horizons_s": tuple(a.horizons)}
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
                             LearnedRoute(search=search, max_rounds=a.max_rounds))
-    r = diagnose(a.data, a.out, DiagnoseOptions(
+    return DiagnoseOptions(
         route=route, model=a.model, baseline=a.baseline, method=a.method, options=options,
         alpha=a.significance, min_gain=a.min_gain, projections=a.projections,
-        projection_alpha=a.alpha, seed=a.seed, figures=not a.no_figures, progress=not a.quiet))
+        projection_alpha=a.alpha, seed=a.seed, figures=not a.no_figures, progress=not a.quiet)
+
+
+def cmd_diagnose(a: argparse.Namespace) -> int:
+    from .diagnose import diagnose
+
+    r = diagnose(a.data, a.out, diagnose_options(a))
     for e in r.get("effects", []):
         if "physical" in e:
             print(f"effect {e['round']}: {e['physical']['family']} on {e['physical']['scope']} "

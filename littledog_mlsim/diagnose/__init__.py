@@ -10,9 +10,7 @@ Two routes share one statistics module and one report:
 - :mod:`.stats`: the move-grouped t-tests, the rank test and the decision both routes use;
 - :mod:`.run`: :func:`diagnose`, the loop end to end (the ``diagnose`` verb), with
   :class:`.options.DiagnoseOptions`;
-- :mod:`.report`: ``report.json`` (schema in its docstring) and ``report.md`` with figures;
-- :mod:`.physics`: the physics baseline's own calibration against a TrainPool residual
-  (``benchmarks/physics_diagnosis/physics_diagnosis.py``; no CLI verb);
+- :mod:`.report`: ``report.json`` (schema: ``docs/report.md``) and ``report.md`` with figures;
 - :mod:`.physid`: the physical route under its former name (re-exports for tools).
 """
 from .candidates import BASELINES, default_library, measured_robot_features, paper_features

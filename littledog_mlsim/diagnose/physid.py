@@ -2,7 +2,7 @@
 
 The route lives in :mod:`littledog_mlsim.diagnose.physical` (method in its docstring) and the
 families in :mod:`littledog_mlsim.diagnose.families`. This module keeps the names the tests and
-the benchmark tools (``benchmarks/blind_zoo/*.py``) import, including their former private
+the benchmark tools (``benchmarks/blind_zoo/harness/*.py``) import, including their former private
 names; new code imports from :mod:`.physical`.
 """
 from __future__ import annotations
@@ -46,7 +46,7 @@ __all__ = ["FAMILIES", "FamilySpec", "scopes_for", "scope_joints", "build_effect
            "physical_params", "push_twin", "suspicions", "true_start", "LONG",
            "SCREEN_SEGMENTS", "SEG_LEN", "SEG_STARTS", "SHORT", "N_TESTS", "RANK_FLIPS",
            "Decision", "move_cuts", "rank_max_p", "decide", "decide_all",
-           # former private names the benchmarks/blind_zoo tools use
+           # former private names the benchmarks/blind_zoo/harness tools use
            "_Measured", "_errors", "_measured", "_sse", "_J", "_pick_moves", "_Move", "_Runner",
            "_init_worker", "_simulate", "_t_greater", "_weights"]
 

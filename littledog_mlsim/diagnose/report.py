@@ -1,59 +1,10 @@
 """``report.json`` and ``report.md`` (with figures) of a diagnosis.
 
-report.json schema (format ``littledog_mlsim.diagnosis``, version 1)
---------------------------------------------------------------------
-Top level::
-
-    format, format_version          "littledog_mlsim.diagnosis", 1
-    significant                     bool: at least one effect was found (and added)
-    effects                         list, in the order found (one per round), each:
-      round                         1-based round that found it
-      name, label                   augmentation name ("command_lag") and with parameters
-      family                        kind of effect ("command delay", "Coulomb friction", ...)
-      params                        its estimated parameters ({"lag": 2, "joints": "all"})
-      columns                       feature columns it adds to the model
-      outputs                       state names it affects (held-out cut >= min_gain / 2 and
-                                    p < alpha, unadjusted, on the TrainPool cross-fit)
-      p_value                       the family's best adjusted p (Bonferroni over the 2 tests,
-                                    33 elements, library size); significant iff < alpha
-      evidence                      TrainPool cross-fitted numbers that chose it:
-        held_out_gain               {state: relative cut of the held-out MSE} of this member
-        total_gain, max_gain, p_pooled, n_moves, moves_improved {state: n}
-        parameter_profile           [{candidate, params, total_gain, max_gain, p_value}] of the
-                                    family's members (how the parameter was estimated)
-        search_nmse_before          {state: held-out nMSE of the search model before it}
-        residual_input_ccf          command delay only: {lags, ccf {state: [corr of the held-out
-                                    residual with that joint's command increment at each lag]},
-                                    band_95 (rough, ~20 independent samples per move)}
-        delay_scan                  command delay only: [{delay d, total_gain, gain {state}}]
-                                    of the search model refitted with u_{t-d} in place of u_t
-                                    (d = 0 is the model without the effect); the estimate is
-                                    the best d
-      before, after                 the report model on the TestPool without/with it:
-        nmse {state: value}, nmse_mean, n_samples, feature_set, feature_set_description,
-        rollout {label: {final_xy_error_m, final_xy_error_m_median, final_xy_error_m_p90,
-                         n_nan_moves, element_error_sum_mean {state: value},
-                         nmse_at_horizon {h: {nmse {state: value}, steps, ...}},
-                         xy_error_vs_time_mean [per step], rollout_wall_s}}
-      nmse_cut                      {state: 1 - after / before} on the TestPool, outputs only
-    before, after                   the same blocks for the start and the final feature set
-    stages                          every stage's block (start, then after each effect)
-    rounds                          [{round, feature_set, picked, n_significant, n_material,
-                                    notes, best: [candidate dicts, 10 largest total gain]}]
-    baseline, method, options       where the loop started and the report model
-    search                          search model, folds, alpha, min_gain, library size
-    data, dataset_info, n_train_moves, n_test_moves, model (path of the final model), seconds
-
-All numbers are plain JSON (no NaN: undefined values are null).
-
-Additions (both modes, see docs/diagnosis.md for every key): ``effects[i].physical`` = {family,
-scope, params {primary: value, ...}, statement} in the diagnosis vocabulary; ``suspected`` =
-[{family, scope, params, why, recording}]. With physical identification (``diagnose
---physics on/auto``, :func:`write_physical_report`) also ``effects[i].augmentation``,
-``effects[i].augmentation_note``, the physics ``effects[i].evidence`` (held-out output-error cuts,
-magnitude profile, fitted rivals, errors at horizons 0.1/0.5/1/4 s before/after) and ``physics``
-(transducer, moves, simulations, thresholds, the rejected best candidate); ``rounds`` is empty
-and ``search.kind`` is "physical identification".
+Both routes write one document, format ``littledog_mlsim.diagnosis``, version 1: the learned
+route's through :func:`build_report`, the physical route's through
+:func:`build_physical_report`. Its schema, every key with the route that writes it, is
+``docs/report.md`` (the one place it is written; ``test/diagnose`` checks that every key the
+builders write is there). All numbers are plain JSON (no NaN: undefined values are null).
 """
 from __future__ import annotations
 
@@ -142,45 +93,12 @@ def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -
     }
 
 
-_LEARNED_TO_VOCAB = {"command delay": "command_delay", "command filter": "command_filter",
-                     "Coulomb friction": "joint_friction", "backlash/hysteresis": "backlash",
-                     "tracking error saturation": "torque_saturation",
-                     "pose (heading)": "odom_force", "elapsed time": "time_drift",
-                     "foot contact": "contact_phase", "gait phase": "contact_phase"}
-_PRIMARY = {"command_delay": "delay_ms", "command_filter": "time_constant_ms",
-            "joint_friction": "coulomb_Nm", "backlash": "width_rad",
-            "torque_saturation": "torque_limit_Nm", "odom_force": "force_N",
-            "time_drift": "rate_per_s", "contact_phase": "magnitude"}
-
-
 def learned_physical(aug: Any) -> dict[str, Any]:
     """The vocabulary's family/scope of a feature the learned loop added (docs/diagnosis.md);
     the learned loop measures no physical magnitude, so the primary parameter is null except a
-    command delay's (lag x 10 ms)."""
-    fam = _LEARNED_TO_VOCAB.get(aug.family, "other")
-    params = aug.params()
-    joints = params.get("joints", "all")
-    from .families import FAMILIES
-    if fam not in FAMILIES or FAMILIES[fam].kind != "joints":   # a push, a contact term, other
-        scope = "body"
-    elif joints == "all":
-        scope = "all"
-    elif joints in ("hip_rolls", "hip_pitches", "knees"):
-        scope = f"type:{joints}"
-    elif joints in ("left", "right"):
-        scope = f"side:{joints}"
-    elif "_" in joints and joints.count("_") == 1:
-        scope = f"leg:{joints}"
-    else:
-        scope = f"joint:{joints}"
-    value = None
-    if aug.name == "command_lag":
-        value = 10.0 * params["lag"]
-    elif aug.name == "command_filter":
-        value = params["time_constant_ms"]
-    out = {_PRIMARY.get(fam, "value"): value}
-    return {"family": fam, "scope": scope, "params": out,
-            "statement": f"the learned model lacked {aug.label()} ({aug.family})"}
+    command delay's (lag x 10 ms) and a command filter's (:mod:`.families.learned`)."""
+    from .families.learned import physical_reading
+    return physical_reading(aug)
 
 
 def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> dict[str, Any]:

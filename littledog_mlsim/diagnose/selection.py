@@ -66,6 +66,7 @@ from scipy.linalg import cho_factor, cho_solve
 from ..data.recording import MoveRecording
 from ..layout import MOVE_TYPES, N_FEATURE, N_STATE, STATE_NAMES
 from ..models.features import Augmentation, CommandLag, FeatureSet
+from .families.learned import DELAY_TOLERANCE, learned_family
 from .stats import SSEDecision, sse_decision  # re-exported (physics.py imports them here)
 
 __all__ = ["SearchModel", "CandidateScore", "Round", "SelectionResult", "move_folds",
@@ -280,34 +281,12 @@ def screen(model: SearchModel, columns: dict[str, np.ndarray],
     return out
 
 
-DELAY_TOLERANCE = 0.1
-
-
 def estimate_member(family: str, scores: Sequence[CandidateScore],
                     delay_tolerance: float = DELAY_TOLERANCE) -> CandidateScore:
-    """The member of a detected family that states its parameters (see module doc, step 5).
-
-    Command delay: next to u_t, any u_{t-k} with k <= d lets the model rebuild u_{t-d} by
-    inter-/extrapolating with u_t, while k > d only repeats what the state already shows, so the
-    held-out gain of u_{t-k} is about flat up to the delay and drops after it. The estimate is
-    the largest k whose total gain is within ``delay_tolerance`` of the best lag's (the knee of
-    the profile), not the argmax, which is a coin toss between 1 and d. Other families
-    (parsimony): of the members within the same tolerance of the best total gain, the one with
-    the fewest columns (then the larger gain), so friction on the knees is named "knees" rather
-    than "all joints" when the other joints add nothing.
-    """
-    if family == "command delay":
-        lags = [s for s in scores if s.augmentation.name == "command_lag"]
-        if lags:
-            best = max(s.total_gain for s in lags)
-            if best > 0:
-                ok = [s for s in lags if s.total_gain >= (1.0 - delay_tolerance) * best]
-                return max(ok, key=lambda s: s.augmentation.lag)
-    best = max(s.total_gain for s in scores)
-    if best <= 0:
-        return max(scores, key=lambda s: s.total_gain)
-    ok = [s for s in scores if s.total_gain >= (1.0 - delay_tolerance) * best]
-    return min(ok, key=lambda s: (len(s.augmentation.columns()), -s.total_gain))
+    """The member of a detected feature family that states its parameters (see module doc,
+    step 5): the family's own rule (:meth:`.families.learned.LearnedFamily.estimate_member`),
+    the largest lag near the best for a command delay, parsimony for the others."""
+    return learned_family(family).estimate_member(scores, delay_tolerance)
 
 
 @dataclass
@@ -431,7 +410,7 @@ def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
     for family in families:
         members = [s for s in scores if s.augmentation.family == family]
         picked = estimate_member(family, members)
-        if family != "command delay":
+        if not learned_family(family).scans_delay:
             break
         lags = sorted({s.augmentation.lag for s in members
                        if s.augmentation.name == "command_lag"})

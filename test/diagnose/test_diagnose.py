@@ -345,6 +345,77 @@ def test_report_files_and_schema(delay_report):
     assert [a.label() for a in m.feature_set.augmentations][-1] == e["label"]
 
 
+def _documented_report_keys() -> dict[str, set[str]]:
+    """docs/report.md's key names, by section (the first column's backticked names)."""
+    import re
+    text = (Path(__file__).resolve().parents[2] / "docs" / "report.md").read_text()
+    sections: dict[str, set[str]] = {}
+    current = None
+    for line in text.splitlines():
+        if line.startswith("## "):
+            current = sections.setdefault(line[3:].strip(), set())
+        elif line.startswith("| `") and current is not None:
+            current |= set(re.findall(r"`([^`]+)`", line.split("|")[1]))
+    return sections
+
+
+def undocumented_report_keys(doc: dict) -> list[str]:
+    """Keys of a report.json document that docs/report.md does not list where they occur."""
+    known = _documented_report_keys()
+    missing: list[str] = []
+
+    def check(block: dict, section: str, where: str) -> None:
+        missing.extend(f"{where}.{k}" for k in block if k not in known[section])
+
+    def stage(block: dict, where: str) -> None:
+        check(block, "Stage blocks", where)
+        for label, r in block["rollout"].items():
+            check(r, "Stage blocks", f"{where}.rollout.{label}")
+
+    check(doc, "Top level", "")
+    for i, e in enumerate(doc["effects"]):
+        check(e, "Effects", f"effects[{i}]")
+        check(e["evidence"], "Evidence", f"effects[{i}].evidence")
+        stage(e["before"], f"effects[{i}].before")
+        stage(e["after"], f"effects[{i}].after")
+    for k, st in enumerate(doc["stages"]):
+        stage(st, f"stages[{k}]")
+    for k, r in enumerate(doc["rounds"]):
+        check(r, "Rounds", f"rounds[{k}]")
+    check(doc["search"], "Search", "search")
+    if "physics" in doc:
+        check(doc["physics"], "Physics", "physics")
+    return missing
+
+
+def test_every_report_key_of_either_route_is_documented(delay_report):
+    """docs/report.md lists every key the learned route's report holds, and every key the
+    physical route's builder writes (a finding built by hand, on the same stages)."""
+    from littledog_mlsim.diagnose.physical import Finding, Hypothesis, PhysIdResult
+    from littledog_mlsim.diagnose.physical.channels import N_CH
+    from littledog_mlsim.diagnose.report import build_physical_report
+    from littledog_mlsim.models.features import CommandLag
+    report, out = delay_report
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["effects"] and doc["rounds"]
+    assert undocumented_report_keys(doc) == []
+    hyp = Hypothesis("command_delay", "leg:back_left", {"delay_ms": 30.0})
+    finding = Finding("command_delay", "leg:back_left", {"delay_ms": 30.0}, "late", True, True,
+                      1e-4, np.full(N_CH, 0.1), np.full(N_CH, 1e-3),
+                      [{"family": "command_delay", "scope": "leg:back_left", "score": 1.0,
+                        "first_order_magnitude": 25.0}],
+                      [{"magnitude": 30.0, "J_relative": 0.5}], {}, {}, hyp, [])
+    pid = PhysIdResult([finding], [finding], [], "measured", 6, 12, 100, 1.0, 0.01, 0.05, 200,
+                       (0.1, 1.0), {})
+    info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
+                                "n_train_moves", "n_test_moves", "model", "seconds")}
+    physical = build_physical_report(pid, [CommandLag(lag=3, joints="back_left")], [1],
+                                     doc["stages"], **info)
+    assert physical["physics"] and physical["effects"][0]["augmentation"]
+    assert undocumented_report_keys(physical) == []
+    assert set(physical) == set(doc) | {"physics"}
+
+
 def test_knee_coulomb_friction_is_found_as_friction(recorded):
     data = _record(recorded, "friction", 105,
                    "- class: littledog_mlsim.robot.effects:JointFriction\n"
@@ -747,6 +818,56 @@ def test_joint_fit_simulates_the_segments_without_the_replay():
     r.modes.clear()
     fit_magnitude(ctx, Candidate("body_torque", "body", 1.0, 0.05), [0])
     assert set(r.modes) == {"full"}
+
+
+def test_held_out_decision_is_handed_to_an_observer_as_decided():
+    """``validate``'s observer receives the shortlist, the held-out SSEs, each hypothesis's
+    decision and the choice, as the decision made them (a stand-in robot on which friction
+    brings the outputs closer to the measurement than a gain change); the finding is the same
+    with and without the observer."""
+    from littledog_mlsim.diagnose import stats
+    from littledog_mlsim.diagnose.physical import Candidate, SearchContext, validate
+    from littledog_mlsim.diagnose.physical.channels import SEG_LEN, Measured, errors
+    rng = np.random.default_rng(5)
+    n = 6
+    sig = rng.normal(size=(n, 4, SEG_LEN, 18))
+    full = rng.normal(size=(n, 4 * SEG_LEN, 18))
+    jitter = rng.uniform(0.8, 1.2, n)
+
+    class Runner:
+        def map(self, tasks):
+            out = []
+            for i, hyps, mode in tasks:
+                k = jitter[i] * sum(par["coulomb_Nm"] if fam == "joint_friction"
+                                    else 1.0 - par["gain_ratio"] for fam, _, par in hyps)
+                out.append({"segs": (1.0 - k) * sig[i], "seg_idx": np.arange(4),
+                            "full": (1.0 - k) * full[i]})
+            return out
+
+    meas = [Measured(np.zeros((4, SEG_LEN, 18)), np.zeros((4 * SEG_LEN, 18)))] * n
+    runner = Runner()
+    base_err = [errors(s, m) for s, m in zip(runner.map([(i, [], "full") for i in range(n)]),
+                                               meas)]
+    ctx = SearchContext(runner, (), base_err, meas)
+    top = [Candidate("servo_gain", "all", 1.0, 0.9, fitted=0.9),
+           Candidate("joint_friction", "type:knees", 1.0, 0.4, fitted=0.4)]
+    seen = []
+    V = list(range(n))
+    args = (ctx, top, V, [], 0.01, 0.05, (0.1, 1.0), top, 3.0, 0.81)
+    found = validate(*args, observer=seen.append)
+    assert len(seen) == 1
+    d = seen[0]
+    assert d.hypotheses == tuple(top) and d.n_shortlist == 2 and d.chosen == 1
+    np.testing.assert_allclose(d.S0, ctx.sse(None, V))
+    for c, S1 in zip(top, d.S1):
+        np.testing.assert_allclose(S1, ctx.sse(c.hyp(), V))
+    again = stats.decide_all(d.S0, list(d.S1), 0.01, 0.05)
+    assert [x.p_value for x in d.decisions] == [x.p_value for x in again]
+    assert d.move_cut == tuple(float(np.mean(stats.move_cuts(d.S0, S1))) for S1 in d.S1)
+    assert (found.family, found.scope) == ("joint_friction", "type:knees") and found.accepted
+    plain = validate(*args)
+    assert (plain.family, plain.scope, plain.p_value) == (found.family, found.scope,
+                                                          found.p_value)
 
 
 @pytest.mark.slow

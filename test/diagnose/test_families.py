@@ -190,3 +190,77 @@ def test_the_reference_lists_every_registered_family():
     text = (Path(__file__).resolve().parents[2] / "docs" / "families.md").read_text()
     for f in FAMILIES.values():
         assert f"| `{f.name}` | {f.kind} | `{f.primary}` [{f.unit}] |" in text, f.name
+
+
+def test_torque_saturation_reads_the_measured_robots_servo():
+    """The torque family's normal limits and its learned feature's scale are the measured
+    robot's knee servo (robot/config.py): 1.7 / 1.7 / 0.61 N m, and 0.61 N m / 6.7 N m/rad."""
+    from littledog_mlsim.robot.config import robot_config
+    spec = FAMILIES["torque_saturation"]
+    fit = _Fit(spec.name, "all", 0.5, 0.5, None, {})
+    params = {**spec.physical_params(fit, 0.8), **fit.params()}
+    assert params["torque_limit_Nm_by_joint_type"] == {
+        "hip_pitch": 0.5 * 1.7, "hip_roll": 0.5 * 1.7, "knee": 0.5 * 0.61}
+    assert params["torque_limit_Nm"] == 0.5 * 0.61
+    assert robot_config("measured").torque_limit == (1.7, 1.7, 0.61)
+    assert spec.augmentation("all", params).limit == round(0.5 * 0.61 / 6.7, 4)
+
+
+# ------------------------------------------------------------------ the learned feature families
+
+def test_every_learned_family_reads_as_a_registered_vocabulary_family():
+    """Each registered learned family's features are registered augmentations of that family,
+    and it reads as a registered physical family's vocabulary name (or a phase force's)."""
+    from littledog_mlsim.diagnose.families import LEARNED_FAMILIES
+    from littledog_mlsim.models.feature_base import AUGMENTATIONS
+    vocab = {f.vocabulary for f in FAMILIES.values()}
+    assert LEARNED_FAMILIES
+    for name, lf in LEARNED_FAMILIES.items():
+        assert lf.name == name
+        for cls in lf.features:
+            assert AUGMENTATIONS[cls.name] is cls and cls.family == name
+        assert lf.vocabulary in vocab, name
+
+
+def test_learned_features_read_in_the_vocabulary():
+    """report.json's ``physical`` block of a learned feature: family, scope and parameter as
+    docs/diagnosis.md's table states them."""
+    from littledog_mlsim.diagnose.report import learned_physical
+    from littledog_mlsim.models import feature_library as fl
+    cases = [
+        (fl.CommandLag(lag=2, joints="knees"), "command_delay", "type:knees", {"delay_ms": 20.0}),
+        (fl.CommandIncrement(lag=0, joints="front_left"), "command_delay", "leg:front_left",
+         {"delay_ms": None}),
+        (fl.CommandFilter(time_constant_ms=40.0, joints="left"), "command_filter", "side:left",
+         {"time_constant_ms": 40.0}),
+        (fl.JointRateSign(joints="back_right_knee"), "joint_friction", "joint:back_right_knee",
+         {"coulomb_Nm": None}),
+        (fl.Play(width=0.05, source="u"), "backlash", "all", {"width_rad": None}),
+        (fl.TrackingSaturation(limit=0.05), "torque_saturation", "all",
+         {"torque_limit_Nm": None}),
+        (fl.Heading(), "odom_force", "body", {"force_N": None}),
+        (fl.ElapsedTime(), "time_drift", "all", {"rate_per_s": None}),
+        (fl.GaitPhase(), "contact_phase", "body", {"magnitude": None}),
+        (fl.StateLag(lag=1, group="q"), "other", "body", {"value": None}),
+    ]
+    for aug, family, scope, params in cases:
+        got = learned_physical(aug)
+        assert (got["family"], got["scope"], got["params"]) == (family, scope, params), aug
+        assert aug.label() in got["statement"]
+
+
+def test_a_delay_member_is_the_largest_lag_near_the_best_other_members_the_fewest_columns():
+    from littledog_mlsim.diagnose.selection import estimate_member
+    from littledog_mlsim.models import feature_library as fl
+
+    @dataclass
+    class _Score:
+        augmentation: object
+        total_gain: float
+
+    lags = [_Score(fl.CommandLag(lag=k), g) for k, g in [(1, 0.50), (2, 0.47), (3, 0.30)]]
+    assert estimate_member("command delay", lags).augmentation.lag == 2
+    rates = [_Score(fl.JointRateSign(joints="all"), 0.50),
+             _Score(fl.JointRateSign(joints="knees"), 0.46),
+             _Score(fl.JointRateSign(joints="front_left_knee"), 0.30)]
+    assert estimate_member("Coulomb friction", rates).augmentation.joints == "knees"

@@ -5,7 +5,8 @@ from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from ...layout import JOINT_NAMES
+from ...layout import JOINT_NAMES, LEG_JOINTS
+from ...robot.config import robot_config
 from .base import Family, FittedEffect, _cap, _magnitude, register_family
 from .scopes import scope_group, scope_joints
 
@@ -13,8 +14,13 @@ __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFam
            "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily", "TimeDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
-# The servos' normal torque limits [N m] by joint type (robot/config.py's measured robot).
-NORMAL_TORQUE = {"hip_roll": 1.7, "hip_pitch": 1.7, "knee": 0.61}
+_MEASURED = robot_config("measured")
+# The servos' normal torque limits [N m] by joint type: the measured robot's (robot/config.py).
+NORMAL_TORQUE: dict[str, float] = dict(zip(LEG_JOINTS, _MEASURED.torque_limit))
+# The knee's normal torque limit [N m] and P gain [N m/rad]: their quotient is the tracking error
+# at which the knee servo saturates, the scale of the learned TrackingSaturation feature.
+_KNEE_TORQUE = _MEASURED.torque_limit[2]
+_KNEE_KP = _MEASURED.kp[2]
 
 
 def _joints(scope: str) -> list[str]:
@@ -238,7 +244,7 @@ class TorqueSaturation(Family):
 
     def augmentation(self, scope: str, params: Mapping[str, Any]) -> Any:
         from ...models.features import TrackingSaturation
-        lim = float(params["torque_limit_ratio"]) * 0.61 / 6.7
+        lim = float(params["torque_limit_ratio"]) * _KNEE_TORQUE / _KNEE_KP
         return TrackingSaturation(limit=round(max(lim, 1e-3), 4))
 
 

@@ -5,7 +5,7 @@ from typing import Any, ClassVar, Mapping
 
 from .base import Family, FittedEffect, _cap, _magnitude, register_family
 
-__all__ = ["LegDifference", "FootSlip", "SwingDragFamily", "FootAdhesionFamily"]
+__all__ = ["LegDifference", "FootSlip", "ContactPhase", "SwingDragFamily", "FootAdhesionFamily"]
 
 
 def _leg(scope: str) -> str:
@@ -66,7 +66,7 @@ class FootSlip(_Leg):
                 f"of normal)")
 
 
-class _Phase(_Leg):
+class ContactPhase(_Leg):
     """A force on one foot in one phase of its step (the vocabulary's contact_phase)."""
 
     primary: ClassVar[str] = "force_N"
@@ -83,7 +83,7 @@ class _Phase(_Leg):
 
 
 @register_family
-class SwingDragFamily(_Phase):
+class SwingDragFamily(ContactPhase):
     name: ClassVar[str] = "swing_drag"
     phase: ClassVar[str] = "swing"
     quantity: ClassVar[str] = "drag force on the swinging foot [N]"
@@ -98,7 +98,7 @@ class SwingDragFamily(_Phase):
 
 
 @register_family
-class FootAdhesionFamily(_Phase):
+class FootAdhesionFamily(ContactPhase):
     name: ClassVar[str] = "foot_adhesion"
     phase: ClassVar[str] = "lift-off"
     quantity: ClassVar[str] = ("downward pull on the foot from touch-down until it has risen "

@@ -11,7 +11,7 @@ import numpy as np
 from ...layout import JOINT_NAMES, LEGS, N_JOINTS
 
 __all__ = ["TYPE_SCOPES", "scope_joints", "joint_scopes", "leg_scopes", "scope_words",
-           "scope_group", "related_scopes"]
+           "scope_group", "group_scope", "related_scopes"]
 
 TYPE_SCOPES = {"hip_rolls": "hip_roll", "hip_pitches": "hip_pitch", "knees": "knee"}
 _JOINT_WORDS = {"hip_roll": "hip roll", "hip_pitch": "hip pitch", "knee": "knee"}
@@ -51,6 +51,21 @@ def scope_group(scope: str) -> str:
     return "all" if scope in ("all", "body") else scope.split(":", 1)[1]
 
 
+def group_scope(group: str) -> str:
+    """The joint scope of a learned feature's joint group (:func:`scope_group`'s inverse):
+    ``all``, a joint type (``knees`` -> ``type:knees``), a side (``left`` -> ``side:left``), a
+    leg (``back_left`` -> ``leg:back_left``) or one joint (``joint:back_left_knee``)."""
+    if group == "all":
+        return "all"
+    if group in TYPE_SCOPES:
+        return f"type:{group}"
+    if group in ("left", "right"):
+        return f"side:{group}"
+    if group.count("_") == 1:
+        return f"leg:{group}"
+    return f"joint:{group}"
+
+
 def scope_words(scope: str) -> str:
     """'back-left knee', 'the front-left leg', 'all knees', 'the left side', 'all joints'."""
     if scope == "all":
@@ -72,8 +87,8 @@ def related_scopes(scope: str) -> list[str]:
     """The scopes a joint finding is compared with before it is named: for a single joint, the
     other joints of its leg (an offset or a fault on one joint of a leg moves the foot much as
     one on its neighbour does, and the linear screen can prefer the wrong one:
-    benchmarks/blind_zoo/README.md, after zoo4) and the groups that hold it; the coarser groups
-    of a group; the finer groups of ``all``."""
+    docs/decisions/013-scope-check-and-signed-start.md) and the groups that hold it; the
+    coarser groups of a group; the finer groups of ``all``."""
     if scope == "all":
         return ["side:left", "side:right"] + [f"type:{t}" for t in TYPE_SCOPES]
     kind, _, what = scope.partition(":")

@@ -62,7 +62,7 @@ from .context import Objective, SearchContext
 from .driver import PhysicalOptions, identify, pick_moves
 from .fit import (fit, fit_magnitude, refine_direction, refine_position, refine_wide,
                   scope_variants, start_side, wide_magnitude)
-from .records import Candidate, Finding, Hypothesis, PhysIdResult
+from .records import Candidate, Finding, HeldOutDecision, Hypothesis, PhysIdResult
 from .resim import Move, Runner, Transducer, build_effects, simulate, true_start
 from .screen import screen, shortlist
 from .validate import push_twin, validate
@@ -73,4 +73,4 @@ __all__ = ["identify", "PhysicalOptions", "PhysIdResult", "Finding", "Candidate"
            "refine_direction", "refine_position", "refine_wide", "wide_magnitude",
            "start_side", "scope_variants", "validate", "push_twin", "physical_params",
            "statement", "inseparable", "suspicions", "INSEPARABLE_SHARE", "horizon_errors",
-           "CHANNELS", "N_CH", "DEFAULT_HORIZONS_S", "pick_moves"]
+           "CHANNELS", "N_CH", "DEFAULT_HORIZONS_S", "pick_moves", "HeldOutDecision"]

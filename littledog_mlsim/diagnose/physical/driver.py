@@ -19,7 +19,7 @@ from .advice import suspicions
 from .channels import DEFAULT_HORIZONS_S, SEG_STARTS, errors, horizon_errors, measured
 from .context import SearchContext
 from .fit import fit, scope_variants, segments_only, wide_magnitude
-from .records import Candidate, Finding, PhysIdResult
+from .records import Candidate, Finding, HeldOutDecision, PhysIdResult
 from .resim import Move, Runner
 from .screen import screen, shortlist
 from .validate import push_twin, validate
@@ -36,7 +36,9 @@ class PhysicalOptions:
     ``validate_per_type`` of each type decide on it; ``test_per_type`` TestPool moves of each
     type give the before/after; ``screen_moves`` of the fit moves are screened on; ``n_refine``
     hypotheses are fitted; ``excitation``: the dataset's command excitation [rad] (for the
-    "cannot tell" advice); ``families``: the families searched (default all registered).
+    "cannot tell" advice); ``families``: the families searched (default all registered);
+    ``observer``: called with each round's held-out decision (:class:`.records.HeldOutDecision`),
+    a recorder for benchmarks that does not change the diagnosis.
     """
 
     robot: Any = "measured"
@@ -52,6 +54,7 @@ class PhysicalOptions:
     excitation: float = 0.0
     families: Sequence[str] | None = None
     horizons_s: Sequence[float] = DEFAULT_HORIZONS_S
+    observer: Callable[[HeldOutDecision], None] | None = None
 
     @classmethod
     def from_keywords(cls, base: "PhysicalOptions | None" = None, **kw: Any
@@ -180,7 +183,7 @@ def _round(ctx: SearchContext, sp: _Split, o: PhysicalOptions, robot_mass: float
     say(f"physics round {rnd + 1}: fitted " + "; ".join(
         f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}" for c in top))
     return validate(ctx, top, sp.V, sp.T, o.alpha, o.min_gain, o.horizons_s, cands,
-                    robot_mass, foot_mu)
+                    robot_mass, foot_mu, o.observer)
 
 
 def _fmt_params(c: Candidate) -> str:

@@ -3,14 +3,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from ..families import FAMILIES
 from .channels import CHANNELS
 
-__all__ = ["Hypothesis", "Candidate", "Finding", "PhysIdResult"]
+if TYPE_CHECKING:
+    from ..stats import Decision
+
+__all__ = ["Hypothesis", "Candidate", "Finding", "PhysIdResult", "HeldOutDecision"]
 
 class Hypothesis(NamedTuple):
     """What is simulated: an effect family on a scope with its plug-in parameters (immutable;
@@ -43,6 +46,23 @@ class Candidate:
 
     def hyp(self, mag: float | None = None) -> Hypothesis:
         return Hypothesis(self.family, self.scope, self.params(mag))
+
+
+@dataclass(frozen=True)
+class HeldOutDecision:
+    """What one round's held-out decision compared and chose (method, step 5): the fitted
+    shortlist, then a push's twin if it was simulated for the decision (``hypotheses``, the
+    first ``n_shortlist`` of them the shortlist); the per-move, per-channel held-out SSE
+    (M, 36) of the base (``S0``) and with each hypothesis (``S1``); each one's decision and mean
+    per-move cut; the index of the finding (``chosen``)."""
+
+    hypotheses: tuple[Candidate, ...]
+    n_shortlist: int
+    S0: np.ndarray
+    S1: tuple[np.ndarray, ...]
+    decisions: tuple["Decision", ...]
+    move_cut: tuple[float, ...]
+    chosen: int
 
 
 @dataclass(frozen=True)

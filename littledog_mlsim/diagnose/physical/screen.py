@@ -177,7 +177,7 @@ def shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
     the best body families (all but one of the rest) and of the best leg family, then the next
     best overall. With the default 8 that is 3 joint, 4 body and 1 leg family: the body classes
     number seven, and with two body places a body-fixed force or a tilted floor was screened
-    but never fitted (benchmarks/blind_zoo/README.md, zoo4). Joint
+    but never fitted (docs/decisions/009-shortlist-of-eight.md). Joint
     families are screened on the 1 s segments, body and leg families also on the 4 s replay, so
     their scores are not compared directly: the held-out decision compares them after the fit.
     A push fixed in odom and a slope count as one class here (they act alike; the rival is

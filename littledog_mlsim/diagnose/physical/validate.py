@@ -10,7 +10,7 @@ screening or fitting.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from ..stats import Decision, decide_all, move_cuts
 from .advice import INSEPARABLE_SHARE, physical_params, statement
 from .channels import horizon_errors, sse
 from .context import SearchContext
-from .records import Candidate, Finding
+from .records import Candidate, Finding, HeldOutDecision
 
 __all__ = ["validate", "push_twin"]
 
@@ -75,9 +75,12 @@ def _with_twin(ctx: SearchContext, held: list[_Held], S0: np.ndarray, kb: int,
 
 def validate(ctx: SearchContext, top: Sequence[Candidate], V: Sequence[int],
              T: Sequence[int], alpha: float, min_gain: float, horizons_s: Sequence[float],
-             cands: Sequence[Candidate], robot_mass: float, foot_mu: float) -> Finding:
+             cands: Sequence[Candidate], robot_mass: float, foot_mu: float,
+             observer: Callable[[HeldOutDecision], None] | None = None) -> Finding:
     """The finding of one round: the shortlist ``top`` decided on the held-out moves ``V``,
-    before/after on the TestPool moves ``T`` (or ``V`` if there are none)."""
+    before/after on the TestPool moves ``T`` (or ``V`` if there are none). ``observer``, if
+    given, is called once with what the decision compared and chose (a record for benchmarks;
+    it does not change the decision)."""
     S0 = ctx.sse(None, V)
     held = _held_out(ctx, top, V)
     decs = decide_all(S0, [h.S1 for h in held], alpha, min_gain)
@@ -85,6 +88,9 @@ def validate(ctx: SearchContext, top: Sequence[Candidate], V: Sequence[int],
     kb = int(np.argmax(score))
     if FAMILIES[held[kb].cand.family].twin_family:
         held, decs, score, kb = _with_twin(ctx, held, S0, kb, V, alpha, min_gain, robot_mass)
+    if observer is not None:
+        observer(HeldOutDecision(tuple(h.cand for h in held), len(top), S0,
+                                 tuple(h.S1 for h in held), tuple(decs), tuple(score), kb))
     return _finding(ctx, held, decs, score, kb, T or V, horizons_s, cands, foot_mu)
 
 

@@ -1,0 +1,205 @@
+"""The learned route's feature families and the physical family each one reads as.
+
+The learned loop screens online features (``models/feature_library.py``) grouped by their
+``Augmentation.family`` (a command delay's lags and increments, Coulomb friction's rate signs,
+...). A :class:`LearnedFamily` subclass names the feature classes of one such family, the
+physical family (:mod:`.base`) it reads as in a report's ``physical`` block, and how the loop
+picks the member that states the family's parameters. :func:`register_learned` puts one
+instance under the features' family name in :data:`LEARNED_FAMILIES`; :func:`learned_family`
+answers for any feature family, a family not registered reading as ``other``. The learned loop
+and its report read these attributes and methods, never a family's name.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar, Sequence
+
+from ...models import feature_library as fl
+from ...models.feature_base import Augmentation
+from .base import Family
+from .body import OdomForce
+from .joints import (Backlash, CommandDelay, CommandFilter, JointFrictionFamily, TimeDrift,
+                     TorqueSaturation)
+from .legs import ContactPhase
+
+if TYPE_CHECKING:
+    from ..selection import CandidateScore
+
+__all__ = ["LearnedFamily", "LEARNED_FAMILIES", "register_learned", "learned_family",
+           "DELAY_TOLERANCE"]
+
+# Members whose total held-out gain is within this fraction of the best one's count as equal.
+DELAY_TOLERANCE = 0.1
+MS_PER_STEP = 10.0   # one control step [ms]
+
+
+class LearnedFamily:
+    """One family of the learned loop's candidate features.
+
+    ``features``: its feature classes (all of one ``Augmentation.family``); ``reads_as``: the
+    physical family class it reads as (None: ``other``); ``parameter``: the name of the
+    parameter the report states (default: the physical family's primary, ``value`` for
+    ``other``); ``scans_delay``: its members are command lags whose delay the replacement scan
+    estimates (``selection.py``, step 5).
+    """
+
+    features: ClassVar[tuple[type[Augmentation], ...]] = ()
+    reads_as: ClassVar[type[Family] | None] = None
+    parameter: ClassVar[str] = ""
+    scans_delay: ClassVar[bool] = False
+
+    @property
+    def name(self) -> str:
+        return self.features[0].family if self.features else ""
+
+    @property
+    def vocabulary(self) -> str:
+        """The physical family's vocabulary name, or ``other``."""
+        p = self.reads_as
+        return "other" if p is None else (p.reported_as or p.name)
+
+    @property
+    def acts_on_joints(self) -> bool:
+        """Whether its features' joint group is a joint scope (else it reads as ``body``)."""
+        return self.reads_as is not None and self.reads_as.kind == "joints"
+
+    @property
+    def report_parameter(self) -> str:
+        if self.parameter:
+            return self.parameter
+        return "value" if self.reads_as is None else self.reads_as.primary
+
+    def magnitude(self, aug: Augmentation) -> float | None:
+        """The physical magnitude a member states (None: the features measure none)."""
+        return None
+
+    def estimate_member(self, scores: Sequence["CandidateScore"],
+                        tolerance: float = DELAY_TOLERANCE) -> "CandidateScore":
+        """The member that states the family's parameters (parsimony): of the members within
+        ``tolerance`` of the best total gain, the one with the fewest columns (then the larger
+        gain), so friction on the knees is named "knees" rather than "all joints" when the
+        other joints add nothing."""
+        best = max(s.total_gain for s in scores)
+        if best <= 0:
+            return max(scores, key=lambda s: s.total_gain)
+        ok = [s for s in scores if s.total_gain >= (1.0 - tolerance) * best]
+        return min(ok, key=lambda s: (len(s.augmentation.columns()), -s.total_gain))
+
+
+LEARNED_FAMILIES: dict[str, LearnedFamily] = {}
+
+
+def register_learned(cls: type[LearnedFamily]) -> type[LearnedFamily]:
+    """Register one instance of ``cls`` under its features' family name (a decorator)."""
+    names = {f.family for f in cls.features}
+    if len(names) != 1:
+        raise ValueError(f"{cls.__name__}: features must share one family, not {sorted(names)}")
+    name = names.pop()
+    old = LEARNED_FAMILIES.get(name)
+    if old is not None and type(old) is not cls:
+        raise ValueError(f"learned family {name!r} is already registered to "
+                         f"{type(old).__name__}")
+    LEARNED_FAMILIES[name] = cls()
+    return cls
+
+
+def learned_family(name: str) -> LearnedFamily:
+    """The registered learned family of a feature family name; an unregistered one reads as
+    ``other`` and picks its member by parsimony."""
+    return LEARNED_FAMILIES.get(name) or LearnedFamily()
+
+
+@register_learned
+class CommandDelayFeatures(LearnedFamily):
+    """u_{t-k} and its increments: a late set-point."""
+
+    features = (fl.CommandLag, fl.CommandIncrement)
+    reads_as = CommandDelay
+    scans_delay = True
+
+    def magnitude(self, aug: Augmentation) -> float | None:
+        return MS_PER_STEP * aug.params()["lag"] if isinstance(aug, fl.CommandLag) else None
+
+    def estimate_member(self, scores: Sequence["CandidateScore"],
+                        tolerance: float = DELAY_TOLERANCE) -> "CandidateScore":
+        """Next to u_t, any u_{t-k} with k <= d lets the model rebuild u_{t-d} by inter-/
+        extrapolating with u_t, while k > d only repeats what the state already shows, so the
+        held-out gain of u_{t-k} is about flat up to the delay and drops after it. The estimate
+        is the largest k whose total gain is within ``tolerance`` of the best lag's (the knee of
+        the profile), not the argmax, which is a coin toss between 1 and d; without a lag with
+        a positive gain, parsimony as for any family."""
+        lags = [s for s in scores if isinstance(s.augmentation, fl.CommandLag)]
+        if lags:
+            best = max(s.total_gain for s in lags)
+            if best > 0:
+                ok = [s for s in lags if s.total_gain >= (1.0 - tolerance) * best]
+                return max(ok, key=lambda s: s.augmentation.lag)
+        return super().estimate_member(scores, tolerance)
+
+
+@register_learned
+class CommandFilterFeatures(LearnedFamily):
+    """The set-point through a first-order low-pass."""
+
+    features = (fl.CommandFilter,)
+    reads_as = CommandFilter
+
+    def magnitude(self, aug: Augmentation) -> float | None:
+        return aug.params()["time_constant_ms"]
+
+
+@register_learned
+class CoulombFeatures(LearnedFamily):
+    features = (fl.JointRateSign,)
+    reads_as = JointFrictionFamily
+
+
+@register_learned
+class PlayFeatures(LearnedFamily):
+    features = (fl.Play,)
+    reads_as = Backlash
+
+
+@register_learned
+class SaturationFeatures(LearnedFamily):
+    features = (fl.TrackingSaturation,)
+    reads_as = TorqueSaturation
+    parameter = "torque_limit_Nm"
+
+
+@register_learned
+class HeadingFeatures(LearnedFamily):
+    features = (fl.Heading,)
+    reads_as = OdomForce
+
+
+@register_learned
+class ElapsedTimeFeatures(LearnedFamily):
+    features = (fl.ElapsedTime,)
+    reads_as = TimeDrift
+
+
+@register_learned
+class FootContactFeatures(LearnedFamily):
+    features = (fl.FootHeight, fl.CommandedLift)
+    reads_as = ContactPhase
+    parameter = "magnitude"
+
+
+@register_learned
+class GaitPhaseFeatures(LearnedFamily):
+    features = (fl.GaitPhase,)
+    reads_as = ContactPhase
+    parameter = "magnitude"
+
+
+def physical_reading(aug: Augmentation) -> dict[str, Any]:
+    """The vocabulary's family, scope and parameter of a feature the learned loop added
+    (report.json's ``effects[i].physical``): the loop measures no physical magnitude, so the
+    parameter is null except a command delay's (lag x 10 ms) and a command filter's."""
+    from .scopes import group_scope
+    fam = learned_family(aug.family)
+    params = aug.params()
+    scope = group_scope(params.get("joints", "all")) if fam.acts_on_joints else "body"
+    return {"family": fam.vocabulary, "scope": scope,
+            "params": {fam.report_parameter: fam.magnitude(aug)},
+            "statement": f"the learned model lacked {aug.label()} ({aug.family})"}
