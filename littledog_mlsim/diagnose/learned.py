@@ -414,20 +414,115 @@ def _param_members(aug: Augmentation) -> list[Augmentation]:
     return []
 
 
+#: the path channels of the decision: odom x, y of the integrated path at every horizon
+def _path_names(horizons: Sequence[int]) -> list[str]:
+    return [f"odom_{a}@{h * CONTROL_DT:g}s" for h in horizons for a in "xy"]
+
+
+def _path_sse(ev: Evidence, n_moves: int) -> np.ndarray:
+    """(M, 2 * H) per-move SSE of the odom x, y residual at every horizon."""
+    out = np.zeros((n_moves, 2 * len(ev.horizons)))
+    for i, h in enumerate(ev.horizons):
+        np.add.at(out[:, 2 * i:2 * i + 2], ev.move[h], ev.odom[h] ** 2)
+    return out
+
+
+@dataclass
+class PathTest:
+    """The path channels' decision: per move, the log ratio of its odom residual SSE without
+    and with the candidate (each channel scaled by its total without, so every horizon weighs
+    alike), tested > 0 over the moves by a one-sided Wilcoxon signed-rank test. The per-move
+    SSE of a drift is heavy-tailed (a few long, fast moves carry most of it), which the
+    t-test of :func:`.selection.sse_decision` on SSE differences pays for in power; the rank
+    test on ratios does not, and its level holds under the same null (a column that does not
+    help leaves the per-move ratio symmetric about 1 or below it)."""
+
+    gain: np.ndarray      # (channels,) held-out SSE cut per path channel
+    total_gain: float     # cut of the channel-scaled total
+    p: float              # unadjusted one-sided p
+    n_better: int         # moves whose scaled path SSE went down
+
+
+def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
+    from scipy.stats import wilcoxon
+    tot = P0.sum(axis=0)
+    tot = np.where(tot > 0, tot, 1.0)
+    a, b = (P0 / tot).sum(axis=1), (P1 / tot).sum(axis=1)
+    ok = (a > 0) & (b > 0)
+    r = np.log(a[ok] / b[ok])
+    p = float(wilcoxon(r, alternative="greater").pvalue) if np.any(r != 0) else 1.0
+    return PathTest(1.0 - P1.sum(axis=0) / tot, float(1.0 - b.sum() / a.sum()), p,
+                    int(np.sum(r > 0)))
+
+
+@dataclass
+class _Decision:
+    """Held-out rollout decision on two channel sets: the 33 state elements at the decision
+    horizon (:func:`.selection.sse_decision`, Bonferroni over its tests, the elements and the
+    candidates) and the odom path at every horizon (:func:`path_test`, Bonferroni over the
+    candidates); ``p_value`` = 2 min(p_state, p_path)."""
+
+    state: Any          # selection.SSEDecision of the state elements
+    path: PathTest
+    path_names: list[str]
+    n_candidates: int
+    alpha: float
+    min_gain: float
+
+    @property
+    def p_path(self) -> float:
+        return min(1.0, self.n_candidates * self.path.p)
+
+    @property
+    def p_value(self) -> float:
+        return min(1.0, 2.0 * min(self.state.p_value, self.p_path))
+
+    @property
+    def significant(self) -> bool:
+        return bool(self.p_value < self.alpha)
+
+    @property
+    def material(self) -> bool:
+        path_ok = 2.0 * self.p_path < self.alpha and self.path.total_gain >= self.min_gain
+        state_ok = 2.0 * self.state.p_value < self.alpha and self.state.material
+        return bool(path_ok or state_ok)
+
+    @property
+    def gain(self) -> np.ndarray:
+        return np.concatenate([self.state.gain, self.path.gain])
+
+    @property
+    def outputs(self) -> list[str]:
+        path = ([n for n, g in zip(self.path_names, self.path.gain) if g >= 0.5 * self.min_gain]
+                if 2.0 * self.p_path < self.alpha else [])
+        return list(self.state.outputs) + path
+
+
+def decide(ev0: Evidence, ev1: Evidence, h: int, n_moves: int, n_candidates: int,
+           alpha: float, min_gain: float) -> _Decision:
+    """The held-out decision on one candidate: ``ev1`` (with it) against ``ev0`` (without)."""
+    st = sse_decision(ev0.sse(h, n_moves), ev1.sse(h, n_moves), n_candidates, alpha, min_gain)
+    pa = path_test(_path_sse(ev0, n_moves), _path_sse(ev1, n_moves))
+    return _Decision(st, pa, _path_names(ev0.horizons), n_candidates, alpha, min_gain)
+
+
 @dataclass
 class _Probe:
     """One candidate's held-out rollout decision against the current model."""
 
     aug: Augmentation
-    total_gain: float
-    decision: Any       # selection.SSEDecision
+    total_gain: float   # state SSE cuts summed over the 33 elements + the path's total cut
+    decision: _Decision
 
     def to_dict(self) -> dict[str, Any]:
         d = self.decision
         return {"label": self.aug.label(), "family": self.aug.family,
-                "p_value": float(d.p_value), "total_gain": self.total_gain,
+                "p_value": float(d.p_value), "p_state": float(d.state.p_value),
+                "p_path": float(d.p_path), "total_gain": self.total_gain,
+                "state_gain": float(np.sum(d.state.gain)), "path_gain_total": d.path.total_gain,
+                "path_gain": {n: float(g) for n, g in zip(d.path_names, d.path.gain)},
                 "max_gain": float(np.max(d.gain)), "significant": bool(d.significant),
-                "material": bool(d.material), "outputs": list(d.outputs)}
+                "material": bool(d.material), "outputs": d.outputs}
 
 
 class _Route:
@@ -456,9 +551,9 @@ class _Route:
     def probe(self, fs: FeatureSet, ev0: Evidence, aug: Augmentation, n_candidates: int
               ) -> _Probe:
         _, ev1 = self.fit(fs.with_augmentation(aug))
-        S0, S1 = ev0.sse(self.h_dec, self.mv.n), ev1.sse(self.h_dec, self.mv.n)
-        dec = sse_decision(S0, S1, n_candidates, self.opts.alpha, self.opts.min_gain)
-        return _Probe(aug, float(np.sum(dec.gain)), dec)
+        dec = decide(ev0, ev1, self.h_dec, self.mv.n, n_candidates, self.opts.alpha,
+                     self.opts.min_gain)
+        return _Probe(aug, float(np.sum(dec.state.gain) + dec.path.total_gain), dec)
 
 
 def _pick(probes: Sequence[_Probe], tolerance: float, prefer_large_lag: bool) -> _Probe:
@@ -549,11 +644,26 @@ def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str,
     deg = math.degrees(math.atan2(ay, ax)) % 360.0
     slope = math.degrees(math.asin(min(1.0, F / (mass_kg * 9.81))))
     axis = _axis_words(deg)
-    return (f"a steady force fixed in odom of about {F:.1f} N toward {deg:.0f} deg ({axis}) "
-            f"(or a slope of about {slope:.1f} deg)",
+    return (f"a steady force fixed in odom toward {deg:.0f} deg ({axis}), free-body "
+            f"equivalent about {F:.1f} N (or a slope of about {slope:.1f} deg)",
             {"force_N": F, "direction_deg": deg, "force_xy_N": [mass_kg * ax, mass_kg * ay],
              "inconsistency_N": mass_kg * rest, "equivalent_slope_deg": slope,
              "mass_kg": mass_kg})
+
+
+def _with_drift(text: str, numbers: dict[str, Any], ev0: Evidence, h: int
+                ) -> tuple[str, dict[str, Any]]:
+    """Add the drift the push leaves unmodelled, measured: the mean odom residual of the
+    starting model's horizon-h rollouts over h (the robot's feet resist the push, so the
+    free-body force read off one step is an upper figure; the drift is what it does)."""
+    v = ev0.odom[h].mean(axis=0) / (h * CONTROL_DT)
+    u = np.array([math.cos(math.radians(numbers["direction_deg"])),
+                  math.sin(math.radians(numbers["direction_deg"]))])
+    numbers = {**numbers, "drift_velocity_xy_mps": [float(v[0]), float(v[1])],
+               "drift_along_force_mps": float(v @ u),
+               "drift_direction_deg": float(math.degrees(math.atan2(v[1], v[0])) % 360.0)}
+    return (f"{text}; unmodelled drift {100 * float(v @ u):.1f} cm/s along it "
+            f"(measured, {h * CONTROL_DT:g} s rollouts)", numbers)
 
 
 def _axis_words(deg: float) -> str:
@@ -757,6 +867,8 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     effects = []
     for p, scan in found:
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar)
+        if isinstance(p.aug, Heading):
+            text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
         effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
                         "scope": p.aug.params().get("joints", "body"), "statement": text,
                         "physical": numbers, "scan": scan})

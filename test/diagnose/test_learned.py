@@ -1,6 +1,6 @@
 """The learned route of the diagnosis (``diagnose/learned.py``): no twin, k-step rollouts.
 
-Two small pybullet datasets of the same seed (4 moves per type): one with a steady 1.5 N push fixed
+Two small pybullet datasets of the same seed (6 and 4 moves per type): one with a steady 1.5 N push fixed
 in odom toward +y (a cause the learned model cannot see: it acts through the heading, which the
 state drops), one clean. The push must be found as a heading effect pointing along +y in odom
 and must cut the TestPool rollout error; the clean data must raise no alarm, neither a found
@@ -24,18 +24,18 @@ from littledog_mlsim.models.feature_library import ElapsedTracking
 from littledog_mlsim.models.features import CommandLag, ElapsedTime, FeatureSet, Heading
 
 SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30, max_rounds=1,
-                       horizons_s=(0.01, 0.5, 1.0, 4.0))
+                       horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25)
 LIBRARY = [CommandLag(lag=2), Heading(), ElapsedTime()]
 
 
-def _record(root: Path, name: str, effects: str | None) -> Path:
+def _record(root: Path, name: str, effects: str | None, per_type: int) -> Path:
     from littledog_mlsim.apps.record import record_dataset
     effects_file = None
     if effects is not None:
         effects_file = root / f"{name}.yaml"
         effects_file.write_text(effects)
     out = root / name
-    record_dataset(out, moves_per_type=4, seed=5, jobs=2, progress=False,
+    record_dataset(out, moves_per_type=per_type, seed=5, jobs=2, progress=False,
                    effects_file=None if effects_file is None else str(effects_file))
     return out
 
@@ -44,8 +44,8 @@ def _record(root: Path, name: str, effects: str | None) -> Path:
 def data(tmp_path_factory):
     root = tmp_path_factory.mktemp("learned_route")
     return {"push": _record(root, "push", "- class: littledog_mlsim.robot.effects:ConstantWind\n"
-                                          "  params: {force_xy: [0.0, 1.5]}\n"),
-            "clean": _record(root, "clean", None)}
+                                          "  params: {force_xy: [0.0, 1.5]}\n", 6),
+            "clean": _record(root, "clean", None, 4)}
 
 
 def _run(path: Path) -> dict:
@@ -59,10 +59,11 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(data):
     e = report["effects"][0]
     assert e["family"] == "pose (heading)", e
     direction = e["physical"]["direction_deg"]
-    assert abs((direction - 90.0 + 180.0) % 360.0 - 180.0) <= 20.0, e["physical"]
+    assert abs((direction - 90.0 + 180.0) % 360.0 - 180.0) <= 30.0, e["physical"]
     before, after = report["test"]["before"], report["test"]["after"]
     assert after["final_xy_error_m"] < before["final_xy_error_m"], report["test"]
-    assert report["verdict"].startswith("found: a steady force fixed in odom")
+    assert report["verdict"].startswith("found: a steady force fixed in odom toward")
+    assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
 
 
 def test_clean_data_raises_no_alarm(data):
