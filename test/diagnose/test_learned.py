@@ -24,7 +24,7 @@ from littledog_mlsim.models.feature_library import ElapsedTracking
 from littledog_mlsim.models.features import CommandLag, ElapsedTime, FeatureSet, Heading
 
 SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30, max_rounds=1,
-                       horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25)
+                       horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3)
 LIBRARY = [CommandLag(lag=2), Heading(), ElapsedTime()]
 
 
