@@ -103,12 +103,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", required=True, help="the datasets (record.py)")
     ap.add_argument("--out", required=True, help="where results.json / results.md go")
     ap.add_argument("--only", nargs="*", help="dataset names (default: all)")
+    ap.add_argument("--merge", help="add the datasets of this results.json (another process's "
+                                    "--out) and only rewrite the tables")
     args = ap.parse_args(argv)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     out = Path(args.out)
     path = out / "results.json"
     results = json.loads(path.read_text()) if path.exists() else {}
-    for name in args.only or list(DATASETS):
+    if args.merge:
+        results.update(json.loads(Path(args.merge).read_text()))
+        path.write_text(json.dumps(results, indent=1, default=float))
+    for name in ([] if args.merge else args.only or list(DATASETS)):
         print(f"{name} ...", file=sys.stderr)
         results[name] = run_one(Path(args.work) / name)
         tmp = path.with_suffix(".json.tmp")
