@@ -2,7 +2,8 @@
 
 Lagged and filtered commands, lagged states, tracking saturation, joint-rate signs and
 magnitudes, backlash play, heading and planar position, elapsed time, foot heights, commanded
-lifts, the gait phase and time times the tracking error (a servo stiffness drifting with time). Each is a frozen dataclass registered under its ``name``
+lifts, the gait phase, and time times the tracking error (a servo stiffness drifting with time).
+Each is a frozen dataclass registered under its ``name``
 (:func:`.feature_base.register_augmentation`); its ``family`` names the kind of effect it models (the
 diagnosis report groups candidates by it). ``JOINT_GROUPS``/``STATE_GROUPS`` are the named
 scopes their ``joints``/``group`` parameters accept.
