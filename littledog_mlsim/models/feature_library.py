@@ -2,7 +2,8 @@
 
 Lagged and filtered commands, lagged states, tracking saturation, joint-rate signs and
 magnitudes, backlash play, heading and planar position, elapsed time, foot heights, commanded
-lifts and the gait phase. Each is a frozen dataclass registered under its ``name``
+lifts, the gait phase, and time times the tracking error (a servo stiffness drifting with time).
+Each is a frozen dataclass registered under its ``name``
 (:func:`.feature_base.register_augmentation`); its ``family`` names the kind of effect it models (the
 diagnosis report groups candidates by it). ``JOINT_GROUPS``/``STATE_GROUPS`` are the named
 scopes their ``joints``/``group`` parameters accept.
@@ -20,7 +21,8 @@ from .feature_base import Augmentation, FeatureSetError, Window, register_augmen
 __all__ = [
     "CommandLag", "CommandIncrement", "StateLag", "CommandFilter", "TrackingSaturation",
     "JointRateSign", "JointRateMagnitude", "Play", "Heading", "PlanarPosition", "ElapsedTime",
-    "FootHeight", "CommandedLift", "GaitPhase", "STATE_GROUPS", "JOINT_GROUPS",
+    "FootHeight", "CommandedLift", "GaitPhase", "ElapsedTracking", "STATE_GROUPS",
+    "JOINT_GROUPS",
 ]
 
 
@@ -435,3 +437,26 @@ class GaitPhase(Augmentation):
         n = np.hypot(a, b)
         scale = np.where(n > 1e-4, 1.0 / np.where(n > 1e-4, n, 1.0), 0.0)  # 0.1 mm: not lifting
         return np.stack([a * scale, b * scale], axis=-1)
+
+
+@register_augmentation
+@dataclass(frozen=True)
+class ElapsedTracking(Augmentation):
+    """t * (u_j - q_j) of the selected joints, t the seconds since the move started: a servo
+    stiffness that drifts with time (battery sag, warming), which an elapsed-time column alone
+    cannot carry (the servo's push is the product of its gain and its tracking error)."""
+
+    joints: str = "all"
+    name: ClassVar[str] = "elapsed_tracking"
+    family: ClassVar[str] = "elapsed time"
+
+    def __post_init__(self) -> None:
+        _group(JOINT_GROUPS, self.joints, "elapsed_tracking")
+
+    def columns(self) -> tuple[str, ...]:
+        return tuple(f"t*(u-q)_{JOINT_NAMES[j]}" for j in JOINT_GROUPS[self.joints])
+
+    def compute(self, w: Window) -> np.ndarray:
+        idx = list(JOINT_GROUPS[self.joints])
+        err = w.u(0)[..., idx] - w.s(0)[..., S.q][..., idx]
+        return np.asarray(w.elapsed, dtype=np.float64)[..., None] * err

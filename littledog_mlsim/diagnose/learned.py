@@ -1,0 +1,927 @@
+"""The learned route of the diagnosis (no twin): what the learned model lacks, from its rollouts.
+
+Why not the one-step screen alone
+---------------------------------
+The one-step screen (:mod:`.selection`) judges a candidate by the held-out one-step nMSE it cuts.
+An effect whose cause is not among the model's inputs (a push fixed in the world, a drifting
+servo) is small at one step against the measurement noise of the per-step body displacements,
+yet it acts on every step in the same direction, so a rollout accumulates it: for a 1.5 N
+push in odom (``benchmarks/learned_route``) the heading columns cut the held-out one-step nMSE
+of dx_b, dy_b by 1.4 % (a dt^2 = 0.05 mm per step against 0.45 mm of one-step residual), under
+the 5 % materiality minimum, while they cut the held-out odom error of the rollouts (0.1 to 4 s)
+by 31 %. This route therefore judges candidates by held-out *k-step rollouts* of the learned
+model from measured states.
+
+Method
+------
+1. **Learned model, cross-fitted by move.** Ridge regression of the one-step change on random
+   Fourier features of the paper's 45 features (ARD length scales from a GP, as
+   :class:`.selection.SearchModel`) plus every extra column of the feature set as a linear term,
+   fitted K times with the moves split into folds (:func:`.selection.move_folds`); a move is only
+   ever predicted by the fit that did not see it.
+2. **Evidence: k-step rollouts from measured states.** Every TrainPool move is rolled out by its
+   held-out fit from the measured state every ``start_every`` steps, over the horizons
+   ``horizons_s`` (0.1, 0.5, 1 s, and the whole move from its start: 4 s). The online features
+   are warm-started by replaying the measured states up to the start, so lags, the pose and the
+   elapsed time are those of the recording. Residuals are kept per state element (the body
+   elements are body-frame already), in odom (x_w, y_w of the integrated path) and in the body
+   frame at the start (the odom error turned by the start heading).
+3. **Held-out decision, moves as the unit.** A candidate augmentation is added to the model, the
+   cross-fit and the rollouts are repeated, and the per-move rollout SSE at ``decision_horizon_s``
+   with and without it go to :func:`.selection.sse_decision` (one-sided t-tests over moves of
+   the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
+   material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
+   (odom x, y at every horizon) by a per-move rank test (:func:`path_test`). The moves of a
+   fold share one fit, so moves are not fully independent units and these tests are liberal:
+   at ``alpha`` = 0.01 two of the first clean datasets raised alarms (smallest p 0.0038), so
+   the route's default ``alpha`` is 1e-4 (``benchmarks/learned_route/README.md``).
+4. **Families whose cause is not among the model's inputs**, probed at full scope first
+   (:func:`family_probes`): command history (delay, low-pass, play), heading (a world-fixed
+   force or slope acts in the body frame through sin/cos of yaw), position (terrain over the
+   floor), time (elapsed time; a servo stiffness drifting with time), gait phase. The family
+   with the largest significant and material rollout gain is scoped (all joints, a leg, a joint
+   type, a side) and its parameter estimated by the same held-out rollout SSE (parsimony among
+   members within 10 % of the best), then added; the next round screens the rest.
+5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect is
+   read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
+   odom and multiplied by the robot's mass ("about N newtons toward D deg in odom"); a delay in
+   ms; a low-pass time constant; a stiffness drift in % per second (the t*(u-q) coefficient over
+   the model's own d(ddq)/du). Position and phase effects are named by where/when they act.
+6. **Residual structure** (:func:`residual_structure`): after the last accepted effect, the
+   rollout residual is regressed (cross-fitted by move) on position, heading, time in the move
+   and gait phase; its size is compared with the model's one-step predictive std. A material
+   unexplained structure is reported with its channels, moves and the recording that would
+   settle it, never as "nothing significant".
+
+Report (:func:`diagnose_learned`'s dict)
+---------------------------------------
+``route``: "learned"; ``significant``: bool (an effect was accepted); ``effects``: list of
+``{family, label, augmentation (to_dict), p_value, gain (1 s rollout SSE cut, total over
+elements), max_gain, outputs, scope, statement (physical sentence), physical (numbers),
+scan (the scope/parameter candidates with their total gain)}``; ``rounds``: per round the
+probes ``{label, family, p_value, total_gain, max_gain, significant, material}``;
+``evidence``: before/after TrainPool held-out rollout errors per horizon
+(``{horizon_s: {rms_state (33 names), rms_odom_xy_m, rms_body_xy_m, n_rollouts}}``);
+``test``: TestPool before/after ``{one_step_nmse_mean, one_step_nmse (33), final_xy_error_m,
+xy_error_at (horizon -> mean m)}`` of the model fitted on the whole TrainPool;
+``residual``: :func:`residual_structure`'s dict (``groups``, ``verdict``, ``unexplained``,
+``channels``, ``moves``, ``z_ratio``, ``recording``); ``suspected``: families significant but
+not material, or material but above alpha, each with the recording that would settle it;
+``verdict``: one sentence; ``options``: the options used; ``seconds``.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Callable, Sequence
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from ..data.recording import MoveRecording
+from ..data.states import initial_pose
+from ..layout import CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES, S
+from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedTime, FeatureSet,
+                               GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
+from ..models.feature_library import ElapsedTracking
+from .selection import SearchModel, move_folds, sse_decision
+
+__all__ = ["LearnedOptions", "CrossFitModel", "Evidence", "diagnose_learned", "family_probes",
+           "rollout_evidence", "residual_structure", "physical_statement", "SCOPES"]
+
+log = logging.getLogger(__name__)
+
+#: joint scopes a history/time family is tried at, after "all" (legs, joint types, sides)
+SCOPES: tuple[str, ...] = ("front_left", "front_right", "back_left", "back_right",
+                           "hip_rolls", "hip_pitches", "knees", "left", "right")
+
+
+@dataclass(frozen=True)
+class LearnedOptions:
+    """Knobs of the learned route (defaults: the study in ``benchmarks/learned_route``)."""
+
+    n_random_features: int = 600
+    ridge: float = 0.05
+    length_scale_factor: float = 0.7
+    n_gp_points: int = 400
+    gp_max_iter: int = 40
+    n_folds: int = 5
+    horizons_s: tuple[float, ...] = (0.1, 0.5, 1.0, 4.0)
+    start_every: int = 50
+    decision_horizon_s: float = 1.0
+    alpha: float = 1e-4
+    min_gain: float = 0.05
+    max_rounds: int = 2
+    tolerance: float = 0.1
+    seed: int = 0
+
+
+# --------------------------------------------------------------------------------- the model
+
+
+@dataclass
+class _Design:
+    """Random features of the 45 and the scales shared by every fit of one route run."""
+
+    x_mean: np.ndarray  # (45,) of the paper's features (the random features' input)
+    x_std: np.ndarray
+    d_mean: np.ndarray  # (33,) of the one-step change
+    d_std: np.ndarray
+    W: np.ndarray
+    b: np.ndarray
+    lo: np.ndarray      # state bounds a rollout is clipped to (training range +- 25 %)
+    hi: np.ndarray
+
+    def basis(self, X: np.ndarray, mean: np.ndarray, std: np.ndarray) -> np.ndarray:
+        """(n, M + F + 1): random features of the 45, every feature linear, a constant."""
+        M = self.W.shape[1]
+        B = np.empty((X.shape[0], M + X.shape[1] + 1))
+        Xb = (X[:, :N_FEATURE] - self.x_mean) / self.x_std
+        B[:, :M] = math.sqrt(2.0 / M) * np.cos(Xb @ self.W + self.b)
+        B[:, M:-1] = (X - mean) / std
+        B[:, -1] = 1.0
+        return B
+
+
+class CrossFitModel:
+    """Ridge on :class:`_Design`'s basis, fitted once per fold (all moves but the fold's) and
+    once on all moves (``fold=-1``); predicts the one-step change in raw units."""
+
+    def __init__(self, design: _Design, ridge: float) -> None:
+        self.design = design
+        self.ridge = ridge
+
+    def fit(self, X: np.ndarray, D: np.ndarray, fold_of_row: np.ndarray, n_folds: int
+            ) -> "CrossFitModel":
+        self.x_mean_ = X.mean(axis=0)
+        sd = X.std(axis=0)
+        self.x_std_ = np.where(sd < 1e-12, 1.0, sd)
+        B = self._basis(X)
+        Dn = (D - self.design.d_mean) / self.design.d_std
+        G_f = [B[fold_of_row == f].T @ B[fold_of_row == f] for f in range(n_folds)]
+        b_f = [B[fold_of_row == f].T @ Dn[fold_of_row == f] for f in range(n_folds)]
+        G, bb = sum(G_f), sum(b_f)
+        eye = self.ridge * np.eye(B.shape[1])
+        self.coef_ = {}
+        self.chol_ = {}
+        for f in [-1] + list(range(n_folds)):
+            A = G + eye if f < 0 else G - G_f[f] + eye
+            c = cho_factor(A)
+            self.chol_[f] = c
+            self.coef_[f] = cho_solve(c, bb if f < 0 else bb - b_f[f])
+        res = np.empty_like(Dn)
+        for f in range(n_folds):
+            r = fold_of_row == f
+            res[r] = Dn[r] - B[r] @ self.coef_[f]
+        self.sigma_ = res.std(axis=0)          # held-out one-step residual std (standardised)
+        self.n_features_ = X.shape[1]
+        return self
+
+    def _basis(self, X: np.ndarray) -> np.ndarray:
+        return self.design.basis(X, self.x_mean_, self.x_std_)
+
+    def predict(self, X: np.ndarray, fold: int) -> np.ndarray:
+        return (self._basis(X) @ self.coef_[fold]) * self.design.d_std + self.design.d_mean
+
+    def predictive_std(self, X: np.ndarray, fold: int) -> np.ndarray:
+        """One-step predictive std (n, 33), raw units: sigma * sqrt(1 + b' A^-1 b)."""
+        B = self._basis(X)
+        lev = np.einsum("ij,ij->i", B, cho_solve(self.chol_[fold], B.T).T)
+        return np.sqrt(1.0 + lev)[:, None] * self.sigma_ * self.design.d_std
+
+    def linear_coef(self, cols: slice, fold: int = -1) -> np.ndarray:
+        """Raw-unit coefficients (k, 33) of the feature columns ``cols`` (the linear part)."""
+        M = self.design.W.shape[1]
+        idx = np.arange(self.n_features_)[cols]
+        return (self.coef_[fold][M + idx] / self.x_std_[idx, None]) * self.design.d_std
+
+
+def _make_design(X: np.ndarray, D: np.ndarray, S_all: np.ndarray, opts: LearnedOptions,
+                 length_scales: np.ndarray) -> _Design:
+    Xb = X[:, :N_FEATURE]
+    x_std = Xb.std(axis=0)
+    d_std = D.std(axis=0)
+    rng = np.random.default_rng(opts.seed + 1)
+    W = rng.standard_normal((N_FEATURE, opts.n_random_features)) / (
+        opts.length_scale_factor * length_scales[:, None])
+    span = S_all.max(axis=0) - S_all.min(axis=0)
+    return _Design(Xb.mean(axis=0), np.where(x_std < 1e-12, 1.0, x_std), D.mean(axis=0),
+                   np.where(d_std < 1e-12, 1.0, d_std), W,
+                   rng.uniform(0.0, 2.0 * np.pi, opts.n_random_features),
+                   S_all.min(axis=0) - 0.25 * span, S_all.max(axis=0) + 0.25 * span)
+
+
+def _length_scales(X: np.ndarray, D: np.ndarray, opts: LearnedOptions) -> np.ndarray:
+    sm = SearchModel(n_gp_points=opts.n_gp_points, gp_max_iter=opts.gp_max_iter, seed=opts.seed)
+    Xn = (X - X.mean(axis=0)) / np.where(X.std(axis=0) < 1e-12, 1.0, X.std(axis=0))
+    Dn = (D - D.mean(axis=0)) / np.where(D.std(axis=0) < 1e-12, 1.0, D.std(axis=0))
+    return sm.fit_length_scales(Xn[:, :N_FEATURE], Dn)
+
+
+# ------------------------------------------------------------------------------ the evidence
+
+
+@dataclass
+class _Moves:
+    """The recordings as arrays: per move S = s_1..s_T, U = u_1..u_T, Y = s_2..s_{T+1} and the
+    measured pose (x_w, y_w, yaw) at each row of S (the contract's integration)."""
+
+    names: list[str]
+    types: list[str]
+    S: list[np.ndarray]
+    U: list[np.ndarray]
+    Y: list[np.ndarray]
+    pose: list[np.ndarray]
+
+    @property
+    def n(self) -> int:
+        return len(self.S)
+
+
+def _moves(recs: Sequence[MoveRecording]) -> _Moves:
+    fs = FeatureSet()
+    out = _Moves([], [], [], [], [], [])
+    for r in recs:
+        S_, U, Y, _ = fs.move_arrays(r)
+        p0 = initial_pose(r, 1)
+        out.names.append(r.name)
+        out.types.append(r.move_type)
+        out.S.append(S_)
+        out.U.append(U)
+        out.Y.append(Y)
+        out.pose.append(integrate_pose(S_[None], np.array([[p0.x0, p0.y0, p0.yaw0]]))[0])
+    return out
+
+
+@dataclass
+class Evidence:
+    """Held-out k-step rollout residuals (measured minus predicted) of one feature set.
+
+    Per horizon h (steps): ``err[h]`` (R, 33) state residual h steps after the start,
+    ``odom[h]`` (R, 2) residual of the integrated (x_w, y_w), ``body[h]`` (R, 2) the same turned
+    into the body frame of the start, ``move[h]`` (R,) move index, ``t0[h]`` (R,) start step.
+    ``one_step`` (n, 33) held-out one-step residual and ``one_step_std`` (n, 33) the model's
+    predictive std there (raw units).
+    """
+
+    horizons: tuple[int, ...]
+    err: dict[int, np.ndarray]
+    odom: dict[int, np.ndarray]
+    body: dict[int, np.ndarray]
+    move: dict[int, np.ndarray]
+    t0: dict[int, np.ndarray]
+    one_step: np.ndarray
+    one_step_std: np.ndarray
+    one_step_move: np.ndarray
+
+    def sse(self, h: int, n_moves: int) -> np.ndarray:
+        """(M, 33) per-move SSE of the state residual at horizon h."""
+        out = np.zeros((n_moves, N_STATE))
+        np.add.at(out, self.move[h], self.err[h] ** 2)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        out = {}
+        for h in self.horizons:
+            out[f"{h * CONTROL_DT:g}"] = {
+                "rms_state": {n: float(v) for n, v in
+                              zip(STATE_NAMES, np.sqrt((self.err[h] ** 2).mean(axis=0)))},
+                "rms_odom_xy_m": float(np.sqrt((self.odom[h] ** 2).sum(axis=1).mean())),
+                "rms_body_xy_m": [float(v) for v in np.sqrt((self.body[h] ** 2).mean(axis=0))],
+                "n_rollouts": int(self.err[h].shape[0])}
+        return out
+
+
+def _horizon_steps(opts: LearnedOptions, T: int) -> tuple[tuple[int, ...], int]:
+    """(horizons in steps, the longest that starts anywhere); horizons past T become T."""
+    hs = sorted({min(T, max(1, int(round(h / CONTROL_DT)))) for h in opts.horizons_s})
+    short = [h for h in hs if h < T]
+    return tuple(hs), (max(short) if short else T)
+
+
+def _rows(T: int, opts: LearnedOptions) -> list[tuple[int, int]]:
+    """(start, length) of every rollout of a move of T steps."""
+    hs, short = _horizon_steps(opts, T)
+    rows = [(t0, short) for t0 in range(0, T - short + 1, opts.start_every)] if short < T else []
+    return rows + [(0, T)]
+
+
+def _roll(model: CrossFitModel, fold: int, fs: FeatureSet, mv: _Moves, idx: Sequence[int],
+          opts: LearnedOptions) -> tuple[list[tuple[int, int, int]], np.ndarray]:
+    """Roll moves ``idx`` (equal length) with fit ``fold`` from every start; (rows as
+    (move, t0, H), predicted Y (R, T, 33), NaN outside each row's window)."""
+    T = mv.S[idx[0]].shape[0]
+    rows = [(m, t0, H) for m in idx for (t0, H) in _rows(T, opts)]
+    R = len(rows)
+    rm = np.array([r[0] for r in rows])
+    t0 = np.array([r[1] for r in rows])
+    end = t0 + np.array([r[2] for r in rows])
+    U = np.stack([mv.U[m] for m in rm])
+    Y = np.stack([mv.Y[m] for m in rm])
+    S0 = np.stack([mv.S[m][0] for m in rm])
+    pose0 = np.stack([mv.pose[m][0] for m in rm])
+    hist = fs.history(S0, pose0 if fs.needs_pose else None)
+    pred = np.full((R, T, N_STATE), np.nan)
+    lo, hi = model.design.lo, model.design.hi
+    for t in range(T):
+        X = hist.features(U[:, t])
+        act = (t >= t0) & (t < end)
+        nxt = Y[:, t].copy()
+        if act.any():
+            p = X[act, :N_STATE] + model.predict(X[act], fold)
+            p = np.clip(np.where(np.isfinite(p), p, 0.0), lo, hi)
+            nxt[act] = p
+            pred[act, t] = p
+        hist.push(nxt)
+    return rows, pred
+
+
+
+
+def rollout_evidence(model: CrossFitModel, fs: FeatureSet, mv: _Moves,
+                     fold_of_move: np.ndarray | None, opts: LearnedOptions,
+                     X: np.ndarray, D: np.ndarray, move_index: np.ndarray) -> Evidence:
+    """k-step rollouts of every move by the fit that did not see it (``fold_of_move``; None:
+    the fit on all moves, for held-out TestPool moves), and the one-step residuals of X, D."""
+    folds = np.full(mv.n, -1) if fold_of_move is None else np.asarray(fold_of_move)
+    groups: dict[tuple[int, int], list[int]] = {}
+    for m in range(mv.n):
+        groups.setdefault((int(folds[m]), mv.S[m].shape[0]), []).append(m)
+    rows: list[tuple[int, int, int]] = []
+    preds: list[np.ndarray] = []
+    for (f, _), idx in sorted(groups.items()):
+        r, p = _roll(model, f, fs, mv, idx, opts)
+        rows += r
+        preds += list(p)
+    per_move = [_horizon_steps(opts, mv.S[m].shape[0])[0] for m in range(mv.n)]
+    hs = sorted({h for v in per_move for h in v})
+    ev = Evidence(tuple(hs), {}, {}, {}, {}, {}, np.empty(0), np.empty(0), move_index)
+    for h in hs:
+        sel = [i for i, (m, t0, H) in enumerate(rows) if H >= h and h in per_move[m]]
+        _horizon_residuals(ev, h, [rows[i] for i in sel], [preds[i] for i in sel], mv)
+    fr = folds[move_index]
+    pred = np.empty_like(D)
+    std = np.empty_like(D)
+    for f in np.unique(fr):
+        r = fr == f
+        pred[r] = model.predict(X[r], int(f))
+        std[r] = model.predictive_std(X[r], int(f))
+    ev.one_step, ev.one_step_std = D - pred, std
+    return ev
+
+
+def _horizon_residuals(ev: Evidence, h: int, rows: list[tuple[int, int, int]],
+                       preds: list[np.ndarray], mv: _Moves) -> None:
+    """Fill ``ev``'s horizon-h residuals from the rollouts ``rows`` (move, t0, H)."""
+    ev.move[h] = np.array([m for m, _, _ in rows], dtype=np.int64)
+    ev.t0[h] = np.array([t0 for _, t0, _ in rows], dtype=np.int64)
+    true = np.stack([np.concatenate([mv.S[m][t0][None], mv.Y[m][t0:t0 + h]])
+                     for m, t0, _ in rows])
+    est = np.stack([np.concatenate([mv.S[m][t0][None], p[t0:t0 + h]])
+                    for (m, t0, _), p in zip(rows, preds)])
+    ev.err[h] = true[:, -1] - est[:, -1]
+    p0 = np.stack([mv.pose[m][t0] for m, t0, _ in rows])
+    d = integrate_pose(true, p0)[:, -1, :2] - integrate_pose(est, p0)[:, -1, :2]
+    c, s = np.cos(p0[:, 2]), np.sin(p0[:, 2])
+    ev.odom[h] = d
+    ev.body[h] = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+
+# ------------------------------------------------------------------------------ the search
+
+
+def family_probes() -> list[Augmentation]:
+    """One member per family whose cause is not among the model's inputs, at full scope."""
+    return [CommandLag(lag=2), CommandFilter(time_constant_ms=30.0), Play(width=0.03, source="u"),
+            Heading(), PlanarPosition(), ElapsedTime(), ElapsedTracking(),
+            GaitPhase(quarter_lag=9)]
+
+
+def _scope_members(aug: Augmentation) -> list[Augmentation]:
+    """``aug`` at every narrower joint scope (none for a family without one)."""
+    if "joints" not in aug.params():
+        return []
+    return [replace(aug, joints=s) for s in SCOPES]
+
+
+def _param_members(aug: Augmentation) -> list[Augmentation]:
+    """``aug`` at the other values of its family's parameter grid."""
+    if isinstance(aug, CommandLag):
+        return [replace(aug, lag=d) for d in range(1, 6) if d != aug.lag]
+    if isinstance(aug, CommandFilter):
+        return [replace(aug, time_constant_ms=v) for v in (10.0, 20.0, 45.0, 70.0)
+                if v != aug.time_constant_ms]
+    if isinstance(aug, Play):
+        return [replace(aug, width=w) for w in (0.01, 0.06) if w != aug.width]
+    if isinstance(aug, GaitPhase):
+        return [replace(aug, quarter_lag=k) for k in (8, 10) if k != aug.quarter_lag]
+    return []
+
+
+#: the path channels of the decision: odom x, y of the integrated path at every horizon
+def _path_names(horizons: Sequence[int]) -> list[str]:
+    return [f"odom_{a}@{h * CONTROL_DT:g}s" for h in horizons for a in "xy"]
+
+
+def _path_sse(ev: Evidence, n_moves: int) -> np.ndarray:
+    """(M, 2 * H) per-move SSE of the odom x, y residual at every horizon."""
+    out = np.zeros((n_moves, 2 * len(ev.horizons)))
+    for i, h in enumerate(ev.horizons):
+        np.add.at(out[:, 2 * i:2 * i + 2], ev.move[h], ev.odom[h] ** 2)
+    return out
+
+
+@dataclass
+class PathTest:
+    """The path channels' decision: per move, the log ratio of its odom residual SSE without
+    and with the candidate (each channel scaled by its total without, so every horizon weighs
+    alike), tested > 0 over the moves by a one-sided Wilcoxon signed-rank test. The per-move
+    SSE of a drift is heavy-tailed (a few long, fast moves carry most of it), which the
+    t-test of :func:`.selection.sse_decision` on SSE differences pays for in power; the rank
+    test on ratios does not, and its level holds under the same null (a column that does not
+    help leaves the per-move ratio symmetric about 1 or below it)."""
+
+    gain: np.ndarray      # (channels,) held-out SSE cut per path channel
+    total_gain: float     # cut of the channel-scaled total
+    p: float              # unadjusted one-sided p
+    n_better: int         # moves whose scaled path SSE went down
+
+
+def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
+    from scipy.stats import wilcoxon
+    tot = P0.sum(axis=0)
+    tot = np.where(tot > 0, tot, 1.0)
+    a, b = (P0 / tot).sum(axis=1), (P1 / tot).sum(axis=1)
+    ok = (a > 0) & (b > 0)
+    r = np.log(a[ok] / b[ok])
+    p = float(wilcoxon(r, alternative="greater").pvalue) if np.any(r != 0) else 1.0
+    return PathTest(1.0 - P1.sum(axis=0) / tot, float(1.0 - b.sum() / a.sum()), p,
+                    int(np.sum(r > 0)))
+
+
+@dataclass
+class _Decision:
+    """Held-out rollout decision on two channel sets: the 33 state elements at the decision
+    horizon (:func:`.selection.sse_decision`, Bonferroni over its tests, the elements and the
+    candidates) and the odom path at every horizon (:func:`path_test`, Bonferroni over the
+    candidates); ``p_value`` = 2 min(p_state, p_path)."""
+
+    state: Any          # selection.SSEDecision of the state elements
+    path: PathTest
+    path_names: list[str]
+    n_candidates: int
+    alpha: float
+    min_gain: float
+
+    @property
+    def p_path(self) -> float:
+        return min(1.0, self.n_candidates * self.path.p)
+
+    @property
+    def p_value(self) -> float:
+        return min(1.0, 2.0 * min(self.state.p_value, self.p_path))
+
+    @property
+    def significant(self) -> bool:
+        return bool(self.p_value < self.alpha)
+
+    @property
+    def material(self) -> bool:
+        path_ok = 2.0 * self.p_path < self.alpha and self.path.total_gain >= self.min_gain
+        state_ok = 2.0 * self.state.p_value < self.alpha and self.state.material
+        return bool(path_ok or state_ok)
+
+    @property
+    def gain(self) -> np.ndarray:
+        return np.concatenate([self.state.gain, self.path.gain])
+
+    @property
+    def outputs(self) -> list[str]:
+        path = ([n for n, g in zip(self.path_names, self.path.gain) if g >= 0.5 * self.min_gain]
+                if 2.0 * self.p_path < self.alpha else [])
+        return list(self.state.outputs) + path
+
+
+def decide(ev0: Evidence, ev1: Evidence, h: int, n_moves: int, n_candidates: int,
+           alpha: float, min_gain: float) -> _Decision:
+    """The held-out decision on one candidate: ``ev1`` (with it) against ``ev0`` (without)."""
+    st = sse_decision(ev0.sse(h, n_moves), ev1.sse(h, n_moves), n_candidates, alpha, min_gain)
+    pa = path_test(_path_sse(ev0, n_moves), _path_sse(ev1, n_moves))
+    return _Decision(st, pa, _path_names(ev0.horizons), n_candidates, alpha, min_gain)
+
+
+@dataclass
+class _Probe:
+    """One candidate's held-out rollout decision against the current model."""
+
+    aug: Augmentation
+    total_gain: float   # state SSE cuts summed over the 33 elements + the path's total cut
+    decision: _Decision
+
+    def to_dict(self) -> dict[str, Any]:
+        d = self.decision
+        return {"label": self.aug.label(), "family": self.aug.family,
+                "p_value": float(d.p_value), "p_state": float(d.state.p_value),
+                "p_path": float(d.p_path), "total_gain": self.total_gain,
+                "state_gain": float(np.sum(d.state.gain)), "path_gain_total": d.path.total_gain,
+                "path_gain": {n: float(g) for n, g in zip(d.path_names, d.path.gain)},
+                "max_gain": float(np.max(d.gain)), "significant": bool(d.significant),
+                "material": bool(d.material), "outputs": d.outputs}
+
+
+class _Route:
+    """The TrainPool, its folds and the shared design; fits and rolls out feature sets."""
+
+    def __init__(self, train: Sequence[MoveRecording], start: FeatureSet, opts: LearnedOptions,
+                 say: Callable[[str], None]) -> None:
+        self.train, self.opts, self.say = list(train), opts, say
+        self.mv = _moves(self.train)
+        self.fold_of_move = move_folds(self.mv.types, opts.n_folds, opts.seed)
+        X, Y, mi = start.features_responses(self.train)
+        D = Y - X[:, :N_STATE]
+        ls = _length_scales(X, D, opts)
+        self.design = _make_design(X, D, np.vstack(self.mv.S), opts, ls)
+        self.h = _horizon_steps(opts, min(s.shape[0] for s in self.mv.S))[0]
+        self.h_dec = min(self.h, key=lambda h: abs(h - opts.decision_horizon_s / CONTROL_DT))
+
+    def fit(self, fs: FeatureSet) -> tuple[CrossFitModel, Evidence]:
+        X, Y, mi = fs.features_responses(self.train)
+        D = Y - X[:, :N_STATE]
+        model = CrossFitModel(self.design, self.opts.ridge).fit(
+            X, D, self.fold_of_move[mi], self.opts.n_folds)
+        return model, rollout_evidence(model, fs, self.mv, self.fold_of_move, self.opts, X, D,
+                                       mi)
+
+    def probe(self, fs: FeatureSet, ev0: Evidence, aug: Augmentation, n_candidates: int
+              ) -> _Probe:
+        _, ev1 = self.fit(fs.with_augmentation(aug))
+        dec = decide(ev0, ev1, self.h_dec, self.mv.n, n_candidates, self.opts.alpha,
+                     self.opts.min_gain)
+        return _Probe(aug, float(np.sum(dec.state.gain) + dec.path.total_gain), dec)
+
+
+def _pick(probes: Sequence[_Probe], tolerance: float, prefer_large_lag: bool) -> _Probe:
+    """Parsimony among members within ``tolerance`` of the best total gain: fewest columns
+    (then the larger gain); for a delay the largest lag (the knee of the lag profile)."""
+    best = max(p.total_gain for p in probes)
+    ok = [p for p in probes if p.total_gain >= best - tolerance * abs(best)]
+    if prefer_large_lag:
+        return max(ok, key=lambda p: (p.aug.lag, p.total_gain))
+    return min(ok, key=lambda p: (len(p.aug.columns()), -p.total_gain))
+
+
+def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: int
+            ) -> tuple[_Probe, list[dict[str, Any]]]:
+    """Scope, then parameter, of a detected family by the same held-out rollout SSE."""
+    tried = [first]
+    tried += [route.probe(fs, ev0, a, n_candidates) for a in _scope_members(first.aug)]
+    scoped = _pick(tried, route.opts.tolerance, False)
+    params = [scoped] + [route.probe(fs, ev0, a, n_candidates)
+                         for a in _param_members(scoped.aug)]
+    best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
+    scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
+             "p_value": float(p.decision.p_value)} for p in tried + params[1:]]
+    return best, scan
+
+
+# ------------------------------------------------------------------------------ physical names
+
+
+def _scope_words(aug: Augmentation) -> str:
+    j = aug.params().get("joints", "all")
+    if j == "all":
+        return "all joints"
+    if j in ("hip_rolls", "hip_pitches", "knees"):
+        return f"the {j.replace('_', '-')}"
+    if j in ("left", "right"):
+        return f"the {j} side's joints"
+    return f"the {j.replace('_', '-')} leg" if j in SCOPES else f"joint {j}"
+
+
+def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
+                       X: np.ndarray, mass_kg: float, elapsed_mean_s: float
+                       ) -> tuple[str, dict[str, Any]]:
+    """(sentence, numbers) naming the effect ``aug`` of the fitted ``model`` (features X;
+    ``elapsed_mean_s``: the mean time since the move's start over X's rows)."""
+    sl = fs.column_slices()[list(fs.augmentations).index(aug)]
+    if isinstance(aug, Heading):
+        return _heading_statement(model.linear_coef(sl), mass_kg)
+    if isinstance(aug, CommandLag):
+        ms = aug.lag * CONTROL_DT * 1000.0
+        return (f"{_scope_words(aug)}: set-points act about {ms:.0f} ms late "
+                f"(u_t-{aug.lag})", {"delay_ms": ms})
+    if isinstance(aug, CommandFilter):
+        return (f"{_scope_words(aug)}: set-points pass a lag of about "
+                f"{aug.time_constant_ms:.0f} ms", {"time_constant_ms": aug.time_constant_ms})
+    if isinstance(aug, Play):
+        return (f"command reversals matter: play of about {aug.width:.2f} rad in the set-points",
+                {"width_rad": aug.width})
+    if isinstance(aug, ElapsedTracking):
+        return _drift_statement(aug, model, sl, X, elapsed_mean_s)
+    where = _strongest(model.linear_coef(sl), X[:, sl])
+    kind = {"pose (position)": "where the robot is on the floor (terrain that varies over it)",
+            "elapsed time": "the time since the move started (drift)",
+            "gait phase": "the gait phase (a phase-locked effect)"}.get(aug.family, aug.family)
+    return (f"the dynamics depend on {kind}; strongest on {', '.join(where)}; the learned "
+            f"model alone cannot put this family in physical units",
+            {"strongest_on": where})
+
+
+def _strongest(coef: np.ndarray, Z: np.ndarray, n: int = 3) -> list[str]:
+    """State elements whose one-step change the columns move most (in units of its spread)."""
+    eff = np.abs(coef * Z.std(axis=0)[:, None]).sum(axis=0)
+    return [STATE_NAMES[j] for j in np.argsort(-eff)[:n]]
+
+
+def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str, Any]]:
+    """A world-fixed force from the sin/cos(yaw) columns' effect on dx_b, dy_b per step.
+
+    The change of the per-step body displacement is a_b dt^2; a_b(yaw) from the fitted
+    coefficients, turned into odom and averaged over the heading, is the constant
+    acceleration a world-fixed force gives (the part that turns with the body is reported as
+    ``inconsistency``)."""
+    (sx, sy), (cx, cy) = coef[0, 1:3], coef[1, 1:3]
+    dt2 = CONTROL_DT ** 2
+    ax, ay = 0.5 * (cx - sy) / dt2, 0.5 * (sx + cy) / dt2
+    rest = 0.5 * math.hypot(cx + sy, sx - cy) / dt2
+    F = mass_kg * math.hypot(ax, ay)
+    deg = math.degrees(math.atan2(ay, ax)) % 360.0
+    slope = math.degrees(math.asin(min(1.0, F / (mass_kg * 9.81))))
+    axis = _axis_words(deg)
+    return (f"a steady force fixed in odom toward {deg:.0f} deg ({axis}), free-body "
+            f"equivalent about {F:.1f} N (or a slope of about {slope:.1f} deg)",
+            {"force_N": F, "direction_deg": deg, "force_xy_N": [mass_kg * ax, mass_kg * ay],
+             "inconsistency_N": mass_kg * rest, "equivalent_slope_deg": slope,
+             "mass_kg": mass_kg})
+
+
+def _with_drift(text: str, numbers: dict[str, Any], ev0: Evidence, h: int
+                ) -> tuple[str, dict[str, Any]]:
+    """Add the drift the push leaves unmodelled, measured: the mean odom residual of the
+    starting model's horizon-h rollouts over h (the robot's feet resist the push, so the
+    free-body force read off one step is an upper figure; the drift is what it does)."""
+    v = ev0.odom[h].mean(axis=0) / (h * CONTROL_DT)
+    u = np.array([math.cos(math.radians(numbers["direction_deg"])),
+                  math.sin(math.radians(numbers["direction_deg"]))])
+    numbers = {**numbers, "drift_velocity_xy_mps": [float(v[0]), float(v[1])],
+               "drift_along_force_mps": float(v @ u),
+               "drift_direction_deg": float(math.degrees(math.atan2(v[1], v[0])) % 360.0)}
+    return (f"{text}; unmodelled drift {100 * float(v @ u):.1f} cm/s along it "
+            f"(measured, {h * CONTROL_DT:g} s rollouts)", numbers)
+
+
+def _axis_words(deg: float) -> str:
+    names = {0: "+x", 90: "+y", 180: "-x", 270: "-y", 360: "+x"}
+    near = min(names, key=lambda a: abs(a - deg))
+    return f"along {names[near]} in odom" if abs(near - deg) <= 20 else "in odom"
+
+
+def _drift_statement(aug: ElapsedTracking, model: CrossFitModel, sl: slice, X: np.ndarray,
+                     t_bar: float) -> tuple[str, dict[str, Any]]:
+    """Servo stiffness drift: the t*(u-q) coefficient on ddq over the model's d(ddq)/du.
+
+    With a push G(t) c (u - q), G(t) = G0 (1 + r t), the model's u column carries G0 c and
+    the t*(u-q) column G0 r c, so their ratio is r, the rate relative to the start value
+    (``t_bar``, the data's mean time, is reported for reference). Not yet checked against
+    data with a known rate: ``benchmarks/learned_route/README.md``."""
+    joints = [JOINT_NAMES.index(c.split("_", 1)[1]) for c in aug.columns()]
+    beta = model.linear_coef(sl)
+    rng = np.random.default_rng(0)
+    sub = X[rng.choice(X.shape[0], size=min(2000, X.shape[0]), replace=False)]
+    rates = []
+    base = model.predict(sub, -1)
+    for i, j in enumerate(joints):
+        Xp = sub.copy()
+        Xp[:, N_STATE + j] += 1e-3
+        g = float(np.mean((model.predict(Xp, -1) - base)[:, S.dq.start + j]) / 1e-3)
+        if abs(g) > 1e-9:
+            rates.append(beta[i, S.dq.start + j] / g)
+    r = float(np.median(rates)) if rates else float("nan")
+    return (f"{_scope_words(aug)}: the servos' stiffness changes by about {100 * r:+.0f} % of "
+            f"its starting value per second of the move (reading not yet validated)",
+            {"rate_per_s": r, "mean_time_s": t_bar})
+
+
+# ------------------------------------------------------------------------------ what is left
+
+#: the recording that would settle structure left in the residual, per group
+RECORDINGS: dict[str, str] = {
+    "bias": "record more moves of the types with the largest residual (the model is off on "
+            "average there): 20 or more per type",
+    "position": "record the same move types started from several places on the floor (a grid "
+                "about 1 m apart), so where the robot is and how it moves are not confounded",
+    "heading": "record every move type from at least four start headings 90 deg apart",
+    "time": "record longer moves (8 s or more), or the same moves at different times since "
+            "power-up",
+    "phase": "record with command excitation (record --excitation 0.05) and at a second gait "
+             "period",
+}
+
+
+def _structure_columns(ev: Evidence, h: int, mv: _Moves, phase: list[np.ndarray]
+                       ) -> dict[str, np.ndarray]:
+    """Regressors of each horizon-h rollout from the measured data at its start."""
+    m, t0 = ev.move[h], ev.t0[h]
+    pose = np.stack([mv.pose[i][t] for i, t in zip(m, t0)])
+    t = t0 * CONTROL_DT
+    return {"position": pose[:, :2], "heading": np.stack([np.sin(pose[:, 2]),
+                                                          np.cos(pose[:, 2])], axis=1),
+            "time": np.stack([t, t ** 2], axis=1),
+            "phase": np.stack([phase[i][t] for i, t in zip(m, t0)])}
+
+
+def _crossfit_sse(E: np.ndarray, Z: np.ndarray | None, move: np.ndarray, fold: np.ndarray,
+                  n_moves: int, ridge: float = 1e-6) -> np.ndarray:
+    """(M, 33) per-move SSE of E minus its held-out least-squares fit on [1, Z] (Z None: on
+    nothing, the residual itself), folds by move."""
+    if Z is None:
+        R = E
+    else:
+        A = np.hstack([np.ones((E.shape[0], 1)), (Z - Z.mean(axis=0)) / np.where(
+            Z.std(axis=0) > 0, Z.std(axis=0), 1.0)])
+        R = np.empty_like(E)
+        f_row = fold[move]
+        for f in np.unique(f_row):
+            tr, te = f_row != f, f_row == f
+            G = A[tr].T @ A[tr] + ridge * np.eye(A.shape[1])
+            R[te] = E[te] - A[te] @ np.linalg.solve(G, A[tr].T @ E[tr])
+    out = np.zeros((n_moves, E.shape[1]))
+    np.add.at(out, move, R ** 2)
+    return out
+
+
+def residual_structure(ev: Evidence, mv: _Moves, fold_of_move: np.ndarray,
+                       phase: list[np.ndarray], h: int, opts: LearnedOptions) -> dict[str, Any]:
+    """Is the held-out horizon-h rollout residual structured? (module doc, 6)."""
+    E = ev.err[h]
+    cols = _structure_columns(ev, h, mv, phase)
+    n_tests = 1 + len(cols)
+    S_zero = _crossfit_sse(E, None, ev.move[h], fold_of_move, mv.n)
+    S_const = _crossfit_sse(E, np.empty((E.shape[0], 0)), ev.move[h], fold_of_move, mv.n)
+    groups = {"bias": sse_decision(S_zero, S_const, n_tests, opts.alpha, opts.min_gain)}
+    for name, Z in cols.items():
+        S1 = _crossfit_sse(E, Z, ev.move[h], fold_of_move, mv.n)
+        groups[name] = sse_decision(S_const, S1, n_tests, opts.alpha, opts.min_gain)
+    found = [g for g, d in groups.items() if d.significant and d.material]
+    share = (S_zero / np.where(S_zero.sum(axis=0) > 0, S_zero.sum(axis=0), 1.0)).mean(axis=1)
+    worst = np.argsort(-share)[:5]
+    d_std = np.sqrt((ev.one_step_std[:, S.d_b][:, :2] ** 2).sum(axis=1).mean())
+    odom_rms = float(np.sqrt((ev.odom[h] ** 2).sum(axis=1).mean()))
+    out = {"horizon_s": h * CONTROL_DT,
+           "groups": {g: {"p_value": float(d.p_value), "total_gain": float(np.sum(d.gain)),
+                          "max_gain": float(np.max(d.gain)), "significant": bool(d.significant),
+                          "material": bool(d.material), "outputs": list(d.outputs)}
+                      for g, d in groups.items()},
+           "smallest_p": float(min(d.p_value for d in groups.values())),
+           "unexplained": found,
+           "channels": sorted({o for g in found for o in groups[g].outputs}),
+           "moves": [{"move": mv.names[i], "share": float(share[i])} for i in worst],
+           "odom_rms_m": odom_rms,
+           "coherence_ratio": odom_rms / (math.sqrt(h) * d_std) if d_std > 0 else None,
+           "recording": {g: RECORDINGS[g] for g in found}}
+    return out
+
+
+# ------------------------------------------------------------------------------ the route
+
+
+def _phase_columns(recs: Sequence[MoveRecording]) -> list[np.ndarray]:
+    fs = FeatureSet((GaitPhase(quarter_lag=9),))
+    X, _, mi = fs.features_responses(recs)
+    return [X[mi == i, N_FEATURE:] for i in range(len(recs))]
+
+
+def _test_scores(model: CrossFitModel, fs: FeatureSet, test: Sequence[MoveRecording],
+                 mv: _Moves, opts: LearnedOptions) -> dict[str, Any]:
+    """TestPool one-step nMSE and rollout errors of the fit on the whole TrainPool."""
+    X, Y, mi = fs.features_responses(test)
+    D = Y - X[:, :N_STATE]
+    ev = rollout_evidence(model, fs, mv, None, opts, X, D, mi)
+    var = Y.var(axis=0)
+    nmse = np.where(var > 1e-24, (ev.one_step ** 2).mean(axis=0) / np.where(var > 1e-24, var,
+                                                                             1.0), np.nan)
+    xy = {f"{h * CONTROL_DT:g}": float(np.linalg.norm(ev.odom[h], axis=1).mean())
+          for h in ev.horizons}
+    return {"one_step_nmse_mean": float(np.nanmean(nmse)),
+            "one_step_nmse": {n: float(v) for n, v in zip(STATE_NAMES, nmse)},
+            "final_xy_error_m": xy[f"{max(ev.horizons) * CONTROL_DT:g}"], "xy_error_at": xy,
+            "n_moves": mv.n}
+
+
+def _check_input(train: Sequence[MoveRecording], test: Sequence[MoveRecording],
+                 opts: LearnedOptions) -> None:
+    if len(train) < 2 * opts.n_folds:
+        raise ValueError(f"diagnose_learned: needs at least {2 * opts.n_folds} TrainPool moves "
+                         f"for {opts.n_folds} folds, got {len(train)}")
+    if len(test) == 0:
+        raise ValueError("diagnose_learned: needs at least one TestPool move")
+
+
+def _default_mass() -> float:
+    from ..robot.config import GUIDE_BODY_MASS, GUIDE_LEG_MASS
+    return GUIDE_BODY_MASS + 4 * GUIDE_LEG_MASS
+
+
+def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
+                     *, start: FeatureSet | None = None, options: LearnedOptions | None = None,
+                     library: Sequence[Augmentation] | None = None,
+                     mass_kg: float | None = None,
+                     progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """The learned route on TrainPool ``train_recs``, scored on TestPool ``test_recs``; returns
+    the report dict of the module doc. ``start``: the model's feature set before the search
+    (default :func:`.candidates.measured_robot_features`); ``library``: the family probes
+    (default :func:`family_probes`); ``mass_kg``: the robot's total mass (default the
+    guide's, from :mod:`..robot.config`)."""
+    from .candidates import measured_robot_features
+    opts = options or LearnedOptions()
+    _check_input(train_recs, test_recs, opts)
+    say = progress or (lambda s: log.info(s))
+    t_start = time.perf_counter()
+    start = measured_robot_features() if start is None else start
+    lib = list(family_probes() if library is None else library)
+    route = _Route(train_recs, start, opts, say)
+    model0, ev0 = route.fit(start)
+    fs, model, ev = start, model0, ev0
+    rounds: list[dict[str, Any]] = []
+    found: list[tuple[_Probe, list[dict[str, Any]]]] = []
+    last: list[_Probe] = []
+    for k in range(opts.max_rounds):
+        taken = {p.aug.family for p, _ in found}
+        todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
+        last = [route.probe(fs, ev, a, len(lib)) for a in todo]
+        rounds.append({"round": k, "probes": [p.to_dict() for p in last]})
+        ok = [p for p in last if p.decision.significant and p.decision.material]
+        say(f"round {k}: " + ", ".join(f"{p.aug.label()} gain {p.total_gain:+.2f} "
+                                       f"p {p.decision.p_value:.2g}" for p in last))
+        if not ok:
+            break
+        best, scan = _refine(route, fs, ev, max(ok, key=lambda p: p.total_gain), len(lib))
+        if not (best.decision.significant and best.decision.material):
+            best = max(ok, key=lambda p: p.total_gain)
+        found.append((best, scan))
+        fs = fs.with_augmentation(best.aug)
+        model, ev = route.fit(fs)
+        say(f"round {k}: accepted {best.aug.label()}")
+    return _report(route, train_recs, test_recs, start, fs, model0, model, ev0, ev, found,
+                   rounds, last, opts, mass_kg or _default_mass(), t_start)
+
+
+def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
+            mass_kg, t_start) -> dict[str, Any]:
+    X, _, mi = fs.features_responses(route.train)
+    t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
+                  * CONTROL_DT)
+    effects = []
+    for p, scan in found:
+        text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar)
+        if isinstance(p.aug, Heading):
+            text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
+        effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
+                        "scope": p.aug.params().get("joints", "body"), "statement": text,
+                        "physical": numbers, "scan": scan})
+    mv_test = _moves(test)
+    before = _test_scores(model0, start, test, mv_test, opts)
+    after = _test_scores(model, fs, test, mv_test, opts) if found else before
+    residual = residual_structure(ev, route.mv, route.fold_of_move, _phase_columns(route.train),
+                                  route.h_dec, opts)
+    suspected = [{**p.to_dict(), "why": ("significant but below the materiality minimum"
+                                         if p.decision.significant else
+                                         "material but not significant at alpha"),
+                  "recording": _family_recording(p.aug)}
+                 for p in last if not (p.decision.significant and p.decision.material)
+                 and (p.decision.significant or (p.decision.material or
+                                                 p.decision.p_value < 10 * opts.alpha))]
+    report = {"route": "learned", "significant": bool(found), "effects": effects,
+              "rounds": rounds, "evidence": {"before": ev0.summary(), "after": ev.summary()},
+              "test": {"before": before, "after": after}, "residual": residual,
+              "suspected": suspected, "feature_set": fs.to_dict(),
+              "options": asdict(opts), "seconds": time.perf_counter() - t_start}
+    report["verdict"] = _verdict(report)
+    return report
+
+
+def _family_recording(aug: Augmentation) -> str:
+    fam = aug.family
+    if fam in ("command delay", "command filter", "backlash/hysteresis"):
+        return "record with command excitation (record --excitation 0.05)"
+    key = {"pose (heading)": "heading", "pose (position)": "position", "elapsed time": "time",
+           "gait phase": "phase"}.get(fam, "bias")
+    return RECORDINGS[key]
+
+
+def _verdict(report: dict[str, Any]) -> str:
+    parts = [e["statement"] for e in report["effects"]]
+    res = report["residual"]
+    if res["unexplained"]:
+        parts.append("unexplained structure left in the 1 s rollout residual, by "
+                     + ", ".join(res["unexplained"]) + " (on " + ", ".join(res["channels"][:6])
+                     + "); " + "; ".join(res["recording"].values()))
+    if report["suspected"]:
+        parts.append("the data cannot tell: " + ", ".join(
+            f"{s['label']} ({s['why']})" for s in report["suspected"]))
+    if not parts:
+        return ("nothing significant: no probe cuts the held-out rollout error and the residual "
+                f"shows no structure (smallest p {res['smallest_p']:.2g})")
+    return "found: " + "; ".join(parts) if report["effects"] else "; ".join(parts)
