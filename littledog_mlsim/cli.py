@@ -10,7 +10,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from .layout import MOVE_TYPES
 from .logs import setup_logging, teardown_logging
@@ -225,11 +225,20 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
                        "max_rounds": a.physics_rounds, "jobs": a.jobs,
                        "horizons_s": tuple(a.horizons)}
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
-                            LearnedRoute(search=search, max_rounds=a.max_rounds))
+                            LearnedRoute(search=search, max_rounds=a.max_rounds,
+                                         rollout=_rollout_options(a)))
     return DiagnoseOptions(
         route=route, model=a.model, baseline=a.baseline, method=a.method, options=options,
         alpha=a.significance, min_gain=a.min_gain, projections=a.projections,
         projection_alpha=a.alpha, seed=a.seed, figures=not a.no_figures, progress=not a.quiet)
+
+
+def _rollout_options(a: argparse.Namespace) -> Any:
+    """The rollout route's options (``--rollout-route``), or None."""
+    if not a.rollout_route:
+        return None
+    from .diagnose.learned import LearnedOptions
+    return LearnedOptions(seed=a.seed)
 
 
 def cmd_diagnose(a: argparse.Namespace) -> int:
@@ -551,6 +560,11 @@ def build_parser() -> argparse.ArgumentParser:
                          "by re-simulating the dataset's robot; docs/diagnosis.md); auto = on "
                          "when the dataset names a known robot; off = the learned residual loop "
                          "only (default auto)")
+    dg.add_argument("--rollout-route", action="store_true",
+                    help="learned route: after the one-step loop, also search by held-out k-step "
+                         "rollouts (world-fixed forces, time drift, ...: effects too small at one "
+                         "step); report key rollout_route (docs/diagnosis.md). Opt-in: it still "
+                         "alarms on clean data recorded with command excitation")
     dg.add_argument("--fit-moves", type=int, default=1,
                     help="physics: TrainPool moves per type that choose and fit (default 1)")
     dg.add_argument("--validate-moves", type=int, default=2,

@@ -46,11 +46,18 @@ class PhysicalRoute:
 @dataclass(frozen=True)
 class LearnedRoute:
     """The learned residual loop: ``search`` model (default seeded with the run's seed),
-    candidate ``library`` (default :func:`.candidates.default_library`), ``max_rounds``."""
+    candidate ``library`` (default :func:`.candidates.default_library`), ``max_rounds``.
+    ``rollout``: a :class:`.learned.LearnedOptions` to also search, after the one-step loop, by
+    held-out k-step rollouts (:func:`.learned.diagnose_learned`, probing ``rollout_library``,
+    default its family probes) and add what it accepts to the report model; None: not. Opt-in: on
+    clean data recorded with command excitation it still takes the robot's own command response
+    for an effect (``benchmarks/learned_route/README.md``)."""
 
     search: SearchModel | None = None
     library: Sequence[Any] | None = None
     max_rounds: int = 4
+    rollout: Any = None
+    rollout_library: Sequence[Any] | None = None
     name = "learned"
 
 

@@ -290,9 +290,26 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
         L += _md_effect(e, fig)
     L += _md_before_after(doc, figs)
     L += _md_rounds(doc)
+    L += _md_rollout_route(doc.get("rollout_route"))
     add(f"Final model: `{doc.get('model')}`. Schema of report.json: "
         f"`littledog_mlsim/diagnose/report.py`.")
     return "\n".join(L) + "\n"
+
+
+def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
+    """The rollout route's section (``diagnose --rollout-route``), if it ran."""
+    if not r:
+        return []
+    L = ["## Rollout route (held-out k-step rollouts)\n", f"{r.get('verdict', '')}\n"]
+    for e in r.get("effects", []):
+        L.append(f"- `{e['label']}` (p = {e.get('p_value', float('nan')):.2g}): "
+                 f"{e.get('statement', '')}")
+    for s in r.get("suspected", []):
+        L.append(f"- suspected: {s.get('label', s)}")
+    res = r.get("residual") or {}
+    if res.get("verdict"):
+        L.append(f"\nResidual: {res['verdict']}")
+    return L + [""]
 
 
 def _md_head(doc: dict) -> list[str]:

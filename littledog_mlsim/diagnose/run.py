@@ -153,7 +153,8 @@ def _starting_model(o: DiagnoseOptions) -> tuple[FeatureSet, Any, str, dict[str,
 
 
 def _diagnose_learned(run: _Run, route: LearnedRoute) -> dict[str, Any]:
-    """The residual loop of :mod:`.selection`, then the report model before/after."""
+    """The residual loop of :mod:`.selection` (and, with ``route.rollout``, the rollout route
+    of :mod:`.learned` from where it ended), then the report model before/after."""
     from .report import write_report
     search = SearchModel(seed=run.o.seed) if route.search is None else route.search
     library = list(default_library() if route.library is None else route.library)
@@ -162,12 +163,40 @@ def _diagnose_learned(run: _Run, route: LearnedRoute) -> dict[str, Any]:
     feature_sets = [run.start]
     for picked in sel.accepted:
         feature_sets.append(feature_sets[-1].with_augmentation(picked.augmentation))
+    rollout = (None if route.rollout is None
+               else _rollout_route(run, route, feature_sets[-1]))
+    for aug in ([] if rollout is None else _accepted(rollout, feature_sets[-1])):
+        feature_sets.append(feature_sets[-1].with_augmentation(aug))
     stages, last_model = _stages(run, feature_sets)
-    report = write_report(run.out, sel, stages, **_report_keywords(run, last_model))
-    found = ", ".join(e["label"] for e in report["effects"])
+    keywords = _report_keywords(run, last_model)
+    if rollout is not None:
+        keywords["rollout_route"] = rollout
+    report = write_report(run.out, sel, stages, **keywords)
+    found = ", ".join([e["label"] for e in report["effects"]]
+                      + [e["label"] for e in (rollout or {}).get("effects", [])])
     run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
             f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
+
+
+def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet) -> dict[str, Any]:
+    """The rollout route's report, searched from ``start`` (what the one-step loop ended
+    with)."""
+    from .learned import diagnose_learned
+    return diagnose_learned(run.train, run.test, start=start, options=route.rollout,
+                            library=route.rollout_library, progress=run.say)
+
+
+def _accepted(rollout: Mapping[str, Any], fs: FeatureSet) -> list[Any]:
+    """The rollout route's accepted augmentations that ``fs`` does not carry yet."""
+    from ..models.features import augmentation_from_dict
+    out, names = [], set(fs.names)
+    for e in rollout.get("effects", []):
+        aug = augmentation_from_dict(e["augmentation"])
+        if not set(aug.columns()) & names:
+            out.append(aug)
+            names |= set(aug.columns())
+    return out
 
 
 def _report_keywords(run: _Run, last_model: Any) -> dict[str, Any]:

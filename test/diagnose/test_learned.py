@@ -121,3 +121,21 @@ def test_too_few_moves_is_a_clear_error():
     recs = [make_recording(f"F_0{i}", n=30, seed=i) for i in range(4)]
     with pytest.raises(ValueError, match="diagnose_learned: needs at least 10 TrainPool moves"):
         diagnose_learned(recs, recs[:1], options=SMALL)
+
+
+def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, tmp_path):
+    """``diagnose --physics off --rollout-route`` as a function: the one-step loop (no rounds
+    here), then the rollout route; its push is in ``rollout_route``, its augmentation is the
+    report model's last stage, and report.md says what it found."""
+    from littledog_mlsim.diagnose import DiagnoseOptions, LearnedRoute, diagnose
+    route = LearnedRoute(max_rounds=0, rollout=SMALL, rollout_library=LIBRARY)
+    report = diagnose(data["push"], tmp_path / "d", DiagnoseOptions(
+        route=route, method="lr", figures=False, progress=False))
+    r = report["rollout_route"]
+    assert r["significant"] and r["effects"][0]["family"] == "pose (heading)", r["rounds"]
+    assert report["effects"] == [] and len(report["stages"]) == 1 + len(r["effects"])
+    last = report["after"]["feature_set"]
+    assert last == report["stages"][-1]["feature_set"] != report["before"]["feature_set"]
+    assert any(a.get("name") == "heading" or "heading" in str(a) for a in last["augmentations"])
+    md = (tmp_path / "d" / "report.md").read_text()
+    assert "## Rollout route" in md and r["effects"][0]["label"] in md
