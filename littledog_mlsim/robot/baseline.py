@@ -75,7 +75,7 @@ __all__ = [
     "TUNED_PARAMS", "PARAM_BOUNDS", "LOG_PARAMS", "DEFAULT_GRID", "CONFIG_FORMAT",
     "physics_rollout", "physics_rollouts", "one_step_predictions", "k_step_predictions",
     "delayed_recording",
-    "tuning_moves",
+    "tuning_moves", "first_per_type",
     "tuning_objective", "tune_nominal", "evaluate_baseline", "save_robot_config",
     "load_robot_config", "config_to_dict", "config_from_dict",
 ]
@@ -270,9 +270,13 @@ def tuning_moves(data_dir: str | os.PathLike, per_type: int | None = 2,
 
     Reads only the ``train`` split of the dataset (never TestPool).
     """
-    recs = load_moves(data_dir, "train", types=types)
+    return first_per_type(load_moves(data_dir, "train", types=types), per_type)
+
+
+def first_per_type(recs: Sequence[MoveRecording], per_type: int | None) -> list[MoveRecording]:
+    """The first ``per_type`` of ``recs`` of each move type, in order (all: None)."""
     if per_type is None:
-        return recs
+        return list(recs)
     taken: dict[str, int] = {}
     out = []
     for r in recs:

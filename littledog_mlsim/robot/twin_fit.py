@@ -451,18 +451,6 @@ def _rms_report(prob: _Problem, x0: np.ndarray, x: np.ndarray) -> dict[str, Any]
 # from a dataset to a twin file
 
 
-def _first_per_type(recs: Sequence[MoveRecording], per_type: int | None) -> list[MoveRecording]:
-    if per_type is None:
-        return list(recs)
-    taken: dict[str, int] = {}
-    out = []
-    for r in recs:
-        if taken.get(r.move_type, 0) < per_type:
-            taken[r.move_type] = taken.get(r.move_type, 0) + 1
-            out.append(r)
-    return out
-
-
 def _check_out(out: Path) -> None:
     """Refuse an output that is not (and would replace something that is not) a twin file."""
     from .twin import load_twin
@@ -498,9 +486,9 @@ def calibrate_dataset(data: str | os.PathLike, robot: str | os.PathLike | RobotC
     _check_out(out)
     base = robot_config_from(robot)
     index = read_index(data)
-    train = _first_per_type(load_moves(data, "train"), options.moves_per_type)
+    train = _bl.first_per_type(load_moves(data, "train"), options.moves_per_type)
     try:
-        test = _first_per_type(load_moves(data, "test"), test_per_type)
+        test = _bl.first_per_type(load_moves(data, "test"), test_per_type)
     except DatasetError:
         test = []
     cal = calibrate_twin(train, test, base, options, progress)
