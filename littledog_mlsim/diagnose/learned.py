@@ -31,7 +31,7 @@ Method
    with and without it go to :func:`.selection.sse_decision` (one-sided t-tests over moves of
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
-   (odom x, y at every horizon) by a per-move rank test (:func:`path_test`). The moves of a
+   (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
    at ``alpha`` = 0.01 two of the first clean datasets raised alarms (smallest p 0.0038), so
    the route's default ``alpha`` is 1e-4 (``benchmarks/learned_route/README.md``).
@@ -74,7 +74,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -86,7 +86,8 @@ from ..layout import CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES, S
 from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedTime, FeatureSet,
                                GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
 from ..models.feature_library import ElapsedTracking
-from .selection import SearchModel, move_folds, sse_decision
+from .selection import SearchModel, move_folds
+from .stats import PathTest, path_test, sse_decision
 
 __all__ = ["LearnedOptions", "CrossFitModel", "Evidence", "diagnose_learned", "family_probes",
            "rollout_evidence", "residual_structure", "physical_statement", "SCOPES"]
@@ -434,38 +435,10 @@ def _path_sse(ev: Evidence, n_moves: int) -> np.ndarray:
 
 
 @dataclass
-class PathTest:
-    """The path channels' decision: per move, the log ratio of its odom residual SSE without
-    and with the candidate (each channel scaled by its total without, so every horizon weighs
-    alike), tested > 0 over the moves by a one-sided Wilcoxon signed-rank test. The per-move
-    SSE of a drift is heavy-tailed (a few long, fast moves carry most of it), which the
-    t-test of :func:`.selection.sse_decision` on SSE differences pays for in power; the rank
-    test on ratios does not, and its level holds under the same null (a column that does not
-    help leaves the per-move ratio symmetric about 1 or below it)."""
-
-    gain: np.ndarray      # (channels,) held-out SSE cut per path channel
-    total_gain: float     # cut of the channel-scaled total
-    p: float              # unadjusted one-sided p
-    n_better: int         # moves whose scaled path SSE went down
-
-
-def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
-    from scipy.stats import wilcoxon
-    tot = P0.sum(axis=0)
-    tot = np.where(tot > 0, tot, 1.0)
-    a, b = (P0 / tot).sum(axis=1), (P1 / tot).sum(axis=1)
-    ok = (a > 0) & (b > 0)
-    r = np.log(a[ok] / b[ok])
-    p = float(wilcoxon(r, alternative="greater").pvalue) if np.any(r != 0) else 1.0
-    return PathTest(1.0 - P1.sum(axis=0) / tot, float(1.0 - b.sum() / a.sum()), p,
-                    int(np.sum(r > 0)))
-
-
-@dataclass
 class _Decision:
     """Held-out rollout decision on two channel sets: the 33 state elements at the decision
     horizon (:func:`.selection.sse_decision`, Bonferroni over its tests, the elements and the
-    candidates) and the odom path at every horizon (:func:`path_test`, Bonferroni over the
+    candidates) and the odom path at every horizon (:func:`.stats.path_test`, Bonferroni over the
     candidates); ``p_value`` = 2 min(p_state, p_path)."""
 
     state: Any          # selection.SSEDecision of the state elements

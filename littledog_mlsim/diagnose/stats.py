@@ -22,7 +22,7 @@ import numpy as np
 from scipy import stats
 
 __all__ = ["t_greater", "move_cuts", "rank_max_p", "Decision", "decide", "decide_all",
-           "SSEDecision", "sse_decision", "RANK_FLIPS", "N_TESTS"]
+           "SSEDecision", "sse_decision", "PathTest", "path_test", "RANK_FLIPS", "N_TESTS"]
 
 RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null
 N_TESTS = 3          # with a rank test: pooled t, pooled rank, best channel's t
@@ -152,3 +152,32 @@ def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float
                 else np.zeros(len(r.gain), bool))
     return SSEDecision(r.gain, r.d, r.p_channel, r.p_pooled, r.p_value, r.significant,
                        material, [names[j] for j in np.flatnonzero(out_mask)])
+
+
+@dataclass
+class PathTest:
+    """The path channels' decision: per move, the log ratio of its odom residual SSE without
+    and with the candidate (each channel scaled by its total without, so every horizon weighs
+    alike), tested > 0 over the moves by a one-sided Wilcoxon signed-rank test. The per-move
+    SSE of a drift is heavy-tailed (a few long, fast moves carry most of it), which the
+    t-test of :func:`sse_decision` on SSE differences pays for in power; the rank
+    test on ratios does not, and its level holds under the same null (a column that does not
+    help leaves the per-move ratio symmetric about 1 or below it)."""
+
+    gain: np.ndarray      # (channels,) held-out SSE cut per path channel
+    total_gain: float     # cut of the channel-scaled total
+    p: float              # unadjusted one-sided p
+    n_better: int         # moves whose scaled path SSE went down
+
+
+def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
+    """The :class:`PathTest` of per-move path SSE without (``P0``) and with (``P1``) a
+    candidate, both (moves, channels)."""
+    tot = P0.sum(axis=0)
+    tot = np.where(tot > 0, tot, 1.0)
+    a, b = (P0 / tot).sum(axis=1), (P1 / tot).sum(axis=1)
+    ok = (a > 0) & (b > 0)
+    r = np.log(a[ok] / b[ok])
+    p = float(stats.wilcoxon(r, alternative="greater").pvalue) if np.any(r != 0) else 1.0
+    return PathTest(1.0 - P1.sum(axis=0) / tot, float(1.0 - b.sum() / a.sum()), p,
+                    int(np.sum(r > 0)))

@@ -90,3 +90,24 @@ def test_sse_decision_is_material_only_if_significant_and_names_its_outputs():
     assert r.outputs == (["a"] if base.significant else [])
     no = sse_decision(S0, S1, 10 ** 6, alpha=0.05, min_gain=0.1, names=["a", "b"])
     assert not no.significant and not no.material and no.outputs == []
+
+
+def test_path_test_is_wilcoxon_on_per_move_log_ratios_of_scaled_sse():
+    """stats.path_test against its definition computed here: each channel scaled by its total
+    without the candidate, per move the log ratio of the scaled sums, a one-sided Wilcoxon
+    signed-rank test (scipy); the gains are the cuts of the channel totals."""
+    from scipy.stats import wilcoxon
+
+    from littledog_mlsim.diagnose.stats import path_test
+    rng = np.random.default_rng(3)
+    P0 = rng.gamma(2.0, 1.0, size=(20, 3)) * np.array([1.0, 10.0, 100.0])
+    P1 = P0 * rng.uniform(0.6, 1.1, size=P0.shape)
+    t = path_test(P0, P1)
+    tot = P0.sum(axis=0)
+    a, b = (P0 / tot).sum(axis=1), (P1 / tot).sum(axis=1)
+    r = np.log(a / b)
+    assert t.p == pytest.approx(wilcoxon(r, alternative="greater").pvalue, rel=1e-12)
+    assert t.n_better == int(np.sum(r > 0))
+    np.testing.assert_allclose(t.gain, 1.0 - P1.sum(axis=0) / tot, rtol=1e-12)
+    assert t.total_gain == pytest.approx(1.0 - b.sum() / a.sum(), rel=1e-12)
+    assert path_test(P0, P0).p == 1.0                      # nothing changed: no evidence
