@@ -113,6 +113,26 @@ def error_lines(text: str) -> list[str]:
 # the controller side: one rclpy context, an executor in a background thread
 
 
+def call_service(client, request, what: str = "", attempt_s: float = 2.0,
+                 timeout: float = TIMEOUT):
+    """Call a service and return its answer, sending the request again every ``attempt_s``
+    until ``timeout``: a client can see the service ready before the server has matched the
+    client's response reader, and that first answer is then lost for good (the requests the
+    tests send are idempotent: describe, get, reset, pause)."""
+    what = what or f"service {client.srv_name}"
+    deadline = time.monotonic() + timeout
+    while True:
+        fut = client.call_async(request)
+        retry_at = min(deadline, time.monotonic() + attempt_s)
+        while not fut.done() and time.monotonic() < retry_at:
+            time.sleep(0.005)
+        if fut.done():
+            return fut.result()
+        client.remove_pending_request(fut)
+        if time.monotonic() >= deadline:
+            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
 class Ros(Spinner):
     """The controller side: one rclpy context in this process's test domain, spun on a thread
     (:class:`littledog_mlsim.nodes.spinner.Spinner`: nodes are destroyed by the spin thread,
@@ -224,9 +244,7 @@ class Probe:
         self.cmd.publish(msg)
 
     def call(self, client, request):
-        fut = client.call_async(request)
-        wait_until(fut.done, what=f"service {client.srv_name}")
-        return fut.result()
+        return call_service(client, request)
 
     def close(self) -> None:
         self.ros.close(self.node)

@@ -56,6 +56,7 @@ DEMO_METHOD = "lgpr"
 START_TIMEOUT = 60.0   # s, start-up (model loading) and discovery of both simulators
 STEP_TIMEOUT = 15.0    # s, one lockstep step of both simulators
 STOP_TIMEOUT = 10.0    # s, between SIGINT and SIGKILL
+PING_RETRY_S = 1.0     # s, before the start-up service call is sent again (an answer can be lost)
 
 Log = Callable[[str], None]
 
@@ -226,6 +227,7 @@ class _Link:
         from rcl_interfaces.srv import GetParameters
         self._ping = n.create_client(GetParameters, f"/{node_name}/get_parameters")
         self._ping_future: Any = None
+        self._ping_sent = 0.0
         self.pinged = False
 
     def _add(self, store: dict[int, Any], msg: Any) -> None:
@@ -240,8 +242,16 @@ class _Link:
         if not (self.cmd.get_subscription_count() >= 1
                 and all(s.get_publisher_count() >= 1 for s in self.subs)):
             return False
-        if self._ping_future is None and self._ping.service_is_ready():
+        if self.pinged or not self._ping.service_is_ready():
+            return self.pinged
+        # sent again every PING_RETRY_S: a client can see the service ready before the server
+        # has matched its response reader, and that first answer is then lost for good
+        if self._ping_future is not None and time.monotonic() - self._ping_sent > PING_RETRY_S:
+            self._ping.remove_pending_request(self._ping_future)
+            self._ping_future = None
+        if self._ping_future is None:
             from rcl_interfaces.srv import GetParameters
+            self._ping_sent = time.monotonic()
             self._ping_future = self._ping.call_async(GetParameters.Request(names=[]))
             self._ping_future.add_done_callback(self._answered)
         return self.pinged

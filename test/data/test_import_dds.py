@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rosharness import BIN, ENV, Proc, Ros  # noqa: E402  (first: it sets the test domain)
+from rosharness import BIN, ENV, Proc, Ros, call_service  # noqa: E402  (first: test domain)
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy  # noqa: E402
@@ -130,8 +130,7 @@ def recording(tmp_path_factory):
             ctrl.start(trot_commands(sample_trot_params(t, rng))[:N_STEPS])
             assert ctrl.done.wait(60), "controller did not finish"
             time.sleep(0.2)   # the robot holds the last command (measurement window, not a wait)
-            fut = reset.call_async(Trigger.Request())
-            wait_until(fut.done, what="reset")
+            call_service(reset, Trigger.Request())
             time.sleep(0.2)
         bag = tmp / "recording"
         rec.write(bag)

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rosharness import (BIN, ENV, Probe, Proc, Ros, error_lines,  # noqa: I001  (first: it
-                        run)                                     # sets the test domain)
+from rosharness import (BIN, ENV, Probe, Proc, Ros, call_service,  # noqa: I001  (first:
+                        error_lines, run)                         # it sets the test domain)
 import rclpy
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import (  # noqa: E402
@@ -726,13 +726,11 @@ def test_parameter_descriptions_over_ros(ros, work, model_path):
         wait_until(lambda: desc.service_is_ready() and get.service_is_ready() or
                    not proc.alive(), what="sim_node's parameter services")
         names = ["model_path", "alpha", "step_mode", "cmd_timeout", "projection"]
-        fut = desc.call_async(DescribeParameters.Request(names=names))
-        wait_until(fut.done, what="describe_parameters")
-        for d in fut.result().descriptors:
+        described = call_service(desc, DescribeParameters.Request(names=names))
+        for d in described.descriptors:
             assert d.description and d.read_only, d.name
-        fut = get.call_async(GetParameters.Request(names=["alpha", "cmd_timeout"]))
-        wait_until(fut.done, what="get_parameters")
-        alpha, timeout = fut.result().values
+        alpha, timeout = call_service(get, GetParameters.Request(
+            names=["alpha", "cmd_timeout"])).values
         assert alpha.double_value == 0.25          # -p override
         assert timeout.double_value == 0.5         # config/sim.yaml default
     finally:
