@@ -31,7 +31,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from nav_msgs.msg import Odometry
-from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
@@ -134,18 +133,11 @@ def call_service(client, request, what: str = "", attempt_s: float = 2.0,
 
 
 class Ros(Spinner):
-    """The controller side: one rclpy context in this process's test domain, spun on a thread
-    (:class:`littledog_mlsim.nodes.spinner.Spinner`: nodes are destroyed by the spin thread,
-    every wait is bounded, ``shutdown`` joins the thread or says it could not)."""
+    """The controller side: one rclpy context in the test domain, spun on a thread
+    (:class:`littledog_mlsim.nodes.spinner.Spinner`: ``node``, ``destroy``, ``close``)."""
 
     def __init__(self) -> None:
         super().__init__(DOMAIN_ID, name="test-ros-spin")
-
-    def close(self, node: Node) -> None:         # a node, not the spinner (Spinner.close)
-        self.destroy(node)
-
-    def shutdown(self) -> None:
-        Spinner.close(self)
 
 
 class Probe:
@@ -247,4 +239,4 @@ class Probe:
         return call_service(client, request)
 
     def close(self) -> None:
-        self.ros.close(self.node)
+        self.ros.destroy(self.node)

@@ -285,7 +285,7 @@ def test_disk_full_writing_a_dataset_keeps_the_old_one(work, dataset, capsys, mo
 def ros():
     r = Ros()
     yield r
-    r.shutdown()
+    r.close()
 
 
 @pytest.fixture(scope="module")

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import json
 import sqlite3
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from inprocess import cli
 import yaml
 
 from littledog_mlsim.data import decode as D
@@ -24,16 +24,6 @@ from littledog_mlsim.data.realstyle import RealStyle, write_realstyle_bag
 from littledog_mlsim.layout import JOINT_NAMES
 
 TYPES = ["F", "BL", "L", "S"]
-
-
-def cli(capsys, *args: str) -> subprocess.CompletedProcess:
-    """The console script in this process (as ``littledog-mlsim ARGS``)."""
-    from littledog_mlsim.cli import main
-
-    capsys.readouterr()
-    rc = main(list(args))
-    out = capsys.readouterr()
-    return subprocess.CompletedProcess(args, rc, out.out, out.err)
 
 
 @pytest.fixture(scope="module")

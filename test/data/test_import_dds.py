@@ -142,7 +142,7 @@ def recording(tmp_path_factory):
         try:
             sim.stop()
         finally:
-            ros.shutdown()
+            ros.close()
 
 
 def test_dds_recording_imports(recording):

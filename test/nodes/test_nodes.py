@@ -69,7 +69,7 @@ from waiting import TIMEOUT, wait_until  # noqa: E402
 def ros():
     r = Ros()
     yield r
-    r.shutdown()
+    r.close()
 
 
 @pytest.fixture(scope="module")
@@ -489,7 +489,7 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
         ref = rollout(model, s0, HOME_POSE[None], gated)
         np.testing.assert_allclose(probe.state[CONTROL_DT_NS], ref[0], atol=1e-12)
     finally:
-        ros.close(desc)
+        ros.destroy(desc)
         probe.close()
         assert proc.stop() == 0
 
@@ -605,7 +605,7 @@ def test_bag_player_timing_and_content(ros, work, dataset):
         with cond:
             assert cond.wait_for(lambda: len(got) >= 400, TIMEOUT), f"{len(got)} commands"
     finally:
-        ros.close(node)
+        ros.destroy(node)
     rec = read_bag(bag)
     np.testing.assert_array_equal(np.array([g[2] for g in got]), rec.cmd)
     assert [g[1] for g in got] == rec.stamps_ns[:-1].tolist()
@@ -734,5 +734,5 @@ def test_parameter_descriptions_over_ros(ros, work, model_path):
         assert alpha.double_value == 0.25          # -p override
         assert timeout.double_value == 0.5         # config/sim.yaml default
     finally:
-        ros.close(node)
+        ros.destroy(node)
         assert proc.stop() == 0

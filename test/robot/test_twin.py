@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from inprocess import cli
 
 from littledog_mlsim.apps.record import MoveJob, record_dataset
 from littledog_mlsim.data.dataset import load_moves, read_index
@@ -25,15 +25,6 @@ from littledog_mlsim.robot.twin import (Twin, load_twin, robot_config_from, robo
 
 HEAVY = dataclasses.replace(robot_config("nominal"), name="heavy-nominal", mass_scale=1.15,
                             torque_limit=(1.7, 1.7, 0.8))
-
-
-def cli(capsys, *args: str) -> subprocess.CompletedProcess:
-    from littledog_mlsim.cli import main
-
-    capsys.readouterr()
-    rc = main(list(args))
-    out = capsys.readouterr()
-    return subprocess.CompletedProcess(args, rc, out.out, out.err)
 
 
 @pytest.fixture(scope="module")

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import subprocess
 from pathlib import Path
 
 import pytest
+from inprocess import cli
 
 from littledog_mlsim.robot.config import robot_config
 from littledog_mlsim.robot.twin import Twin, load_twin, save_twin
@@ -21,15 +21,6 @@ from littledog_mlsim.robot.twin import Twin, load_twin, save_twin
 TRUTH = dataclasses.replace(robot_config("nominal"), name="truth", position_gain=0.2,
                             velocity_gain=0.7)
 FITTED = ("position_gain", "velocity_gain")
-
-
-def cli(capsys, *args: str) -> subprocess.CompletedProcess:
-    from littledog_mlsim.cli import main
-
-    capsys.readouterr()
-    rc = main([str(a) for a in args])
-    out = capsys.readouterr()
-    return subprocess.CompletedProcess(args, rc, out.out, out.err)
 
 
 @pytest.fixture(scope="module")
