@@ -5,11 +5,12 @@ from __future__ import annotations
 import subprocess
 
 
-def cli(capsys, *args: str) -> subprocess.CompletedProcess:
-    """``littledog-mlsim ARGS`` through ``cli.main``; its exit status and captured output."""
+def cli(capsys, *args) -> subprocess.CompletedProcess:
+    """``littledog-mlsim ARGS`` through ``cli.main`` (paths and numbers as their ``str``); its
+    exit status and captured output."""
     from littledog_mlsim.cli import main
 
     capsys.readouterr()
-    rc = main(list(args))
+    rc = main([str(a) for a in args])
     out = capsys.readouterr()
     return subprocess.CompletedProcess(args, rc, out.out, out.err)
