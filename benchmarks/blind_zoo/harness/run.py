@@ -67,6 +67,7 @@ class Dataset:
     seed: int
     excitation: float
     effects: Path | None = None
+    robot: Path | None = None          # a twin file recorded with; its identity is removed
     diag_seconds: float | None = None
     report: dict[str, Any] | None = field(default=None, repr=False)
 
@@ -93,17 +94,38 @@ def record(ds: Dataset, moves: int, jobs: int, logs: Path) -> None:
         cmd += ["--excitation", f"{ds.excitation:g}"]
     if ds.effects is not None:
         cmd += ["--effects", str(ds.effects)]
+    if ds.robot is not None:
+        cmd += ["--robot", str(ds.robot)]
     _run(cmd, logs / f"record_{ds.name}.log")
+    if ds.robot is not None:
+        forget_robot(ds.path)
 
 
-def diagnose(ds: Dataset, work: Path, extra: list[str], logs: Path) -> None:
-    out = work / "diag" / ds.name
+#: what ``dataset.yaml`` says about the robot that recorded it (``robot.twin.robot_source``)
+ROBOT_KEYS = ("robot", "twin", "robot_config")
+
+
+def forget_robot(path: Path) -> None:
+    """Remove the recording robot's identity from the dataset at ``path``, as an imported
+    recording of a real robot has none: the diagnosis gets a gap robot only as recordings."""
+    index = path / "dataset.yaml"
+    doc = yaml.safe_load(index.read_text())
+    info = doc.get("info") or {}
+    for k in ROBOT_KEYS:
+        info.pop(k, None)
+    tmp = index.with_name(index.name + ".tmp")
+    tmp.write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=None))
+    os.replace(tmp, index)
+
+
+def diagnose(ds: Dataset, work: Path, extra: list[str], logs: Path, arm: str = "") -> None:
+    out = work / ("diag" + (f"_{arm}" if arm else "")) / ds.name
     report = out / "report.json"
     if not report.is_file():
         cmd = CLI + ["diagnose", "--data", str(ds.path), "--out", str(out)] + extra
         t0 = time.perf_counter()
         try:
-            ds.diag_seconds = _run(cmd, logs / f"diagnose_{ds.name}.log")
+            ds.diag_seconds = _run(cmd, logs / f"diagnose{'_' + arm if arm else ''}_{ds.name}.log")
         except RuntimeError as exc:          # a failed diagnosis is a result, not a stop
             ds.diag_seconds = time.perf_counter() - t0
             ds.report = {"error": str(exc), "significant": False, "effects": []}
@@ -135,9 +157,27 @@ def _angle_err(a: float, b: float) -> float:
     return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
+def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every effect the report names in the vocabulary: the physical route's
+    ``effects[*].physical``, and the learned route's ``vocabulary`` blocks (one-step loop and
+    rollout route)."""
+    out = []
+    for e in report.get("effects", []):
+        p = e.get("physical") or {}
+        out.append(p if "family" in p else (e.get("vocabulary") or {}))
+    for e in (report.get("rollout_route") or {}).get("effects", []):
+        out.append(e.get("vocabulary") or {})
+    return [p for p in out if p]
+
+
+def significant(report: dict[str, Any]) -> bool:
+    return bool(report.get("significant")
+                or (report.get("rollout_route") or {}).get("significant"))
+
+
 def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
     fam, scope = truth["family"], truth["scope"]
-    named = [e.get("physical") or {} for e in report.get("effects", [])]
+    named = named_effects(report)
     out: dict[str, Any] = {
         "named": [{"family": p.get("family"), "scope": p.get("scope"), "params": p.get("params"),
                    "statement": p.get("statement")} for p in named],
@@ -145,7 +185,7 @@ def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
         "scope_right": any(p.get("scope") == scope for p in named),
     }
     match = [p for p in named if p.get("family") == fam and p.get("scope") == scope]
-    out["found"] = bool(match) and bool(report.get("significant"))
+    out["found"] = bool(match) and significant(report)
     out["param_error"] = None
     out["angle_error_deg"] = None
     key = PRIMARY.get(fam)
@@ -167,7 +207,7 @@ def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
     # the truth named as a rival the report says these data cannot tell from its finding
     rivals = [s_ for s_ in out["suspected"] if s_.get("kind") == "inseparable"]
     out["found_or_inseparable"] = bool(out["found"] or (
-        report.get("significant") and any(s_.get("family") == fam and s_.get("scope") == scope
+        significant(report) and any(s_.get("family") == fam and s_.get("scope") == scope
                                           for s_ in rivals)))
     return out
 
@@ -228,6 +268,83 @@ def markdown(rows: list[dict[str, Any]], clean: list[dict[str, Any]], summary: d
     return "\n".join(h) + "\n"
 
 
+#: the arms of a gap zoo (zoo8's runs/run1/RULE.md): diagnose arguments; "calibrated" adds
+#: ``--twin`` with the twin ``calibrate`` fits on the reference
+ARMS = {
+    "learned": ["--physics", "off", "--rollout-route"],
+    "nominal+reference": ["--twin", "nominal", "--reference", "{reference}"],
+    "nominal": ["--twin", "nominal"],
+    "calibrated": ["--twin", "{twin}"],
+}
+
+
+def arm_arguments(arm: str | None, reference: Dataset | None, work: Path, logs: Path
+                  ) -> tuple[list[str], dict[str, Any] | None]:
+    """(diagnose arguments of ``arm``, the calibration's record or None); the calibrated arm
+    runs ``calibrate --data REFERENCE --robot nominal`` first (once: its twin is reused)."""
+    if arm is None:
+        return [], None
+    args = ["--no-figures", "--jobs", "2"]
+    calibration = None
+    if any("{reference}" in x or "{twin}" in x for x in ARMS[arm]) and reference is None:
+        raise SystemExit(f"--arm {arm} needs --reference-seed")
+    fill = {"reference": str(reference.path) if reference else ""}
+    if arm == "calibrated":
+        twin = work / "calibrated_twin.json"
+        seconds_file = work / "calibrated_twin.seconds"
+        if not twin.is_file():
+            secs = _run(CLI + ["calibrate", "--data", str(reference.path), "--robot", "nominal",
+                               "--out", str(twin)], logs / "calibrate.log")
+            seconds_file.write_text(f"{secs:.1f}\n")
+        fill["twin"] = str(twin)
+        calibration = {"twin": str(twin), "seconds": float(seconds_file.read_text())
+                       if seconds_file.is_file() else None}
+    return args + [x.format(**fill) for x in ARMS[arm]], calibration
+
+
+def learned_summary(truth: list[dict[str, Any]], rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The no-twin arm's count: found over the effects whose cause is not among a learned
+    model's inputs (``learned_inputs: false``); the others are right when the report names
+    them or nothing for them (a model trained on the data carries them)."""
+    out_of = [r for t, r in zip(truth, rows) if not t.get("learned_inputs", False)]
+    carried = [r for t, r in zip(truth, rows) if t.get("learned_inputs", False)]
+    return {"learned: effects outside the model's inputs": len(out_of),
+            "learned: found among them": sum(r["score"]["found"] for r in out_of),
+            "learned: found fraction": (sum(r["score"]["found"] for r in out_of) / len(out_of)
+                                        if out_of else None),
+            "learned: carried by the model (right if named or nothing named)": sum(
+                r["score"]["found"] or not r["score"]["named"] for r in carried),
+            "learned: carried effects": len(carried)}
+
+
+def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[str, Any]:
+    """Each calibrated parameter against the gap robot's true value (read only here, after
+    every diagnosis): inside its 95 % interval or not; identifiable = not at a bound and in no
+    weak direction."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot.twin import load_twin
+    twin = load_twin(calibration["twin"])
+    truth = load_twin(robot).robot if robot is not None else None
+    params = twin.provenance.get("parameters", {})
+    cal = twin.provenance.get("calibration", {})
+    weak = " ".join(str(w.get("combination", "")) + " " + str(w.get("describe", ""))
+                    for w in cal.get("weak_directions", []))
+    rows = []
+    for name, p in params.items():
+        true_v = (twin_parameters([name], truth)[0].get(truth) if truth is not None else None)
+        lo, hi = p["ci95"]
+        ident = p.get("at_bound") is None and name not in weak
+        rows.append({"name": name, "value": p["value"], "ci95": [lo, hi], "truth": true_v,
+                     "inside": None if true_v is None else bool(lo <= true_v <= hi),
+                     "at_bound": p.get("at_bound"), "identifiable": ident,
+                     "rel_error": None if not true_v else abs(p["value"] / true_v - 1.0)})
+    idf = [r for r in rows if r["identifiable"] and r["inside"] is not None]
+    return {"seconds": calibration["seconds"], "rows": rows,
+            "rollout": cal.get("rollout"),
+            "summary": f"{sum(r['inside'] for r in idf)} of {len(idf)}"}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--zoo", required=True,
@@ -248,6 +365,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="do not make the recordings the reports recommend")
     ap.add_argument("--diagnose-arg", action="append", default=[],
                     help="extra argument for every diagnose run (repeatable)")
+    ap.add_argument("--robot", default=None, metavar="TWIN.json",
+                    help="record every dataset with this twin file (relative: to the zoo), then "
+                         "remove the robot's identity from each dataset.yaml (a gap robot)")
+    ap.add_argument("--reference-seed", type=int, default=None,
+                    help="also record a clean reference dataset of this seed (reference/)")
+    ap.add_argument("--arm", choices=sorted(ARMS), default=None,
+                    help="diagnose in this arm (zoo8's RULE.md): its arguments are added, "
+                         "reports go to WORK/diag_ARM")
     a = ap.parse_args(argv)
     zoo, work, out = Path(a.zoo), Path(a.work), Path(a.out)
     logs = work / "logs"
@@ -259,22 +384,30 @@ def main(argv: list[str] | None = None) -> int:
     t_start = time.time()
 
     files = zoo / "effects" if (zoo / "effects").is_dir() else zoo
+    robot = None if a.robot is None else (zoo / a.robot if not Path(a.robot).is_absolute()
+                                          else Path(a.robot)).resolve()
     effect_sets = [Dataset(t["id"], work / "effects" / t["id"], a.seed,
                            float((t.get("recording") or {}).get("excitation", 0.0)),
-                           (files / t.get("file", f"{t['id']}.yaml")).resolve()) for t in truth]
+                           (files / t.get("file", f"{t['id']}.yaml")).resolve(), robot)
+                   for t in truth]
     excitations = sorted({0.0} | {d.excitation for d in effect_sets})
-    clean_sets = [Dataset(f"clean_s{s}_e{e:g}", work / "clean" / f"s{s}_e{e:g}", s, e)
+    clean_sets = [Dataset(f"clean_s{s}_e{e:g}", work / "clean" / f"s{s}_e{e:g}", s, e,
+                          robot=robot)
                   for e in excitations
                   for s in (int(x) for x in (a.clean_seeds if e == 0 else
                                              a.clean_seeds_excited).split(","))]
-    for ds in clean_sets + effect_sets:
+    reference = (None if a.reference_seed is None else
+                 Dataset("reference", work / "reference", a.reference_seed, 0.0, robot=robot))
+    for ds in clean_sets + effect_sets + ([reference] if reference else []):
         print(f"record {ds.name}", flush=True)
         record(ds, a.moves_per_type, 2, logs)
     if a.record_only:
         return 0
+    arm_args, calibration = arm_arguments(a.arm, reference, work, logs)
+    extra = arm_args + a.diagnose_arg
 
     def run(ds: Dataset) -> Dataset:
-        diagnose(ds, work, a.diagnose_arg, logs)
+        diagnose(ds, work, extra, logs, a.arm or "")
         print(f"diagnosed {ds.name} in {_fmt(ds.diag_seconds, '.0f')} s", flush=True)
         return ds
 
@@ -317,7 +450,7 @@ def main(argv: list[str] | None = None) -> int:
                      "seconds": ds.diag_seconds})
 
     clean = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
-              "significant": bool(d.report.get("significant")),
+              "significant": significant(d.report),
               "named": _named(score({"family": "", "scope": ""}, d.report)),
               "seconds": d.diag_seconds} for d in clean_sets]
     first = [r for r in rows if "(recommended" not in r["id"]]
@@ -348,7 +481,14 @@ def main(argv: list[str] | None = None) -> int:
            "wall_seconds": time.time() - t_start, "load_average": os.getloadavg(),
            "code": git_state(),
            "moves_per_type": a.moves_per_type, "seed": a.seed, "clean_seeds": a.clean_seeds,
-           "diagnose_args": a.diagnose_arg, "summary": summary, "rows": rows, "clean": clean}
+           "diagnose_args": extra, "arm": a.arm, "summary": summary, "rows": rows,
+           "clean": clean}
+    if a.arm == "learned":
+        summary.update(learned_summary(truth, first))
+    if calibration is not None:
+        doc["calibration"] = calibration_score(calibration, robot)
+        summary["calibrate: inside the 95 % interval (identifiable)"] = \
+            doc["calibration"]["summary"]
     (out / "results.json").write_text(json.dumps(doc, indent=1, default=str) + "\n")
     (out / "table.md").write_text(markdown(rows, clean, summary))
     print(markdown(rows, clean, summary))
