@@ -227,8 +227,20 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
                             LearnedRoute(search=search, max_rounds=a.max_rounds,
                                          rollout=_rollout_options(a)))
+    twin = None
+    if a.twin is not None:
+        from .robot.twin import robot_config_from
+        try:
+            robot_config_from(a.twin)            # a bad twin fails here, in one line
+        except ValueError as exc:
+            raise CliError(f"--twin: {exc}") from None
+        twin = a.twin
+    if a.reference is not None and not (a.reference / "dataset.yaml").is_file():
+        raise CliError(f"--reference {a.reference}: no dataset there (no dataset.yaml)")
+    if (twin is not None or a.reference is not None) and a.physics == "off":
+        raise CliError("--twin and --reference name effects by re-simulation; drop --physics off")
     return DiagnoseOptions(
-        route=route, model=a.model, baseline=a.baseline, method=a.method, options=options,
+        route=route, twin=twin, reference=a.reference, model=a.model, baseline=a.baseline, method=a.method, options=options,
         alpha=a.significance, min_gain=a.min_gain, projections=a.projections,
         projection_alpha=a.alpha, seed=a.seed, figures=not a.no_figures, progress=not a.quiet)
 
@@ -560,6 +572,13 @@ def build_parser() -> argparse.ArgumentParser:
                          "by re-simulating the dataset's robot; docs/diagnosis.md); auto = on "
                          "when the dataset names a known robot; off = the learned residual loop "
                          "only (default auto)")
+    dg.add_argument("--twin", default=None, metavar="NAME|TWIN.json",
+                    help="re-simulate with this robot (a robot name or a twin file, e.g. from "
+                         "`calibrate`) instead of the dataset's; takes the physical route")
+    dg.add_argument("--reference", type=Path, default=None, metavar="DATASET",
+                    help="a clean recording of the same robot: report what changed since it, "
+                         "cancelling the twin's own errors against it (twin: --twin, else the "
+                         "dataset's robot, else nominal); takes the physical route")
     dg.add_argument("--rollout-route", action="store_true",
                     help="learned route: after the one-step loop, also search by held-out k-step "
                          "rollouts (world-fixed forces, time drift, ...: effects too small at one "

@@ -602,6 +602,20 @@ def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
             {"strongest_on": where})
 
 
+def vocabulary_reading(aug: Augmentation, numbers: dict[str, Any], text: str
+                       ) -> dict[str, Any]:
+    """The effect in the diagnosis vocabulary (``{family, scope, params, statement}``, the
+    physical route's form): the learned family's reading (:mod:`.families.learned`) with the
+    physical numbers this route measured where the family's parameters name them."""
+    from .families.learned import physical_reading
+    out = physical_reading(aug)
+    params = dict(out["params"])
+    for k in list(params) + ["direction_deg"]:
+        if isinstance(numbers.get(k), (int, float)):
+            params[k] = float(numbers[k])
+    return {**out, "params": params, "statement": text}
+
+
 def _strongest(coef: np.ndarray, Z: np.ndarray, n: int = 3) -> list[str]:
     """State elements whose one-step change the columns move most (in units of its spread)."""
     eff = np.abs(coef * Z.std(axis=0)[:, None]).sum(axis=0)
@@ -853,7 +867,9 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
         effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
                         "scope": p.aug.params().get("joints", "body"), "statement": text,
-                        "physical": numbers, "scan": scan})
+                        "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers,
+                                                                               text),
+                        "scan": scan})
     mv_test = _moves(test)
     before = _test_scores(model0, start, test, mv_test, opts)
     after = _test_scores(model, fs, test, mv_test, opts) if found else before

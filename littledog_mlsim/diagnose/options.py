@@ -88,6 +88,12 @@ def route_from_mode(mode: str, physical: PhysicalRoute, learned: LearnedRoute) -
 class DiagnoseOptions:
     """Everything :func:`.run.diagnose` takes besides the dataset and the output directory.
 
+    ``twin``: the robot the physical route re-simulates (a robot name, a twin file or a
+    RobotConfig) instead of the dataset's; ``reference``: a dataset of clean moves of the same
+    robot to cancel the twin's own errors against ("what changed since that recording?"). Either
+    one takes the physical route (the twin without ``twin``: the dataset's robot, else
+    ``nominal``).
+
     ``model``: start from this model file (its feature set, method, options and target).
     Otherwise the starting feature set is ``baseline`` (``measured`` or ``paper``) and the
     report model is ``method`` with ``options``. ``projections``/``projection_alpha``: the
@@ -95,6 +101,8 @@ class DiagnoseOptions:
     """
 
     route: Route = field(default_factory=AutoRoute)
+    twin: Any = None
+    reference: str | os.PathLike | None = None
     model: str | os.PathLike | None = None
     baseline: str = "measured"
     method: str | None = None

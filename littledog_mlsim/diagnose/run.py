@@ -129,11 +129,50 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike,
     start, loaded, method, model_options, target, baseline_desc = _starting_model(o)
     run = _Run(data, Path(out), index, train, test, start, loaded, method, model_options,
                target, baseline_desc, o, say, t_start)
-    robot = index.info.get("robot")
-    route = o.route.resolve(robot) if isinstance(o.route, AutoRoute) else o.route
+    route, robot, why = choose_route(o, index.info)
+    run.say(f"{route.name} route: {why}")
     if isinstance(route, PhysicalRoute):
-        return _diagnose_physical(run, route, robot or "measured")
-    return _diagnose_learned(run, route)
+        return _diagnose_physical(run, route, robot, why)
+    return _diagnose_learned(run, route, why)
+
+
+def choose_route(o: DiagnoseOptions, info: Mapping[str, Any]
+                 ) -> tuple[PhysicalRoute | LearnedRoute, Any, str]:
+    """(route, the physical route's robot, why): the report's ``route`` says which and why."""
+    from ..robot.config import ROBOT_NAMES
+    named = info.get("robot")
+    if o.twin is not None or o.reference is not None:
+        if isinstance(o.route, LearnedRoute):
+            raise ValueError("a twin or a reference needs the physical route; drop --physics off")
+        route = o.route.physical if isinstance(o.route, AutoRoute) else o.route
+        if o.twin is not None:
+            robot, whose = o.twin, f"the twin {_twin_words(o.twin)}"
+        elif named in ROBOT_NAMES:
+            robot, whose = named, f"the dataset's robot '{named}'"
+        else:
+            robot, whose = "nominal", "the nominal robot (the dataset names no known robot)"
+        why = f"re-simulation with {whose}" + (
+            f", its own errors cancelled against the reference {o.reference}"
+            if o.reference is not None else " (given)")
+        return route, robot, why
+    if isinstance(o.route, AutoRoute):
+        route = o.route.resolve(named)
+        if isinstance(route, PhysicalRoute):
+            return route, named, f"the dataset names the robot '{named}', re-simulated as a twin"
+        return route, None, ("the dataset names no known robot (" + (
+            f"'{named}'" if named else "an imported recording") + ") and no twin or reference "
+            "is given: the learned model's own residual")
+    if isinstance(o.route, PhysicalRoute):
+        robot = named if named in ROBOT_NAMES else "measured"
+        return o.route, robot, f"asked for (--physics on), re-simulation with '{robot}'"
+    return o.route, None, "asked for (--physics off): the learned model's own residual"
+
+
+def _twin_words(twin: Any) -> str:
+    from ..robot.config import RobotConfig
+    if isinstance(twin, RobotConfig):
+        return f"'{twin.name}'"
+    return f"'{twin}'"
 
 
 def _starting_model(o: DiagnoseOptions) -> tuple[FeatureSet, Any, str, dict[str, Any], str, str]:
@@ -152,7 +191,7 @@ def _starting_model(o: DiagnoseOptions) -> tuple[FeatureSet, Any, str, dict[str,
             f"{o.baseline} feature set")
 
 
-def _diagnose_learned(run: _Run, route: LearnedRoute) -> dict[str, Any]:
+def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any]:
     """The residual loop of :mod:`.selection` (and, with ``route.rollout``, the rollout route
     of :mod:`.learned` from where it ended), then the report model before/after."""
     from .report import write_report
@@ -169,6 +208,7 @@ def _diagnose_learned(run: _Run, route: LearnedRoute) -> dict[str, Any]:
         feature_sets.append(feature_sets[-1].with_augmentation(aug))
     stages, last_model = _stages(run, feature_sets)
     keywords = _report_keywords(run, last_model)
+    keywords["route"] = {"name": "learned", "why": why}
     if rollout is not None:
         keywords["rollout_route"] = rollout
     report = write_report(run.out, sel, stages, **keywords)
@@ -212,14 +252,18 @@ def _report_keywords(run: _Run, last_model: Any) -> dict[str, Any]:
                 seconds=time.perf_counter() - run.t_start)
 
 
-def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: str) -> dict[str, Any]:
+def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
+                       ) -> dict[str, Any]:
     """Physical identification (:mod:`.physical`), then the learned model before/after."""
+    from ..robot.twin import robot_config_from
     from .physical import identify
     from .report import write_physical_report
     excitation = float(run.index.info.get("command_excitation_rad", 0.0) or 0.0)
+    config = robot_config_from(robot)
+    reference = _reference_moves(run)
     pid = identify(run.train, run.test,
-                   route.options(run.o.alpha, run.o.min_gain, robot, excitation),
-                   progress=run.say)
+                   route.options(run.o.alpha, run.o.min_gain, config, excitation),
+                   reference=reference, progress=run.say)
     fs = run.start
     feature_sets = [run.start]
     effect_augs, effect_stage = [], []
@@ -233,14 +277,40 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: str) -> dict[str,
         effect_augs.append(aug)
         effect_stage.append(len(feature_sets) - 1)
     stages, last_model = _stages(run, feature_sets)
-    report = write_physical_report(run.out, pid, effect_augs, effect_stage, stages,
-                                   **_report_keywords(run, last_model))
+    keywords = _report_keywords(run, last_model)
+    keywords["route"] = {"name": "physical", "why": why, "robot": config.name,
+                         "twin": None if run.o.twin is None else _plain_twin(run.o.twin),
+                         "reference": None if run.o.reference is None
+                         else os.fspath(run.o.reference)}
+    report = write_physical_report(run.out, pid, effect_augs, effect_stage, stages, **keywords)
     found = "; ".join(e["physical"]["statement"] for e in report["effects"])
     run.say(f"{'found: ' + found if found else 'nothing significant'}"
             + (f"; suspected: {', '.join(s['family'] for s in report['suspected'])}"
                if report["suspected"] else "")
             + f"; wrote {run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
+
+
+def _plain_twin(twin: Any) -> str:
+    from ..robot.config import RobotConfig
+    return twin.name if isinstance(twin, RobotConfig) else os.fspath(twin)
+
+
+def _reference_moves(run: _Run) -> list[MoveRecording]:
+    """The reference dataset's TrainPool moves (none without a reference); a reference of
+    another control step, or without moves, is refused in one line naming it."""
+    if run.o.reference is None:
+        return []
+    ref = read_index(run.o.reference)
+    for key in ("control_dt_ns",):
+        a, b = ref.info.get(key), run.index.info.get(key)
+        if a is not None and b is not None and a != b:
+            raise ValueError(f"reference {run.o.reference}: {key} {a} differs from the data's {b}")
+    moves = load_moves(run.o.reference, "train")
+    if not moves:
+        raise ValueError(f"reference {run.o.reference}: no TrainPool moves")
+    run.say(f"reference: {len(moves)} TrainPool moves from {run.o.reference}")
+    return moves
 
 
 def _stages(run: _Run, feature_sets: Sequence[FeatureSet]) -> tuple[list[dict[str, Any]], Any]:

@@ -41,3 +41,39 @@ def test_bad_options_fail_with_one_line_naming_them(tmp_path):
     with pytest.raises(ValueError, match="not both"):
         diagnose(tmp_path, tmp_path / "out", DiagnoseOptions(), method="lr")
     assert not (tmp_path / "out").exists()
+
+
+def test_twin_and_reference_take_the_physical_route_and_say_why(tmp_path):
+    from littledog_mlsim.diagnose.run import choose_route
+    imported = {"source": "rosbag2"}
+    route, robot, why = choose_route(DiagnoseOptions(), imported)
+    assert isinstance(route, LearnedRoute) and robot is None and "names no known robot" in why
+    route, robot, why = choose_route(DiagnoseOptions(), {"robot": "measured"})
+    assert isinstance(route, PhysicalRoute) and robot == "measured"
+    route, robot, why = choose_route(DiagnoseOptions(twin="nominal"), imported)
+    assert isinstance(route, PhysicalRoute) and robot == "nominal" and "twin 'nominal'" in why
+    route, robot, why = choose_route(DiagnoseOptions(reference=tmp_path), imported)
+    assert isinstance(route, PhysicalRoute) and robot == "nominal"
+    assert "names no known robot" in why and str(tmp_path) in why
+    route, robot, why = choose_route(DiagnoseOptions(reference=tmp_path), {"robot": "measured"})
+    assert robot == "measured"
+    off = DiagnoseOptions.from_keywords(physics="off", twin="nominal")
+    with pytest.raises(ValueError, match="drop --physics off"):
+        choose_route(off, imported)
+
+
+def test_cli_refuses_a_bad_twin_or_reference_in_one_line(tmp_path):
+    import subprocess
+    import sys
+    data = tmp_path / "data"
+    data.mkdir()
+    cli = [sys.executable, "-m", "littledog_mlsim.cli", "diagnose", "--data", str(data),
+           "--out", str(tmp_path / "out")]
+    for extra, words in ((["--twin", "nosuchrobot"], "--twin: unknown robot 'nosuchrobot'"),
+                         (["--twin", str(tmp_path / "t.json")], "--twin: twin file"),
+                         (["--reference", str(tmp_path / "nothing")], "no dataset there"),
+                         (["--twin", "nominal", "--physics", "off"], "drop --physics off")):
+        r = subprocess.run(cli + extra, capture_output=True, text=True)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode != 0 and len(lines) == 1 and words in lines[0], r.stderr
+    assert not (tmp_path / "out").exists()

@@ -84,6 +84,7 @@ class Finding:
     horizons_after: dict[str, Any]
     hyp: Hypothesis
     alternatives: list[dict[str, Any]]
+    reference_check: dict[str, Any] | None = None   # with a reference: its comparison
 
     @property
     def accepted(self) -> bool:
@@ -100,7 +101,8 @@ class Finding:
                 "magnitude_profile": self.profile, "screening_top": self.screening,
                 "alternatives": self.alternatives,
                 "horizon_errors_before": self.horizons_before,
-                "horizon_errors_after": self.horizons_after}
+                "horizon_errors_after": self.horizons_after,
+                **({"reference_check": self.reference_check} if self.reference_check else {})}
 
 
 def _num(x: Any) -> float | None:
@@ -127,10 +129,11 @@ class PhysIdResult:
     horizons_s: tuple[float, ...]
     baseline_horizons: dict[str, Any]
     notes: list[str] = field(default_factory=list)
+    reference: dict[str, Any] | None = None    # with a reference: its moves and twin errors
 
     def describe(self) -> dict[str, Any]:
-        return {"transducer": f"pybullet robot '{self.robot}' (the dataset's robot config, "
-                              "sensor noise off), re-simulated from measured states",
+        return {"transducer": f"pybullet robot '{self.robot}' (sensor noise off), "
+                              "re-simulated from measured states",
                 "n_fit_moves": self.n_fit_moves, "n_validation_moves": self.n_validation_moves,
                 "n_simulations": self.n_simulations, "seconds": self.seconds,
                 "alpha": self.alpha, "min_gain": self.min_gain,
@@ -139,4 +142,5 @@ class PhysIdResult:
                 "baseline_horizon_errors": self.baseline_horizons,
                 "rejected": [{"family": f.family, "scope": f.scope, "params": f.params,
                               "statement": f.statement, **f.evidence()} for f in self.rejected],
-                "notes": list(self.notes)}
+                "notes": list(self.notes),
+                **({"reference": self.reference} if self.reference is not None else {})}
