@@ -21,8 +21,8 @@ import numpy as np
 import pybullet as p
 
 from ..data.recording import MoveRecording
-from ..layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_LOWER, JOINT_NAMES, JOINT_UPPER,
-                      LEGS, MOVE_TYPES, N_JOINTS)
+from ..layout import (CONTROL_DT, CONTROL_DT_NS, DATASET_MOVE_TYPES, HOME_POSE, JOINT_LOWER,
+                      JOINT_NAMES, JOINT_UPPER, LEGS, N_JOINTS)
 from .config import URDF_PATH, RobotConfig, as_config, per_joint, robot_config
 from ..rotations import quat_from_rotvec, quat_multiply, quat_to_matrix
 from .sensors import JointEncoders, MotionCapture, twist_from_poses
@@ -337,7 +337,8 @@ def simulate_move(commands: np.ndarray, *, robot: str | RobotConfig = "measured"
         robot: "measured", "nominal" or a RobotConfig.
         effects: effect plug-ins active during the move (see robot/effects.py).
         seed: seeds sensor noise and the effects' rng.
-        name, move_type: the recording's bag name and move type (one of layout.MOVE_TYPES).
+        name, move_type: the recording's bag name and move type (one of layout.MOVE_TYPES, or
+            U: the commands of a move of unknown type, e.g. an imported one re-simulated).
         initial: start state; None = standing settled in the home pose.
         start_ns: stamp of measurement 0.
     Returns:
@@ -349,8 +350,9 @@ def simulate_move(commands: np.ndarray, *, robot: str | RobotConfig = "measured"
         raise ValueError(f"commands must have shape (N, {N_JOINTS}), got {cmd.shape}")
     if not np.all(np.isfinite(cmd)):
         raise ValueError("commands hold NaN or inf")
-    if move_type not in MOVE_TYPES:
-        raise ValueError(f"unknown move type {move_type!r}; expected one of {' '.join(MOVE_TYPES)}")
+    if move_type not in DATASET_MOVE_TYPES:
+        raise ValueError(f"unknown move type {move_type!r}; expected one of "
+                         f"{' '.join(DATASET_MOVE_TYPES)}")
     sim = get_sim(robot)
     obs = [sim.reset(initial=initial, seed=seed, effects=effects)]
     for u in cmd:

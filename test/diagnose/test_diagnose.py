@@ -404,11 +404,17 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
                       1e-4, np.full(N_CH, 0.1), np.full(N_CH, 1e-3),
                       [{"family": "command_delay", "scope": "leg:back_left", "score": 1.0,
                         "first_order_magnitude": 25.0}],
-                      [{"magnitude": 30.0, "J_relative": 0.5}], {}, {}, hyp, [])
+                      [{"magnitude": 30.0, "J_relative": 0.5}], {}, {}, hyp, [],
+                      {"changed": True, "p_value": 1e-3, "data_move_cut": 2.0,
+                       "reference_move_cut": 0.1, "n_data_moves": 12, "n_reference_moves": 12})
     pid = PhysIdResult([finding], [finding], [], "measured", 6, 12, 100, 1.0, 0.01, 0.05, 200,
                        (0.1, 1.0), {})
     info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
                                 "n_train_moves", "n_test_moves", "model", "seconds")}
+    info["route"] = {"name": "physical", "why": "given", "robot": "measured", "twin": None,
+                     "reference": "/data/ref"}
+    pid.reference = {"n_moves": 2, "moves": ["F_00", "B_00"], "twin_errors": [],
+                     "unexplained": None}
     physical = build_physical_report(pid, [CommandLag(lag=3, joints="back_left")], [1],
                                      doc["stages"], **info)
     assert physical["physics"] and physical["effects"][0]["augmentation"]

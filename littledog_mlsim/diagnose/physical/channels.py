@@ -15,11 +15,14 @@ import numpy as np
 from ...data.recording import MoveRecording
 from ...layout import JOINT_NAMES
 
-__all__ = ["SEG_STARTS", "SEG_LEN", "SCREEN_SEGMENTS", "DEFAULT_HORIZONS_S", "CHANNELS", "N_CH",
+__all__ = ["SEG_STARTS", "SEG_LEN", "MIN_STEPS", "seg_starts", "SCREEN_SEGMENTS", "DEFAULT_HORIZONS_S", "CHANNELS", "N_CH",
            "SHORT", "LONG", "Measured", "measured", "errors", "sse", "flat", "horizon_errors"]
 
 SEG_STARTS = (0, 100, 200, 300)
 SEG_LEN = 100
+#: a move needs this many control steps for the physical route: its last segment then starts
+#: earlier, overlapping the third (:func:`seg_starts`); shorter moves are left out
+MIN_STEPS = SEG_STARTS[2] + SEG_LEN
 SCREEN_SEGMENTS = (1, 3)          # the segments a joint family's sensitivity is simulated on
 DEFAULT_HORIZONS_S = (0.1, 0.5, 1.0, 4.0)
 BODY_CH = ("x", "y", "z", "roll", "pitch", "yaw")
@@ -45,9 +48,18 @@ class Measured:
     full: np.ndarray      # (400, 18)
 
 
+def seg_starts(n_steps: int) -> tuple[int, ...]:
+    """The 1 s segments' start steps of a move of ``n_steps`` control steps: SEG_STARTS, the last
+    one moved earlier on a move shorter than 4 s (an imported move cut a few steps short)."""
+    if n_steps < MIN_STEPS:
+        raise ValueError(f"a move of {n_steps} steps is shorter than the physical route's "
+                         f"{MIN_STEPS}")
+    return SEG_STARTS[:3] + (min(SEG_STARTS[3], n_steps - SEG_LEN),)
+
+
 def measured(rec: MoveRecording) -> Measured:
     y = np.hstack([rec.q, rec.position, rpy(rec.orientation)])
-    segs = np.stack([y[k0 + 1:k0 + 1 + SEG_LEN] for k0 in SEG_STARTS])
+    segs = np.stack([y[k0 + 1:k0 + 1 + SEG_LEN] for k0 in seg_starts(y.shape[0] - 1)])
     return Measured(segs, y[1:])
 
 
@@ -107,7 +119,7 @@ def horizon_errors(errs: Sequence[Mapping[str, np.ndarray]],
                               "yaw_rad": float(np.mean(np.abs(e[..., 17]))), "steps": k + 1,
                               "from": "1 s segments (starts 0, 1, 2, 3 s)"}
         elif all("long" in x for x in errs):
-            kk = min(k, errs[0]["long"].shape[0] - 1)
+            kk = min([k] + [x["long"].shape[0] - 1 for x in errs])
             e = np.stack([x["long"][kk] for x in errs])             # (M, 18)
             out[f"{h:g}s"] = {"q_rms_rad": float(np.sqrt(np.mean(e[:, :12] ** 2))),
                               "xy_odom_m": float(np.mean(np.hypot(e[:, 12], e[:, 13]))),

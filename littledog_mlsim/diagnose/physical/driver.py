@@ -16,7 +16,8 @@ import numpy as np
 from ...data.recording import MoveRecording
 from ..families import FAMILIES, library_size
 from .advice import suspicions
-from .channels import DEFAULT_HORIZONS_S, SEG_STARTS, errors, horizon_errors, measured
+from .channels import (DEFAULT_HORIZONS_S, MIN_STEPS, errors, horizon_errors, measured,
+                       seg_starts)
 from .context import SearchContext
 from .fit import fit, scope_variants, segments_only, wide_magnitude
 from .records import Candidate, Finding, HeldOutDecision, PhysIdResult
@@ -124,9 +125,13 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
     cfg = replace(as_config(o.robot), sensor_noise=False)
+    train, test, reference, notes = _long_enough(train, test, reference)
+    for note in notes:
+        say(f"physics: {note}")
     sp = _split(train, test, o, reference)
     moves = [Move(r.name, r.move_type, np.asarray(r.cmd, dtype=np.float64),
-                  {k: InitialState.from_recording(r, k) for k in SEG_STARTS}) for r in sp.recs]
+                  {k: InitialState.from_recording(r, k) for k in seg_starts(r.n_steps)},
+                  seg_starts(r.n_steps)) for r in sp.recs]
     runner = Runner(cfg, moves, o.jobs)
     robot_mass = get_sim(cfg).total_mass()
     try:
@@ -155,11 +160,27 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
                                  "a new clean reference"})
     res = PhysIdResult(findings, rejected, sus, cfg.name, len(sp.F), len(sp.V), n_sims,
                        time.perf_counter() - t_start, o.alpha, o.min_gain, library_size(),
-                       tuple(o.horizons_s), baseline_h, [])
+                       tuple(o.horizons_s), baseline_h, notes)
     if sp.R:
         res.reference = {"n_moves": len(sp.R), "moves": [sp.recs[i].name for i in sp.R],
                          "twin_errors": twin_errors, "unexplained": left}
     return res
+
+
+def _long_enough(*groups: Sequence[MoveRecording]) -> tuple:
+    """Each group of moves without those shorter than :data:`.channels.MIN_STEPS`, and a note
+    per group that lost any (an imported move may be short); ValueError if the data keep none."""
+    out, notes = [], []
+    for name, g in zip(("TrainPool", "TestPool", "reference"), groups):
+        keep = [r for r in g if r.n_steps >= MIN_STEPS]
+        if len(keep) < len(g):
+            notes.append(f"{len(g) - len(keep)} of {len(g)} {name} moves are shorter than "
+                         f"{MIN_STEPS} steps and left out")
+        out.append(keep)
+    if not out[0]:
+        raise ValueError(f"no TrainPool move has the {MIN_STEPS} steps the physical route "
+                         "re-simulates; take the learned route (--physics off)")
+    return (*out, notes)
 
 
 def _rebase(ctx: SearchContext, base: Sequence[tuple]) -> SearchContext:

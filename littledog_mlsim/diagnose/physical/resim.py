@@ -45,6 +45,7 @@ class Move:
     move_type: str
     cmd: np.ndarray
     starts: dict[int, Any]
+    seg_starts: tuple[int, ...] = SEG_STARTS    # channels.seg_starts of its length
 
 
 _WORKER: dict[str, Any] = {}
@@ -81,13 +82,13 @@ def simulate(task: Task) -> dict[str, np.ndarray]:
     if mode == "full":
         full = run(0, mv.cmd.shape[0])
         out["full"] = full
-        segs = [full[:SEG_LEN]] + [run(k0, SEG_LEN) for k0 in SEG_STARTS[1:]]
-        out["seg_idx"] = np.arange(len(SEG_STARTS))
+        segs = [full[:SEG_LEN]] + [run(k0, SEG_LEN) for k0 in mv.seg_starts[1:]]
+        out["seg_idx"] = np.arange(len(mv.seg_starts))
     elif mode == "segs":
-        segs = [run(k0, SEG_LEN) for k0 in SEG_STARTS]
-        out["seg_idx"] = np.arange(len(SEG_STARTS))
+        segs = [run(k0, SEG_LEN) for k0 in mv.seg_starts]
+        out["seg_idx"] = np.arange(len(mv.seg_starts))
     else:   # "short": the 1 s segments SCREEN_SEGMENTS only
-        segs = [run(SEG_STARTS[k], SEG_LEN) for k in SCREEN_SEGMENTS]
+        segs = [run(mv.seg_starts[k], SEG_LEN) for k in SCREEN_SEGMENTS]
         out["seg_idx"] = np.array(SCREEN_SEGMENTS)
     out["segs"] = np.stack(segs)
     return out
