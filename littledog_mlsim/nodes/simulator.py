@@ -263,6 +263,10 @@ class SimulatorNode(ConfiguredNode):
     def make_backend(self) -> Backend:
         raise NotImplementedError
 
+    def extra_stats(self) -> dict[str, Any]:
+        """The node's own ``~/stats`` entries (sim_node: ``model_swaps``)."""
+        return {}
+
     @property
     def counters(self):
         return self.core.counters
@@ -302,6 +306,7 @@ class SimulatorNode(ConfiguredNode):
         # knows its next command reaches the node (its own matched count says only that it
         # sees the node's subscription)
         values["cmd_publishers"] = self.sub_cmd.get_publisher_count()
+        values.update(self.extra_stats())
         self.pub_stats.publish(m.status_msg(self.get_name(), values, level))
 
     # -- services -------------------------------------------------------------------------------
