@@ -14,7 +14,7 @@ export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 export MKL_NUM_THREADS := 1
 
-.PHONY: run test venv dataset reproduce bench clean
+.PHONY: run live test venv dataset reproduce bench clean
 
 venv: $(STAMP)
 
@@ -32,6 +32,12 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 # `make run VIEW=1` also serves the browser view (docs/viewer.md) and keeps it up until Ctrl-C.
 run: $(STAMP)
 	$(PY) -m littledog_mlsim.apps.demo --data $(DEMO_DATA) --model $(DEMO_MODEL)$(if $(VIEW), --view)
+
+# Record -> train -> swap live (littledog_mlsim/apps/live_demo.py): pybullet_node, trainer_node
+# (live) and sim_node; a trot recorded and trained on, sim_node started on it, a second trot
+# recorded and trained on, sim_node swapped to the new model without a restart.
+live: $(STAMP)
+	$(PY) -m littledog_mlsim.apps.live_demo
 
 test: $(STAMP) $(CHROMIUM_STAMP)
 	$(PY) -m pytest -q --durations=15 test

@@ -32,15 +32,14 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-import numpy as np
 import rclpy
 from rclpy.qos import QoSProfile
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 
-from ..layout import CONTROL_DT_NS, TOPIC_JOINT_STATES, TOPIC_ODOM
-from . import messages as m
+from ..layout import TOPIC_JOINT_STATES, TOPIC_ODOM
 from ._run import ConfiguredNode, Param, StartupError, one_line, run_node
+from .recording import TopicRecording, move_recording
 from .simulator import SIM_QOS
 
 # A recorder must not lose messages when it falls behind for a moment (a busy machine): the same
@@ -83,9 +82,7 @@ class BagRecorder(ConfiguredNode):
         self.max_steps = self.param("max_steps")
         if self.max_steps < 0:
             raise StartupError("max_steps must be >= 0")
-        self.js: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self.odom: dict[int, dict[str, np.ndarray]] = {}
-        self.cmd: dict[int, np.ndarray] = {}
+        self.rec = TopicRecording()
         self.cmd_topic = self.param("cmd_topic")
         # the command subscription first: it is announced to the simulator before the
         # measurement ones, whose first message then marks the recorder ready (module doc)
@@ -98,18 +95,18 @@ class BagRecorder(ConfiguredNode):
 
     def _on_js(self, msg: JointState) -> None:
         try:
-            self.js[m.stamp_ns(msg.header.stamp)] = m.joint_state_arrays(msg)
+            self.rec.add_joint_state(msg)
         except ValueError as e:
             self.get_logger().warning(f"ignored a joint state: {e}", throttle_duration_sec=2.0)
         self._check_done()
 
     def _on_odom(self, msg: Odometry) -> None:
-        self.odom[m.stamp_ns(msg.header.stamp)] = m.odometry_arrays(msg)
+        self.rec.add_odometry(msg)
         self._check_done()
 
     def _on_cmd(self, msg: JointState) -> None:
         try:
-            self.cmd[m.stamp_ns(msg.header.stamp)] = m.joint_state_arrays(msg)[0]
+            self.rec.add_command(msg)
         except ValueError as e:
             self.get_logger().warning(f"ignored a command: {e}", throttle_duration_sec=2.0)
         self._check_done()
@@ -119,7 +116,7 @@ class BagRecorder(ConfiguredNode):
         publisher (module doc)."""
         if self.ready:
             return
-        complete = self.js.keys() & self.odom.keys()
+        complete = self.rec.js.keys() & self.rec.odom.keys()
         if complete and self.cmd_sub.get_publisher_count() >= 1:
             self.ready = True
             self.get_logger().info(
@@ -128,21 +125,10 @@ class BagRecorder(ConfiguredNode):
 
     def _stamps(self) -> list[int]:
         """The contiguous run of measurement stamps (module doc)."""
-        def complete(t: int) -> bool:
-            return t in self.js and t in self.odom
-
-        starts = sorted(t for t in self.cmd if complete(t))
-        if not starts:
-            return []
-        run = [starts[0]]
-        while run[-1] in self.cmd and complete(run[-1] + CONTROL_DT_NS):
-            run.append(run[-1] + CONTROL_DT_NS)
-            if self.max_steps and len(run) == self.max_steps + 1:
-                break
-        return run if len(run) >= 2 else []
+        return self.rec.first_run(self.max_steps)
 
     def _check_done(self) -> None:
-        if self.max_steps and not self.done and len(self.cmd) >= self.max_steps:
+        if self.max_steps and not self.done and len(self.rec.cmd) >= self.max_steps:
             if len(self._stamps()) >= self.max_steps + 1:
                 self.done = True
 
@@ -163,24 +149,12 @@ class BagRecorder(ConfiguredNode):
     def write(self) -> int:
         """Write the bag; returns the number of steps written."""
         from ..data.bags import write_bag
-        from ..data.recording import MoveRecording
 
         stamps = self._stamps()
         if len(stamps) < 2:
-            raise RecordError(f"nothing to write: {len(self.js)} joint states, {len(self.odom)} "
-                              f"odometry messages, {len(self.cmd)} commands, no 2 consecutive "
+            raise RecordError(f"nothing to write: {self.rec.summary()}, no 2 consecutive "
                               f"steps with all three")
-        o = [self.odom[t] for t in stamps]
-        rec = MoveRecording(
-            name=self.out.name, move_type=self.move_type,
-            stamps_ns=np.asarray(stamps, dtype=np.int64),
-            cmd=np.array([self.cmd[t] for t in stamps[:-1]]),
-            q=np.array([self.js[t][0] for t in stamps]),
-            dq=np.array([self.js[t][1] for t in stamps]),
-            position=np.array([x["position"] for x in o]),
-            orientation=np.array([x["orientation"] for x in o]),
-            linear_velocity=np.array([x["linear_velocity"] for x in o]),
-            angular_velocity=np.array([x["angular_velocity"] for x in o]))
+        rec = move_recording(self.rec, stamps, self.out.name, self.move_type)
         try:
             write_bag(self.out, rec, storage=self.storage)
         except (ValueError, OSError) as e:

@@ -28,22 +28,38 @@ warned (throttled by ``log_throttle``) and inflates that step's variances by
 a controller sees extrapolation on the topics alone: the flag in ``~/stats`` and a covariance
 that grows faster.
 
+Hot swap: ``~/load_model`` (std_srvs/Trigger) loads the model now at ``model_path`` again (a
+trainer replaces that directory atomically, ``trainer_node``'s ``~/train``) and swaps to it
+between two steps: the robot carries on from where it is (state, pose, accumulated pose
+covariance, step count: ``LearnedSimulator.continue_from``), the projection, its radius, the
+trust radius and, when ``initial_state`` is unset, the state later resets return to come from
+the new model. The load runs in the node's executor, so no step runs meanwhile (timer mode
+catches the missed steps up afterwards, up to 0.5 s). A model that cannot be loaded (missing,
+corrupt, incompatible, no TrainPool states) leaves the served model in place and answers
+``success: false`` with one line starting ``kept the previous model:``. ``~/stats`` counts
+``model_swaps``.
+
 Parameters: ``config/sim.yaml`` (every one is listed there with its default) and
 ``nodes/simulator.py`` (those shared with pybullet_node).
 """
 from __future__ import annotations
 
 import sys
-from typing import Sequence
+import time
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from rclpy.parameter import Parameter
+from std_srvs.srv import Trigger
 
 from ..layout import N_STATE
 from ..models.persistence import ModelError
 from ..rollout.learned_sim import LearnedSimulator, model_has_variance, standing_train_state
-from ._run import Param, StartupError
+from ._run import Param, StartupError, one_line
 from .simulator import SimulatorNode, run_simulator
+
+if TYPE_CHECKING:
+    from ..models.onestep import OneStepModel
 
 NODE_NAME = "sim_node"
 PROJECTIONS = ("none", "bound", "alpha")
@@ -77,20 +93,69 @@ class SimNode(SimulatorNode):
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
         sim = self.backend
-        self.get_logger().info(
-            f"{self.model.method} model {self.param('model_path')} "
-            f"({self.model.info.get('n_train', '?')} training samples), projection "
-            f"{sim.projection.describe()} (radius: {self.radius_source}), step_mode "
-            f"{self.step_mode}, covariance "
-            f"{'from the model' if sim.use_variance else 'unknown'}"
-            + (f", defaults from {self.config_path}" if self.config_path else ""))
+        self.create_service(Trigger, "~/load_model", self._on_load_model)
+        self.get_logger().info(self._describe(sim)
+                               + (f", defaults from {self.config_path}" if self.config_path
+                                  else ""))
+
+    def _describe(self, sim: LearnedSimulator) -> str:
+        return (f"{self.model.method} model {self.param('model_path')} "
+                f"({self.model.info.get('n_train', '?')} training samples), projection "
+                f"{sim.projection.describe()} (radius: {self.radius_source}), step_mode "
+                f"{self.step_mode}, covariance "
+                f"{'from the model' if sim.use_variance else 'unknown'}")
 
     def make_backend(self) -> LearnedSimulator:
-        from ..models.onestep import OneStepModel
-
         path = self.param("model_path")
         if not path:
             raise StartupError("no model: set the parameter model_path")
+        sim, self.model, self.radius_source = self.build_simulator(path)
+        self.swaps = 0
+        return sim
+
+    def extra_stats(self) -> dict[str, object]:
+        return {"model_swaps": self.swaps}
+
+    # -- hot swap ---------------------------------------------------------------------------------
+
+    def _on_load_model(self, request: Trigger.Request, response: Trigger.Response):
+        """``~/load_model``: swap to the model now at ``model_path`` (module doc)."""
+        response.success, response.message = self.load_model(self.param("model_path"))
+        return response
+
+    def load_model(self, path: str) -> tuple[bool, str]:
+        """Load the model at ``path`` and swap to it between two steps, the robot carrying on
+        from its current state (``LearnedSimulator.continue_from``). Any failure keeps the model
+        being served; returns (success, one line)."""
+        t0 = time.perf_counter()
+        try:
+            sim, model, radius_source = self.build_simulator(path)
+        except StartupError as e:
+            text = f"kept the previous model: {one_line(e)}"
+            self.get_logger().error(text)
+            return False, text
+        except Exception as e:  # noqa: BLE001  (a broken model file must not end the node)
+            text = f"kept the previous model: cannot load model {path}: {one_line(e)}"
+            self.get_logger().error(text)
+            return False, text
+        old = self.backend
+        sim.continue_from(old)
+        # the executor runs this callback between two steps: the core steps the new simulator
+        # from the next step on
+        self.backend = self.core.backend = sim
+        self.model, self.radius_source = model, radius_source
+        self.swaps += 1
+        text = (f"swapped at t = {self.core.sim_time_ns / 1e9:.2f} s to {self._describe(sim)} "
+                f"(loaded in {time.perf_counter() - t0:.2f} s)")
+        self.get_logger().info(text)
+        return True, text
+
+    def build_simulator(self, path: str) -> tuple[LearnedSimulator, "OneStepModel", str]:
+        """(simulator, model, where its radius comes from) for the model at ``path`` with this
+        node's parameters; StartupError (one line) for a missing, corrupt or incompatible
+        model or a bad parameter."""
+        from ..models.onestep import OneStepModel
+
         try:
             model = OneStepModel.load(path)
         except ModelError as e:
@@ -108,10 +173,10 @@ class SimNode(SimulatorNode):
                                f"got {kind!r}")
         radius = self.param("radius")
         if radius is None:             # the model's own gate (alpha-PROJ only)
-            radius, self.radius_source = (model.gate_radius() if kind == "alpha"
-                                          else (0.0, "not gated"))
+            radius, radius_source = (model.gate_radius() if kind == "alpha"
+                                     else (0.0, "not gated"))
         else:
-            self.radius_source = "the radius parameter"
+            radius_source = "the radius parameter"
         try:   # the projection checks radius (finite, >= 0, alpha only)
             projection = model.projection(kind, alpha=self.param("alpha"),
                                           nn_method=self.param("nn_method"),
@@ -135,7 +200,6 @@ class SimNode(SimulatorNode):
         prepare = getattr(model, "prepare", None)
         if prepare is not None:   # one-time work (variance factors) out of the 10 ms loop
             prepare(return_std=use_var)
-        self.model = model
         # extrapolation: beyond the gate radius (the model's own if the projection has none)
         trust = getattr(projection, "radius", 0.0) or float((model.gate or {}).get("radius", 0.0))
         monitor = None
@@ -147,8 +211,12 @@ class SimNode(SimulatorNode):
         nn = getattr(projection, "nn", None)
         if nn is not None:
             nn.prepare()              # the search index now, not inside the first step
-        return LearnedSimulator(model, projection, s0, pose, use_var, trust_radius=trust,
-                                monitor=monitor)
+        try:
+            sim = LearnedSimulator(model, projection, s0, pose, use_var, trust_radius=trust,
+                                   monitor=monitor)
+        except ValueError as e:
+            raise StartupError(f"cannot serve model {path}: {one_line(e)}") from None
+        return sim, model, radius_source
 
 
 def main(args: Sequence[str] | None = None) -> int:

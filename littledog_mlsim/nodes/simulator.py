@@ -120,6 +120,7 @@ from ..sim.backend import Backend
 from ..sim.core import STEP_MODES, TIMEOUT_ACTIONS, CoreConfig, Logs, SimulatorCore
 from . import messages as m
 from ._run import ConfiguredNode, Param, StartupError, run_node
+from .simulation_services import SimulationServices, interface_types
 
 __all__ = ["SimulatorNode", "Backend", "QOS", "SIM_QOS", "run_simulator", "COMMON_PARAMS",
            "TOPIC_ROBOT_DESCRIPTION", "TOPIC_TF"]
@@ -241,6 +242,7 @@ class SimulatorNode(ConfiguredNode):
         self.sub_cmd = self.create_subscription(JointState, TOPIC_CMD, self._on_cmd, cmd_qos)
         self.create_service(Trigger, "~/reset", self._on_reset)
         self.create_service(SetBool, "~/pause", self._on_pause)
+        self.simulation_services = self._serve_simulation_interfaces()
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         if self.step_mode == "timer":
             self.create_timer(CONTROL_DT / config.real_time_factor, self.core.on_tick,
@@ -260,6 +262,10 @@ class SimulatorNode(ConfiguredNode):
 
     def make_backend(self) -> Backend:
         raise NotImplementedError
+
+    def extra_stats(self) -> dict[str, Any]:
+        """The node's own ``~/stats`` entries (sim_node: ``model_swaps``)."""
+        return {}
 
     @property
     def counters(self):
@@ -300,6 +306,7 @@ class SimulatorNode(ConfiguredNode):
         # knows its next command reaches the node (its own matched count says only that it
         # sees the node's subscription)
         values["cmd_publishers"] = self.sub_cmd.get_publisher_count()
+        values.update(self.extra_stats())
         self.pub_stats.publish(m.status_msg(self.get_name(), values, level))
 
     # -- services -------------------------------------------------------------------------------
@@ -313,6 +320,20 @@ class SimulatorNode(ConfiguredNode):
         response.message = self.core.set_paused(request.data)
         response.success = True
         return response
+
+    def _serve_simulation_interfaces(self) -> SimulationServices | None:
+        """The standard simulation services where ``simulation_interfaces`` is importable
+        (``nodes/simulation_services.py``); None, said once, where it is not."""
+        types = interface_types()
+        if types is None:
+            self.get_logger().info("simulation_interfaces is not installed: no standard "
+                                   "simulation services (~/reset and ~/pause are served)")
+            return None
+        services = SimulationServices(types, self.core, lambda: self.backend, self.get_name(),
+                                      log=self.get_logger().error)
+        for name, srv_type, handler in services.endpoints():
+            self.create_service(srv_type, name, handler)
+        return services
 
     def write_latency_log(self) -> None:
         if self._latency_log:

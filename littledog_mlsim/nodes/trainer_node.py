@@ -38,11 +38,20 @@ import time
 from typing import Any, Sequence
 
 import numpy as np
+import rclpy
 import yaml
-
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from std_srvs.srv import SetBool, Trigger
 
 from ._run import ConfiguredNode, Param, StartupError, one_line, run_node
+from .recording import TopicRecording, move_recording
+from .simulator import SIM_QOS
+
+# live recording: reliable with a deep queue like bag_recorder, but volatile: only what arrives
+# while recording
+LIVE_QOS = QoSProfile(history=SIM_QOS.history, depth=1000, reliability=SIM_QOS.reliability,
+                      durability=DurabilityPolicy.VOLATILE)
 
 NODE_NAME = "trainer_node"
 
@@ -67,7 +76,20 @@ PARAMS: tuple[Param, ...] = (
           "data.importer.ImportOptions fields, e.g. \"{cmd_topic: /ctrl/cmd, test_fraction: 0.0}\""),
     Param("import_out", "", "dataset directory the bags are imported into (kept; must not "
           "exist); empty: a temporary directory, removed after training"),
+    Param("live", False, "serve ~/record and ~/train instead of training once: record the "
+          "live topics into record_dir, train on them on request"),
+    Param("record_dir", "", "live: dataset directory the recordings go into (created; "
+          "recordings already there are kept and trained on)"),
+    Param("cmd_topic", "/pybullet_node/cmd_applied", "live: JointState topic of the applied "
+          "commands, stamped at the start of their step (as bag_recorder's)"),
+    Param("move_steps", 400, "live: a recording is cut into moves of at most this many steps "
+          "(4 s, the paper's move length)", ">= 10"),
+    Param("storage", "mcap", "live: rosbag2 storage plugin of the recorded bags",
+          "mcap | sqlite3"),
 )
+
+# live recordings: moves shorter than this many steps are left out
+MIN_MOVE_STEPS = 10
 
 
 class TrainingError(Exception):
@@ -86,7 +108,20 @@ class TrainerNode(ConfiguredNode):
 
         s = {p.name: self.param(p.name) for p in PARAMS}
         s["bags"] = list(s["bags"] or [])
-        if (not s["data"] and not s["bags"]) or not s["out"]:
+        if s["live"]:
+            if not s["record_dir"] or not s["out"]:
+                raise StartupError("live: set the parameters record_dir (dataset directory of "
+                                   "the recordings) and out (model directory)")
+            if s["data"] or s["bags"]:
+                raise StartupError("live: the data are the recordings in record_dir; leave "
+                                   "data and bags unset")
+            if s["move_steps"] < MIN_MOVE_STEPS:
+                raise StartupError(f"move_steps must be >= {MIN_MOVE_STEPS}")
+            from ..data.bags import STORAGES
+            if s["storage"] not in STORAGES:
+                raise StartupError(f"storage must be one of {', '.join(STORAGES)}")
+            s["data"] = s["record_dir"]
+        elif (not s["data"] and not s["bags"]) or not s["out"]:
             raise StartupError("set the parameters data (dataset directory) or bags (recorded "
                                "bags), and out (model directory)")
         if s["data"] and s["bags"]:
@@ -112,11 +147,15 @@ class TrainerNode(ConfiguredNode):
 
     def train(self) -> None:
         """Fit with the core and save; TrainingError on any failure (nothing written then)."""
+        self.fit_and_save(self.settings())
+
+    def fit_and_save(self, s: dict[str, Any]) -> str:
+        """Train with settings ``s`` and write the model atomically; returns the last log
+        line. TrainingError (one line) on any failure: nothing is written then."""
         import contextlib
 
         from ..models.train import train_from_dataset
 
-        s = self.settings()
         log = self.get_logger()
         done = threading.Event()
         t0 = time.perf_counter()
@@ -148,9 +187,151 @@ class TrainerNode(ConfiguredNode):
             model.save(s["out"])
         except (ValueError, OSError) as e:
             raise TrainingError(f"cannot write the model: {one_line(e)}") from None
-        log.info(f"wrote {s['method']} model to {s['out']} "
-                 f"({time.perf_counter() - t0:.1f} s in all)")
+        text = (f"wrote {s['method']} model to {s['out']} ({model.info.get('n_train', '?')} "
+                f"samples from {model.info.get('n_moves', '?')} moves, "
+                f"{time.perf_counter() - t0:.1f} s in all)")
+        log.info(text)
+        return text
 
+
+    # -- live: ~/record and ~/train ---------------------------------------------------------------
+
+    def run(self) -> int:
+        """The node's work: train once, or (``live``) serve ~/record and ~/train until
+        SIGINT/SIGTERM (exit status 0; a recording under way is written first)."""
+        if not self.param("live"):
+            self.train()
+            return 0
+        self._start_live(self.settings())
+        try:
+            while rclpy.ok(context=self.context):
+                rclpy.spin_once(self, timeout_sec=0.1)
+        except KeyboardInterrupt:
+            if self.recording:
+                self.get_logger().info(self.stop_recording())
+            self.get_logger().info("stopped")
+        return 0
+
+    def _start_live(self, s: dict[str, Any]) -> None:
+        from pathlib import Path
+
+        from ..data.dataset import INDEX_FILE, read_index
+
+        self.s = s
+        self.record_dir = Path(s["record_dir"])
+        self.entries: list = []
+        if (self.record_dir / INDEX_FILE).is_file():
+            try:
+                self.entries = list(read_index(self.record_dir).entries)
+            except ValueError as e:
+                raise StartupError(f"record_dir {self.record_dir}: {one_line(e)}") from None
+        elif self.record_dir.exists() and any(self.record_dir.iterdir()):
+            raise StartupError(f"record_dir {self.record_dir} exists and is not a dataset "
+                               f"(no {INDEX_FILE})")
+        self.rec = TopicRecording()
+        self.recording = False
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import JointState
+
+        from ..layout import TOPIC_JOINT_STATES, TOPIC_ODOM
+        self.create_subscription(JointState, s["cmd_topic"],
+                                 self._keep(self.rec.add_command, "command"), LIVE_QOS)
+        self.create_subscription(JointState, TOPIC_JOINT_STATES,
+                                 self._keep(self.rec.add_joint_state, "joint state"), LIVE_QOS)
+        self.create_subscription(Odometry, TOPIC_ODOM,
+                                 self._keep(self.rec.add_odometry, "odometry"), LIVE_QOS)
+        self.create_service(SetBool, "~/record", self._on_record)
+        self.create_service(Trigger, "~/train", self._on_train)
+        self.get_logger().info(
+            f"live: ~/record true|false records {TOPIC_JOINT_STATES}, {TOPIC_ODOM} and "
+            f"{s['cmd_topic']} into {self.record_dir} ({len(self.entries)} moves there now); "
+            f"~/train fits {s['method']} on them and writes {s['out']}")
+
+    def _keep(self, add, what: str):
+        def keep(msg) -> None:
+            if not self.recording:
+                return
+            try:
+                add(msg)
+            except ValueError as e:
+                self.get_logger().warning(f"ignored a {what}: {one_line(e)}",
+                                          throttle_duration_sec=2.0)
+        return keep
+
+    def _on_record(self, request: SetBool.Request, response: SetBool.Response):
+        if request.data:
+            if self.recording:
+                response.success, response.message = False, "already recording"
+            else:
+                self.rec.clear()
+                self.recording = True
+                response.success, response.message = True, "recording"
+                self.get_logger().info("recording")
+            return response
+        if not self.recording:
+            response.success, response.message = False, "not recording"
+            return response
+        try:
+            response.message = self.stop_recording()
+            response.success = True
+        except (ValueError, OSError) as e:
+            response.success, response.message = False, f"recording lost: {one_line(e)}"
+            self.get_logger().error(response.message)
+        return response
+
+    def stop_recording(self) -> str:
+        """Stop recording and write the recorded runs as moves ``U_NN`` of at most
+        ``move_steps`` steps (shorter than MIN_MOVE_STEPS: left out) into ``record_dir``, each
+        bag and then the index atomically; returns one line saying what was written."""
+        from ..data.bags import move_type_from_name, write_bag
+        from ..data.dataset import BagEntry, write_index
+        from ..layout import UNKNOWN_MOVE_TYPE, bag_name
+
+        self.recording = False
+        written, short = [], 0
+        numbers = [int(e.name.split("_")[1]) for e in self.entries
+                   if move_type_from_name(e.name) == UNKNOWN_MOVE_TYPE]
+        k = max(numbers, default=-1) + 1
+        self.record_dir.mkdir(parents=True, exist_ok=True)
+        for run in self.rec.runs(self.s["move_steps"]):
+            if len(run) - 1 < MIN_MOVE_STEPS:
+                short += 1
+                continue
+            name = bag_name(UNKNOWN_MOVE_TYPE, k)
+            write_bag(self.record_dir / name,
+                      move_recording(self.rec, run, name, UNKNOWN_MOVE_TYPE),
+                      storage=self.s["storage"])
+            self.entries.append(BagEntry(name, UNKNOWN_MOVE_TYPE, "train"))
+            written.append(f"{name} ({len(run) - 1} steps)")
+            k += 1
+        what = self.rec.summary()
+        self.rec.clear()
+        if written:
+            write_index(self.record_dir, self.entries,
+                        info={"source": "trainer_node live recording",
+                              "cmd_topic": self.s["cmd_topic"], "storage": self.s["storage"]})
+        text = (f"recorded {', '.join(written) if written else 'nothing usable'} from {what}"
+                + (f"; left out {short} run(s) shorter than {MIN_MOVE_STEPS} steps"
+                   if short else "")
+                + f"; {self.record_dir} holds {len(self.entries)} moves")
+        self.get_logger().info(text)
+        return text
+
+    def _on_train(self, request: Trigger.Request, response: Trigger.Response):
+        if self.recording:
+            response.success, response.message = False, "recording: stop it first (~/record false)"
+        elif not self.entries:
+            response.success, response.message = False, (f"nothing recorded in "
+                                                          f"{self.record_dir} yet")
+        else:
+            try:
+                response.message = self.fit_and_save(dict(self.s))
+                response.success = True
+            except TrainingError as e:
+                response.success, response.message = False, f"training failed, no model " \
+                                                            f"written: {e}"
+                self.get_logger().error(response.message)
+        return response
 
     def _import(self, s: dict[str, Any]) -> tuple[str, str | None]:
         """Import ``bags`` into a dataset; (dataset path, temporary directory to remove)."""
@@ -225,8 +406,8 @@ class _LogLines:
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    # No rclpy signal handlers: nothing spins here, so SIGINT/SIGTERM must interrupt the fit.
-    return run_node(NODE_NAME, TrainerNode, TrainerNode.train, args,
+    # No rclpy signal handlers: SIGINT/SIGTERM must interrupt the fit (and end the live loop).
+    return run_node(NODE_NAME, TrainerNode, TrainerNode.run, args,
                     failures={TrainingError: (1, "training failed, no model written: {}")},
                     interrupted=(130, "interrupted, no model written"))
 

@@ -165,6 +165,34 @@ class LearnedSimulator:
         self.extrapolating = False
         self._set_outputs(None)
 
+    def continue_from(self, other: "LearnedSimulator") -> None:
+        """Take over ``other``'s robot where it is (a model swap): state, pose, the previous
+        pose (so the next twist is a finite difference as before), the accumulated x, y and yaw
+        variances, the outputs as last published, the step count and the extrapolation
+        counters. The initial state and pose
+        for later resets stay this simulator's own. A model with a feature history
+        (``feature_set``) gets ``other``'s history if it has the same feature set, else a new
+        one started at the current state and pose (its lags filled with that state, as at a
+        reset)."""
+        self.state = other.state.copy()
+        self._xy_yaw = other._xy_yaw.copy()
+        self._prev_pose = (other._prev_pose[0].copy(), other._prev_pose[1].copy())
+        self._sigma_xy = other._sigma_xy.copy()
+        self._var_yaw = other._var_yaw
+        self.steps = other.steps
+        self.nn_distance, self.extrapolating = other.nn_distance, other.extrapolating
+        self.extrapolating_steps = other.extrapolating_steps
+        if self.feature_set is None:
+            self._history = None
+        elif other._history is not None and other.feature_set == self.feature_set:
+            self._history = other._history.copy()
+        else:
+            self._history = self.feature_set.history(self.state, self._xy_yaw.copy())
+        self._set_outputs(None)
+        if self.use_variance and other.pose_covariance is not None:   # this step's, as published
+            self.pose_covariance = other.pose_covariance.copy()
+            self.twist_covariance = other.twist_covariance.copy()
+
     def step(self, u: np.ndarray) -> bool:
         """Advance 10 ms with desired joint angles u (12,). False (nothing changed) if the
         prediction is not finite (a diverged model).

@@ -17,6 +17,11 @@ measurement going out, independent of the transport:
 - **lockstep mode**: exactly one step per accepted command, at once;
 - **pause**: no steps and no time; lockstep commands received while paused are dropped
   (``cmd_dropped_paused``), timer-mode ones still update the held command;
+- **step while paused** (:meth:`SimulatorCore.step_paused`): n steps at once with the held
+  command (timer mode: the newest command received, as a tick would take it), published as
+  usual; refused unless paused;
+- **stop**: a reset, then paused (``stopped`` until the next step or resume): the
+  ``simulation_interfaces`` STOPPED state;
 - **reset**: back to the initial state; the simulated time advances one step and the initial
   state goes out at that stamp; the held command returns to ``stand_command``;
 - **divergence**: a step the backend cannot make finite is discarded, the backend is reset
@@ -220,6 +225,7 @@ class SimulatorCore:
         self.lockstep = config.step_mode == "lockstep"
         self.k = 0                        # step index of the published state
         self.paused = False
+        self.stopped = False              # reset and paused, no step since (stop())
         self.held = config.stand_command.copy()
         self._fresh: tuple[np.ndarray, int] | None = None   # (u, received ns) not used yet
         self._last_cmd_ns: int | None = None                # monotonic ns of the last accepted
@@ -346,6 +352,7 @@ class SimulatorCore:
                                            f"{b.trust_radius:.2f} (covariance inflated)")
         self.k += 1
         self.counters.steps += 1
+        self.stopped = False
         self.publish(self.config.start_ns + self.k * CONTROL_DT_NS, u)
         self.times.add(received, start, clock.wall_ns(), clock.cpu_ns() - cpu0)
 
@@ -368,11 +375,39 @@ class SimulatorCore:
     def set_paused(self, paused: bool) -> str:
         """Pause (True) or resume; returns ``paused``/``running`` or ``already ...``."""
         was, self.paused = self.paused, bool(paused)
+        if not self.paused:
+            self.stopped = False
         state = "paused" if self.paused else "running"
         if was != self.paused:
             self.logs.info(state)
             return state
         return f"already {state}"
+
+    def stop(self) -> str:
+        """Reset and pause (``stopped`` until the next step or resume); returns the message."""
+        self.set_paused(True)
+        text = self.reset()
+        self.stopped = True
+        return f"stopped: {text}"
+
+    def step_paused(self, n: int) -> int:
+        """Run ``n`` steps now while paused, each with the held command (timer mode: the
+        newest command received first, as a tick takes it; no timeout rule: no wall time
+        passes in a paused simulation). Every step is published as usual. Returns the steps
+        run; ValueError (one line) if not paused or ``n`` is negative."""
+        if not self.paused:
+            raise ValueError("the simulation is not paused: pause it before stepping")
+        n = int(n)
+        if n < 0:
+            raise ValueError(f"steps must be >= 0, got {n}")
+        for _ in range(n):
+            start = self.clock.wall_ns()
+            received = -1
+            if self._fresh is not None:
+                (u, received), self._fresh = self._fresh, None
+                self.held = u
+            self._advance(self.held, received, start)
+        return n
 
     # -- statistics ---------------------------------------------------------------------------
 

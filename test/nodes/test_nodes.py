@@ -736,3 +736,88 @@ def test_parameter_descriptions_over_ros(ros, work, model_path):
     finally:
         ros.destroy(node)
         assert proc.stop() == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# hot swap and the live trainer
+
+
+def test_sim_node_load_model_swaps_keeps_the_robot_and_refuses_a_broken_model(
+        ros, work, dataset, model_path, test_move):
+    """~/load_model: the model now at model_path from the next step on, from the state the
+    robot is in; a broken model there is refused in one line and the served one kept."""
+    path = work / "swap_model"
+    shutil.copytree(model_path, path)
+    proc = Proc("sim_node", {"model_path": path, "step_mode": "lockstep", "stats_period": 0.2,
+                             "projection": "bound"}, work)
+    probe = Probe(ros)
+    load = probe.node.create_client(Trigger, "/sim_node/load_model")
+    try:
+        probe.connect(proc)
+        u = test_move.actions
+        for k in range(3):
+            probe.send(u[k])
+            probe.wait(lambda k=k: (k + 1) * CONTROL_DT_NS in probe.state, what=f"step {k + 1}")
+        # a second model (TrainPool of F only) replaces the directory atomically
+        X, Y, _ = features_responses(load_moves(dataset, split="train", types=["F"]))
+        OneStepModel.fit(LinearRegression(), X, Y).save(path)
+        new = OneStepModel.load(path)
+        answer = call_service(load, Trigger.Request())
+        assert answer.success and answer.message.startswith("swapped at t = 0.03 s"), answer
+        t3 = 3 * CONTROL_DT_NS
+        probe.send(u[3])
+        probe.wait(lambda: t3 + CONTROL_DT_NS in probe.state, what="the step after the swap")
+        ref = rollout(new, probe.state[t3], u[3:4], new.projection("bound"))
+        np.testing.assert_allclose(probe.state[t3 + CONTROL_DT_NS], ref[0], atol=1e-12)
+        assert int(probe.wait_counter("model_swaps", 1)["model_swaps"]) == 1
+        # a broken model: refused, one line; the node steps on with the served model
+        shutil.rmtree(path)
+        path.mkdir()
+        (path / "model.json").write_text("{not json")
+        answer = call_service(load, Trigger.Request())
+        assert not answer.success and "\n" not in answer.message
+        assert answer.message.startswith("kept the previous model:"), answer.message
+        t4 = t3 + CONTROL_DT_NS
+        probe.send(u[4])
+        probe.wait(lambda: t4 + CONTROL_DT_NS in probe.state, what="a step after the refusal")
+        ref = rollout(new, probe.state[t4], u[4:5], new.projection("bound"))
+        np.testing.assert_allclose(probe.state[t4 + CONTROL_DT_NS], ref[0], atol=1e-12)
+        assert proc.alive()
+    finally:
+        probe.close()
+        assert proc.stop() == 0
+
+
+def test_trainer_live_requests_out_of_order_are_one_line_refusals(ros, work):
+    """trainer_node live: ~/train with nothing recorded, ~/record false while not recording,
+    a second ~/record true, ~/train while recording: each refused in one line, the node runs
+    on; SIGINT ends it with status 0. A record_dir that is not a dataset: exit status 2."""
+    out = work / "live_refusals"
+    proc = Proc("trainer_node", {"live": True, "record_dir": out / "data",
+                                 "out": out / "model", "heartbeat": 0.0}, work)
+    node = ros.node(f"live_client_{time.monotonic_ns()}")
+    try:
+        record = node.create_client(SetBool, "/trainer_node/record")
+        train = node.create_client(Trigger, "/trainer_node/train")
+        wait_until(lambda: record.service_is_ready() and train.service_is_ready(),
+                   what="the trainer's services")
+        a = call_service(train, Trigger.Request())
+        assert not a.success and a.message.startswith("nothing recorded")
+        a = call_service(record, SetBool.Request(data=False))
+        assert not a.success and a.message == "not recording"
+        assert call_service(record, SetBool.Request(data=True)).success
+        a = call_service(record, SetBool.Request(data=True))
+        assert not a.success and a.message == "already recording"
+        a = call_service(train, Trigger.Request())
+        assert not a.success and a.message.startswith("recording: stop it first")
+        a = call_service(record, SetBool.Request(data=False))    # nothing arrived: no move
+        assert a.success and a.message.startswith("recorded nothing usable"), a.message
+        assert proc.alive() and not (out / "model").exists()
+    finally:
+        ros.destroy(node)
+        assert proc.stop() == 0
+    (work / "not_a_dataset").mkdir()
+    (work / "not_a_dataset" / "x.txt").write_text("x")
+    rc, err = run("trainer_node", {"live": True, "record_dir": work / "not_a_dataset",
+                                   "out": out / "model"}, work)
+    assert rc == 2 and "is not a dataset" in err

@@ -146,3 +146,40 @@ def test_single_pose_rotations_equal_the_vectorised_ones():
                                rtol=0, atol=1e-15)
     np.testing.assert_allclose(np.array([rpy_to_quat1(*r) for r in rpy]), rpy_to_quat(rpy),
                                rtol=0, atol=1e-15)
+
+
+def test_continue_from_swaps_the_model_and_keeps_the_robot(moves, tmp_path):
+    """A swap (sim_node's ~/load_model): the new model's simulator takes over the robot where
+    the old one left it, and from there steps exactly as the core's rollout of the new model
+    started at that state and pose."""
+    move = prepare_test_move(moves[3])
+    pose0 = np.array([move.pose0.x0, move.pose0.y0, move.pose0.yaw0])
+    models = []
+    for k, n in enumerate((2, 3)):
+        X, Y, _ = FeatureSet().features_responses(moves[:n])
+        OneStepModel.fit(LinearRegression(), X, Y).save(tmp_path / f"m{k}")
+        models.append(OneStepModel.load(tmp_path / f"m{k}"))
+    old = LearnedSimulator(models[0], models[0].projection("bound"), move.s0, pose0)
+    for u in move.actions[:10]:
+        assert old.step(u)
+    new = LearnedSimulator(models[1], models[1].projection("bound"), move.s0, [0.0, 0.0, 0.0])
+    new.continue_from(old)
+    for a in ("state", "position", "orientation", "linear_velocity", "angular_velocity",
+              "pose_covariance"):
+        np.testing.assert_array_equal(getattr(new, a), getattr(old, a), err_msg=a)
+    assert new.steps == 10
+    x, y, yaw = old._xy_yaw
+    ref = rollout(models[1], old.state, move.actions[10:], models[1].projection("bound"),
+                  pose0=np.array([x, y, yaw]))
+    path = integrate_path(ref, x, y, yaw, old.state[S.roll_pitch])
+    states, pos = [], []
+    for u in move.actions[10:]:
+        assert new.step(u)
+        states.append(new.state)
+        pos.append(new.position)
+    np.testing.assert_allclose(np.array(states), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.array(pos)[:, :2], path[:, :2], rtol=0, atol=1e-12)
+    # a reset goes to the new simulator's own initial state and pose
+    new.reset()
+    np.testing.assert_array_equal(new.state, move.s0)
+    np.testing.assert_array_equal(new.position[:2], [0.0, 0.0])
