@@ -486,6 +486,12 @@ class LGPR(Regressor):
         X = check_predict_inputs(X, self.n_features_in_)
         return nearest_rows(X, self.centers_)
 
+    def cluster_rows(self) -> list[np.ndarray]:
+        """The training rows (indices into the ``X`` given to ``fit``) of each cluster."""
+        check_is_fitted(self)
+        o = self.offsets_
+        return [self.train_index_[o[c]:o[c + 1]] for c in range(self.n_clusters_)]
+
     def _factors(self, c: int) -> list[np.ndarray]:
         """Cholesky factors of cluster c (one per distinct kernel), LRU-cached."""
         f = self._chol.get(c)

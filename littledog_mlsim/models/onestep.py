@@ -246,6 +246,28 @@ class OneStepModel:
         return float(g["radius"]), (f"{g['source']}: quantile {GATE_QUANTILE} of the "
                                     f"TrainPool's leave-move-out distances")
 
+    def state_clusters(self):
+        """The estimator's clusters as groups of TrainPool states, for the gate's shortcut
+        (``projection.CandidateGroups``): ``(groups, label)`` with ``groups`` a list of index
+        arrays into ``train_states`` (the states the cluster's training rows lead to) and
+        ``label(X)`` the cluster (n,) that ``predict`` uses for raw feature rows X (n, f).
+
+        None if the estimator has no clusters (only LGPR has) or was fitted on other rows
+        than ``train_states`` (a subset: the row numbers would not match). The groups only
+        make the shortcut fast or slow, never its answer wrong (any TrainPool states bound
+        the nearest one's distance)."""
+        est = self.estimator
+        rows = getattr(est, "cluster_rows", None)
+        if rows is None or self.train_states is None \
+                or int(self.info.get("n_train", -1)) != self.train_states.shape[0]:
+            return None
+        groups = rows()
+        fn = self.feature_normalizer
+
+        def label(X: np.ndarray) -> np.ndarray:
+            return est.nearest_cluster((np.asarray(X, dtype=np.float64) - fn.mean_) / fn.std_)
+        return groups, label
+
     # -- files
 
     def _meta(self) -> dict[str, Any]:

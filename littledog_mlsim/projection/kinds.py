@@ -52,18 +52,21 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from ..layout import JOINT_LOWER, JOINT_UPPER, N_STATE, WRAPPED_STATE, S, wrap_angle
-from .neighbours import NearestNeighbour
+from .neighbours import CandidateGroups, NearestNeighbour
 
 __all__ = [
     "PROJECTION_KINDS", "PROJECTION_FORMAT_VERSION", "Projection", "NoProjection",
     "BoundProjection", "AlphaProjection", "NearestNeighbour", "make_projection",
     "enforce_limits", "leave_move_out_distances", "radius_from_quantile",
-    "GATE_QUANTILE", "GATE_EVERY", "gate_radius",
+    "GATE_QUANTILE", "GATE_EVERY", "gate_radius", "GATE_MARGIN", "CandidateGroups",
 ]
 
 PROJECTION_KINDS: tuple[str, ...] = ("none", "bound", "alpha")
 PROJECTION_FORMAT_VERSION = 1
 _MIN_STD = 1e-12
+# relative margin below the gate radius for a candidate to prove a row inside the gate
+# (AlphaProjection.project_distance): far above the rounding of two 33-term distance formulas
+GATE_MARGIN = 1e-9
 
 
 # ---------------------------------------------------------------------------------------------
@@ -252,6 +255,12 @@ class AlphaProjection(Projection):
         """Index into ``train_states`` (B,) of the nearest TrainPool state of each finite row."""
         return self.nn.query(np.asarray(states, dtype=np.float64) / self.scale)
 
+    def candidate_groups(self, groups) -> CandidateGroups:
+        """A :class:`.neighbours.CandidateGroups` over this projection's (normalised) TrainPool
+        states, ``groups`` index arrays into ``train_states`` (``project_distance``'s
+        ``candidates``)."""
+        return CandidateGroups(self.nn._P, groups)
+
     def distance(self, states: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
         """(B,) normalised distance of each finite row (B, 33) to its nearest TrainPool state
         (or to ``train_states[index]``)."""
@@ -275,11 +284,24 @@ class AlphaProjection(Projection):
             return q.copy(), None
         return (1.0 - self.alpha) * s + self.alpha * q, None
 
-    def project_distance(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def project_distance(self, states: np.ndarray, candidates: "tuple[CandidateGroups, "
+                         "np.ndarray] | None" = None) -> tuple[np.ndarray, np.ndarray]:
         """``self(states)`` for (B, 33) states, plus the normalised distance (B,) of each
         (limit-enforced) input row to its nearest TrainPool state (NaN for a non-finite row):
         how far the prediction left the data, from the projection's own search (no second
-        one)."""
+        one).
+
+        ``candidates``: ``(groups, labels)``, a :class:`.neighbours.CandidateGroups` over the
+        TrainPool states and a group label (B,) per row (sim_node: the TrainPool states of the
+        LGPR cluster the step's features selected). Gated alpha-PROJ only (``radius`` > 0, else
+        ignored): a row whose candidate is within the gate (its distance at most
+        ``radius (1 - GATE_MARGIN)``) is left alone without the exact search, and its distance
+        is the candidate's, an upper bound on the exact one that is itself inside the gate. The
+        projected states are bit for bit those without ``candidates``: the exact nearest state
+        is at least as close as the candidate, so the gate leaves that row alone either way
+        (``GATE_MARGIN`` covers the rounding of the two distance formulas). Rows outside get
+        the exact search and the exact distance.
+        """
         s = np.asarray(states, dtype=np.float64)
         if s.ndim != 2 or s.shape[1] != N_STATE:
             raise ValueError(f"states must be (B, {N_STATE}), got {s.shape}")
@@ -290,15 +312,35 @@ class AlphaProjection(Projection):
             out[:] = np.nan
             return out, d
         x = out[finite]
+        if candidates is not None and self.radius > 0.0:
+            groups, labels = candidates
+            labels = np.asarray(labels).reshape(-1)
+            j, sq = groups.upper_bound(x / self.scale, labels[finite])
+            inside = np.sqrt(sq) <= self.radius * (1.0 - GATE_MARGIN)
+            if inside.all():
+                dx = self.distance(x, j)
+                y = x
+            else:
+                y, dx = np.empty_like(x), np.empty(x.shape[0])
+                y[inside] = x[inside]
+                dx[inside] = self.distance(x[inside], j[inside])
+                o = ~inside
+                y[o], dx[o] = self._project_exact(x[o])
+        else:
+            y, dx = self._project_exact(x)
+        d[finite] = dx
+        out[finite] = enforce_limits(y)
+        out[~finite] = np.nan
+        return out, d
+
+    def _project_exact(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Projection and exact nearest distance of finite, limit-enforced rows x (B, 33)."""
         i = self.nearest(x)
         if self.alpha == 0.0:
             y, dx = x, None
         else:
             y, dx = self._project_from(x, i)
-        d[finite] = self.distance(x, i) if dx is None else dx
-        out[finite] = enforce_limits(y)
-        out[~finite] = np.nan
-        return out, d
+        return y, (self.distance(x, i) if dx is None else dx)
 
     def _gated(self, s: np.ndarray, q: np.ndarray, i: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:

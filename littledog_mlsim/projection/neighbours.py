@@ -13,7 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["NearestNeighbour"]
+__all__ = ["NearestNeighbour", "CandidateGroups"]
 
 
 class NearestNeighbour:
@@ -222,6 +222,73 @@ class NearestNeighbour:
             exact = ((A[r] - self._P[c]) ** 2).sum(axis=1)
             best_idx[r] = c[np.argmin(exact)]   # first of equal minima = smallest index
         return best_idx
+
+
+class CandidateGroups:
+    """A cheap upper bound on the nearest-neighbour distance: the nearest of a few candidates.
+
+    ``points`` (n, d) as given to :class:`NearestNeighbour`; ``groups``: index arrays into them
+    (any subsets, e.g. the TrainPool states an LGPR cluster's training rows lead to). For
+    queries X (m, d) with a group label each, :meth:`upper_bound` returns, per query, one point
+    of its group and that point's naive squared distance ``((x - p) ** 2).sum()``: the exact
+    search's smallest naive value is at most this, whichever group a query is given (the
+    groups only decide how tight the bound is, never whether it holds). Used by the gated
+    alpha-PROJ (``AlphaProjection.project_distance``): a state whose bound is inside the gate
+    is left alone without the exact search, which could only confirm it.
+    """
+
+    def __init__(self, points: np.ndarray, groups) -> None:
+        P = np.asarray(points, dtype=np.float64)
+        if P.ndim != 2:
+            raise ValueError(f"points must be (n, d), got {P.shape}")
+        self.groups = [np.asarray(g, dtype=np.int64).reshape(-1) for g in groups]
+        if not self.groups or any(g.size == 0 or g.min() < 0 or g.max() >= P.shape[0]
+                                  for g in self.groups):
+            raise ValueError("groups must be non-empty index arrays into points")
+        self.dim = P.shape[1]
+        # per group: its points contiguous, and [-2 p, ||p||^2]^T for one GEMM per group
+        self._pts = [np.ascontiguousarray(P[g]) for g in self.groups]
+        self._aug = []
+        for B in self._pts:
+            a = np.empty((self.dim + 1, B.shape[0]))
+            a[:self.dim] = -2.0 * B.T
+            a[self.dim] = np.einsum("ij,ij->i", B, B)
+            self._aug.append(a)
+
+    @property
+    def n_groups(self) -> int:
+        return len(self.groups)
+
+    def upper_bound(self, X: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(index (m,) int64 into ``points``, naive squared distance (m,)) of the candidate of
+        each finite query row ``X`` (m, d) in group ``labels`` (m,): the group's point with the
+        smallest ``||x||^2``-free GEMM value, scored with the naive formula (so the bound is
+        the naive distance of a real point, whatever the GEMM's rounding)."""
+        A = np.asarray(X, dtype=np.float64)
+        lab = np.asarray(labels, dtype=np.int64).reshape(-1)
+        m = A.shape[0]
+        if A.ndim != 2 or A.shape[1] != self.dim or lab.shape != (m,):
+            raise ValueError(f"queries must be (m, {self.dim}) with m labels")
+        if m and (lab.min() < 0 or lab.max() >= self.n_groups):
+            raise ValueError("labels out of range")
+        idx = np.empty(m, dtype=np.int64)
+        sq = np.empty(m)
+        Aa = np.empty((m, self.dim + 1))
+        Aa[:, :self.dim] = A
+        Aa[:, self.dim] = 1.0
+        if m == 1:
+            groups = [(int(lab[0]), slice(None))]
+        else:
+            order = np.argsort(lab, kind="stable")
+            cut = np.flatnonzero(np.diff(lab[order])) + 1
+            groups = [(int(lab[r[0]]), r) for r in np.split(order, cut)]
+        for g, rows in groups:
+            a = (Aa[rows] @ self._aug[g]).argmin(axis=1)
+            B = self._pts[g][a]
+            idx[rows] = self.groups[g][a]
+            diff = A[rows] - B
+            sq[rows] = (diff * diff).sum(axis=1)
+        return idx, sq
 
 
 _U32 = float(np.finfo(np.float32).eps) / 2      # unit roundoff of float32

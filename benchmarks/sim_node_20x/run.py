@@ -1,0 +1,314 @@
+"""sim_node's step at 20x real time, and the batched learned simulator over N robots.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/sim_node_20x/run.py \
+        --model MODEL --data bags/default --before /path/to/main/checkout \
+        --out benchmarks/sim_node_20x/result
+
+Two phases, one model (a paper-size LGPR), gated alpha-PROJ (the model's radius, or
+``--radius``) and covariance on:
+
+1. ``profile``: the core step sim_node runs (``LearnedSimulator.step``, built as sim_node's
+   ``make_backend`` builds it: the model's projection, the standing TrainPool state, the model
+   prepared, the search index built), driven by a TestPool F move's commands in a loop, in a
+   child process (so that ``--before CODE_ROOT`` profiles another checkout's code, e.g. the
+   main branch, with the same script). ``--profile-steps`` steps are timed one by one (thread
+   CPU time) with the parts timed by wrappers around the calls (about 1 us each): the model's
+   prediction (mean and std), the std's triangular solve alone, the nearest-neighbour search;
+   then the same steps under cProfile (the functions with the most own time). The predicted
+   states of both codes are compared bit for bit (the mean must not change).
+2. ``batch``: the batched learned simulator (``rollout.vector_sim.VectorLearnedSimulator``)
+   stepping N robots at once (``--batch-n``, default 1, 8, 64, 256), each driven by a TestPool
+   move's commands: steps x robots per CPU second = real-time factor per core (one step is
+   10 ms of robot time). With the model's std off (the rollout's setting) and on.
+
+The machine may be shared: ``uptime`` is recorded with every measurement; CPU time (not wall)
+is what the figures use, but CPU time also grows when other jobs share caches and memory bus.
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import json
+import os
+import pstats
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+
+
+def uptime() -> str:
+    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+
+
+def pct(x) -> dict:
+    x = np.asarray(x, dtype=float)
+    return {"n": int(x.size), "mean": float(x.mean()), "p50": float(np.percentile(x, 50)),
+            "p99": float(np.percentile(x, 99)), "max": float(x.max())}
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. profile (child process)
+
+
+def build_backend(model_path: str, radius: float | None):
+    """The LearnedSimulator as sim_node's make_backend builds it (projection alpha 0.5,
+    nn_method auto, covariance on), with APIs the main branch has too."""
+    from littledog_mlsim.models.onestep import OneStepModel
+    from littledog_mlsim.rollout.learned_sim import LearnedSimulator, standing_train_state
+
+    model = OneStepModel.load(model_path)
+    if radius is None:
+        radius = model.gate_radius()[0]
+    projection = model.projection("alpha", alpha=0.5, nn_method="auto", radius=radius)
+    s0 = standing_train_state(model.train_states, projection)
+    model.prepare(return_std=True)
+    projection.nn.prepare()
+    sim = LearnedSimulator(model, projection, s0, np.zeros(3), True, trust_radius=radius)
+    return model, projection, sim
+
+
+def profile_main(a) -> dict:
+    import littledog_mlsim
+    import littledog_mlsim.models.lgpr as lgpr_mod
+    from littledog_mlsim.data.dataset import load_moves
+
+    cmds = np.asarray(load_moves(a.data, split="test", types=["F"])[0].cmd)
+    model, projection, sim = build_backend(a.model, a.radius)
+    n = a.profile_steps
+
+    def drive(k0: int, count: int, states=None, dist=None) -> None:
+        for k in range(k0, k0 + count):
+            sim.step(cmds[k % len(cmds)])
+            if states is not None:
+                states[k - k0] = sim.state
+                dist[k - k0] = sim.nn_distance
+
+    drive(0, 200)                                   # warm up
+    sim.reset()
+    spent = {"model predict (mean + std)": 0, "std triangular solve": 0, "nn search": 0}
+
+    def timed(fn, key):
+        def wrapper(*args, **kw):
+            c = time.thread_time_ns()
+            try:
+                return fn(*args, **kw)
+            finally:
+                spent[key] += time.thread_time_ns() - c
+        return wrapper
+    predict, nv, query = model.predict, lgpr_mod.noisy_variance, projection.nn.query
+    model.predict = timed(predict, "model predict (mean + std)")
+    lgpr_mod.noisy_variance = timed(nv, "std triangular solve")
+    projection.nn.query = timed(query, "nn search")
+    cpu = np.empty(n)
+    states = np.empty((n, 33))
+    dist = np.empty(n)
+    load0 = uptime()
+    for k in range(n):
+        c0 = time.thread_time_ns()
+        sim.step(cmds[k % len(cmds)])
+        cpu[k] = time.thread_time_ns() - c0
+        states[k] = sim.state
+        dist[k] = sim.nn_distance
+    load1 = uptime()
+    model.predict, lgpr_mod.noisy_variance, projection.nn.query = predict, nv, query
+    parts = {key: v / 1e6 / n for key, v in spent.items()}
+    parts["model mean (predict minus std solve)"] = (
+        parts["model predict (mean + std)"] - parts["std triangular solve"])
+    parts["rest (pose, covariance, projection arithmetic)"] = (
+        cpu.sum() / 1e6 / n - parts["model predict (mean + std)"] - parts["nn search"])
+    sim.reset()
+    prof = cProfile.Profile()
+    prof.enable()
+    drive(0, n)
+    prof.disable()
+    st = pstats.Stats(prof)
+    total = sum(v[2] for v in st.stats.values())
+    top = sorted(((v[2], f"{Path(f).name}:{fn}") for (f, _, fn), v in st.stats.items()),
+                 reverse=True)[:15]
+    r = float(projection.radius)
+    return {"code": str(Path(littledog_mlsim.__file__).resolve().parents[1]), "steps": n,
+            "step_cpu_ms": pct(cpu / 1e6), "parts_ms_per_step": parts,
+            "profiled_ms_per_step": 1e3 * total / n,
+            "top_tottime_ms_per_step": [(name, 1e3 * t / n) for t, name in top],
+            "radius": r, "inside_gate_share": float(np.mean(dist <= r)),
+            "load_before": load0, "load_after": load1,
+            "states": states.tolist(), "nn_distance": dist.tolist()}
+
+
+def run_profile(a, code_root: str | None) -> dict:
+    env = dict(os.environ, PYTHONPATH=code_root or str(ROOT))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "p.json"
+        cmd = [sys.executable, __file__, "--profile-child", str(out), "--model", a.model,
+               "--data", str(a.data), "--profile-steps", str(a.profile_steps)]
+        if a.radius is not None:
+            cmd += ["--radius", repr(a.radius)]
+        subprocess.run(cmd, env=env, check=True)
+        return json.loads(out.read_text())
+
+
+# ---------------------------------------------------------------------------------------------
+# 2. batch
+
+
+def run_batch(a) -> dict:
+    from littledog_mlsim.data.dataset import load_moves
+    from littledog_mlsim.models.onestep import OneStepModel
+    from littledog_mlsim.rollout.simulate import prepare_test_moves
+    from littledog_mlsim.rollout.vector_sim import VectorLearnedSimulator
+
+    model = OneStepModel.load(a.model)
+    radius = model.gate_radius()[0] if a.radius is None else a.radius
+    projection = model.projection("alpha", alpha=0.5, radius=radius)
+    projection.nn.prepare()
+    model.prepare(return_std=True)
+    moves = prepare_test_moves(load_moves(a.data, split="test"))
+    out = []
+    for use_var in (False, True):
+        for N in a.batch_n:
+            pick = [moves[i % len(moves)] for i in range(N)]
+            T = min(m.n_steps for m in pick)
+            s0 = np.stack([m.s0 for m in pick])
+            u = np.stack([m.actions[:T] for m in pick])
+            pose0 = np.array([[m.pose0.x0, m.pose0.y0, m.pose0.yaw0] for m in pick])
+            sim = VectorLearnedSimulator(model, projection, s0, pose0, use_variance=use_var,
+                                         trust_radius=radius)
+            steps = max(20, min(T, a.batch_robot_steps // N))
+            for t in range(5):                       # warm up
+                sim.step(u[:, t])
+            sim.reset()
+            load0 = uptime()
+            cpu = np.empty(steps)
+            w0 = time.perf_counter()
+            for t in range(steps):
+                c0 = time.thread_time_ns()
+                sim.step(u[:, t % T])
+                cpu[t] = time.thread_time_ns() - c0
+            wall = time.perf_counter() - w0
+            robot_s = N * steps * 0.01
+            out.append({"N": N, "std": use_var, "steps": steps, "cpu_s": float(cpu.sum() / 1e9),
+                        "wall_s": wall, "rtf_per_core": robot_s / (cpu.sum() / 1e9),
+                        "step_cpu_ms": pct(cpu / 1e6), "load": load0})
+            print(f"N={N:4d} std={use_var}: {out[-1]['rtf_per_core']:.0f}x real time per core "
+                  f"(step CPU p50 {out[-1]['step_cpu_ms']['p50']:.3f} ms); {load0}", flush=True)
+    return {"runs": out, "radius": radius}
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def markdown(doc: dict) -> list[str]:
+    r = doc["results"]
+    lines = ["# sim_node's step at 20x and the batched learned simulator (paper-size LGPR, "
+             "gated alpha-PROJ, covariance)", "",
+             f"Command: `OPENBLAS_NUM_THREADS={doc['openblas_num_threads']} "
+             f".venv/bin/python {doc['command']}`  ", f"Code: {doc['git']}; date {doc['date']}",
+             ""]
+    keys = ["model predict (mean + std)", "model mean (predict minus std solve)",
+            "std triangular solve", "nn search",
+            "rest (pose, covariance, projection arithmetic)"]
+    if "profile" in r:
+        lines += ["## 1. One step of sim_node's core (`LearnedSimulator.step`), thread CPU time",
+                  "", "| code | step p50 [ms] | p99 [ms] | mean [ms] | "
+                  + " | ".join(keys) + " | load |", "|---" * (5 + len(keys)) + "|"]
+        for key in ("profile_before", "profile"):
+            if key not in r:
+                continue
+            p = r[key]
+            parts = p["parts_ms_per_step"]
+            s = p["step_cpu_ms"]
+            lines.append(f"| {'before' if key == 'profile_before' else 'after'} "
+                         f"(`{p['code']}`) | {s['p50']:.3f} | {s['p99']:.3f} | {s['mean']:.3f} | "
+                         + " | ".join(f"{parts.get(k, float('nan')):.3f}" for k in keys)
+                         + f" | `{p['load_before']}` |")
+        lines += ["", "(Parts: mean CPU ms per step, timed by wrappers; `rest` is the step "
+                  "minus the model's predict and the search.)", ""]
+        p = r["profile"]
+        lines += [f"Steps inside the gate (nn_distance <= radius {p['radius']:.4f}): "
+                  f"{100 * p['inside_gate_share']:.1f} %.", ""]
+        if "same_states" in r:
+            lines += [f"Predicted states of before and after equal bit for bit over "
+                      f"{p['steps']} steps: **{r['same_states']}**; nn_distance equal on "
+                      f"{100 * r['same_distance_share']:.1f} % of the steps (the others: "
+                      f"inside the gate, see README).", ""]
+        for key in ("profile_before", "profile"):
+            if key in r:
+                lines += [f"Top functions by own time ({key}, ms per step under cProfile):", ""]
+                lines += [f"- `{name}` {ms:.3f}" for name, ms in
+                          r[key]["top_tottime_ms_per_step"][:10]]
+                lines.append("")
+    if "batch" in r:
+        lines += ["## 2. Batched learned simulator: real-time factor per core over N", "",
+                  "| N robots | std | steps | step CPU p50 [ms] | p99 [ms] | "
+                  "x real time per core | load |", "|---|---|---|---|---|---|---|"]
+        for b in r["batch"]["runs"]:
+            s = b["step_cpu_ms"]
+            lines.append(f"| {b['N']} | {'on' if b['std'] else 'off'} | {b['steps']} | "
+                         f"{s['p50']:.3f} | {s['p99']:.3f} | {b['rtf_per_core']:.0f} | "
+                         f"`{b['load']}` |")
+        lines.append("")
+    return lines
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--model", required=True)
+    p.add_argument("--data", type=Path, required=True, help="dataset (its TestPool)")
+    p.add_argument("--radius", type=float, default=None,
+                   help="gate radius (default: the model's own)")
+    p.add_argument("--profile-steps", type=int, default=3000)
+    p.add_argument("--batch-n", type=lambda s: [int(x) for x in s.split(",")],
+                   default=[1, 8, 64, 256])
+    p.add_argument("--batch-robot-steps", type=int, default=20000,
+                   help="robot-steps per batch measurement (steps = this / N, 20..T)")
+    p.add_argument("--phases", default="profile,batch")
+    p.add_argument("--before", default=None, metavar="CODE_ROOT",
+                   help="also profile this checkout's code (e.g. the main branch) as 'before'")
+    p.add_argument("--out", type=Path, default=None, help="write OUT.json and OUT.md")
+    p.add_argument("--profile-child", type=Path, default=None, help=argparse.SUPPRESS)
+    a = p.parse_args(argv)
+    if a.profile_child is not None:
+        a.profile_child.write_text(json.dumps(profile_main(a)))
+        return 0
+    sys.path.insert(0, str(ROOT))
+    from benchmarks._common import run_record
+    doc = run_record("sim_node_20x/run.py", argv)
+    doc["results"] = results = {}
+    phases = a.phases.split(",")
+    if "profile" in phases:
+        if a.before:
+            results["profile_before"] = run_profile(a, a.before)
+        results["profile"] = run_profile(a, None)
+        if a.before:
+            sa = np.array(results["profile"]["states"])
+            sb = np.array(results["profile_before"]["states"])
+            results["same_states"] = bool(np.array_equal(sa, sb))
+            results["same_distance_share"] = float(np.mean(
+                np.array(results["profile"]["nn_distance"])
+                == np.array(results["profile_before"]["nn_distance"])))
+        for key in ("profile_before", "profile"):
+            if key in results:
+                results[key].pop("states")
+                results[key].pop("nn_distance")
+    if "batch" in phases:
+        results["batch"] = run_batch(a)
+    lines = markdown(doc)
+    if a.out is not None:
+        a.out.parent.mkdir(parents=True, exist_ok=True)
+        a.out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
+        a.out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
