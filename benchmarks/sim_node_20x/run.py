@@ -59,7 +59,7 @@ def pct(x) -> dict:
 # 1. profile (child process)
 
 
-def build_backend(model_path: str, radius: float | None):
+def build_backend(model_path: str, radius: float | None, std_dtype: str = "float64"):
     """The LearnedSimulator as sim_node's make_backend builds it (projection alpha 0.5,
     nn_method auto, covariance on), with APIs the main branch has too."""
     from littledog_mlsim.models.onestep import OneStepModel
@@ -70,7 +70,8 @@ def build_backend(model_path: str, radius: float | None):
         radius = model.gate_radius()[0]
     projection = model.projection("alpha", alpha=0.5, nn_method="auto", radius=radius)
     s0 = standing_train_state(model.train_states, projection)
-    model.prepare(return_std=True)
+    model.prepare(return_std=True,
+                  **({} if std_dtype == "float64" else {"variance_dtype": std_dtype}))
     projection.nn.prepare()
     sim = LearnedSimulator(model, projection, s0, np.zeros(3), True, trust_radius=radius)
     return model, projection, sim
@@ -82,7 +83,7 @@ def profile_main(a) -> dict:
     from littledog_mlsim.data.dataset import load_moves
 
     cmds = np.asarray(load_moves(a.data, split="test", types=["F"])[0].cmd)
-    model, projection, sim = build_backend(a.model, a.radius)
+    model, projection, sim = build_backend(a.model, a.radius, a.std_dtype)
     n = a.profile_steps
 
     def drive(k0: int, count: int, states=None, dist=None) -> None:
@@ -111,6 +112,7 @@ def profile_main(a) -> dict:
     cpu = np.empty(n)
     states = np.empty((n, 33))
     dist = np.empty(n)
+    twist_var = np.empty((n, 6))
     load0 = uptime()
     for k in range(n):
         c0 = time.thread_time_ns()
@@ -118,6 +120,7 @@ def profile_main(a) -> dict:
         cpu[k] = time.thread_time_ns() - c0
         states[k] = sim.state
         dist[k] = sim.nn_distance
+        twist_var[k] = sim.twist_covariance[::7]
     load1 = uptime()
     model.predict, lgpr_mod.noisy_variance, projection.nn.query = predict, nv, query
     parts = {key: v / 1e6 / n for key, v in spent.items()}
@@ -141,15 +144,17 @@ def profile_main(a) -> dict:
             "top_tottime_ms_per_step": [(name, 1e3 * t / n) for t, name in top],
             "radius": r, "inside_gate_share": float(np.mean(dist <= r)),
             "load_before": load0, "load_after": load1,
-            "states": states.tolist(), "nn_distance": dist.tolist()}
+            "std_dtype": a.std_dtype, "states": states.tolist(), "nn_distance": dist.tolist(),
+            "twist_var": twist_var.tolist()}
 
 
-def run_profile(a, code_root: str | None) -> dict:
+def run_profile(a, code_root: str | None, std_dtype: str = "float64") -> dict:
     env = dict(os.environ, PYTHONPATH=code_root or str(ROOT))
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "p.json"
         cmd = [sys.executable, __file__, "--profile-child", str(out), "--model", a.model,
-               "--data", str(a.data), "--profile-steps", str(a.profile_steps)]
+               "--data", str(a.data), "--profile-steps", str(a.profile_steps),
+               "--std-dtype", std_dtype]
         if a.radius is not None:
             cmd += ["--radius", repr(a.radius)]
         subprocess.run(cmd, env=env, check=True)
@@ -220,13 +225,15 @@ def markdown(doc: dict) -> list[str]:
         lines += ["## 1. One step of sim_node's core (`LearnedSimulator.step`), thread CPU time",
                   "", "| code | step p50 [ms] | p99 [ms] | mean [ms] | "
                   + " | ".join(keys) + " | load |", "|---" * (5 + len(keys)) + "|"]
-        for key in ("profile_before", "profile"):
+        names = {"profile_before": "before", "profile_float64": "after, std float64",
+                 "profile": "after"}
+        for key in ("profile_before", "profile_float64", "profile"):
             if key not in r:
                 continue
             p = r[key]
             parts = p["parts_ms_per_step"]
             s = p["step_cpu_ms"]
-            lines.append(f"| {'before' if key == 'profile_before' else 'after'} "
+            lines.append(f"| {names[key].split(',')[0]}, std {p.get('std_dtype', 'float64')} "
                          f"(`{p['code']}`) | {s['p50']:.3f} | {s['p99']:.3f} | {s['mean']:.3f} | "
                          + " | ".join(f"{parts.get(k, float('nan')):.3f}" for k in keys)
                          + f" | `{p['load_before']}` |")
@@ -235,6 +242,11 @@ def markdown(doc: dict) -> list[str]:
         p = r["profile"]
         lines += [f"Steps inside the gate (nn_distance <= radius {p['radius']:.4f}): "
                   f"{100 * p['inside_gate_share']:.1f} %.", ""]
+        if "std_rel_error_vs_float64" in r:
+            e = r["std_rel_error_vs_float64"]
+            lines += [f"The twist std (6 elements per step) with {p['std_dtype']} factors against "
+                      f"float64 ones, relative error: median {e['median']:.2e}, p99 "
+                      f"{e['p99']:.2e}, max {e['max']:.2e}.", ""]
         if "same_states" in r:
             lines += [f"Predicted states of before and after equal bit for bit over "
                       f"{p['steps']} steps: **{r['same_states']}**; nn_distance equal on "
@@ -266,6 +278,9 @@ def main(argv=None) -> int:
     p.add_argument("--radius", type=float, default=None,
                    help="gate radius (default: the model's own)")
     p.add_argument("--profile-steps", type=int, default=3000)
+    p.add_argument("--std-dtype", default="float32", choices=("float64", "float32"),
+                   help="LGPR's variance factors in the 'after' profile (sim_node's "
+                        "std_precision; the 'before' code has float64 only)")
     p.add_argument("--batch-n", type=lambda s: [int(x) for x in s.split(",")],
                    default=[1, 8, 64, 256])
     p.add_argument("--batch-robot-steps", type=int, default=20000,
@@ -287,7 +302,16 @@ def main(argv=None) -> int:
     if "profile" in phases:
         if a.before:
             results["profile_before"] = run_profile(a, a.before)
-        results["profile"] = run_profile(a, None)
+        if a.std_dtype != "float64":
+            results["profile_float64"] = run_profile(a, None, "float64")
+        results["profile"] = run_profile(a, None, a.std_dtype)
+        if "profile_float64" in results:
+            va = np.array(results["profile"]["twist_var"])
+            vb = np.array(results["profile_float64"]["twist_var"])
+            rel = np.abs(np.sqrt(va) - np.sqrt(vb)) / np.sqrt(vb)
+            results["std_rel_error_vs_float64"] = {"median": float(np.median(rel)),
+                                                   "p99": float(np.percentile(rel, 99)),
+                                                   "max": float(rel.max())}
         if a.before:
             sa = np.array(results["profile"]["states"])
             sb = np.array(results["profile_before"]["states"])
@@ -295,10 +319,10 @@ def main(argv=None) -> int:
             results["same_distance_share"] = float(np.mean(
                 np.array(results["profile"]["nn_distance"])
                 == np.array(results["profile_before"]["nn_distance"])))
-        for key in ("profile_before", "profile"):
+        for key in ("profile_before", "profile_float64", "profile"):
             if key in results:
-                results[key].pop("states")
-                results[key].pop("nn_distance")
+                for k in ("states", "nn_distance", "twist_var"):
+                    results[key].pop(k)
     if "batch" in phases:
         results["batch"] = run_batch(a)
     lines = markdown(doc)

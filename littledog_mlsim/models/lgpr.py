@@ -476,6 +476,7 @@ class LGPR(Regressor):
         self._chol: OrderedDict[int, list[np.ndarray]] = OrderedDict()
         self._chol_bytes = 0
         self._variance_prepared = False
+        self._variance_dtype = "float64"
 
     @property
     def n_clusters_(self) -> int:
@@ -500,6 +501,8 @@ class LGPR(Regressor):
             return f
         kernels, _ = self._kernels[c]
         f = [gp_cholesky(self._X[c], th, float(self.jitter_[c])) for th in kernels]
+        if self._variance_dtype == "float32":
+            f = [np.ascontiguousarray(a, dtype=np.float32) for a in f]
         size = sum(a.nbytes for a in f)
         budget = float(self.variance_cache_mb) * 1e6
         while self._chol and self._chol_bytes + size > budget:
@@ -510,13 +513,26 @@ class LGPR(Regressor):
             self._chol_bytes += size
         return f
 
-    def prepare_variance(self) -> int:
+    def prepare_variance(self, dtype: str = "float64") -> int:
         """Build the Cholesky factors for ``return_std`` ahead of time (as many clusters as fit
-        in ``variance_cache_mb``); returns the number of clusters cached."""
+        in ``variance_cache_mb``); returns the number of clusters cached.
+
+        ``dtype="float32"`` keeps the factors in float32 (a run-time choice, not stored in the
+        model): half the memory and half the memory traffic of each std (the learned
+        simulator's step, ``benchmarks/sim_node_20x``), at a relative error of the std of order
+        1e-5 typically and 1e-3 at most on the paper-size model (measured there); the mean is
+        untouched. Calling it again with the other dtype rebuilds the factors."""
+        if dtype not in ("float64", "float32"):
+            raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
+        if dtype != self._variance_dtype:
+            self._chol.clear()
+            self._chol_bytes = 0
+            self._variance_dtype = dtype
+        itemsize = 4 if dtype == "float32" else 8
         budget = float(self.variance_cache_mb) * 1e6
         for c in range(self.n_clusters_):
             m = self._X[c].shape[0]
-            need = self._kernels[c][0].shape[0] * m * m * 8
+            need = self._kernels[c][0].shape[0] * m * m * itemsize
             if c not in self._chol and self._chol_bytes + need > budget:
                 break  # full: later clusters would only evict earlier ones
             self._factors(c)

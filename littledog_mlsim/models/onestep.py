@@ -196,13 +196,15 @@ class OneStepModel:
         std = Zs * rn.std_
         return (out[0], std[0]) if single else (out, std)
 
-    def prepare(self, return_std: bool = False) -> None:
+    def prepare(self, return_std: bool = False, variance_dtype: str = "float64") -> None:
         """Do one-time work before a real-time loop: build variance factors (LGPR, GPR) and run
-        one prediction, so the first real query is as fast as the others."""
+        one prediction, so the first real query is as fast as the others.
+        ``variance_dtype="float32"``: LGPR's factors in float32 (``LGPR.prepare_variance``: a
+        faster std, changed in its last digits); other estimators ignore it."""
         if return_std:
             prep = getattr(self.estimator, "prepare_variance", None)
             if prep is not None:
-                prep()
+                prep(**({} if variance_dtype == "float64" else {"dtype": variance_dtype}))
         x = self.feature_normalizer.mean_.copy()
         if self.train_states is not None:
             x[:N_STATE] = self.train_states[0]

@@ -325,7 +325,7 @@ class AlphaProjection(Projection):
                 y[inside] = x[inside]
                 dx[inside] = self.distance(x[inside], j[inside])
                 o = ~inside
-                y[o], dx[o] = self._project_exact(x[o])
+                y[o], dx[o] = self._project_exact(x[o], sq[o])
         else:
             y, dx = self._project_exact(x)
         d[finite] = dx
@@ -333,9 +333,11 @@ class AlphaProjection(Projection):
         out[~finite] = np.nan
         return out, d
 
-    def _project_exact(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Projection and exact nearest distance of finite, limit-enforced rows x (B, 33)."""
-        i = self.nearest(x)
+    def _project_exact(self, x: np.ndarray, upper: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """Projection and exact nearest distance of finite, limit-enforced rows x (B, 33)
+        (``upper``: a known point's naive squared distance per row, for the search)."""
+        i = self.nn.query(x / self.scale, upper=upper)
         if self.alpha == 0.0:
             y, dx = x, None
         else:

@@ -150,8 +150,14 @@ class NearestNeighbour:
             self._pca = _PCAIndex(self._P, self.n_components, self.chunk_points)
         return self._pca
 
-    def query(self, X: np.ndarray, method: str | None = None) -> np.ndarray:
-        """Index (m,) int64 of the nearest point to each row of ``X`` (m, d) (finite values)."""
+    def query(self, X: np.ndarray, method: str | None = None,
+              upper: np.ndarray | None = None) -> np.ndarray:
+        """Index (m,) int64 of the nearest point to each row of ``X`` (m, d) (finite values).
+
+        ``upper`` (m,), optional: for each row the naive squared distance
+        ``((x - p) ** 2).sum()`` of some point p (``CandidateGroups.upper_bound``); ``"pca"``
+        starts from it where it is smaller than its own first bound (fewer chunks to visit).
+        The answer is the same with or without it."""
         A = np.asarray(X, dtype=np.float64)
         if A.ndim != 2 or A.shape[1] != self.dim:
             raise ValueError(f"queries must be (m, {self.dim}), got {A.shape}")
@@ -176,7 +182,10 @@ class NearestNeighbour:
             out[near] = self.build_tree().query(A[near], k=1, eps=0.0, p=2.0)[1]
         else:
             An = A if not np.any(far) else A[near]
-            res = self.build_index().query(An, self._P)
+            up = None if upper is None else np.asarray(upper, dtype=np.float64)
+            if up is not None and np.any(far):
+                up = up[near]
+            res = self.build_index().query(An, self._P, up)
             todo = res < 0                               # left to brute force
             if np.any(todo):
                 res[todo] = self._brute(An[todo], norm[near][todo] if np.any(far)
@@ -436,14 +445,17 @@ class _PCAIndex:
         thr32[low] = np.nextafter(thr32[low], np.float32(np.inf))
         return thr32
 
-    def query(self, A: np.ndarray, P: np.ndarray) -> np.ndarray:
+    def query(self, A: np.ndarray, P: np.ndarray, upper: np.ndarray | None = None
+              ) -> np.ndarray:
         m = A.shape[0]
         if not self.usable:
             return np.full(m, -1, dtype=np.int64)
         # blocks of queries bound the (pairs, cs) float32 work array (<= 32 MB)
         step = max(16, (1 << 23) // (self.n_chunks * self.cs))
         if m > step:
-            return np.concatenate([self.query(A[i:i + step], P) for i in range(0, m, step)])
+            return np.concatenate([self.query(A[i:i + step], P,
+                                              None if upper is None else upper[i:i + step])
+                                   for i in range(0, m, step)])
         Zx = (A - self.mean) @ self.V                                       # (m, d)
         zn = np.sqrt(np.einsum("ij,ij->i", Zx, Zx))
         far = zn > 64.0 * self.R          # far outside the data: bounds useless, brute force
@@ -451,19 +463,20 @@ class _PCAIndex:
             out = np.full(m, -1, dtype=np.int64)
             sub = np.flatnonzero(~far)
             if sub.size:
-                out[sub] = self.query(A[sub], P)
+                out[sub] = self.query(A[sub], P, None if upper is None else upper[sub])
             return out
         # the work array is reused between calls (fresh multi-MB arrays cost page faults);
         # a concurrent call allocates its own
         mine = self._lock.acquire(blocking=False)
         try:
-            return self._query(A, P, Zx, zn, self._work if mine else None, mine)
+            return self._query(A, P, Zx, zn, self._work if mine else None, mine, upper)
         finally:
             if mine:
                 self._lock.release()
 
     def _query(self, A: np.ndarray, P: np.ndarray, Zx: np.ndarray, zn: np.ndarray,
-               work: np.ndarray | None, keep: bool) -> np.ndarray:
+               work: np.ndarray | None, keep: bool, upper: np.ndarray | None = None
+               ) -> np.ndarray:
         m = A.shape[0]
         nf, cs, d, nc = self.lo.shape[0], self.cs, self.V.shape[0], self.n_chunks
         ez = self._err_z(zn)
@@ -487,6 +500,8 @@ class _PCAIndex:
         a1 = G1.argmin(axis=1)
         U = np.empty(m)
         U[q1] = ((A[q1] - P[self.perm_sample[j1 * self.cs_sample + a1]]) ** 2).sum(axis=1)
+        if upper is not None:         # a known point's naive distance: also a valid U
+            np.minimum(U, upper, out=U)
         # queries whose bounds select most of the sample (points spread evenly in all
         # dimensions, or queries far from them) go to brute force right away
         t1 = self._threshold(U, qq, ez, fn32, j1, q1)
