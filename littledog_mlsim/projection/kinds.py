@@ -284,28 +284,36 @@ class AlphaProjection(Projection):
             return q.copy(), None
         return (1.0 - self.alpha) * s + self.alpha * q, None
 
-    def project_distance(self, states: np.ndarray, candidates: "tuple[CandidateGroups, "
-                         "np.ndarray] | None" = None) -> tuple[np.ndarray, np.ndarray]:
+    def project_distance(self, states: np.ndarray, candidates: tuple | None = None,
+                         index_out: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
         """``self(states)`` for (B, 33) states, plus the normalised distance (B,) of each
         (limit-enforced) input row to its nearest TrainPool state (NaN for a non-finite row):
         how far the prediction left the data, from the projection's own search (no second
         one).
 
-        ``candidates``: ``(groups, labels)``, a :class:`.neighbours.CandidateGroups` over the
-        TrainPool states and a group label (B,) per row (sim_node: the TrainPool states of the
-        LGPR cluster the step's features selected). Gated alpha-PROJ only (``radius`` > 0, else
-        ignored): a row whose candidate is within the gate (its distance at most
-        ``radius (1 - GATE_MARGIN)``) is left alone without the exact search, and its distance
-        is the candidate's, an upper bound on the exact one that is itself inside the gate. The
-        projected states are bit for bit those without ``candidates``: the exact nearest state
-        is at least as close as the candidate, so the gate leaves that row alone either way
-        (``GATE_MARGIN`` covers the rounding of the two distance formulas). Rows outside get
-        the exact search and the exact distance.
+        ``candidates``: ``(groups, labels)`` or ``(groups, labels, first)``, a
+        :class:`.neighbours.CandidateGroups` over the TrainPool states, a group label (B,) per
+        row (the learned simulator: the TrainPool states of the LGPR cluster the step's
+        features selected) and optionally one TrainPool index per row to try before its group
+        (-1: none; the learned simulator: the successor of the last step's state). Gated
+        alpha-PROJ only (``radius`` > 0, else ignored): a row whose candidate is within the
+        gate (its distance at most ``radius (1 - GATE_MARGIN)``) is left alone without the
+        exact search, and its distance is the candidate's, an upper bound on the exact one
+        that is itself inside the gate. The projected states are bit for bit those without
+        ``candidates``: the exact nearest state is at least as close as the candidate, so the
+        gate leaves that row alone either way (``GATE_MARGIN`` covers the rounding of the two
+        distance formulas). Rows outside get the exact search and the exact distance.
+
+        ``index_out`` (B,) int64, optional: filled with the TrainPool index each distance is
+        measured to (-1 for a non-finite row).
         """
         s = np.asarray(states, dtype=np.float64)
         if s.ndim != 2 or s.shape[1] != N_STATE:
             raise ValueError(f"states must be (B, {N_STATE}), got {s.shape}")
         d = np.full(s.shape[0], np.nan)
+        if index_out is not None:
+            index_out[:] = -1
         finite = np.isfinite(s).all(axis=1)
         out = enforce_limits(s)
         if not finite.any():
@@ -313,31 +321,57 @@ class AlphaProjection(Projection):
             return out, d
         x = out[finite]
         if candidates is not None and self.radius > 0.0:
-            groups, labels = candidates
-            labels = np.asarray(labels).reshape(-1)
-            j, sq = groups.upper_bound(x / self.scale, labels[finite])
+            j, sq = self._candidate_bound(x, finite, *candidates)
             inside = np.sqrt(sq) <= self.radius * (1.0 - GATE_MARGIN)
             if inside.all():
-                dx = self.distance(x, j)
-                y = x
+                y, dx = x, self.distance(x, j)
             else:
                 y, dx = np.empty_like(x), np.empty(x.shape[0])
                 y[inside] = x[inside]
                 dx[inside] = self.distance(x[inside], j[inside])
                 o = ~inside
-                y[o], dx[o] = self._project_exact(x[o], sq[o])
+                i = self.nn.query(x[o] / self.scale, upper=sq[o])
+                j[o] = i
+                y[o], dx[o] = self._project_exact(x[o], i)
         else:
-            y, dx = self._project_exact(x)
+            j = self.nearest(x)
+            y, dx = self._project_exact(x, j)
         d[finite] = dx
+        if index_out is not None:
+            index_out[finite] = j
         out[finite] = enforce_limits(y)
         out[~finite] = np.nan
         return out, d
 
-    def _project_exact(self, x: np.ndarray, upper: np.ndarray | None = None
-                       ) -> tuple[np.ndarray, np.ndarray]:
-        """Projection and exact nearest distance of finite, limit-enforced rows x (B, 33)
-        (``upper``: a known point's naive squared distance per row, for the search)."""
-        i = self.nn.query(x / self.scale, upper=upper)
+    def _candidate_bound(self, x: np.ndarray, finite: np.ndarray, groups: CandidateGroups,
+                         labels: np.ndarray, first: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """(index, naive squared normalised distance) of a candidate TrainPool state per
+        finite row x: ``first`` where it is inside the gate, else the best of its group."""
+        xs = x / self.scale
+        lim = self.radius * (1.0 - GATE_MARGIN)
+        n = x.shape[0]
+        j = np.full(n, -1, dtype=np.int64)
+        sq = np.full(n, np.inf)
+        if first is not None:
+            f = np.asarray(first, dtype=np.int64).reshape(-1)[finite]
+            have = (f >= 0) & (f < self.nn.n_points)
+            if have.any():
+                diff = xs[have] - self.nn._P[f[have]]
+                sq[have] = (diff * diff).sum(axis=1)
+                j[have] = f[have]
+        todo = ~(np.sqrt(sq) <= lim)
+        if todo.any():
+            lab = np.asarray(labels).reshape(-1)[finite]
+            jg, sqg = groups.upper_bound(xs[todo], lab[todo])
+            better = sqg < sq[todo]
+            j[todo] = np.where(better, jg, j[todo])
+            sq[todo] = np.where(better, sqg, sq[todo])
+        return j, sq
+
+    def _project_exact(self, x: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Projection and distance of finite, limit-enforced rows x (B, 33) given their exact
+        nearest TrainPool states i."""
         if self.alpha == 0.0:
             y, dx = x, None
         else:

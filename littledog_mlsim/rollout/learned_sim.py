@@ -49,7 +49,9 @@ The gate's shortcut (gated alpha-PROJ with a clustered model, LGPR; ``gate_short
 cluster that the step's features select (the one whose local GP predicts) also names a few
 hundred TrainPool states, those its training rows lead to. If the nearest of them is inside the
 gate, so is the nearest of all, and the gate leaves the prediction alone whichever it is: the
-exact search over the whole TrainPool is skipped and the state is bit for bit the same. The
+exact search over the whole TrainPool is skipped and the state is bit for bit the same. Before
+the cluster's states, the successor (in the TrainPool's recorded order) of the state the last
+step was measured to is tried: a robot following a recorded motion is usually still near it. The
 step's ``nn_distance`` is then the distance to that cluster state, an upper bound on the exact
 one that is itself within the radius (so ``extrapolating`` is the same too); outside the gate
 the search is exact as before. ``benchmarks/sim_node_20x`` has the share of such steps and the
@@ -170,6 +172,8 @@ class LearnedSimulator:
             raise ValueError(f"trust_radius must be finite and >= 0, got {trust_radius}")
         self._search = projection if isinstance(projection, AlphaProjection) else monitor
         self._candidates, self._label = gate_candidates(model, projection, gate_shortcut)
+        self._index = np.full(1, -1, dtype=np.int64)    # TrainPool state of the last distance
+        self._first = np.full(1, -1, dtype=np.int64)    # its successor: the next candidate
         self._x = np.empty((1, N_STATE + N_ACTION))      # the feature row of a plain model
         self.extrapolating_steps = 0                      # since start (not reset)
         self._window_max = float("nan")                  # max nn_distance since stats()
@@ -195,6 +199,7 @@ class LearnedSimulator:
         self._prev_pose = (prev_pos, rpy_to_quat(rpy_prev))
         self.nn_distance = float("nan")
         self.extrapolating = False
+        self._first[0] = -1
         self._set_outputs(None)
 
     def step(self, u: np.ndarray) -> bool:
@@ -217,7 +222,7 @@ class LearnedSimulator:
             mean, std = _predict(self.model, X, self.use_variance)
             if self._candidates is not None:
                 nxt, d = self.projection.project_distance(
-                    mean, (self._candidates, self._label(X)))
+                    mean, (self._candidates, self._label(X), self._first), self._index)
             elif self._search is self.projection:
                 nxt, d = self.projection.project_distance(mean)
             else:
@@ -242,6 +247,8 @@ class LearnedSimulator:
         if history is not None:
             history.push(nxt[None])
         self._prev_pose = (self.position, self.orientation)
+        if self._candidates is not None:      # the recorded successor of this step's state
+            self._first[0] = self._index[0] + 1 if self._index[0] >= 0 else -1
         self.nn_distance = d
         r = self.trust_radius
         self.extrapolating = r > 0 and d > r
