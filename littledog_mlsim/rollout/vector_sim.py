@@ -138,6 +138,7 @@ class VectorLearnedSimulator:
             self.nn_distance[m] = np.nan
             self.extrapolating[m] = False
             self.steps[m] = 0
+        self.states[~self.alive] = np.nan     # a non-finite initial state: stopped, all NaN
         self._X[:, :N_STATE] = self.states
         self._first[m] = -1
         return self.states.copy()
