@@ -114,9 +114,12 @@ no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the cl
 they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
 each) but built by the first call that needs them, for all clusters at once (as many as fit in
 ``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
-inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly. Shared hyperparameters:
-one m x m factor per cluster (k m^2 8 bytes); per-output: p of them per cluster, so only a few
-clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design/README.md``).
+inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (optionally in float32:
+half the bytes, the std changed by the float32 solve's rounding; the learned simulator's node
+uses it). Shared hyperparameters: one m x m factor per cluster (k m^2 8 bytes); per-output: p
+of them per cluster, so only a few clusters fit in the cache (sizes and times:
+``benchmarks/lgpr_design/README.md``). :meth:`LGPR.cluster_rows` gives each cluster's training
+rows (the learned simulator's gate shortcut uses them as candidate TrainPool states).
 
 Parallel fitting
 ----------------
@@ -519,9 +522,11 @@ class LGPR(Regressor):
 
         ``dtype="float32"`` keeps the factors in float32 (a run-time choice, not stored in the
         model): half the memory and half the memory traffic of each std (the learned
-        simulator's step, ``benchmarks/sim_node_20x``), at a relative error of the std of order
-        1e-5 typically and 1e-3 at most on the paper-size model (measured there); the mean is
-        untouched. Calling it again with the other dtype rebuilds the factors."""
+        simulator's step, ``benchmarks/sim_node_20x``). The variance changes by the float32
+        solve's rounding, which is relative to the prior variance: the std by 2e-5 (median)
+        to 7.5e-3 (max) relative on the paper-size model (measured there), by a few per cent
+        where the variance is 1e-4 of the prior or less; the mean is untouched. Calling it
+        again with the other dtype rebuilds the factors."""
         if dtype not in ("float64", "float32"):
             raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
         if dtype != self._variance_dtype:

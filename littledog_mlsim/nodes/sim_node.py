@@ -73,8 +73,9 @@ class SimNode(SimulatorNode):
         Param("publish_covariance", True, "fill the odometry covariances from the model's "
               "predictive std (false, or a model without one: -1 in [0], unknown)"),
         Param("covariance_precision", "float32", "LGPR's std from float32 Cholesky factors "
-              "(half the memory traffic of a step; the std changes by about 1e-5 relative, "
-              "under 1 % at worst) or float64 (as `evaluate` computes it); the mean is the same "
+              "(half the memory traffic of a step; the std changes by about 1e-5 relative on "
+              "the paper-size model, more where the variance is far below the prior: "
+              "docs/simulator.md) or float64 (as `evaluate` computes it); the mean is the same "
               "either way", "float32 | float64"),
     )
 
