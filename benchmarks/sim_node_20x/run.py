@@ -18,8 +18,10 @@ Two phases, one model (a paper-size LGPR), gated alpha-PROJ (the model's radius,
    states of both codes are compared bit for bit (the mean must not change).
 2. ``batch``: the batched learned simulator (``rollout.vector_sim.VectorLearnedSimulator``)
    stepping N robots at once (``--batch-n``, default 1, 8, 64, 256), each driven by a TestPool
-   move's commands: steps x robots per CPU second = real-time factor per core (one step is
-   10 ms of robot time). With the model's std off (the rollout's setting) and on.
+   move's commands (robot i: move i mod 66, from ``BATCH_OFFSET`` x (i // 66) steps into it,
+   so no two robots are alike): steps x robots per CPU second = real-time factor per core (one
+   step is 10 ms of robot time), and the share of the model's ``predict`` in it. With the
+   model's std off (the rollout's setting) and on.
 
 The machine may be shared: ``uptime`` is recorded with every measurement; CPU time (not wall)
 is what the figures use, but CPU time also grows when other jobs share caches and memory bus.
@@ -165,6 +167,9 @@ def run_profile(a, code_root: str | None, std_dtype: str = "float64") -> dict:
 # 2. batch
 
 
+BATCH_OFFSET = 50    # steps between the starts of robots that share a TestPool move
+
+
 def run_batch(a) -> dict:
     from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.models.onestep import OneStepModel
@@ -177,34 +182,55 @@ def run_batch(a) -> dict:
     projection.nn.prepare()
     model.prepare(return_std=True)
     moves = prepare_test_moves(load_moves(a.data, split="test"))
+    predict = model.predict
+    spent = [0]
+
+    def timed_predict(*args, **kw):
+        c = time.thread_time_ns()
+        try:
+            return predict(*args, **kw)
+        finally:
+            spent[0] += time.thread_time_ns() - c
     out = []
     for use_var in (False, True):
         for N in a.batch_n:
-            pick = [moves[i % len(moves)] for i in range(N)]
-            T = min(m.n_steps for m in pick)
-            s0 = np.stack([m.s0 for m in pick])
-            u = np.stack([m.actions[:T] for m in pick])
-            pose0 = np.array([[m.pose0.x0, m.pose0.y0, m.pose0.yaw0] for m in pick])
-            sim = VectorLearnedSimulator(model, projection, s0, pose0, use_variance=use_var,
-                                         trust_radius=radius)
+            # robot i: TestPool move i mod M, started (i // M) * OFFSET steps into it (from the
+            # recorded state there), so that no two robots are the same
+            s0, u, pose0 = [], [], []
+            for i in range(N):
+                m = moves[i % len(moves)]
+                o = (i // len(moves)) * BATCH_OFFSET
+                s0.append(m.s0 if o == 0 else m.states[o - 1])
+                u.append(m.actions[o:])
+                pose0.append([m.pose0.x0, m.pose0.y0, m.pose0.yaw0])   # (pose: not compared)
+            T = min(len(x) for x in u)
+            u = np.stack([x[:T] for x in u])
+            s0 = np.stack(s0)
+            sim = VectorLearnedSimulator(model, projection, s0, np.array(pose0),
+                                         use_variance=use_var, trust_radius=radius)
             steps = max(20, min(T, a.batch_robot_steps // N))
             for t in range(5):                       # warm up
                 sim.step(u[:, t])
             sim.reset()
             load0 = uptime()
             cpu = np.empty(steps)
+            spent[0] = 0
+            model.predict = timed_predict
             w0 = time.perf_counter()
             for t in range(steps):
                 c0 = time.thread_time_ns()
                 sim.step(u[:, t % T])
                 cpu[t] = time.thread_time_ns() - c0
             wall = time.perf_counter() - w0
+            model.predict = predict
             robot_s = N * steps * 0.01
             out.append({"N": N, "std": use_var, "steps": steps, "cpu_s": float(cpu.sum() / 1e9),
                         "wall_s": wall, "rtf_per_core": robot_s / (cpu.sum() / 1e9),
+                        "predict_share": spent[0] / cpu.sum(),
                         "step_cpu_ms": pct(cpu / 1e6), "load": load0})
             print(f"N={N:4d} std={use_var}: {out[-1]['rtf_per_core']:.0f}x real time per core "
-                  f"(step CPU p50 {out[-1]['step_cpu_ms']['p50']:.3f} ms); {load0}", flush=True)
+                  f"(step CPU p50 {out[-1]['step_cpu_ms']['p50']:.3f} ms, model.predict "
+                  f"{100 * out[-1]['predict_share']:.0f} %); {load0}", flush=True)
     return {"runs": out, "radius": radius}
 
 
@@ -261,11 +287,13 @@ def markdown(doc: dict) -> list[str]:
     if "batch" in r:
         lines += ["## 2. Batched learned simulator: real-time factor per core over N", "",
                   "| N robots | std | steps | step CPU p50 [ms] | p99 [ms] | "
-                  "x real time per core | load |", "|---|---|---|---|---|---|---|"]
+                  "x real time per core | model.predict share | load |",
+                  "|---|---|---|---|---|---|---|---|"]
         for b in r["batch"]["runs"]:
             s = b["step_cpu_ms"]
             lines.append(f"| {b['N']} | {'on' if b['std'] else 'off'} | {b['steps']} | "
                          f"{s['p50']:.3f} | {s['p99']:.3f} | {b['rtf_per_core']:.0f} | "
+                         f"{100 * b.get('predict_share', float('nan')):.0f} % | "
                          f"`{b['load']}` |")
         lines.append("")
     return lines

@@ -594,7 +594,12 @@ def noisy_variance(chol: np.ndarray, Kq: np.ndarray, sf2: float, sn2: float) -> 
     A float32 factor (``LGPR.prepare_variance(dtype="float32")``) solves in float32 (half the
     memory traffic) and sums the squares in float64."""
     if chol.dtype == np.float32:
-        v = sla.solve_triangular(chol, Kq.T.astype(np.float32), lower=True, check_finite=False)
+        if Kq.shape[0] == 1 and chol.flags.c_contiguous:   # one query: BLAS strsv directly
+            # (C-order lower L is F-order upper L^T: solve L^T^T v = k without a copy)
+            v = sla.blas.strsv(chol.T, Kq[0].astype(np.float32), lower=0, trans=1)[:, None]
+        else:
+            v = sla.solve_triangular(chol, Kq.T.astype(np.float32), lower=True,
+                                     check_finite=False)
         return np.maximum(sf2 + sn2 - np.einsum("ij,ij->j", v, v, dtype=np.float64), 0.0)
     v = sla.solve_triangular(chol, Kq.T, lower=True, check_finite=False)
     return np.maximum(sf2 + sn2 - np.einsum("ij,ij->j", v, v), 0.0)

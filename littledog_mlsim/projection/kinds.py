@@ -295,8 +295,9 @@ class AlphaProjection(Projection):
         ``candidates``: ``(groups, labels)`` or ``(groups, labels, first)``, a
         :class:`.neighbours.CandidateGroups` over the TrainPool states, a group label (B,) per
         row (the learned simulator: the TrainPool states of the LGPR cluster the step's
-        features selected) and optionally one TrainPool index per row to try before its group
-        (-1: none; the learned simulator: the successor of the last step's state). Gated
+        features selected) and optionally TrainPool indices (B,) or (B, w) per row to try
+        before its group (-1: none; the learned simulator: the last step's state and the
+        three recorded after it). Gated
         alpha-PROJ only (``radius`` > 0, else ignored): a row whose candidate is within the
         gate (its distance at most ``radius (1 - GATE_MARGIN)``) is left alone without the
         exact search, and its distance is the candidate's, an upper bound on the exact one
@@ -354,12 +355,17 @@ class AlphaProjection(Projection):
         j = np.full(n, -1, dtype=np.int64)
         sq = np.full(n, np.inf)
         if first is not None:
-            f = np.asarray(first, dtype=np.int64).reshape(-1)[finite]
+            f = np.asarray(first, dtype=np.int64)
+            f = (f.reshape(-1, 1) if f.ndim == 1 else f)[finite]      # (n, w) candidates
             have = (f >= 0) & (f < self.nn.n_points)
             if have.any():
-                diff = xs[have] - self.nn._P[f[have]]
-                sq[have] = (diff * diff).sum(axis=1)
-                j[have] = f[have]
+                fi = np.where(have, f, 0)
+                diff = xs[:, None, :] - self.nn._P[fi]
+                sqw = np.where(have, (diff * diff).sum(axis=2), np.inf)
+                a = sqw.argmin(axis=1)
+                rows = np.arange(n)
+                sq = sqw[rows, a]
+                j = np.where(np.isfinite(sq), f[rows, a], -1)
         todo = ~(np.sqrt(sq) <= lim)
         if todo.any():
             lab = np.asarray(labels).reshape(-1)[finite]

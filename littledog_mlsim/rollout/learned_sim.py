@@ -50,8 +50,8 @@ cluster that the step's features select (the one whose local GP predicts) also n
 hundred TrainPool states, those its training rows lead to. If the nearest of them is inside the
 gate, so is the nearest of all, and the gate leaves the prediction alone whichever it is: the
 exact search over the whole TrainPool is skipped and the state is bit for bit the same. Before
-the cluster's states, the successor (in the TrainPool's recorded order) of the state the last
-step was measured to is tried: a robot following a recorded motion is usually still near it. The
+the cluster's states, the state the last step was measured to and the three recorded after it
+are tried: a robot following a recorded motion is often still near them. The
 step's ``nn_distance`` is then the distance to that cluster state, an upper bound on the exact
 one that is itself within the radius (so ``extrapolating`` is the same too); outside the gate
 the search is exact as before. ``benchmarks/sim_node_20x`` has the share of such steps and the
@@ -75,7 +75,7 @@ from ..projection import AlphaProjection, Projection
 from .simulate import _predict, model_feature_set
 
 __all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance",
-           "gate_candidates"]
+           "gate_candidates", "recent_states"]
 
 
 def home_state() -> np.ndarray:
@@ -118,6 +118,15 @@ def gate_candidates(model: Any, projection: Projection, enabled: bool = True):
         return None, None
     groups, label = clusters
     return projection.candidate_groups(groups), label
+
+
+RECENT = np.arange(4)   # the last step's TrainPool state and its next three in recorded order
+
+
+def recent_states(last: np.ndarray) -> np.ndarray:
+    """(n, 4) first candidates of the gate's shortcut: the TrainPool state each robot's last
+    distance was measured to and the three recorded after it (-1: none yet)."""
+    return np.where(last[:, None] >= 0, last[:, None] + RECENT, -1)
 
 
 def _as_vector(a, n: int, what: str) -> np.ndarray:
@@ -173,7 +182,7 @@ class LearnedSimulator:
         self._search = projection if isinstance(projection, AlphaProjection) else monitor
         self._candidates, self._label = gate_candidates(model, projection, gate_shortcut)
         self._index = np.full(1, -1, dtype=np.int64)    # TrainPool state of the last distance
-        self._first = np.full(1, -1, dtype=np.int64)    # its successor: the next candidate
+        self._last = np.full(1, -1, dtype=np.int64)     # ... kept for the next step
         self._x = np.empty((1, N_STATE + N_ACTION))      # the feature row of a plain model
         self.extrapolating_steps = 0                      # since start (not reset)
         self._window_max = float("nan")                  # max nn_distance since stats()
@@ -199,7 +208,7 @@ class LearnedSimulator:
         self._prev_pose = (prev_pos, rpy_to_quat(rpy_prev))
         self.nn_distance = float("nan")
         self.extrapolating = False
-        self._first[0] = -1
+        self._last[0] = -1
         self._set_outputs(None)
 
     def step(self, u: np.ndarray) -> bool:
@@ -222,7 +231,8 @@ class LearnedSimulator:
             mean, std = _predict(self.model, X, self.use_variance)
             if self._candidates is not None:
                 nxt, d = self.projection.project_distance(
-                    mean, (self._candidates, self._label(X), self._first), self._index)
+                    mean, (self._candidates, self._label(X), recent_states(self._last)),
+                    self._index)
             elif self._search is self.projection:
                 nxt, d = self.projection.project_distance(mean)
             else:
@@ -247,8 +257,8 @@ class LearnedSimulator:
         if history is not None:
             history.push(nxt[None])
         self._prev_pose = (self.position, self.orientation)
-        if self._candidates is not None:      # the recorded successor of this step's state
-            self._first[0] = self._index[0] + 1 if self._index[0] >= 0 else -1
+        if self._candidates is not None:      # the next step's first candidates
+            self._last[0] = self._index[0]
         self.nn_distance = d
         r = self.trust_radius
         self.extrapolating = r > 0 and d > r

@@ -38,7 +38,7 @@ import numpy as np
 from ..layout import N_ACTION, N_FEATURE, N_STATE, S, wrap_angle
 from ..projection import AlphaProjection, NoProjection, Projection
 from ..rotations import rpy_to_matrix
-from .learned_sim import gate_candidates
+from .learned_sim import gate_candidates, recent_states
 from .simulate import _predict, model_feature_set
 
 __all__ = ["VectorLearnedSimulator"]
@@ -101,7 +101,7 @@ class VectorLearnedSimulator:
         self._alpha = isinstance(self.projection, AlphaProjection)
         self._candidates, self._label = gate_candidates(model, self.projection, gate_shortcut)
         self._X = np.empty((n, N_FEATURE))
-        self._first = np.full(n, -1, dtype=np.int64)   # gate shortcut: next candidate state
+        self._last = np.full(n, -1, dtype=np.int64)    # gate shortcut: the last state named
         self.reset()
 
     # -- state
@@ -140,7 +140,7 @@ class VectorLearnedSimulator:
             self.steps[m] = 0
         self.states[~self.alive] = np.nan     # a non-finite initial state: stopped, all NaN
         self._X[:, :N_STATE] = self.states
-        self._first[m] = -1
+        self._last[m] = -1
         return self.states.copy()
 
     def step(self, actions: np.ndarray) -> np.ndarray:
@@ -170,8 +170,8 @@ class VectorLearnedSimulator:
                 index = np.empty(idx.size, dtype=np.int64)
                 nxt, d = self.projection.project_distance(
                     mean, (self._candidates, self._label(Xa),
-                           self._first if every else self._first[idx]), index)
-                self._first[idx] = np.where(index >= 0, index + 1, -1)
+                           recent_states(self._last if every else self._last[idx])), index)
+                self._last[idx] = index
             elif self._alpha:
                 nxt, d = self.projection.project_distance(mean)
             else:

@@ -85,7 +85,8 @@ def test_states_bit_for_bit_with_any_groups_and_on_the_gate_edge(pool, alpha):
         cg = proj.candidate_groups(groups)
         labels = rng.integers(0, len(groups), S_.shape[0])
         first = rng.integers(-1, 600, S_.shape[0])
-        for cand in ((cg, labels), (cg, labels, first)):
+        window = np.stack([first, rng.integers(-1, 600, S_.shape[0])], axis=1)
+        for cand in ((cg, labels), (cg, labels, first), (cg, labels, window)):
             index = np.empty(S_.shape[0], dtype=np.int64)
             out, d = proj.project_distance(S_, cand, index)
             np.testing.assert_array_equal(out, ref)                      # the states
