@@ -4,7 +4,7 @@
         --model MODEL --data bags/default --before /path/to/main/checkout \
         --out benchmarks/sim_node_20x/result
 
-Two phases, one model (a paper-size LGPR), gated alpha-PROJ (the model's radius, or
+Four phases (``--phases``), one model (a paper-size LGPR), gated alpha-PROJ (the model's radius, or
 ``--radius``) and covariance on:
 
 1. ``profile``: the core step sim_node runs (``LearnedSimulator.step``, built as sim_node's
@@ -22,6 +22,12 @@ Two phases, one model (a paper-size LGPR), gated alpha-PROJ (the model's radius,
    so no two robots are alike): steps x robots per CPU second = real-time factor per core (one
    step is 10 ms of robot time), and the share of the model's ``predict`` in it. With the
    model's std off (the rollout's setting) and on.
+
+3. ``timer`` (sim_node in its own process, ``real_time_factor`` ``--factor``, default 20, its
+   ``covariance_precision`` as ``--std-dtype``): a controller here sends one command per step
+   and counts the joint states it receives over ``--duration`` s; published rate and step CPU
+   from the node's latency log (sim_node_10x's method).
+4. ``lockstep``: command k+1 as soon as joint state k arrived: steps per second end to end.
 
 The machine may be shared: ``uptime`` is recorded with every measurement; CPU time (not wall)
 is what the figures use, but CPU time also grows when other jobs share caches and memory bus.
@@ -235,6 +241,84 @@ def run_batch(a) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
+# 3./4. sim_node in its own process (the controller and node helpers of sim_node_10x/run.py)
+
+
+def _study10x():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("sim_node_10x_run",
+                                                  HERE.parent / "sim_node_10x" / "run.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
+    """sim_node at ``real_time_factor`` ``--factor`` with a command per step from this
+    process: published and received rates, step CPU (sim_node_10x's ``run_timer`` with the
+    factor as a parameter)."""
+    import threading
+    with tempfile.TemporaryDirectory() as tmp:
+        log = Path(tmp) / "lat.csv"
+        proc = ten.start_node(a, log, step_mode="timer", real_time_factor=f"{a.factor:.1f}",
+                              covariance_precision=a.std_dtype)
+        load0 = uptime()
+        try:
+            ctl.wait_connected()
+            stop = threading.Event()
+            hz = 100.0 * a.factor
+
+            def stream() -> None:
+                t, k = time.monotonic(), 0
+                while not stop.wait(max(0.0, t - time.monotonic())):
+                    ctl.send(cmds[k % len(cmds)])
+                    k += 1
+                    t += 1.0 / hz
+            th = threading.Thread(target=stream, daemon=True)
+            th.start()
+            time.sleep(a.warmup)
+            w0_wall, w0_mono = time.time_ns(), time.monotonic_ns()
+            time.sleep(a.duration)
+            w1_wall, w1_mono = time.time_ns(), time.monotonic_ns()
+            stop.set()
+            th.join(5)
+        finally:
+            err = ten.stop_node(proc)
+        load1 = uptime()
+        L = ten.read_log(log)
+    with ctl.cond:
+        rec = np.asarray(ctl.received)
+    n_rec = int(((rec >= w0_mono) & (rec < w1_mono)).sum())
+    pub = L[:, 2]
+    win = (pub >= w0_wall) & (pub < w1_wall)
+    span = (w1_wall - w0_wall) / 1e9
+    Lw = L[win]
+    return {"factor": a.factor, "duration_s": span,
+            "published_rate_hz": int(win.sum()) / span, "received_rate_hz": n_rec / span,
+            "step_cpu_ms": pct(Lw[:, 3] / 1e6), "step_wall_ms": pct((Lw[:, 2] - Lw[:, 1]) / 1e6),
+            "load_before": load0, "load_after": load1,
+            "node_errors": [ln for ln in err.splitlines() if "ERROR" in ln][:5]}
+
+
+def run_node_phases(a, phases: list[str]) -> dict:
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_DOMAIN_ID", "152")
+    ten = _study10x()
+    from littledog_mlsim.data.dataset import load_moves
+    cmds = np.asarray(load_moves(a.data, split="test", types=["F"])[0].cmd)
+    ctl = ten.Controller()
+    out = {}
+    try:
+        if "timer" in phases:
+            out["timer"] = run_timer(a, ten, ctl, cmds)
+        if "lockstep" in phases:
+            out["lockstep"] = ten.run_lockstep(a, ctl, cmds)
+    finally:
+        ctl.close()
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
 
 
 def markdown(doc: dict) -> list[str]:
@@ -284,6 +368,22 @@ def markdown(doc: dict) -> list[str]:
                 lines += [f"- `{name}` {ms:.3f}" for name, ms in
                           r[key]["top_tottime_ms_per_step"][:10]]
                 lines.append("")
+    if "timer" in r:
+        t = r["timer"]
+        lines += [f"## 3. sim_node in its own process, timer mode, real_time_factor "
+                  f"{t['factor']:g} ({100 * t['factor']:.0f} steps/s asked)", "",
+                  f"Over {t['duration_s']:.1f} s: published {t['published_rate_hz']:.1f} Hz, "
+                  f"received {t['received_rate_hz']:.1f} Hz; step CPU p50 "
+                  f"{t['step_cpu_ms']['p50']:.3f} ms, p99 {t['step_cpu_ms']['p99']:.3f} ms.  ",
+                  f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
+    if "lockstep" in r:
+        t = r["lockstep"]
+        rt = t["round_trip_ms"] or {}
+        lines += ["## 4. Lockstep end to end (controller -> node -> controller)", "",
+                  f"{t['steps_per_s']:.1f} steps/s over {t['duration_s']:.1f} s; round trip "
+                  f"p50 {rt.get('p50', float('nan')):.3f} ms, p99 "
+                  f"{rt.get('p99', float('nan')):.3f} ms.  ",
+                  f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
     if "batch" in r:
         lines += ["## 2. Batched learned simulator: real-time factor per core over N", "",
                   "| N robots | std | steps | step CPU p50 [ms] | p99 [ms] | "
@@ -313,7 +413,12 @@ def main(argv=None) -> int:
                    default=[1, 8, 64, 256])
     p.add_argument("--batch-robot-steps", type=int, default=20000,
                    help="robot-steps per batch measurement (steps = this / N, 20..T)")
-    p.add_argument("--phases", default="profile,batch")
+    p.add_argument("--phases", default="profile,batch",
+                   help="any of profile, batch, timer, lockstep")
+    p.add_argument("--factor", type=float, default=20.0, help="timer: real_time_factor")
+    p.add_argument("--duration", type=float, default=60.0, help="timer: seconds measured")
+    p.add_argument("--lockstep-duration", type=float, default=20.0)
+    p.add_argument("--warmup", type=float, default=3.0)
     p.add_argument("--before", default=None, metavar="CODE_ROOT",
                    help="also profile this checkout's code (e.g. the main branch) as 'before'")
     p.add_argument("--out", type=Path, default=None, help="write OUT.json and OUT.md")
@@ -353,6 +458,8 @@ def main(argv=None) -> int:
                     results[key].pop(k)
     if "batch" in phases:
         results["batch"] = run_batch(a)
+    if "timer" in phases or "lockstep" in phases:
+        results.update(run_node_phases(a, phases))
     lines = markdown(doc)
     if a.out is not None:
         a.out.parent.mkdir(parents=True, exist_ok=True)

@@ -252,7 +252,8 @@ class OneStepModel:
         """The estimator's clusters as groups of TrainPool states, for the gate's shortcut
         (``projection.CandidateGroups``): ``(groups, label)`` with ``groups`` a list of index
         arrays into ``train_states`` (the states the cluster's training rows lead to) and
-        ``label(X)`` the cluster (n,) that ``predict`` uses for raw feature rows X (n, f).
+        ``label(X)`` the cluster (n,) of raw feature rows X (n, f): the nearest centre, as
+        ``predict`` picks it (by one GEMM: a near-tie may go the other way).
 
         None if the estimator has no clusters (only LGPR has) or was fitted on other rows
         than ``train_states`` (a subset: the row numbers would not match). The groups only
@@ -265,9 +266,14 @@ class OneStepModel:
             return None
         groups = rows()
         fn = self.feature_normalizer
+        C = est.centers_
+        cc = np.einsum("ij,ij->i", C, C)
 
         def label(X: np.ndarray) -> np.ndarray:
-            return est.nearest_cluster((np.asarray(X, dtype=np.float64) - fn.mean_) / fn.std_)
+            # one GEMM (predict's exact rule may differ on near-ties: the groups only need to
+            # be good guesses)
+            Xn = (np.asarray(X, dtype=np.float64) - fn.mean_) / fn.std_
+            return np.argmin(cc - 2.0 * (Xn @ C.T), axis=1)
         return groups, label
 
     # -- files

@@ -116,8 +116,8 @@ def test_lgpr_has_state_clusters_lr_and_subsets_have_none(lgpr, moves):
     groups, label = lgpr.state_clusters()
     assert np.array_equal(np.sort(np.concatenate(groups)), np.arange(lgpr.train_states.shape[0]))
     X, Y, _ = FeatureSet().features_responses(moves[:3])
-    np.testing.assert_array_equal(label(X[:50]), lgpr.estimator.nearest_cluster(
-        lgpr.feature_normalizer.transform(X[:50])))
+    assert np.mean(label(X) == lgpr.estimator.nearest_cluster(
+        lgpr.feature_normalizer.transform(X))) > 0.99
     assert OneStepModel.fit(LinearRegression(), X, Y).state_clusters() is None
     sub = OneStepModel.fit(LGPR(n_clusters=2, max_iter=3, n_global_points=100,
                                 n_hyperparameter_points=40), X[::2], Y[::2], train_states=Y)
