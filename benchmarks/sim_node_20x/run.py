@@ -368,6 +368,18 @@ def markdown(doc: dict) -> list[str]:
                 lines += [f"- `{name}` {ms:.3f}" for name, ms in
                           r[key]["top_tottime_ms_per_step"][:10]]
                 lines.append("")
+    if "batch" in r:
+        lines += ["## 2. Batched learned simulator: real-time factor per core over N", "",
+                  "| N robots | std | steps | step CPU p50 [ms] | p99 [ms] | "
+                  "x real time per core | model.predict share | load |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for b in r["batch"]["runs"]:
+            s = b["step_cpu_ms"]
+            lines.append(f"| {b['N']} | {'on' if b['std'] else 'off'} | {b['steps']} | "
+                         f"{s['p50']:.3f} | {s['p99']:.3f} | {b['rtf_per_core']:.0f} | "
+                         f"{100 * b.get('predict_share', float('nan')):.0f} % | "
+                         f"`{b['load']}` |")
+        lines.append("")
     if "timer" in r:
         t = r["timer"]
         lines += [f"## 3. sim_node in its own process, timer mode, real_time_factor "
@@ -384,18 +396,6 @@ def markdown(doc: dict) -> list[str]:
                   f"p50 {rt.get('p50', float('nan')):.3f} ms, p99 "
                   f"{rt.get('p99', float('nan')):.3f} ms.  ",
                   f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
-    if "batch" in r:
-        lines += ["## 2. Batched learned simulator: real-time factor per core over N", "",
-                  "| N robots | std | steps | step CPU p50 [ms] | p99 [ms] | "
-                  "x real time per core | model.predict share | load |",
-                  "|---|---|---|---|---|---|---|---|"]
-        for b in r["batch"]["runs"]:
-            s = b["step_cpu_ms"]
-            lines.append(f"| {b['N']} | {'on' if b['std'] else 'off'} | {b['steps']} | "
-                         f"{s['p50']:.3f} | {s['p99']:.3f} | {b['rtf_per_core']:.0f} | "
-                         f"{100 * b.get('predict_share', float('nan')):.0f} % | "
-                         f"`{b['load']}` |")
-        lines.append("")
     return lines
 
 
