@@ -260,21 +260,24 @@ class OneStepModel:
         make the shortcut fast or slow, never its answer wrong (any TrainPool states bound
         the nearest one's distance)."""
         est = self.estimator
+        cached = self.__dict__.get("_cluster_groups")
+        if cached is not None and cached[0] is est:
+            return cached[1], self._cluster_label
         rows = getattr(est, "cluster_rows", None)
         if rows is None or self.train_states is None \
                 or int(self.info.get("n_train", -1)) != self.train_states.shape[0]:
             return None
         groups = rows()
-        fn = self.feature_normalizer
-        C = est.centers_
-        cc = np.einsum("ij,ij->i", C, C)
+        self._cluster_groups = (est, groups)        # the same objects on every call
+        return groups, self._cluster_label
 
-        def label(X: np.ndarray) -> np.ndarray:
-            # one GEMM (predict's exact rule may differ on near-ties: the groups only need to
-            # be good guesses)
-            Xn = (np.asarray(X, dtype=np.float64) - fn.mean_) / fn.std_
-            return np.argmin(cc - 2.0 * (Xn @ C.T), axis=1)
-        return groups, label
+    def _cluster_label(self, X: np.ndarray) -> np.ndarray:
+        """The nearest LGPR centre (n,) of raw feature rows X by one GEMM (``predict``'s exact
+        rule may differ on a near-tie: the groups only need to be good guesses)."""
+        C = self.estimator.centers_
+        fn = self.feature_normalizer
+        Xn = (np.asarray(X, dtype=np.float64) - fn.mean_) / fn.std_
+        return np.argmin(np.einsum("ij,ij->i", C, C) - 2.0 * (Xn @ C.T), axis=1)
 
     # -- files
 

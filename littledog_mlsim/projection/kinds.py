@@ -255,11 +255,21 @@ class AlphaProjection(Projection):
         """Index into ``train_states`` (B,) of the nearest TrainPool state of each finite row."""
         return self.nn.query(np.asarray(states, dtype=np.float64) / self.scale)
 
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("_candidate_groups", None)       # a cache, rebuilt on use
+        return state
+
     def candidate_groups(self, groups) -> CandidateGroups:
         """A :class:`.neighbours.CandidateGroups` over this projection's (normalised) TrainPool
         states, ``groups`` index arrays into ``train_states`` (``project_distance``'s
-        ``candidates``)."""
-        return CandidateGroups(self.nn._P, groups)
+        ``candidates``). Kept for the next call with the same ``groups`` object."""
+        cached = self.__dict__.get("_candidate_groups")
+        if cached is not None and cached[0] is groups:
+            return cached[1]
+        cg = CandidateGroups(self.nn._P, groups)
+        self._candidate_groups = (groups, cg)
+        return cg
 
     def distance(self, states: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
         """(B,) normalised distance of each finite row (B, 33) to its nearest TrainPool state
