@@ -1,9 +1,12 @@
 """N learned LittleDogs stepped at once: the batched learned simulator (no rclpy).
 
 :class:`VectorLearnedSimulator` is :class:`.learned_sim.LearnedSimulator` over N robots, vectorised
-across them, in the shape of a Gymnasium vector environment without the dependency: ``reset()``
-and ``step(actions)`` with ``actions`` (N, 12) desired joint angles, the observations (N, 33)
-states coming back, ``num_envs`` robots, each robot's own initial state and pose. One step is
+across them, in the shape of a Gymnasium vector environment's core: ``num_envs`` robots,
+``reset(mask)`` (all or some of them) and ``step(actions)`` with ``actions`` (N, 12) desired
+joint angles, the observations (N, 33) states coming back, each robot's own initial state and
+pose. It has no reward and does not depend on Gymnasium: a task (reward, termination,
+observation and action spaces, autoreset) would be a thin wrapper around it, and adds the
+dependency only for the user who wants one; the project's own rollouts need none of it. One step is
 one ``model.predict`` call on the feature rows of every robot still running and one projection
 call on the predictions (the same calls ``rollout.simulate.rollout`` makes, which now runs on
 this class), then the pose of each robot as ``LearnedSimulator`` integrates it.
