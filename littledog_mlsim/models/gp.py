@@ -589,7 +589,18 @@ def gp_posterior(X: np.ndarray, Y: np.ndarray, log_params: np.ndarray,
 
 def noisy_variance(chol: np.ndarray, Kq: np.ndarray, sf2: float, sn2: float) -> np.ndarray:
     """Predictive variance (c,) of a noisy observation at c queries, sf2 + sn2 - k*^T K^-1 k*,
-    from the lower Cholesky factor (n, n) of K and the kernel rows Kq (c, n)."""
+    from the lower Cholesky factor (n, n) of K and the kernel rows Kq (c, n).
+
+    A float32 factor (``LGPR.prepare_variance(dtype="float32")``) solves in float32 (half the
+    memory traffic) and sums the squares in float64."""
+    if chol.dtype == np.float32:
+        if Kq.shape[0] == 1 and chol.flags.c_contiguous:   # one query: BLAS strsv directly
+            # (C-order lower L is F-order upper L^T: solve L^T^T v = k without a copy)
+            v = sla.blas.strsv(chol.T, Kq[0].astype(np.float32), lower=0, trans=1)[:, None]
+        else:
+            v = sla.solve_triangular(chol, Kq.T.astype(np.float32), lower=True,
+                                     check_finite=False)
+        return np.maximum(sf2 + sn2 - np.einsum("ij,ij->j", v, v, dtype=np.float64), 0.0)
     v = sla.solve_triangular(chol, Kq.T, lower=True, check_finite=False)
     return np.maximum(sf2 + sn2 - np.einsum("ij,ij->j", v, v), 0.0)
 

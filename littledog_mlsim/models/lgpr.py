@@ -114,9 +114,12 @@ no per-output Python loop. ``return_std`` needs the Cholesky factor(s) of the cl
 they are not stored in the model file (recomputed from X and the hyperparameters, O(m^3 / 3)
 each) but built by the first call that needs them, for all clusters at once (as many as fit in
 ``variance_cache_mb`` megabytes, an LRU cache beyond that), so that no factorisation happens later
-inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly. Shared hyperparameters:
-one m x m factor per cluster (k m^2 8 bytes); per-output: p of them per cluster, so only a few
-clusters fit in the cache (sizes and times: ``benchmarks/lgpr_design/README.md``).
+inside a 10 ms step; :meth:`LGPR.prepare_variance` does it explicitly (optionally in float32:
+half the bytes, the std changed by the float32 solve's rounding; the learned simulator's node
+uses it). Shared hyperparameters: one m x m factor per cluster (k m^2 8 bytes); per-output: p
+of them per cluster, so only a few clusters fit in the cache (sizes and times:
+``benchmarks/lgpr_design/README.md``). :meth:`LGPR.cluster_rows` gives each cluster's training
+rows (the learned simulator's gate shortcut uses them as candidate TrainPool states).
 
 Parallel fitting
 ----------------
@@ -476,6 +479,7 @@ class LGPR(Regressor):
         self._chol: OrderedDict[int, list[np.ndarray]] = OrderedDict()
         self._chol_bytes = 0
         self._variance_prepared = False
+        self._variance_dtype = "float64"
 
     @property
     def n_clusters_(self) -> int:
@@ -486,6 +490,12 @@ class LGPR(Regressor):
         X = check_predict_inputs(X, self.n_features_in_)
         return nearest_rows(X, self.centers_)
 
+    def cluster_rows(self) -> list[np.ndarray]:
+        """The training rows (indices into the ``X`` given to ``fit``) of each cluster."""
+        check_is_fitted(self)
+        o = self.offsets_
+        return [self.train_index_[o[c]:o[c + 1]] for c in range(self.n_clusters_)]
+
     def _factors(self, c: int) -> list[np.ndarray]:
         """Cholesky factors of cluster c (one per distinct kernel), LRU-cached."""
         f = self._chol.get(c)
@@ -494,6 +504,8 @@ class LGPR(Regressor):
             return f
         kernels, _ = self._kernels[c]
         f = [gp_cholesky(self._X[c], th, float(self.jitter_[c])) for th in kernels]
+        if self._variance_dtype == "float32":
+            f = [np.ascontiguousarray(a, dtype=np.float32) for a in f]
         size = sum(a.nbytes for a in f)
         budget = float(self.variance_cache_mb) * 1e6
         while self._chol and self._chol_bytes + size > budget:
@@ -504,13 +516,28 @@ class LGPR(Regressor):
             self._chol_bytes += size
         return f
 
-    def prepare_variance(self) -> int:
+    def prepare_variance(self, dtype: str = "float64") -> int:
         """Build the Cholesky factors for ``return_std`` ahead of time (as many clusters as fit
-        in ``variance_cache_mb``); returns the number of clusters cached."""
+        in ``variance_cache_mb``); returns the number of clusters cached.
+
+        ``dtype="float32"`` keeps the factors in float32 (a run-time choice, not stored in the
+        model): half the memory and half the memory traffic of each std (the learned
+        simulator's step, ``benchmarks/sim_node_20x``). The variance changes by the float32
+        solve's rounding, which is relative to the prior variance: the std by 2e-5 (median)
+        to 7.5e-3 (max) relative on the paper-size model (measured there), by a few per cent
+        where the variance is 1e-4 of the prior or less; the mean is untouched. Calling it
+        again with the other dtype rebuilds the factors."""
+        if dtype not in ("float64", "float32"):
+            raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
+        if dtype != self._variance_dtype:
+            self._chol.clear()
+            self._chol_bytes = 0
+            self._variance_dtype = dtype
+        itemsize = 4 if dtype == "float32" else 8
         budget = float(self.variance_cache_mb) * 1e6
         for c in range(self.n_clusters_):
             m = self._X[c].shape[0]
-            need = self._kernels[c][0].shape[0] * m * m * 8
+            need = self._kernels[c][0].shape[0] * m * m * itemsize
             if c not in self._chol and self._chol_bytes + need > budget:
                 break  # full: later clusters would only evict earlier ones
             self._factors(c)

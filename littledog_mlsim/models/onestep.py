@@ -196,13 +196,15 @@ class OneStepModel:
         std = Zs * rn.std_
         return (out[0], std[0]) if single else (out, std)
 
-    def prepare(self, return_std: bool = False) -> None:
+    def prepare(self, return_std: bool = False, variance_dtype: str = "float64") -> None:
         """Do one-time work before a real-time loop: build variance factors (LGPR, GPR) and run
-        one prediction, so the first real query is as fast as the others."""
+        one prediction, so the first real query is as fast as the others.
+        ``variance_dtype="float32"``: LGPR's factors in float32 (``LGPR.prepare_variance``: a
+        faster std, changed in its last digits); other estimators ignore it."""
         if return_std:
             prep = getattr(self.estimator, "prepare_variance", None)
             if prep is not None:
-                prep()
+                prep(**({} if variance_dtype == "float64" else {"dtype": variance_dtype}))
         x = self.feature_normalizer.mean_.copy()
         if self.train_states is not None:
             x[:N_STATE] = self.train_states[0]
@@ -245,6 +247,37 @@ class OneStepModel:
         self.gate = g
         return float(g["radius"]), (f"{g['source']}: quantile {GATE_QUANTILE} of the "
                                     f"TrainPool's leave-move-out distances")
+
+    def state_clusters(self):
+        """The estimator's clusters as groups of TrainPool states, for the gate's shortcut
+        (``projection.CandidateGroups``): ``(groups, label)`` with ``groups`` a list of index
+        arrays into ``train_states`` (the states the cluster's training rows lead to) and
+        ``label(X)`` the cluster (n,) of raw feature rows X (n, f): the nearest centre, as
+        ``predict`` picks it (by one GEMM: a near-tie may go the other way).
+
+        None if the estimator has no clusters (only LGPR has) or was fitted on other rows
+        than ``train_states`` (a subset: the row numbers would not match). The groups only
+        make the shortcut fast or slow, never its answer wrong (any TrainPool states bound
+        the nearest one's distance)."""
+        est = self.estimator
+        cached = self.__dict__.get("_cluster_groups")
+        if cached is not None and cached[0] is est:
+            return cached[1], self._cluster_label
+        rows = getattr(est, "cluster_rows", None)
+        if rows is None or self.train_states is None \
+                or int(self.info.get("n_train", -1)) != self.train_states.shape[0]:
+            return None
+        groups = rows()
+        self._cluster_groups = (est, groups)        # the same objects on every call
+        return groups, self._cluster_label
+
+    def _cluster_label(self, X: np.ndarray) -> np.ndarray:
+        """The nearest LGPR centre (n,) of raw feature rows X by one GEMM (``predict``'s exact
+        rule may differ on a near-tie: the groups only need to be good guesses)."""
+        C = self.estimator.centers_
+        fn = self.feature_normalizer
+        Xn = (np.asarray(X, dtype=np.float64) - fn.mean_) / fn.std_
+        return np.argmin(np.einsum("ij,ij->i", C, C) - 2.0 * (Xn @ C.T), axis=1)
 
     # -- files
 

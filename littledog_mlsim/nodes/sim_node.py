@@ -88,6 +88,11 @@ class SimNode(SimulatorNode):
               "in odom", "3 finite values"),
         Param("publish_covariance", True, "fill the odometry covariances from the model's "
               "predictive std (false, or a model without one: -1 in [0], unknown)"),
+        Param("covariance_precision", "float32", "LGPR's std from float32 Cholesky factors "
+              "(half the memory traffic of a step; the std changes by about 1e-5 relative on "
+              "the paper-size model, more where the variance is far below the prior: "
+              "docs/simulator.md) or float64 (as `evaluate` computes it); the mean is the same "
+              "either way", "float32 | float64"),
     )
 
     def __init__(self) -> None:
@@ -197,9 +202,13 @@ class SimNode(SimulatorNode):
         use_var = bool(self.param("publish_covariance"))
         if use_var and not model_has_variance(model):
             use_var = False
+        precision = self.param("covariance_precision")
+        if precision not in ("float32", "float64"):
+            raise StartupError(f"parameter covariance_precision must be float32 or float64, "
+                               f"got {precision!r}")
         prepare = getattr(model, "prepare", None)
         if prepare is not None:   # one-time work (variance factors) out of the 10 ms loop
-            prepare(return_std=use_var)
+            prepare(return_std=use_var, variance_dtype=precision)
         # extrapolation: beyond the gate radius (the model's own if the projection has none)
         trust = getattr(projection, "radius", 0.0) or float((model.gate or {}).get("radius", 0.0))
         monitor = None

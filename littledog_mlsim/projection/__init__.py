@@ -10,7 +10,8 @@ predicted state): it depends on :mod:`littledog_mlsim.layout` only.
 
 Public API: :func:`make_projection`, :class:`Projection` and its kinds, :data:`PROJECTION_KINDS`,
 :func:`enforce_limits`, :func:`leave_move_out_distances`, :func:`radius_from_quantile`,
-:func:`gate_radius`, :class:`NearestNeighbour`. ``littledog_mlsim.rollout.projection`` re-exports
+:func:`gate_radius`, :class:`NearestNeighbour`, :class:`CandidateGroups` (the gate's
+shortcut). ``littledog_mlsim.rollout.projection`` re-exports
 the same names.
 """
 from __future__ import annotations
@@ -19,9 +20,9 @@ from .kinds import (GATE_EVERY, GATE_QUANTILE, PROJECTION_FORMAT_VERSION, PROJEC
                     AlphaProjection, BoundProjection, NoProjection, Projection, enforce_limits,
                     gate_radius, leave_move_out_distances, make_projection,
                     radius_from_quantile, train_scale)
-from .neighbours import NearestNeighbour
+from .neighbours import CandidateGroups, NearestNeighbour
 
 __all__ = ["PROJECTION_KINDS", "PROJECTION_FORMAT_VERSION", "Projection", "NoProjection",
            "BoundProjection", "AlphaProjection", "NearestNeighbour", "make_projection",
            "enforce_limits", "leave_move_out_distances", "radius_from_quantile", "train_scale",
-           "GATE_QUANTILE", "GATE_EVERY", "gate_radius"]
+           "GATE_QUANTILE", "GATE_EVERY", "gate_radius", "CandidateGroups"]

@@ -52,18 +52,21 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from ..layout import JOINT_LOWER, JOINT_UPPER, N_STATE, WRAPPED_STATE, S, wrap_angle
-from .neighbours import NearestNeighbour
+from .neighbours import CandidateGroups, NearestNeighbour
 
 __all__ = [
     "PROJECTION_KINDS", "PROJECTION_FORMAT_VERSION", "Projection", "NoProjection",
     "BoundProjection", "AlphaProjection", "NearestNeighbour", "make_projection",
     "enforce_limits", "leave_move_out_distances", "radius_from_quantile",
-    "GATE_QUANTILE", "GATE_EVERY", "gate_radius",
+    "GATE_QUANTILE", "GATE_EVERY", "gate_radius", "GATE_MARGIN", "CandidateGroups",
 ]
 
 PROJECTION_KINDS: tuple[str, ...] = ("none", "bound", "alpha")
 PROJECTION_FORMAT_VERSION = 1
 _MIN_STD = 1e-12
+# relative margin below the gate radius for a candidate to prove a row inside the gate
+# (AlphaProjection.project_distance): far above the rounding of two 33-term distance formulas
+GATE_MARGIN = 1e-9
 
 
 # ---------------------------------------------------------------------------------------------
@@ -252,6 +255,22 @@ class AlphaProjection(Projection):
         """Index into ``train_states`` (B,) of the nearest TrainPool state of each finite row."""
         return self.nn.query(np.asarray(states, dtype=np.float64) / self.scale)
 
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("_candidate_groups", None)       # a cache, rebuilt on use
+        return state
+
+    def candidate_groups(self, groups) -> CandidateGroups:
+        """A :class:`.neighbours.CandidateGroups` over this projection's (normalised) TrainPool
+        states, ``groups`` index arrays into ``train_states`` (``project_distance``'s
+        ``candidates``). Kept for the next call with the same ``groups`` object."""
+        cached = self.__dict__.get("_candidate_groups")
+        if cached is not None and cached[0] is groups:
+            return cached[1]
+        cg = CandidateGroups(self.nn._P, groups)
+        self._candidate_groups = (groups, cg)
+        return cg
+
     def distance(self, states: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
         """(B,) normalised distance of each finite row (B, 33) to its nearest TrainPool state
         (or to ``train_states[index]``)."""
@@ -275,30 +294,105 @@ class AlphaProjection(Projection):
             return q.copy(), None
         return (1.0 - self.alpha) * s + self.alpha * q, None
 
-    def project_distance(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def project_distance(self, states: np.ndarray, candidates: tuple | None = None,
+                         index_out: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
         """``self(states)`` for (B, 33) states, plus the normalised distance (B,) of each
         (limit-enforced) input row to its nearest TrainPool state (NaN for a non-finite row):
         how far the prediction left the data, from the projection's own search (no second
-        one)."""
+        one).
+
+        ``candidates``: ``(groups, labels)`` or ``(groups, labels, first)``, a
+        :class:`.neighbours.CandidateGroups` over the TrainPool states, a group label (B,) per
+        row (the learned simulator: the TrainPool states of the LGPR cluster the step's
+        features selected) and optionally TrainPool indices (B,) or (B, w) per row to try
+        before its group (-1: none; the learned simulator: the last step's state and the
+        three recorded after it). Gated
+        alpha-PROJ only (``radius`` > 0, else ignored): a row whose candidate is within the
+        gate (its distance at most ``radius (1 - GATE_MARGIN)``) is left alone without the
+        exact search, and its distance is the candidate's, an upper bound on the exact one
+        that is itself inside the gate. The projected states are bit for bit those without
+        ``candidates``: the exact nearest state is at least as close as the candidate, so the
+        gate leaves that row alone either way (``GATE_MARGIN`` covers the rounding of the two
+        distance formulas). Rows outside get the exact search and the exact distance.
+
+        ``index_out`` (B,) int64, optional: filled with the TrainPool index each distance is
+        measured to (-1 for a non-finite row).
+        """
         s = np.asarray(states, dtype=np.float64)
         if s.ndim != 2 or s.shape[1] != N_STATE:
             raise ValueError(f"states must be (B, {N_STATE}), got {s.shape}")
         d = np.full(s.shape[0], np.nan)
+        if index_out is not None:
+            index_out[:] = -1
         finite = np.isfinite(s).all(axis=1)
         out = enforce_limits(s)
         if not finite.any():
             out[:] = np.nan
             return out, d
         x = out[finite]
-        i = self.nearest(x)
+        if candidates is not None and self.radius > 0.0:
+            j, sq = self._candidate_bound(x, finite, *candidates)
+            inside = np.sqrt(sq) <= self.radius * (1.0 - GATE_MARGIN)
+            if inside.all():
+                y, dx = x, self.distance(x, j)
+            else:
+                y, dx = np.empty_like(x), np.empty(x.shape[0])
+                y[inside] = x[inside]
+                dx[inside] = self.distance(x[inside], j[inside])
+                o = ~inside
+                i = self.nn.query(x[o] / self.scale, upper=sq[o])
+                j[o] = i
+                y[o], dx[o] = self._project_exact(x[o], i)
+        else:
+            j = self.nearest(x)
+            y, dx = self._project_exact(x, j)
+        d[finite] = dx
+        if index_out is not None:
+            index_out[finite] = j
+        out[finite] = enforce_limits(y)
+        out[~finite] = np.nan
+        return out, d
+
+    def _candidate_bound(self, x: np.ndarray, finite: np.ndarray, groups: CandidateGroups,
+                         labels: np.ndarray, first: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """(index, naive squared normalised distance) of a candidate TrainPool state per
+        finite row x: ``first`` where it is inside the gate, else the best of its group."""
+        xs = x / self.scale
+        lim = self.radius * (1.0 - GATE_MARGIN)
+        n = x.shape[0]
+        j = np.full(n, -1, dtype=np.int64)
+        sq = np.full(n, np.inf)
+        if first is not None:
+            f = np.asarray(first, dtype=np.int64)
+            f = (f.reshape(-1, 1) if f.ndim == 1 else f)[finite]      # (n, w) candidates
+            have = (f >= 0) & (f < self.nn.n_points)
+            if have.any():
+                fi = np.where(have, f, 0)
+                diff = xs[:, None, :] - self.nn._P[fi]
+                sqw = np.where(have, (diff * diff).sum(axis=2), np.inf)
+                a = sqw.argmin(axis=1)
+                rows = np.arange(n)
+                sq = sqw[rows, a]
+                j = np.where(np.isfinite(sq), f[rows, a], -1)
+        todo = ~(np.sqrt(sq) <= lim)
+        if todo.any():
+            lab = np.asarray(labels).reshape(-1)[finite]
+            jg, sqg = groups.upper_bound(xs[todo], lab[todo])
+            better = sqg < sq[todo]
+            j[todo] = np.where(better, jg, j[todo])
+            sq[todo] = np.where(better, sqg, sq[todo])
+        return j, sq
+
+    def _project_exact(self, x: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Projection and distance of finite, limit-enforced rows x (B, 33) given their exact
+        nearest TrainPool states i."""
         if self.alpha == 0.0:
             y, dx = x, None
         else:
             y, dx = self._project_from(x, i)
-        d[finite] = self.distance(x, i) if dx is None else dx
-        out[finite] = enforce_limits(y)
-        out[~finite] = np.nan
-        return out, d
+        return y, (self.distance(x, i) if dx is None else dx)
 
     def _gated(self, s: np.ndarray, q: np.ndarray, i: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["NearestNeighbour"]
+__all__ = ["NearestNeighbour", "CandidateGroups"]
 
 
 class NearestNeighbour:
@@ -150,8 +150,14 @@ class NearestNeighbour:
             self._pca = _PCAIndex(self._P, self.n_components, self.chunk_points)
         return self._pca
 
-    def query(self, X: np.ndarray, method: str | None = None) -> np.ndarray:
-        """Index (m,) int64 of the nearest point to each row of ``X`` (m, d) (finite values)."""
+    def query(self, X: np.ndarray, method: str | None = None,
+              upper: np.ndarray | None = None) -> np.ndarray:
+        """Index (m,) int64 of the nearest point to each row of ``X`` (m, d) (finite values).
+
+        ``upper`` (m,), optional: for each row the naive squared distance
+        ``((x - p) ** 2).sum()`` of some point p (``CandidateGroups.upper_bound``); ``"pca"``
+        starts from it where it is smaller than its own first bound (fewer chunks to visit).
+        The answer is the same with or without it."""
         A = np.asarray(X, dtype=np.float64)
         if A.ndim != 2 or A.shape[1] != self.dim:
             raise ValueError(f"queries must be (m, {self.dim}), got {A.shape}")
@@ -176,7 +182,10 @@ class NearestNeighbour:
             out[near] = self.build_tree().query(A[near], k=1, eps=0.0, p=2.0)[1]
         else:
             An = A if not np.any(far) else A[near]
-            res = self.build_index().query(An, self._P)
+            up = None if upper is None else np.asarray(upper, dtype=np.float64)
+            if up is not None and np.any(far):
+                up = up[near]
+            res = self.build_index().query(An, self._P, up)
             todo = res < 0                               # left to brute force
             if np.any(todo):
                 res[todo] = self._brute(An[todo], norm[near][todo] if np.any(far)
@@ -222,6 +231,73 @@ class NearestNeighbour:
             exact = ((A[r] - self._P[c]) ** 2).sum(axis=1)
             best_idx[r] = c[np.argmin(exact)]   # first of equal minima = smallest index
         return best_idx
+
+
+class CandidateGroups:
+    """A cheap upper bound on the nearest-neighbour distance: the nearest of a few candidates.
+
+    ``points`` (n, d) as given to :class:`NearestNeighbour`; ``groups``: index arrays into them
+    (any subsets, e.g. the TrainPool states an LGPR cluster's training rows lead to). For
+    queries X (m, d) with a group label each, :meth:`upper_bound` returns, per query, one point
+    of its group and that point's naive squared distance ``((x - p) ** 2).sum()``: the exact
+    search's smallest naive value is at most this, whichever group a query is given (the
+    groups only decide how tight the bound is, never whether it holds). Used by the gated
+    alpha-PROJ (``AlphaProjection.project_distance``): a state whose bound is inside the gate
+    is left alone without the exact search, which could only confirm it.
+    """
+
+    def __init__(self, points: np.ndarray, groups) -> None:
+        P = np.asarray(points, dtype=np.float64)
+        if P.ndim != 2:
+            raise ValueError(f"points must be (n, d), got {P.shape}")
+        self.groups = [np.asarray(g, dtype=np.int64).reshape(-1) for g in groups]
+        if not self.groups or any(g.size == 0 or g.min() < 0 or g.max() >= P.shape[0]
+                                  for g in self.groups):
+            raise ValueError("groups must be non-empty index arrays into points")
+        self.dim = P.shape[1]
+        # per group: its points contiguous, and [-2 p, ||p||^2]^T for one GEMM per group
+        self._pts = [np.ascontiguousarray(P[g]) for g in self.groups]
+        self._aug = []
+        for B in self._pts:
+            a = np.empty((self.dim + 1, B.shape[0]))
+            a[:self.dim] = -2.0 * B.T
+            a[self.dim] = np.einsum("ij,ij->i", B, B)
+            self._aug.append(a)
+
+    @property
+    def n_groups(self) -> int:
+        return len(self.groups)
+
+    def upper_bound(self, X: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(index (m,) int64 into ``points``, naive squared distance (m,)) of the candidate of
+        each finite query row ``X`` (m, d) in group ``labels`` (m,): the group's point with the
+        smallest ``||x||^2``-free GEMM value, scored with the naive formula (so the bound is
+        the naive distance of a real point, whatever the GEMM's rounding)."""
+        A = np.asarray(X, dtype=np.float64)
+        lab = np.asarray(labels, dtype=np.int64).reshape(-1)
+        m = A.shape[0]
+        if A.ndim != 2 or A.shape[1] != self.dim or lab.shape != (m,):
+            raise ValueError(f"queries must be (m, {self.dim}) with m labels")
+        if m and (lab.min() < 0 or lab.max() >= self.n_groups):
+            raise ValueError("labels out of range")
+        idx = np.empty(m, dtype=np.int64)
+        sq = np.empty(m)
+        Aa = np.empty((m, self.dim + 1))
+        Aa[:, :self.dim] = A
+        Aa[:, self.dim] = 1.0
+        if m == 1:
+            groups = [(int(lab[0]), slice(None))]
+        else:
+            order = np.argsort(lab, kind="stable")
+            cut = np.flatnonzero(np.diff(lab[order])) + 1
+            groups = [(int(lab[r[0]]), r) for r in np.split(order, cut)]
+        for g, rows in groups:
+            a = (Aa[rows] @ self._aug[g]).argmin(axis=1)
+            B = self._pts[g][a]
+            idx[rows] = self.groups[g][a]
+            diff = A[rows] - B
+            sq[rows] = (diff * diff).sum(axis=1)
+        return idx, sq
 
 
 _U32 = float(np.finfo(np.float32).eps) / 2      # unit roundoff of float32
@@ -369,14 +445,17 @@ class _PCAIndex:
         thr32[low] = np.nextafter(thr32[low], np.float32(np.inf))
         return thr32
 
-    def query(self, A: np.ndarray, P: np.ndarray) -> np.ndarray:
+    def query(self, A: np.ndarray, P: np.ndarray, upper: np.ndarray | None = None
+              ) -> np.ndarray:
         m = A.shape[0]
         if not self.usable:
             return np.full(m, -1, dtype=np.int64)
         # blocks of queries bound the (pairs, cs) float32 work array (<= 32 MB)
         step = max(16, (1 << 23) // (self.n_chunks * self.cs))
         if m > step:
-            return np.concatenate([self.query(A[i:i + step], P) for i in range(0, m, step)])
+            return np.concatenate([self.query(A[i:i + step], P,
+                                              None if upper is None else upper[i:i + step])
+                                   for i in range(0, m, step)])
         Zx = (A - self.mean) @ self.V                                       # (m, d)
         zn = np.sqrt(np.einsum("ij,ij->i", Zx, Zx))
         far = zn > 64.0 * self.R          # far outside the data: bounds useless, brute force
@@ -384,19 +463,20 @@ class _PCAIndex:
             out = np.full(m, -1, dtype=np.int64)
             sub = np.flatnonzero(~far)
             if sub.size:
-                out[sub] = self.query(A[sub], P)
+                out[sub] = self.query(A[sub], P, None if upper is None else upper[sub])
             return out
         # the work array is reused between calls (fresh multi-MB arrays cost page faults);
         # a concurrent call allocates its own
         mine = self._lock.acquire(blocking=False)
         try:
-            return self._query(A, P, Zx, zn, self._work if mine else None, mine)
+            return self._query(A, P, Zx, zn, self._work if mine else None, mine, upper)
         finally:
             if mine:
                 self._lock.release()
 
     def _query(self, A: np.ndarray, P: np.ndarray, Zx: np.ndarray, zn: np.ndarray,
-               work: np.ndarray | None, keep: bool) -> np.ndarray:
+               work: np.ndarray | None, keep: bool, upper: np.ndarray | None = None
+               ) -> np.ndarray:
         m = A.shape[0]
         nf, cs, d, nc = self.lo.shape[0], self.cs, self.V.shape[0], self.n_chunks
         ez = self._err_z(zn)
@@ -420,6 +500,8 @@ class _PCAIndex:
         a1 = G1.argmin(axis=1)
         U = np.empty(m)
         U[q1] = ((A[q1] - P[self.perm_sample[j1 * self.cs_sample + a1]]) ** 2).sum(axis=1)
+        if upper is not None:         # a known point's naive distance: also a valid U
+            np.minimum(U, upper, out=U)
         # queries whose bounds select most of the sample (points spread evenly in all
         # dimensions, or queries far from them) go to brute force right away
         t1 = self._threshold(U, qq, ez, fn32, j1, q1)

@@ -43,7 +43,19 @@ Without a std (``use_variance=False`` or a model that has none) both covariances
 Knowing when not to trust it: every step also gives ``nn_distance``, the normalised distance
 (alpha-PROJ's metric) of the model's prediction, before the projection, to its nearest TrainPool
 state: taken from the alpha projection's own nearest-neighbour search (no second search), or
-from a search of its own for the other projections. With ``trust_radius`` r > 0 (sim_node: the
+from a search of its own for the other projections.
+
+The gate's shortcut (gated alpha-PROJ with a clustered model, LGPR; ``gate_shortcut``): the
+cluster that the step's features select (the one whose local GP predicts) also names a few
+hundred TrainPool states, those its training rows lead to. If the nearest of them is inside the
+gate, so is the nearest of all, and the gate leaves the prediction alone whichever it is: the
+exact search over the whole TrainPool is skipped and the state is bit for bit the same. Before
+the cluster's states, the state the last step was measured to and the three recorded after it
+are tried: a robot following a recorded motion is often still near them. The
+step's ``nn_distance`` is then the distance to that cluster state, an upper bound on the exact
+one that is itself within the radius (so ``extrapolating`` is the same too); outside the gate
+the search is exact as before. ``benchmarks/sim_node_20x`` has the share of such steps and the
+time saved. With ``trust_radius`` r > 0 (sim_node: the
 gate radius) a step whose ``nn_distance`` d exceeds r is *extrapolating*: the prediction left
 the region the data covers as well as held-out real moves are covered. Then every variance of
 that step is multiplied by ``(d / r)^2`` before it enters the covariances (the summed x, y, yaw
@@ -62,7 +74,8 @@ from ..rotations import rpy_to_matrix, rpy_to_matrix1, rpy_to_quat, rpy_to_quat1
 from ..projection import AlphaProjection, Projection
 from .simulate import _predict, model_feature_set
 
-__all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance"]
+__all__ = ["LearnedSimulator", "home_state", "standing_train_state", "model_has_variance",
+           "gate_candidates", "recent_states"]
 
 
 def home_state() -> np.ndarray:
@@ -92,6 +105,30 @@ def model_has_variance(model: Any) -> bool:
     return bool(getattr(model, "supports_std", False))
 
 
+def gate_candidates(model: Any, projection: Projection, enabled: bool = True):
+    """``(CandidateGroups, label)`` for the gate's shortcut (``AlphaProjection.project_distance``
+    ``candidates``): the TrainPool states of each of the model's clusters and the function
+    giving the cluster of feature rows; (None, None) when off, the projection is not a gated
+    alpha-PROJ or the model has no usable clusters (``OneStepModel.state_clusters``)."""
+    if not (enabled and isinstance(projection, AlphaProjection) and projection.radius > 0):
+        return None, None
+    clusters = getattr(model, "state_clusters", None)
+    clusters = clusters() if clusters is not None else None
+    if clusters is None:
+        return None, None
+    groups, label = clusters
+    return projection.candidate_groups(groups), label
+
+
+RECENT = np.arange(4)   # the last step's TrainPool state and its next three in recorded order
+
+
+def recent_states(last: np.ndarray) -> np.ndarray:
+    """(n, 4) first candidates of the gate's shortcut: the TrainPool state each robot's last
+    distance was measured to and the three recorded after it (-1: none yet)."""
+    return np.where(last[:, None] >= 0, last[:, None] + RECENT, -1)
+
+
 def _as_vector(a, n: int, what: str) -> np.ndarray:
     v = np.asarray(a, dtype=np.float64).reshape(-1)
     if v.shape != (n,) or not np.all(np.isfinite(v)):
@@ -116,6 +153,10 @@ class LearnedSimulator:
             extrapolating (module doc: flagged, variances inflated); 0: never flagged.
         monitor: the nearest-neighbour search for ``nn_distance`` when ``projection`` is not
             alpha-PROJ (an ``AlphaProjection`` over the TrainPool; None: no distance, NaN).
+        gate_shortcut: with a gated alpha-PROJ and a clustered model (LGPR,
+            ``OneStepModel.state_clusters``), skip the exact search for predictions whose
+            cluster's TrainPool states already put them inside the gate (module doc; the states
+            are bit for bit the same).
 
     Attributes after ``reset``/``step``: ``state`` (33,), ``q``, ``dq`` (12,); ``position``
     (3,), ``orientation`` (4,) xyzw, ``linear_velocity``, ``angular_velocity`` (3,) in
@@ -126,7 +167,8 @@ class LearnedSimulator:
 
     def __init__(self, model: Any, projection: Projection, initial_state: np.ndarray,
                  initial_pose=(0.0, 0.0, 0.0), use_variance: bool = True,
-                 trust_radius: float = 0.0, monitor: AlphaProjection | None = None) -> None:
+                 trust_radius: float = 0.0, monitor: AlphaProjection | None = None,
+                 gate_shortcut: bool = True) -> None:
         self.model = model
         self.projection = projection
         self.initial_state = _as_vector(initial_state, N_STATE, "initial_state")
@@ -138,6 +180,9 @@ class LearnedSimulator:
         if not (np.isfinite(self.trust_radius) and self.trust_radius >= 0):
             raise ValueError(f"trust_radius must be finite and >= 0, got {trust_radius}")
         self._search = projection if isinstance(projection, AlphaProjection) else monitor
+        self._candidates, self._label = gate_candidates(model, projection, gate_shortcut)
+        self._index = np.full(1, -1, dtype=np.int64)    # TrainPool state of the last distance
+        self._last = np.full(1, -1, dtype=np.int64)     # ... kept for the next step
         self._x = np.empty((1, N_STATE + N_ACTION))      # the feature row of a plain model
         self.extrapolating_steps = 0                      # since start (not reset)
         self._window_max = float("nan")                  # max nn_distance since stats()
@@ -163,6 +208,7 @@ class LearnedSimulator:
         self._prev_pose = (prev_pos, rpy_to_quat(rpy_prev))
         self.nn_distance = float("nan")
         self.extrapolating = False
+        self._last[0] = -1
         self._set_outputs(None)
 
     def continue_from(self, other: "LearnedSimulator") -> None:
@@ -211,7 +257,11 @@ class LearnedSimulator:
             X = np.atleast_2d(history.features(u))
         with np.errstate(over="ignore", invalid="ignore"):
             mean, std = _predict(self.model, X, self.use_variance)
-            if self._search is self.projection:
+            if self._candidates is not None:
+                nxt, d = self.projection.project_distance(
+                    mean, (self._candidates, self._label(X), recent_states(self._last)),
+                    self._index)
+            elif self._search is self.projection:
                 nxt, d = self.projection.project_distance(mean)
             else:
                 nxt = self.projection(mean)
@@ -235,6 +285,8 @@ class LearnedSimulator:
         if history is not None:
             history.push(nxt[None])
         self._prev_pose = (self.position, self.orientation)
+        if self._candidates is not None:      # the next step's first candidates
+            self._last[0] = self._index[0]
         self.nn_distance = d
         r = self.trust_radius
         self.extrapolating = r > 0 and d > r

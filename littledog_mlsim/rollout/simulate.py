@@ -114,7 +114,8 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
 
     One ``model.predict`` call per step covers all moves still finite; a move whose state became
     NaN (non-finite prediction, see ``Projection``) stays NaN for the rest of the rollout and is no
-    longer passed to the model.
+    longer passed to the model. The steps are those of the batched learned simulator
+    (:class:`.vector_sim.VectorLearnedSimulator`, B robots).
     """
     projection = NoProjection() if projection is None else projection
     s = np.asarray(s0, dtype=np.float64)
@@ -132,37 +133,16 @@ def rollout(model: Any, s0: np.ndarray, actions: np.ndarray, projection: Project
     B, T = u.shape[:2]
     out = np.full((B, T, N_STATE), np.nan)
     std_out = np.full((B, T, N_STATE), np.nan) if return_std else None
-    fs = model_feature_set(model)
-    history = None
-    if fs is not None:
-        if pose0 is not None:
-            pose0 = np.asarray(pose0, dtype=np.float64).reshape(-1, 3)
-        history = fs.history(s, pose0)
-    X = np.empty((B, N_FEATURE))
-    X[:, :N_STATE] = s
-    alive = np.isfinite(s).all(axis=1)
-    with np.errstate(over="ignore", invalid="ignore"):   # divergence is reported, not warned
-        for t in range(T):
-            idx = np.flatnonzero(alive)
-            if idx.size == 0:
-                break
-            if history is None:
-                X[:, N_STATE:] = u[:, t]
-                Xa = X if idx.size == B else X[idx]
-            else:
-                Xh = history.features(u[:, t])
-                Xa = Xh if idx.size == B else Xh[idx]
-            mean, std = _predict(model, Xa, return_std)
-            nxt = projection(mean)
-            out[idx, t] = nxt
-            if return_std:
-                std_out[idx, t] = std
-            X[idx, :N_STATE] = nxt
-            alive[idx] = np.isfinite(nxt).all(axis=1)
-            if history is not None:
-                s_next = np.full((B, N_STATE), np.nan)
-                s_next[idx] = nxt
-                history.push(s_next)
+    from .vector_sim import VectorLearnedSimulator   # (it imports this module)
+    sim = VectorLearnedSimulator(model, projection, s, pose0, use_variance=return_std,
+                                 track_pose=False)
+    for t in range(T):
+        if not sim.alive.any():
+            break
+        sim.step(u[:, t])
+        out[:, t] = sim.states
+        if return_std:
+            std_out[:, t] = sim.std
     if single:
         out = out[0]
         std_out = std_out[0] if return_std else None

@@ -387,3 +387,29 @@ def test_cluster_failure_is_one_line_naming_the_cluster(monkeypatch):
     with pytest.raises(NotPositiveDefiniteError, match="LGPR global GP of the warm start") as e:
         LGPR(n_clusters=2, init="warm", n_global_points=100).fit(X, Y)
     assert "\n" not in str(e.value)
+
+
+def test_float32_variance_factors_keep_the_mean_and_bound_the_std_change():
+    """``prepare_variance(dtype="float32")``: the mean bit for bit, the std within the float32
+    solve's rounding (relative to the prior variance); back to float64: the std as before.
+    ``cluster_rows`` partitions fit's rows."""
+    X, Y = smooth_data(400, seed=6)
+    Q, _ = smooth_data(50, seed=7)
+    lg = LGPR(n_clusters=4, max_iter=10, n_hyperparameter_points=60).fit(X, Y)
+    rows = lg.cluster_rows()
+    np.testing.assert_array_equal(np.sort(np.concatenate(rows)), np.arange(400))
+    assert all(np.all(lg.nearest_cluster(X[r]) >= 0) for r in rows)
+    m64, s64 = lg.predict(Q, return_std=True)
+    m1, s1 = lg.predict(Q[:1], return_std=True)
+    assert lg.prepare_variance(dtype="float32") == lg.n_clusters_
+    assert all(f[0].dtype == np.float32 for f in lg._chol.values())
+    m32, s32 = lg.predict(Q, return_std=True)
+    np.testing.assert_array_equal(m32, m64)
+    np.testing.assert_array_equal(lg.predict(Q[:1], return_std=True)[0], m1)
+    prior = lg._prior_var[lg.nearest_cluster(Q)] * lg._variance_units(lg.nearest_cluster(Q))
+    assert np.all(np.abs(s32 ** 2 - s64 ** 2) <= 1e-4 * prior)
+    assert not np.array_equal(s32, s64)
+    lg.prepare_variance()
+    np.testing.assert_array_equal(lg.predict(Q, return_std=True)[1], s64)
+    with pytest.raises(ValueError):
+        lg.prepare_variance(dtype="float16")
