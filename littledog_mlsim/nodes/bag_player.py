@@ -34,12 +34,18 @@ from typing import Any, Sequence
 
 import rclpy
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from ..layout import TOPIC_CLOCK, TOPIC_CMD
 from . import messages as m
 from ._run import ConfiguredNode, Param, StartupError, run_node
 from .simulator import QOS
+
+# The played topics: reliable with a deep writer queue, so a subscriber that falls behind for a
+# moment (a busy machine) loses no message of the bag; it matches QOS and RECORD_QOS readers.
+PLAY_QOS = QoSProfile(history=QOS.history, depth=1000, reliability=QOS.reliability,
+                      durability=QOS.durability)
 
 NODE_NAME = "bag_player"
 
@@ -121,7 +127,7 @@ class BagPlayer(ConfiguredNode):
                     except (ImportError, AttributeError, ValueError):
                         raise PlaybackError(f"no Python message type {c.msgtype} for topic "
                                             f"{c.topic}") from None
-                    pubs[c.topic] = self.create_publisher(cls, c.topic, QOS)
+                    pubs[c.topic] = self.create_publisher(cls, c.topic, PLAY_QOS)
             if self.pace_topic:
                 self.create_subscription(self._pace_class(), self.pace_topic, self._on_pace,
                                          QOS)

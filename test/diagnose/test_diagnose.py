@@ -485,6 +485,7 @@ def _only_effect(report: dict) -> dict:
     return report["effects"][0]["physical"]
 
 
+@pytest.mark.slow   # a joint family at a narrow scope: test_reference.py's knee in the default run
 def test_physical_one_leg_delay_on_excited_data(recorded):
     data = _record_small(recorded, "p_delay_leg", 121,
                          "- class: littledog_mlsim.robot.effects:CommandDelay\n"
@@ -888,7 +889,8 @@ def test_physical_servo_gain_of_one_joint(recorded):
     assert "front-left knee" in ph["statement"].lower()
 
 
-@pytest.mark.parametrize("seed, excitation", [(124, 0.0), (125, EXCITATION)])
+@pytest.mark.parametrize("seed, excitation", [
+    (124, 0.0), pytest.param(125, EXCITATION, marks=pytest.mark.slow)])
 def test_physical_clean_data_raises_no_alarm(recorded, seed, excitation):
     data = _record_small(recorded, f"p_clean_{seed}", seed, excitation=excitation)
     report = _diagnose_physical(data, recorded / f"p_clean_{seed}_out")

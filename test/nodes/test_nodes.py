@@ -54,7 +54,7 @@ from littledog_mlsim.models.features import CommandLag, FeatureSet, Heading, Pla
 from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.nodes import messages as m  # noqa: E402
-from littledog_mlsim.nodes.simulator import QOS  # noqa: E402
+from littledog_mlsim.nodes.bag_player import PLAY_QOS  # noqa: E402
 from littledog_mlsim.robot.sensors import twist_from_poses  # noqa: E402
 from littledog_mlsim.rollout.learned_sim import standing_train_state  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
@@ -598,7 +598,9 @@ def test_bag_player_timing_and_content(ros, work, dataset):
             got.append((info["source_timestamp"] / 1e9, m.stamp_ns(msg.header.stamp),
                         m.joint_state_arrays(msg)[0]))
             cond.notify_all()
-    node.create_subscription(JointState, "/littledog/cmd", on_cmd, QOS)
+    # a listener that keeps everything, as the player does: a depth-10 reader drops commands
+    # when its callbacks fall behind on a loaded machine (397 of 400 once)
+    node.create_subscription(JointState, "/littledog/cmd", on_cmd, PLAY_QOS)
     try:
         rc, err = run("bag_player", {"bag": bag, "rate": 2.0, "wait_for_subscribers": 1}, work)
         assert rc == 0, err

@@ -143,7 +143,11 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
             + f") with robot '{cfg.name}' in {time.perf_counter() - t_start:.1f} s")
         findings, rejected, twin_errors, ctx = _rounds(
             ctx, sp, o, robot_mass, cfg.foot_friction * cfg.ground_friction, say)
-        left = unexplained(ctx, sp.V, sp.R, o.alpha) if sp.R else None
+        left = None
+        if sp.R:   # what is left against the reference, with every finding in the twin
+            if findings and findings[-1].hyp not in ctx.base:
+                ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
+            left = unexplained(ctx, sp.V, sp.R, o.alpha)
         n_sims = runner.n_sims
     finally:
         runner.close()

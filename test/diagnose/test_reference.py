@@ -1,0 +1,174 @@
+"""The diagnosis of recordings whose robot it does not know exactly: imported bags, and a clean
+reference recording (``--reference``) that cancels what the twin gets wrong.
+
+- An imported recording (written as ``ros2 bag record`` writes it, ``data.realstyle``, and
+  imported) names no robot: the diagnosis takes the learned route and says why.
+- "What changed since the reference?": the robot has been pulled by a tether (a 3 N force fixed
+  in odom) all along, in the reference too; the twin (``measured``) knows nothing of it. The
+  data add a softer front-left knee (60 % stiffness). The tether is the twin's error that the
+  reference shares: it is absorbed (``physics.reference.twin_errors``), and the knee is the
+  finding. Clean data with the tether, against the same reference, raise no alarm.
+
+Small versions of the benchmark (``benchmarks/blind_zoo``, zoo8): 6 move types x 4 moves, a
+short family list, LR as the report model.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from littledog_mlsim.diagnose import SearchModel, diagnose
+
+TYPES = ["F", "B", "L", "R", "DL", "S"]
+FAMILIES = ["command_delay", "servo_gain", "odom_force", "ground_slope", "body_wrench"]
+PHYS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=3, n_refine=3,
+            families=FAMILIES)
+TETHER = ("- class: littledog_mlsim.robot.effects:ConstantWind\n"
+          "  params: {force_xy: [0.0, 3.0]}\n")
+SOFT_KNEE = ("- class: littledog_mlsim.robot.effects:ServoGain\n"
+             "  params: {gain_ratio: 0.6, joints: front_left_knee}\n")
+
+
+def _record(root: Path, name: str, seed: int, effects: str, moves: int = 4) -> Path:
+    from littledog_mlsim.apps.record import record_dataset
+    effects_file = root / f"{name}.yaml"
+    effects_file.write_text(effects)
+    out = root / name
+    record_dataset(out, moves_per_type=moves, seed=seed, types=TYPES, jobs=2, progress=False,
+                   effects_file=str(effects_file))
+    return out
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    root = tmp_path_factory.mktemp("reference")
+    return {"root": root, "reference": _record(root, "reference", 411, TETHER),
+            "changed": _record(root, "changed", 412, TETHER + SOFT_KNEE),
+            "clean": _record(root, "clean", 413, TETHER)}
+
+
+def test_an_imported_recording_takes_the_learned_route_and_says_why(tmp_path):
+    from littledog_mlsim.data.dataset import load_moves, read_index
+    from littledog_mlsim.data.importer import ImportOptions, import_bags
+    from littledog_mlsim.data.realstyle import RealStyle, write_realstyle_bag
+    src = _record(tmp_path, "src", 401, TETHER, moves=2)
+    bag = tmp_path / "rec.mcap"
+    write_realstyle_bag(bag, load_moves(src, "all"), RealStyle(seed=401))
+    data = tmp_path / "imported"
+    import_bags([bag], data, ImportOptions(test_fraction=0.3))
+    assert "robot" not in read_index(data).info
+    report = diagnose(data, tmp_path / "out", method="lr",
+                      search=SearchModel(n_gp_points=300, gp_max_iter=40), figures=False,
+                      progress=False, max_rounds=1)
+    assert report["route"]["name"] == "learned"
+    assert "an imported recording" in report["route"]["why"]
+    assert report["before"]["nmse_mean"] is not None
+    assert (tmp_path / "out" / "report.json").is_file()
+
+
+def test_what_the_reference_shares_is_absorbed_and_the_change_is_named(recorded):
+    report = diagnose(recorded["changed"], recorded["root"] / "changed_out", method="lr",
+                      figures=False, progress=False, twin="measured",
+                      reference=recorded["reference"], physics_options=PHYS)
+    route = report["route"]
+    assert route["name"] == "physical" and route["robot"] == "measured"
+    assert route["reference"] == str(recorded["reference"]) and "reference" in route["why"]
+    ref = report["physics"]["reference"]
+    assert ref["n_moves"] == len(ref["moves"]) == 2 * len(TYPES), ref
+    tether = [t for t in ref["twin_errors"] if t["family"] == "odom_force"]
+    assert tether and not tether[0]["changed"], ref["twin_errors"]
+    assert tether[0]["params"]["force_N"] == pytest.approx(3.0, rel=0.25), tether
+    assert report["significant"], report["physics"]["rejected"]
+    ph = report["effects"][0]["physical"]
+    assert (ph["family"], ph["scope"]) == ("servo_gain", "joint:front_left_knee"), ph
+    assert ph["params"]["gain_ratio"] == pytest.approx(0.6, rel=0.25), ph
+    check = report["effects"][0]["evidence"]["reference_check"]
+    assert check["changed"] and check["data_move_cut"] > 2 * check["reference_move_cut"]
+    assert not (ref["unexplained"]["significant"] and ref["unexplained"]["material"]), ref
+
+
+def test_clean_data_against_its_reference_raise_no_alarm(recorded):
+    report = diagnose(recorded["clean"], recorded["root"] / "clean_out", method="lr",
+                      figures=False, progress=False, twin="measured",
+                      reference=recorded["reference"], physics_options=PHYS)
+    assert report["significant"] is False and report["effects"] == [], report["effects"]
+    left = report["physics"]["reference"]["unexplained"]
+    assert not (left["significant"] and left["material"]), left
+
+
+# ------------------------------------------------------------------- the decisions, stand-ins
+
+
+class _Ctx:
+    """A stand-in search context: per-move channel errors of the base and of a hypothesis."""
+
+    def __init__(self, base: dict, with_h: dict) -> None:
+        self.base, self.with_h = base, with_h
+
+    @staticmethod
+    def _err(v: float) -> dict:
+        import numpy as np
+        return {"short": np.full((1, 1, 18), np.sqrt(v)), "long": np.full((1, 18), np.sqrt(v))}
+
+    def sse(self, hyp, moves):
+        import numpy as np
+        from littledog_mlsim.diagnose.physical.channels import sse
+        return np.array([sse(self._err(self.base[i])) for i in moves])
+
+    def run(self, hyps, moves):
+        return [[self._err(self.with_h[i]) for i in moves] for _ in hyps]
+
+
+def _held(ctx: _Ctx, V):
+    import numpy as np
+    from littledog_mlsim.diagnose.physical.records import HeldOutDecision
+    S0 = ctx.sse(None, V)
+    S1 = np.array([S0[k] * ctx.with_h[i] / ctx.base[i] for k, i in enumerate(V)])
+    return HeldOutDecision((), 1, S0, (S1,), (), (0.0,), 0)
+
+
+def test_reference_check_tells_a_change_from_a_twin_error():
+    from types import SimpleNamespace
+    from littledog_mlsim.diagnose.physical.driver import reference_check
+    V, R = list(range(8)), list(range(8, 16))
+    fin = SimpleNamespace(hyp=None)
+    rng = __import__("numpy").random.default_rng(0)
+    base = {i: 1.0 + 0.1 * rng.random() for i in V + R}
+    # the hypothesis halves the error on the data's moves and on the reference's: shared
+    shared = _Ctx(base, {i: 0.5 * base[i] for i in V + R})
+    c = reference_check(shared, fin, _held(shared, V), R, 0.01)
+    assert not c["changed"] and c["reference_move_cut"] > 0.5 * c["data_move_cut"]
+    # it halves the data's error and leaves the reference's: a change
+    change = _Ctx(base, {**{i: 0.5 * base[i] for i in V}, **{i: base[i] for i in R}})
+    c = reference_check(change, fin, _held(change, V), R, 0.01)
+    assert c["changed"] and c["p_value"] < 0.01 and c["reference_move_cut"] == 0.0
+
+
+def test_what_is_left_is_unexplained_only_if_the_data_exceed_the_reference():
+    from littledog_mlsim.diagnose.physical.driver import unexplained
+    V, R = list(range(8)), list(range(8, 16))
+    rng = __import__("numpy").random.default_rng(1)
+    same = _Ctx({i: 1.0 + 0.2 * rng.random() for i in V + R}, {})
+    left = unexplained(same, V, R, 0.01)
+    assert not (left["significant"] and left["material"]), left
+    worse = _Ctx({**{i: 2.0 + 0.2 * rng.random() for i in V},
+                  **{i: 1.0 + 0.2 * rng.random() for i in R}}, {})
+    left = unexplained(worse, V, R, 0.01)
+    assert left["significant"] and left["material"] and left["pooled_ratio"] > 1.7, left
+    assert len(left["channels"]) == 8 and left["channels"][0]["ratio"] > 1.7
+
+
+def test_a_move_cut_a_few_steps_short_keeps_four_segments():
+    """An imported move is often a few steps shorter than 4 s: its last 1 s segment starts
+    earlier; a move shorter than 3 s is left out of the physical route."""
+    from littledog_mlsim.diagnose.physical.channels import MIN_STEPS, measured, seg_starts
+    from synthetic import make_recording
+    assert seg_starts(400) == (0, 100, 200, 300) and seg_starts(398) == (0, 100, 200, 298)
+    rec = make_recording("F_00", n=398)
+    assert rec.n_steps == 398
+    m = measured(rec)
+    assert m.segs.shape == (4, 100, 18) and m.full.shape == (398, 18)
+    assert (m.segs[3][-1] == m.full[-1]).all()
+    with pytest.raises(ValueError, match=f"shorter than the physical route's {MIN_STEPS}"):
+        seg_starts(MIN_STEPS - 1)
