@@ -332,7 +332,11 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
                     for w in cal.get("weak_directions", []))
     rows = []
     for name, p in params.items():
-        true_v = (twin_parameters([name], truth)[0].get(truth) if truth is not None else None)
+        try:       # a parameter of the other servo model has no true value in the truth
+            true_v = (twin_parameters([name], truth)[0].get(truth) if truth is not None
+                      else None)
+        except ValueError:
+            true_v = None
         lo, hi = p["ci95"]
         ident = p.get("at_bound") is None and name not in weak
         rows.append({"name": name, "value": p["value"], "ci95": [lo, hi], "truth": true_v,
