@@ -224,6 +224,8 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
     physics_options = {"fit_per_type": a.fit_moves, "validate_per_type": a.validate_moves,
                        "max_rounds": a.physics_rounds, "jobs": a.jobs,
                        "horizons_s": tuple(a.horizons)}
+    if a.scheduler:
+        physics_options["scheduler"] = a.scheduler
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
                             LearnedRoute(search=search, max_rounds=a.max_rounds,
                                          rollout=_rollout_options(a)))
@@ -289,7 +291,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
         raise CliError(f"{a.data}: no such dataset directory")
     options = CalibrationOptions(params=tuple(a.params) if a.params else None, stride=a.stride,
                                  horizons=tuple(a.horizons), moves_per_type=a.moves_per_type,
-                                 max_evals=a.max_evals, jobs=a.jobs, name=a.name)
+                                 max_evals=a.max_evals, jobs=a.jobs, name=a.name,
+                                 scheduler=a.scheduler)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -595,6 +598,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="physics: reported error horizons [s] (default 0.1,0.5,1,4)")
     dg.add_argument("--jobs", type=int, default=2,
                     help="physics: re-simulation worker processes (default 2)")
+    dg.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="physics: re-simulate on the workers of the Dask cluster at ADDRESS "
+                         "(tcp://host:8786; `dask scheduler`, `dask worker ADDRESS`) instead of "
+                         "--jobs local processes; the same result")
     dg.set_defaults(func=cmd_diagnose)
 
     im = sub.add_parser("import", help="turn recorded bags (ros2 bag record, ROS 1) into a dataset",
@@ -650,6 +657,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "costs two per parameter)")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    cb.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="run the fit's re-simulations on the workers of the Dask cluster at "
+                         "ADDRESS instead of --jobs local processes (the TestPool rollouts stay "
+                         "local)")
     cb.add_argument("--quiet", action="store_true", help="no progress lines")
     cb.set_defaults(func=cmd_calibrate)
 

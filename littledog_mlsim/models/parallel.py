@@ -6,7 +6,7 @@ import socket
 from typing import Any, Callable, Iterable, Sequence
 from urllib.parse import urlsplit
 
-__all__ = ["run_tasks", "DASK_CONNECT_TIMEOUT"]
+__all__ = ["run_tasks", "connect_client", "DASK_CONNECT_TIMEOUT"]
 
 DASK_CONNECT_TIMEOUT = "30s"
 # s for the plain TCP check of a tcp:// scheduler address before a Client is made
@@ -25,6 +25,21 @@ def _check_reachable(address: str) -> None:
     except OSError as e:
         raise ValueError(f"cannot connect to the Dask scheduler {address}: "
                          f"{e.strerror or type(e).__name__}") from e
+
+
+def connect_client(address: str):
+    """A ``distributed.Client`` of the scheduler at ``address`` (not the default client); a
+    ValueError of one line if it cannot be reached."""
+    try:
+        from distributed import Client
+    except ImportError as e:  # pragma: no cover - distributed is a dependency
+        raise ValueError(f"a Dask scheduler needs the 'distributed' package: {e}") from e
+    _check_reachable(address)
+    try:
+        return Client(address, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
+    except (OSError, ValueError, TypeError) as e:
+        raise ValueError(f"cannot connect to the Dask scheduler {address}: "
+                         f"{str(e).splitlines()[0] if str(e) else type(e).__name__}") from e
 
 
 def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: int = 1,
@@ -48,18 +63,8 @@ def run_tasks(func: Callable[..., Any], arg_tuples: Sequence[tuple], *, n_jobs: 
                 on_result(i, r)
 
     if dask_scheduler:
-        try:
-            from distributed import Client
-        except ImportError as e:  # pragma: no cover - distributed is a dependency
-            raise ValueError(f"dask_scheduler needs the 'distributed' package: {e}") from e
         from joblib import parallel_config
-        _check_reachable(dask_scheduler)
-        try:
-            client = Client(dask_scheduler, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, ValueError, TypeError) as e:
-            raise ValueError(f"cannot connect to the Dask scheduler {dask_scheduler}: "
-                             f"{str(e).splitlines()[0] if str(e) else type(e).__name__}"
-                             ) from e
+        client = connect_client(dask_scheduler)
         try:
             with parallel_config(backend="dask", client=client, wait_for_workers_timeout=60):
                 collect(Parallel(n_jobs=-1, return_as="generator")(tasks))

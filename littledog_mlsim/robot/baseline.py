@@ -54,6 +54,7 @@ import json
 import math
 import multiprocessing as mp
 import os
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -251,6 +252,56 @@ class _MovePool:
             return [fn(*head, i) for i in idx]
         n = len(self.recs)
         return list(self._pool.map(fn, *[[h] * n for h in head], idx))
+
+
+def _remote_task(fn: Callable, recs: Sequence[MoveRecording], *args: Any) -> Any:
+    """``fn(*args)`` on a Dask worker, its recordings (scattered once, the same object for each
+    task) set up first; a worker's threads take turns (one pybullet client per process)."""
+    with _REMOTE_LOCK:
+        if _RECS is not recs:
+            _init_worker(recs)
+        return fn(*args)
+
+
+_REMOTE_LOCK = threading.Lock()
+
+
+class _DaskMovePool:
+    """:class:`_MovePool` on the workers of the Dask cluster at ``scheduler``: the recordings
+    are sent to every worker once; results in move order, the same as in local processes."""
+
+    def __init__(self, recs: Sequence[MoveRecording], scheduler: str) -> None:
+        self.recs = list(recs)
+        self.scheduler = scheduler
+        self.client = None
+
+    def __enter__(self) -> "_DaskMovePool":
+        from ..models.parallel import connect_client
+        self.client = connect_client(self.scheduler)
+        try:
+            self.client.wait_for_workers(1, timeout=60)
+            # one future for the whole list (scatter sends a list's items one by one)
+            self._recs = self.client.scatter([self.recs], broadcast=True, hash=False)[0]
+        except Exception:
+            self.client.close()
+            raise
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
+    def map(self, fn: Callable, *head: Any) -> list:
+        n = len(self.recs)
+        futures = self.client.map(_remote_task, [fn] * n, [self._recs] * n,
+                                  *[[h] * n for h in head], list(range(n)), pure=False)
+        return self.client.gather(futures)
+
+
+def move_pool(recs: Sequence[MoveRecording], jobs: int = 2, scheduler: str | None = None):
+    """A pool of per-move work: ``jobs`` local processes, or the Dask cluster at ``scheduler``."""
+    return _DaskMovePool(recs, scheduler) if scheduler else _MovePool(recs, jobs)
 
 
 def physics_rollouts(recs: Sequence[MoveRecording], config: RobotConfig,

@@ -85,6 +85,7 @@ class CalibrationOptions:
     weak_halfwidth: float = 0.25            # 95 % half-width beyond which a direction is weak
     jobs: int = 2
     name: str | None = None                 # the twin's name (default BASE-calibrated)
+    scheduler: str | None = None            # fit's re-simulations on this Dask cluster
 
     def check(self) -> None:
         if int(self.stride) != self.stride or self.stride < 1:
@@ -387,7 +388,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     start_robot = base
     base = replace(base, sensor_noise=False)    # re-simulation predicts the noise-free state
     x0 = np.array([p.to_x(p.get(base)) for p in params])
-    with _bl._MovePool(train_recs, options.jobs) as pool:
+    with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
         prob = _Problem(pool, base, params, options, say)
         say(f"fitting {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool moves")
         x, stages = _fit(prob, x0)

@@ -172,3 +172,29 @@ def test_a_move_cut_a_few_steps_short_keeps_four_segments():
     assert (m.segs[3][-1] == m.full[-1]).all()
     with pytest.raises(ValueError, match=f"shorter than the physical route's {MIN_STEPS}"):
         seg_starts(MIN_STEPS - 1)
+
+
+@pytest.mark.slow
+def test_the_reference_route_on_a_dask_cluster_gives_the_local_result(recorded):
+    """``diagnose --scheduler``: the re-simulations on a scheduler and two worker processes."""
+    distributed = pytest.importorskip("distributed")
+    kw = dict(method="lr", figures=False, progress=False, twin="measured",
+              reference=recorded["reference"])
+    local = diagnose(recorded["changed"], recorded["root"] / "local_out", **kw,
+                     physics_options=PHYS)
+    with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=2,
+                                  threads_per_worker=1, processes=True) as cluster:
+        remote = diagnose(recorded["changed"], recorded["root"] / "dask_out", **kw,
+                          physics_options={**PHYS, "scheduler": cluster.scheduler_address})
+    for key in ("significant", "effects", "suspected", "stages", "physics"):
+        assert _untimed(remote[key]) == _untimed(local[key]), key
+
+
+def _untimed(x):
+    """``x`` without its wall times (keys ending in ``seconds`` or ``_wall_s``)."""
+    if isinstance(x, dict):
+        return {k: _untimed(v) for k, v in x.items()
+                if not (k.endswith("seconds") or k.endswith("_wall_s"))}
+    if isinstance(x, list):
+        return [_untimed(v) for v in x]
+    return x

@@ -131,3 +131,22 @@ def test_weak_directions_name_the_combination_the_data_cannot_see():
     # a well-determined set has none
     assert weak_directions(np.stack([a, b], axis=1), params[1:], [np.eye(2) * 1e-4], 1.0,
                            0.25)[0] == []
+
+
+def test_calibrate_on_a_dask_cluster_gives_the_local_twin(reference, tmp_path, capsys):
+    """``calibrate --scheduler``: the fit's re-simulations on a scheduler and two worker
+    processes give the twin the local processes give."""
+    distributed = pytest.importorskip("distributed")
+    args = ["calibrate", "--data", reference, "--robot", "nominal", "--params",
+            ",".join(FITTED), "--moves-per-type", "1", "--horizons", "1", "--max-evals", "8",
+            "--test-moves", "0", "--quiet"]
+    p = cli(capsys, *args, "--out", tmp_path / "local.json")
+    assert p.returncode == 0, p.stderr
+    with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=2,
+                                  threads_per_worker=1, processes=True) as cluster:
+        p = cli(capsys, *args, "--out", tmp_path / "dask.json", "--scheduler",
+                cluster.scheduler_address)
+    assert p.returncode == 0, p.stderr
+    local, remote = load_twin(tmp_path / "local.json"), load_twin(tmp_path / "dask.json")
+    assert remote.robot == local.robot
+    assert remote.provenance["parameters"] == local.provenance["parameters"]

@@ -21,7 +21,7 @@ from .channels import (DEFAULT_HORIZONS_S, MIN_STEPS, errors, horizon_errors, me
 from .context import SearchContext
 from .fit import fit, scope_variants, segments_only, wide_magnitude
 from .records import Candidate, Finding, HeldOutDecision, PhysIdResult
-from .resim import Move, Runner
+from .resim import DaskRunner, Move, Runner
 from .screen import screen, shortlist
 from .validate import push_twin, validate
 
@@ -41,7 +41,9 @@ class PhysicalOptions:
     ``observer``: called with each round's held-out decision (:class:`.records.HeldOutDecision`),
     a recorder for benchmarks that does not change the diagnosis. With a reference recording:
     ``reference_per_type`` of its TrainPool moves of each type are the control, and at most
-    ``reference_rounds`` findings are taken as the twin's errors (module doc).
+    ``reference_rounds`` findings are taken as the twin's errors (module doc). ``scheduler``:
+    re-simulate on the workers of this Dask cluster (:class:`.resim.DaskRunner`) instead of
+    ``jobs`` local processes; the result is the same.
     """
 
     robot: Any = "measured"
@@ -60,6 +62,7 @@ class PhysicalOptions:
     observer: Callable[[HeldOutDecision], None] | None = None
     reference_per_type: int = 2
     reference_rounds: int = 3
+    scheduler: str | None = None
 
     @classmethod
     def from_keywords(cls, base: "PhysicalOptions | None" = None, **kw: Any
@@ -132,7 +135,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     moves = [Move(r.name, r.move_type, np.asarray(r.cmd, dtype=np.float64),
                   {k: InitialState.from_recording(r, k) for k in seg_starts(r.n_steps)},
                   seg_starts(r.n_steps)) for r in sp.recs]
-    runner = Runner(cfg, moves, o.jobs)
+    runner = DaskRunner(cfg, moves, o.scheduler) if o.scheduler else Runner(cfg, moves, o.jobs)
     robot_mass = get_sim(cfg).total_mass()
     try:
         ctx = _rebase(SearchContext(runner, (), [], [measured(r) for r in sp.recs]), ())

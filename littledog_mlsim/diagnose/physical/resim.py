@@ -2,12 +2,15 @@
 
 A task is ``(move index, hypotheses, mode)`` with hypotheses as ``(family, scope, params)``
 tuples (picklable for the worker processes); :class:`Runner` maps tasks to simulated outputs
-(:func:`simulate`), in worker processes if ``jobs > 1``. Anything with the same ``map`` (and
-``config``) can stand in for it (:class:`Transducer`).
+(:func:`simulate`), in worker processes if ``jobs > 1``; :class:`DaskRunner` maps them on the
+workers of a Dask cluster (``diagnose --scheduler``), with the same outputs: a re-simulation is
+deterministic (seed 0), wherever it runs. Anything with the same ``map`` (and ``config``) can
+stand in for either (:class:`Transducer`).
 """
 from __future__ import annotations
 
 import multiprocessing as mp
+import threading
 from dataclasses import dataclass, replace
 from typing import Any, Mapping, Protocol, Sequence
 
@@ -16,7 +19,7 @@ import numpy as np
 from ..families import FAMILIES
 from .channels import SCREEN_SEGMENTS, SEG_LEN, SEG_STARTS, rpy
 
-__all__ = ["Move", "Task", "Transducer", "Runner", "simulate", "init_worker", "true_start",
+__all__ = ["Move", "Task", "Transducer", "Runner", "DaskRunner", "simulate", "init_worker", "true_start",
            "build_effects"]
 
 Task = tuple[int, list[tuple[str, str, dict]], str]
@@ -131,3 +134,48 @@ class Runner:
             self.pool.close()
             self.pool.join()
             self.pool = None
+
+
+_REMOTE_LOCK = threading.Lock()   # one pybullet client per process: a worker's threads take turns
+
+
+def _simulate_remote(task: Task, state: tuple[Any, list[Move]]) -> dict[str, np.ndarray]:
+    """:func:`simulate` on a Dask worker: ``state`` (robot, moves) was scattered to every worker
+    once and is the same object for each of its tasks, so the worker is set up once."""
+    with _REMOTE_LOCK:
+        if _WORKER.get("state") is not state:
+            init_worker(*state)
+            _WORKER["state"] = state
+        return simulate(task)
+
+
+class DaskRunner:
+    """Runs re-simulation tasks on the workers of the Dask cluster at ``scheduler`` (an address
+    such as ``tcp://host:8786``; ``dask scheduler`` and ``dask worker ADDRESS``). The robot and
+    the moves are sent to every worker once; results come back in task order. An unreachable
+    scheduler is a ValueError of one line."""
+
+    def __init__(self, robot: Any, moves: list[Move], scheduler: str) -> None:
+        from ...models.parallel import connect_client
+        self.config = robot
+        self.n_sims = 0
+        self.client = connect_client(scheduler)
+        try:
+            self.client.wait_for_workers(1, timeout=60)
+            # one future for the pair (scatter sends a sequence's items one by one)
+            self.state = self.client.scatter([(robot, moves)], broadcast=True, hash=False)[0]
+        except Exception:
+            self.client.close()
+            raise
+
+    def map(self, tasks: list[Task]) -> list[dict[str, np.ndarray]]:
+        self.n_sims += len(tasks)
+        if not tasks:
+            return []
+        futures = self.client.map(_simulate_remote, tasks, state=self.state, pure=False)
+        return self.client.gather(futures)
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
