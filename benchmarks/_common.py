@@ -64,3 +64,16 @@ def write_results(out: Path, doc: dict, lines: list) -> None:
     out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
     out.with_suffix(".md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
+
+
+def uptime() -> str:
+    """The machine's ``uptime`` line (the load a measurement was taken at)."""
+    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+
+
+def pct(x) -> dict:
+    """n, mean, p50, p99 and max of the values ``x``."""
+    import numpy as np
+    x = np.asarray(x, dtype=float)
+    return {"n": int(x.size), "mean": float(x.mean()), "p50": float(np.percentile(x, 50)),
+            "p99": float(np.percentile(x, 99)), "max": float(x.max())}

@@ -53,14 +53,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 
 
-def uptime() -> str:
-    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-
-
-def pct(x) -> dict:
-    x = np.asarray(x, dtype=float)
-    return {"n": int(x.size), "mean": float(x.mean()), "p50": float(np.percentile(x, 50)),
-            "p99": float(np.percentile(x, 99)), "max": float(x.max())}
+sys.path.insert(0, str(ROOT))
+from benchmarks._common import pct, uptime  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------------------
