@@ -10,11 +10,18 @@
   whole suite runs out of time.
 - :func:`leaves_no_threads_or_children`: every test module leaves the process as it found it
   (no new thread, no child process), or its last test errors naming what it left.
+- :func:`sigint_as_from_a_terminal`: the run, and every process a test starts, turns SIGINT into
+  KeyboardInterrupt even when the suite was started as a background job of a non-interactive
+  shell (`cmd &`), which starts it with SIGINT ignored. Ignored signals are inherited across
+  ``exec``, and Python installs its SIGINT handler only where SIGINT is at its default; the
+  tests that stop a program with SIGINT (Ctrl-C) would otherwise wait on a program that cannot
+  hear it, and ``.ci/run``'s time-out, which interrupts pytest with SIGINT, would not reach it.
 """
 from __future__ import annotations
 
 import faulthandler
 import os
+import signal
 import threading
 import time
 from pathlib import Path
@@ -29,6 +36,15 @@ HANG_LOG = ".pytest-hang.log"
 # s added to pytest-timeout's bound for the hard guard (faulthandler's watchdog, a C thread that
 # needs no GIL: it fires even when a thread holds the GIL in C code and pytest-timeout cannot)
 HARD_MARGIN_S = float(os.environ.get("LITTLEDOG_HARD_MARGIN_S", "120"))
+
+
+def sigint_as_from_a_terminal() -> bool:
+    """Give SIGINT back its default meaning (KeyboardInterrupt here, and SIG_DFL in every child
+    after ``exec``) if this process was started with it ignored; returns whether it was."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        return True
+    return False
 
 
 def _timeout_s(item: pytest.Item) -> float:

@@ -7,6 +7,7 @@ the GIL-free watchdog ends the run.
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -15,7 +16,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 CONFTEST = "from guards import (leaves_no_threads_or_children, pytest_runtest_protocol,\n" \
-           "                    pytest_sessionfinish)  # noqa: F401\n"
+           "                    pytest_sessionfinish, sigint_as_from_a_terminal)  # noqa: F401\n" \
+           "sigint_as_from_a_terminal()\n"
 
 STUCK = textwrap.dedent("""
     import ctypes, time
@@ -50,14 +52,35 @@ LEAKS = textwrap.dedent("""
 """)
 
 
-def _inner(tmp_path: Path, source: str, timeout: float = 60) -> subprocess.CompletedProcess:
+# a child that says it is up, then sleeps; SIGINT must end it at once
+CTRL_C = textwrap.dedent("""
+    import signal, subprocess, sys
+
+    SLEEPER = "import time; print('up', flush=True); time.sleep(60)"
+
+    def test_a_child_hears_sigint():
+        p = subprocess.Popen([sys.executable, "-c", SLEEPER], stdout=subprocess.PIPE, text=True)
+        assert p.stdout.readline() == "up\\n"
+        p.send_signal(signal.SIGINT)
+        assert p.wait(20) in (1, -signal.SIGINT)      # KeyboardInterrupt ended it
+""")
+
+
+def _ignore_sigint() -> None:
+    """What a non-interactive shell does to a background job (`cmd &`)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _inner(tmp_path: Path, source: str, timeout: float = 60,
+           preexec=None) -> subprocess.CompletedProcess:
     (tmp_path / "conftest.py").write_text(CONFTEST)
     (tmp_path / "test_inner.py").write_text(source)
     env = dict(os.environ, PYTHONPATH=str(HERE), LITTLEDOG_HARD_MARGIN_S="2",
                LITTLEDOG_LEAK_WAIT_S="0.5")
     return subprocess.run([sys.executable, "-m", "pytest", "-v", "-p", "no:cacheprovider",
                            "-o", "timeout=0", "test_inner.py"],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout)
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout,
+                          preexec_fn=preexec)
 
 
 def test_soft_then_hard_timeout(tmp_path):
@@ -81,3 +104,16 @@ def test_a_module_that_leaves_a_thread_errors_naming_it(tmp_path):
     assert "ERROR at teardown of test_leaves_a_thread" in r.stdout
     assert "left behind threads ['leaked-by-test']" in r.stdout
     assert not (tmp_path / ".pytest-running").exists()             # a finished run removes it
+
+
+def test_a_suite_started_with_sigint_ignored_still_stops_its_programs_with_it(tmp_path):
+    """`make test &` in a script starts pytest with SIGINT ignored, an inherited disposition:
+    a program a test starts would ignore the test's Ctrl-C and the test would wait on it. The
+    guard restores SIGINT in pytest, so its children start with the default again."""
+    # the premise: a Python started with SIGINT ignored keeps ignoring it
+    p = subprocess.Popen([sys.executable, "-c", "import signal; print(signal.getsignal(2) is signal.SIG_IGN)"],
+                         stdout=subprocess.PIPE, text=True, preexec_fn=_ignore_sigint)
+    assert p.communicate(timeout=30)[0].strip() == "True"
+    r = _inner(tmp_path, CTRL_C, preexec=_ignore_sigint)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "test_inner.py::test_a_child_hears_sigint PASSED" in r.stdout
