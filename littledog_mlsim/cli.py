@@ -292,7 +292,7 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
     options = CalibrationOptions(params=tuple(a.params) if a.params else None, stride=a.stride,
                                  horizons=tuple(a.horizons), moves_per_type=a.moves_per_type,
                                  max_evals=a.max_evals, jobs=a.jobs, name=a.name,
-                                 scheduler=a.scheduler)
+                                 scheduler=a.scheduler, servo=a.servo)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -318,6 +318,10 @@ def format_calibration(report: dict) -> str:
     if not report["weak_directions"]:
         lines.append("every parameter direction identified (95 % half-width <= "
                      f"{report['settings']['weak_halfwidth']:g})")
+    if "structure" in report:
+        st = report["structure"]
+        costs = ", ".join(f"{c['servo']} {c['cost']:.4g}" for c in st["candidates"])
+        lines.append(f"servo structure: {st['chosen']} (k-step cost, lower is better: {costs})")
     if not report.get("converged", True):
         lines.append(f"not converged ({report['stop']}): the intervals leave out the distance "
                      f"to the optimum; raise --max-evals")
@@ -655,6 +659,10 @@ def build_parser() -> argparse.ArgumentParser:
     cb.add_argument("--max-evals", type=int, default=150,
                     help="most re-simulations of the fitted moves (default 150; a Jacobian "
                          "costs two per parameter)")
+    cb.add_argument("--servo", choices=("keep", "position", "pd_torque", "auto"), default="keep",
+                    help="servo structure fitted: the starting robot's (keep, default), the "
+                         "position servo, the torque-mode PD, or auto: fit both and keep the "
+                         "one with the lower k-step residual (twice the time)")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     cb.add_argument("--scheduler", default=None, metavar="ADDRESS",

@@ -42,6 +42,15 @@ Method
 6. **Rollouts.** The starting and the calibrated robot roll out every TestPool move
    (:func:`~littledog_mlsim.robot.baseline.evaluate_baseline`): the final (x, y) error before and
    after.
+7. **Servo structure** (``servo``). A twin can have the wrong servo structure: the nominal
+   robot's idealised position servo against a robot whose joints run a torque-mode PD. Its
+   parameters then absorb what the structure cannot express, and the rollout can end further off
+   than before the fit. ``servo="position"`` or ``"pd_torque"`` fits that structure (a position
+   robot turned torque-mode keeps its config's ``kp``/``kd`` as the start); ``"auto"`` fits
+   both and keeps the one whose k-step residual on the fitted moves is lower, measured by the
+   first stage's objective with the starting robot's weights (the same residuals and the same
+   weights for both, so their costs compare; the TestPool is not used to choose). The report's
+   ``structure`` gives both fits.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -63,12 +72,14 @@ from ..layout import STATE_NAMES
 from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
-__all__ = ["CalibrationOptions", "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
+__all__ = ["SERVO_CHOICES", "with_servo", "CalibrationOptions", "Estimate", "WeakDirection",
+           "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "weak_directions"]
 
 log = logging.getLogger(__name__)
 
 Z95 = 1.959964
+SERVO_CHOICES = ("keep", "position", "pd_torque", "auto")
 DIVERGED_RESIDUAL = 1e3      # a weighted residual standing in for a non-finite one
 
 
@@ -86,8 +97,12 @@ class CalibrationOptions:
     jobs: int = 2
     name: str | None = None                 # the twin's name (default BASE-calibrated)
     scheduler: str | None = None            # fit's re-simulations on this Dask cluster
+    servo: str = "keep"                     # keep | position | pd_torque | auto (module doc, 7)
 
     def check(self) -> None:
+        if self.servo not in SERVO_CHOICES:
+            raise ValueError(f"servo must be one of {', '.join(SERVO_CHOICES)}, got "
+                             f"{self.servo!r}")
         if int(self.stride) != self.stride or self.stride < 1:
             raise ValueError(f"stride must be a positive integer, got {self.stride!r}")
         if not self.horizons or any(int(h) != h or h < 1 or h > 100 for h in self.horizons):
@@ -379,6 +394,9 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     t0 = time.perf_counter()
     options.check()
     say = progress or (lambda s: None)
+    if options.servo == "auto":
+        return _calibrate_structures(train_recs, test_recs, base, options, say, t0)
+    base = with_servo(base, options.servo)
     params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[base.servo], base)
     if not train_recs:
         raise ValueError("calibration needs at least one TrainPool move")
@@ -421,6 +439,70 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                                                              one_step=False, jobs=options.jobs))}
     report["wall_s"] = round(time.perf_counter() - t0, 1)
     return Calibration(calibrated, estimates, weak, report)
+
+
+def with_servo(config: RobotConfig, servo: str) -> RobotConfig:
+    """``config`` with the servo structure ``servo`` ("keep": as it is); the other servo's
+    fields (``kp``/``kd``, ``position_gain``/``velocity_gain``) are kept as the start."""
+    if servo in ("keep", config.servo):
+        return config
+    if servo not in ("position", "pd_torque"):
+        raise ValueError(f"servo must be position or pd_torque, got {servo!r}")
+    return replace(config, servo=servo)
+
+
+def _structure_cost(cal: Calibration, reference: dict[str, Any]) -> float:
+    """The first stage's objective at ``cal``'s optimum with the weights of the starting robot
+    ``reference`` (``residual_rms['start']`` of the keep-structure fit): the mean over
+    (horizon, element) of (RMS / starting RMS)^2, elements the start leaves at 0 left out."""
+    got = cal.report["residual_rms"]["calibrated"]
+    terms = []
+    for h, row in reference.items():
+        for name, ref in row.items():
+            v = got.get(h, {}).get(name)
+            if ref is None or ref <= 0:
+                continue
+            terms.append(math.inf if v is None else (v / ref) ** 2)
+    return float(np.mean(terms)) if terms else math.inf
+
+
+def _calibrate_structures(train_recs: Sequence[MoveRecording],
+                          test_recs: Sequence[MoveRecording], base: RobotConfig,
+                          options: CalibrationOptions, say: Callable[[str], None],
+                          t0: float) -> Calibration:
+    """``servo="auto"`` (module doc, 7): fit the starting servo and the other one, keep the
+    structure with the lower k-step cost, roll out the TestPool before and after once."""
+    other = "pd_torque" if base.servo == "position" else "position"
+    fits: dict[str, Calibration] = {}
+    for servo in (base.servo, other):
+        say(f"servo structure {servo}:")
+        fits[servo] = calibrate_twin(train_recs, [], base, replace(options, servo=servo), say)
+    reference = fits[base.servo].report["residual_rms"]["start"]
+    costs = {s: _structure_cost(c, reference) for s, c in fits.items()}
+    chosen = min(costs, key=lambda s: (costs[s], s != base.servo))   # a tie keeps the start's
+    cal = fits[chosen]
+    say(f"servo structure: {chosen} (k-step cost {costs[chosen]:.4g} against "
+        f"{costs[other if chosen == base.servo else base.servo]:.4g})")
+    report = dict(cal.report)
+    report["structure"] = {
+        "chosen": chosen, "start": base.servo,
+        "criterion": "mean over horizon and element of (residual RMS / the starting robot's)^2 "
+                     "on the fitted moves",
+        "candidates": [{"servo": s, "cost": costs[s], "converged": c.report.get("converged"),
+                        "n_evals": c.report.get("n_evals"), "wall_s": c.report.get("wall_s"),
+                        "params": [_estimate_dict(e) for e in c.estimates]}
+                       for s, c in fits.items()]}
+    if test_recs:
+        say(f"rolling out {len(test_recs)} TestPool moves before and after")
+        start = replace(base, sensor_noise=False)
+        report["rollout"] = {
+            "test_moves": [r.name for r in test_recs],
+            "before": _rollout_summary(_bl.evaluate_baseline(test_recs, start, one_step=False,
+                                                              jobs=options.jobs)),
+            "after": _rollout_summary(_bl.evaluate_baseline(test_recs, cal.config,
+                                                             one_step=False, jobs=options.jobs))}
+    report["wall_s"] = round(time.perf_counter() - t0, 1)
+    return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
 def _estimate_dict(e: Estimate) -> dict[str, Any]:

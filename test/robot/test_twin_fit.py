@@ -150,3 +150,33 @@ def test_calibrate_on_a_dask_cluster_gives_the_local_twin(reference, tmp_path, c
     local, remote = load_twin(tmp_path / "local.json"), load_twin(tmp_path / "dask.json")
     assert remote.robot == local.robot
     assert remote.provenance["parameters"] == local.provenance["parameters"]
+
+
+def test_auto_servo_keeps_the_structure_the_data_came_from(reference, tmp_path, capsys):
+    """``--servo auto`` fits the starting robot's servo and the other one and keeps the one
+    with the lower k-step residual: the position servo on the reference (recorded with it), the
+    torque-mode PD on data recorded with a torque-mode twin of the same robot."""
+    from littledog_mlsim.apps.record import record_dataset
+
+    torque = dataclasses.replace(robot_config("nominal"), name="torque_truth", servo="pd_torque")
+    save_twin(Twin(torque, {"note": "torque-mode PD"}), tmp_path / "torque.json")
+    record_dataset(tmp_path / "torque_ref", moves_per_type=2, types=["F", "S"],
+                   robot=str(tmp_path / "torque.json"), jobs=2, progress=False)
+    chosen = {}
+    for name, data in (("position", reference), ("pd_torque", tmp_path / "torque_ref")):
+        out = tmp_path / f"{name}.json"
+        p = cli(capsys, "calibrate", "--data", data, "--robot", "nominal", "--out", out,
+                "--params", "torque_limit_knee", "--servo", "auto", "--moves-per-type", "1",
+                "--horizons", "1", "--max-evals", "8", "--quiet")
+        assert p.returncode == 0, p.stderr
+        twin = load_twin(out)
+        st = twin.provenance["calibration"]["structure"]
+        assert [c["servo"] for c in st["candidates"]] == ["position", "pd_torque"]
+        costs = {c["servo"]: c["cost"] for c in st["candidates"]}
+        assert st["chosen"] == min(costs, key=costs.get) == twin.robot.servo
+        assert f"servo structure: {st['chosen']}" in p.stdout
+        chosen[name] = st["chosen"]
+    assert chosen == {"position": "position", "pd_torque": "pd_torque"}
+    from littledog_mlsim.robot.twin_fit import CalibrationOptions
+    with pytest.raises(ValueError, match="servo must be one of keep, position, pd_torque, auto"):
+        CalibrationOptions(servo="hydraulic").check()
