@@ -278,10 +278,17 @@ ARMS = {
 }
 
 
-def arm_arguments(arm: str | None, reference: Dataset | None, work: Path, logs: Path
-                  ) -> tuple[list[str], dict[str, Any] | None]:
+def twin_slug(calibrate_args: list[str]) -> str:
+    """The calibrated twin's file and report suffix for extra calibrate arguments: "" for
+    none (``calibrated_twin.json``), else ``_servo_auto`` for ``--servo auto``, ..."""
+    return "".join("_" + re.sub(r"[^A-Za-z0-9]+", "_", x).strip("_") for x in calibrate_args)
+
+
+def arm_arguments(arm: str | None, reference: Dataset | None, work: Path, logs: Path,
+                  calibrate_args: list[str] = ()) -> tuple[list[str], dict[str, Any] | None]:
     """(diagnose arguments of ``arm``, the calibration's record or None); the calibrated arm
-    runs ``calibrate --data REFERENCE --robot nominal`` first (once: its twin is reused)."""
+    runs ``calibrate --data REFERENCE --robot nominal [calibrate_args]`` first (once per set of
+    arguments: its twin is reused)."""
     if arm is None:
         return [], None
     args = ["--no-figures", "--jobs", "2"]
@@ -290,11 +297,13 @@ def arm_arguments(arm: str | None, reference: Dataset | None, work: Path, logs: 
         raise SystemExit(f"--arm {arm} needs --reference-seed")
     fill = {"reference": str(reference.path) if reference else ""}
     if arm == "calibrated":
-        twin = work / "calibrated_twin.json"
-        seconds_file = work / "calibrated_twin.seconds"
+        slug = twin_slug(list(calibrate_args))
+        twin = work / f"calibrated_twin{slug}.json"
+        seconds_file = work / f"calibrated_twin{slug}.seconds"
         if not twin.is_file():
             secs = _run(CLI + ["calibrate", "--data", str(reference.path), "--robot", "nominal",
-                               "--out", str(twin)], logs / "calibrate.log")
+                               "--out", str(twin), *calibrate_args],
+                        logs / f"calibrate{slug}.log")
             seconds_file.write_text(f"{secs:.1f}\n")
         fill["twin"] = str(twin)
         calibration = {"twin": str(twin), "seconds": float(seconds_file.read_text())
@@ -377,6 +386,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--arm", choices=sorted(ARMS), default=None,
                     help="diagnose in this arm (zoo8's RULE.md): its arguments are added, "
                          "reports go to WORK/diag_ARM")
+    ap.add_argument("--calibrate-arg", action="append", default=[],
+                    help="extra argument for the calibrated arm's calibrate (repeatable, e.g. "
+                         "--calibrate-arg=--servo --calibrate-arg=auto); its twin and reports "
+                         "get their own names")
+    ap.add_argument("--calibrate-only", action="store_true",
+                    help="arm calibrated: calibrate and score the twin, diagnose nothing")
     a = ap.parse_args(argv)
     zoo, work, out = Path(a.zoo), Path(a.work), Path(a.out)
     logs = work / "logs"
@@ -407,11 +422,23 @@ def main(argv: list[str] | None = None) -> int:
         record(ds, a.moves_per_type, 2, logs)
     if a.record_only:
         return 0
-    arm_args, calibration = arm_arguments(a.arm, reference, work, logs)
+    arm_args, calibration = arm_arguments(a.arm, reference, work, logs, a.calibrate_arg)
     extra = arm_args + a.diagnose_arg
+    arm_tag = (a.arm or "") + twin_slug(a.calibrate_arg)
+    if a.calibrate_only:
+        if calibration is None:
+            raise SystemExit("--calibrate-only needs --arm calibrated")
+        out.mkdir(parents=True, exist_ok=True)
+        doc = {"command": "OPENBLAS_NUM_THREADS=%s .venv/bin/python %s" % (
+                   os.environ.get("OPENBLAS_NUM_THREADS"), " ".join(sys.argv)),
+               "code": git_state(), "load_average": os.getloadavg(),
+               "calibration": calibration_score(calibration, robot)}
+        (out / "calibration.json").write_text(json.dumps(doc, indent=1, default=str) + "\n")
+        print(json.dumps(doc["calibration"], indent=1, default=str))
+        return 0
 
     def run(ds: Dataset) -> Dataset:
-        diagnose(ds, work, extra, logs, a.arm or "")
+        diagnose(ds, work, extra, logs, arm_tag)
         print(f"diagnosed {ds.name} in {_fmt(ds.diag_seconds, '.0f')} s", flush=True)
         return ds
 
