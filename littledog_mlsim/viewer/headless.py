@@ -15,6 +15,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import os
 import shutil
 import socket
 import subprocess
@@ -106,8 +107,11 @@ class Browser:
         if proxy:
             argv.append(f"--proxy-server={proxy}")   # loopback stays direct (implicit bypass)
         argv.append("about:blank")
+        # TMPDIR inside the profile: chromium's own /tmp/org.chromium.Chromium.* directory (its
+        # singleton socket), which it leaves behind on SIGTERM, goes with the profile in close()
         self.proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE, text=True)
+                                     stderr=subprocess.PIPE, text=True,
+                                     env=dict(os.environ, TMPDIR=self.tmp))
         self.timeout = timeout
         ws_url = None
         end = time.monotonic() + timeout
