@@ -46,7 +46,9 @@ Method
    robot's idealised position servo against a robot whose joints run a torque-mode PD. Its
    parameters then absorb what the structure cannot express, and the rollout can end further off
    than before the fit. ``servo="position"`` or ``"pd_torque"`` fits that structure (a position
-   robot turned torque-mode keeps its config's ``kp``/``kd`` as the start); ``"auto"`` fits
+   robot turned torque-mode keeps its config's ``kp``/``kd`` as the start, and gets the
+   gearboxes' reflected rotor inertia as armature if it has none: without it the 2 ms
+   torque-mode PD is unstable on a swinging leg, ``robot/config.py``); ``"auto"`` fits
    both and keeps the one whose k-step residual on the fitted moves is lower, measured by the
    first stage's objective with the starting robot's weights (the same residuals and the same
    weights for both, so their costs compare; the TestPool is not used to choose). The report's
@@ -69,6 +71,7 @@ import numpy as np
 from . import baseline as _bl
 from ..data.recording import MoveRecording
 from ..layout import STATE_NAMES
+from .config import MEASURED_ARMATURE as REFLECTED_ROTOR_INERTIA
 from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
@@ -443,11 +446,15 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
 
 def with_servo(config: RobotConfig, servo: str) -> RobotConfig:
     """``config`` with the servo structure ``servo`` ("keep": as it is); the other servo's
-    fields (``kp``/``kd``, ``position_gain``/``velocity_gain``) are kept as the start."""
+    fields (``kp``/``kd``, ``position_gain``/``velocity_gain``) are kept as the start, and a
+    torque-mode robot without armature gets the gearboxes' reflected rotor inertia."""
     if servo in ("keep", config.servo):
         return config
     if servo not in ("position", "pd_torque"):
         raise ValueError(f"servo must be position or pd_torque, got {servo!r}")
+    if servo == "pd_torque" and not any(config.armature):
+        # the torque-mode PD needs the rotor inertia the gearboxes reflect (config.py)
+        return replace(config, servo=servo, armature=REFLECTED_ROTOR_INERTIA)
     return replace(config, servo=servo)
 
 

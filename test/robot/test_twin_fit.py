@@ -158,7 +158,11 @@ def test_auto_servo_keeps_the_structure_the_data_came_from(reference, tmp_path, 
     torque-mode PD on data recorded with a torque-mode twin of the same robot."""
     from littledog_mlsim.apps.record import record_dataset
 
-    torque = dataclasses.replace(robot_config("nominal"), name="torque_truth", servo="pd_torque")
+    from littledog_mlsim.robot.twin_fit import with_servo
+
+    torque = dataclasses.replace(with_servo(robot_config("nominal"), "pd_torque"),
+                                 name="torque_truth")
+    assert any(torque.armature)      # the torque-mode PD gets the gearboxes' rotor inertia
     save_twin(Twin(torque, {"note": "torque-mode PD"}), tmp_path / "torque.json")
     record_dataset(tmp_path / "torque_ref", moves_per_type=2, types=["F", "S"],
                    robot=str(tmp_path / "torque.json"), jobs=2, progress=False)
