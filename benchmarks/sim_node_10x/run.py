@@ -203,6 +203,8 @@ class Controller:
 
 
 def start_node(a, log: Path, **params) -> subprocess.Popen:
+    if getattr(a, "executor", None):           # sim_node_20x's --executor
+        params.setdefault("executor", a.executor)
     return subprocess.Popen([sys.executable, "-m", "littledog_mlsim.nodes.sim_node",
                              "--ros-args", *sim_params(a.model, a.radius, latency_log=str(log),
                                                        **params)],

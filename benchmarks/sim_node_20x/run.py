@@ -287,7 +287,7 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
     win = (pub >= w0_wall) & (pub < w1_wall)
     span = (w1_wall - w0_wall) / 1e9
     Lw = L[win]
-    return {"factor": a.factor, "duration_s": span,
+    return {"factor": a.factor, "executor": a.executor, "duration_s": span,
             "published_rate_hz": int(win.sum()) / span, "received_rate_hz": n_rec / span,
             "step_cpu_ms": pct(Lw[:, 3] / 1e6), "step_wall_ms": pct((Lw[:, 2] - Lw[:, 1]) / 1e6),
             "load_before": load0, "load_after": load1,
@@ -306,7 +306,7 @@ def run_node_phases(a, phases: list[str]) -> dict:
         if "timer" in phases:
             out["timer"] = run_timer(a, ten, ctl, cmds)
         if "lockstep" in phases:
-            out["lockstep"] = ten.run_lockstep(a, ctl, cmds)
+            out["lockstep"] = dict(ten.run_lockstep(a, ctl, cmds), executor=a.executor)
     finally:
         ctl.close()
     return out
@@ -377,7 +377,8 @@ def markdown(doc: dict) -> list[str]:
     if "timer" in r:
         t = r["timer"]
         lines += [f"## 3. sim_node in its own process, timer mode, real_time_factor "
-                  f"{t['factor']:g} ({100 * t['factor']:.0f} steps/s asked)", "",
+                  f"{t['factor']:g} ({100 * t['factor']:.0f} steps/s asked), executor "
+                  f"{t.get('executor', 'single')}", "",
                   f"Over {t['duration_s']:.1f} s: published {t['published_rate_hz']:.1f} Hz, "
                   f"received {t['received_rate_hz']:.1f} Hz; step CPU p50 "
                   f"{t['step_cpu_ms']['p50']:.3f} ms, p99 {t['step_cpu_ms']['p99']:.3f} ms.  ",
@@ -410,6 +411,8 @@ def main(argv=None) -> int:
     p.add_argument("--phases", default="profile,batch",
                    help="any of profile, batch, timer, lockstep")
     p.add_argument("--factor", type=float, default=20.0, help="timer: real_time_factor")
+    p.add_argument("--executor", default="single", choices=("single", "events"),
+                   help="timer, lockstep: sim_node's executor parameter")
     p.add_argument("--duration", type=float, default=60.0, help="timer: seconds measured")
     p.add_argument("--lockstep-duration", type=float, default=20.0)
     p.add_argument("--warmup", type=float, default=3.0)

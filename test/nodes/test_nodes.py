@@ -495,14 +495,17 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
 
 
 def test_sim_node_gated_alpha_proj_equals_the_core(ros, work, model_path, test_move):
-    """`radius` gates alpha-PROJ in the node exactly as in the core rollout."""
+    """`radius` gates alpha-PROJ in the node exactly as in the core rollout; the node spins
+    rclpy's EventsExecutor here (`executor: events`; the other node tests use the default) and
+    still ends with status 0 on SIGINT."""
     model = OneStepModel.load(model_path)
     gated = model.projection("alpha", 0.5, radius=1.0)
     ref = rollout(model, test_move.s0, test_move.actions[:20], gated)
     assert not np.allclose(ref, rollout(model, test_move.s0, test_move.actions[:20],
                                         model.projection("alpha", 0.5)))   # the gate matters
     proc = Proc("sim_node", {"model_path": model_path, "step_mode": "lockstep", "radius": 1.0,
-                             "initial_state": [float(x) for x in test_move.s0]}, work)
+                             "initial_state": [float(x) for x in test_move.s0],
+                             "executor": "events"}, work)
     probe = Probe(ros)
     try:
         probe.connect(proc)
