@@ -292,7 +292,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
     options = CalibrationOptions(params=tuple(a.params) if a.params else None, stride=a.stride,
                                  horizons=tuple(a.horizons), moves_per_type=a.moves_per_type,
                                  max_evals=a.max_evals, jobs=a.jobs, name=a.name,
-                                 scheduler=a.scheduler, servo=a.servo)
+                                 scheduler=a.scheduler, servo=a.servo,
+                                 test_missing=not a.no_missing_test)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -318,6 +319,11 @@ def format_calibration(report: dict) -> str:
     if not report["weak_directions"]:
         lines.append("every parameter direction identified (95 % half-width <= "
                      f"{report['settings']['weak_halfwidth']:g})")
+    for m in report.get("missing") or []:
+        if m["asks"]:
+            lines.append(f"the residual asks for {m['name']}: about {num(m['suggested'])} "
+                         f"{m['unit']} (now {num(m['value'])}; p = {m['p']:.2g}, would remove "
+                         f"{100 * m['cost_share']:.1f} % of the cost): add it to --params")
     if "structure" in report:
         st = report["structure"]
         costs = ", ".join(f"{c['servo']} {c['cost']:.4g}" for c in st["candidates"])
@@ -663,6 +669,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="servo structure fitted: the starting robot's (keep, default), the "
                          "position servo, the torque-mode PD, or auto: fit both and keep the "
                          "one with the lower k-step residual (twice the time)")
+    cb.add_argument("--no-missing-test", action="store_true",
+                    help="skip the score test of the parameters not fitted (one re-simulation "
+                         "each) that names what else the residual asks for")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     cb.add_argument("--scheduler", default=None, metavar="ADDRESS",

@@ -42,7 +42,21 @@ Method
 6. **Rollouts.** The starting and the calibrated robot roll out every TestPool move
    (:func:`~littledog_mlsim.robot.baseline.evaluate_baseline`): the final (x, y) error before and
    after.
-7. **Servo structure** (``servo``). A twin can have the wrong servo structure: the nominal
+7. **What else the residual asks for** (``missing``). At the optimum, every parameter of the
+   registry that was not fitted (and that the servo has) gets a score test: its Jacobian column
+   (a one-sided difference of ``diff_step`` coordinates, towards the inside of its bounds),
+   with the fitted columns projected out, against the residual. The statistic is the squared
+   score over its per-sample robust variance (chi-squared with one degree of freedom where the
+   parameter is not needed), and a Gauss-Newton step, kept inside the bounds, gives the value it
+   points to and the share of the cost it would remove (none for a parameter at a bound that
+   the residual pushes outwards). The test is local and one parameter at a time: it detects
+   what is missing, but rivals that act alike (a joint-rate filter and a servo's gains) are each
+   asked for, and the suggested value and share are a first-order guess, not an estimate (with
+   two gains left out, one gain's step can even point the wrong way): refit with them. A parameter is reported as asked for when its p-value is below
+   0.001 over the number tested and that share is at least ``ask_share``; ``calibrate`` then
+   prints it with its value, to be added to ``--params``. It costs one re-simulation per
+   candidate (``test_missing=False``, ``--no-missing-test``: skipped, ``missing`` null).
+8. **Servo structure** (``servo``). A twin can have the wrong servo structure: the nominal
    robot's idealised position servo against a robot whose joints run a torque-mode PD. Its
    parameters then absorb what the structure cannot express, and the rollout can end further off
    than before the fit. ``servo="position"`` or ``"pd_torque"`` fits that structure (a position
@@ -75,7 +89,7 @@ from .config import MEASURED_ARMATURE as REFLECTED_ROTOR_INERTIA
 from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
-__all__ = ["SERVO_CHOICES", "with_servo", "CalibrationOptions", "Estimate", "WeakDirection",
+__all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "CalibrationOptions", "Estimate", "WeakDirection",
            "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "weak_directions"]
 
@@ -100,7 +114,9 @@ class CalibrationOptions:
     jobs: int = 2
     name: str | None = None                 # the twin's name (default BASE-calibrated)
     scheduler: str | None = None            # fit's re-simulations on this Dask cluster
-    servo: str = "keep"                     # keep | position | pd_torque | auto (module doc, 7)
+    servo: str = "keep"                     # keep | position | pd_torque | auto (module doc, 8)
+    ask_share: float = 0.01                 # cost share a missing parameter must remove (doc, 7)
+    test_missing: bool = True               # score-test the parameters not fitted (doc, 7)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -112,6 +128,8 @@ class CalibrationOptions:
             raise ValueError(f"horizons must be integers in 1..100 steps, got {self.horizons!r}")
         if self.moves_per_type is not None and self.moves_per_type < 1:
             raise ValueError(f"moves_per_type must be >= 1, got {self.moves_per_type}")
+        if not 0 <= self.ask_share < 1:
+            raise ValueError(f"ask_share must be in [0, 1), got {self.ask_share}")
         if self.max_evals < 4:
             raise ValueError(f"max_evals must be >= 4, got {self.max_evals}")
         if not 1e-4 <= self.diff_step <= 0.5:
@@ -415,6 +433,10 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
         x, stages = _fit(prob, x0)
         J, r = prob.jac(x), prob.fun(x)
         n_evals = len(prob.cache)
+        missing = None
+        if options.test_missing:
+            say("testing the parameters not fitted")
+            missing = missing_parameters(prob, x, J, r, options.ask_share)
     estimates, stats, covs = _estimates(prob, x, J, r, x0)
     weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
                                options.weak_halfwidth)
@@ -431,7 +453,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
               "settings": {"stride": options.stride, "horizons": list(options.horizons),
                            "max_evals": options.max_evals, "diff_step": options.diff_step,
                            "weak_halfwidth": options.weak_halfwidth},
-              "residual_rms": _rms_report(prob, x0, x)}
+              "residual_rms": _rms_report(prob, x0, x), "missing": missing}
     if test_recs:
         say(f"rolling out {len(test_recs)} TestPool moves before and after")
         report["rollout"] = {
@@ -510,6 +532,68 @@ def _calibrate_structures(train_recs: Sequence[MoveRecording],
                                                              one_step=False, jobs=options.jobs))}
     report["wall_s"] = round(time.perf_counter() - t0, 1)
     return Calibration(cal.config, cal.estimates, cal.weak, report)
+
+
+def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.ndarray,
+                       ask_share: float = 0.01) -> list[dict[str, Any]]:
+    """Score tests of the registry's parameters ``prob`` did not fit (module doc, 7), most
+    asked for first: name, unit, value now, suggested value, statistic, p-value, the cost
+    share a step would remove, and ``asks``."""
+    from scipy.stats import chi2
+
+    from .parameters import TWIN_PARAMETERS
+
+    fitted = {p.name for p in prob.params}
+    config = prob.config(x)
+    cands = []
+    for par in TWIN_PARAMETERS.values():
+        if par.name in fitted or (par.servo is not None and par.servo != config.servo):
+            continue
+        try:
+            value = par.get(config)
+        except ValueError:
+            continue
+        lo, hi = par.bounds
+        if not lo <= value <= hi:
+            continue
+        cands.append((par, value))
+    if not cands:
+        return []
+    q, _ = np.linalg.qr(J)
+    cluster = len(prob.o.horizons) * len(STATE_NAMES)
+    n_c = r.size // cluster
+    sse = float(r @ r)
+    out = []
+    for par, value in cands:
+        xc = par.to_x(value)
+        h = prob.o.diff_step * par.x_scale
+        lo_x, hi_x = par.x_bounds()
+        step = h if xc + h <= hi_x else -h
+        if not lo_x <= xc + step <= hi_x:
+            continue
+        moved = par.set(config, par.from_x(xc + step))
+        raw = twin_residuals(prob.pool, moved, prob.o.stride, prob.o.horizons)
+        col = (_weighted(raw, prob.scale) - r) / step
+        perp = col - q @ (q.T @ col)
+        norm2 = float(perp @ perp)
+        if not np.isfinite(norm2) or norm2 <= 1e-12 * max(float(col @ col), 1e-300):
+            continue                  # no effect, or one the fitted parameters already have
+        score = float(perp @ r)
+        per_state = (perp[:n_c * cluster] * r[:n_c * cluster]).reshape(n_c, cluster).sum(axis=1)
+        var = float(per_state @ per_state) * n_c / max(n_c - 1, 1)
+        stat = score ** 2 / var if var > 0 else 0.0
+        # the Gauss-Newton step, kept inside the bounds: at a bound, a residual that asks to go
+        # beyond it asks for nothing this parameter can give
+        x_new = float(min(max(xc - score / norm2, lo_x), hi_x))
+        delta = x_new - xc
+        share = max(0.0, -(2 * delta * score + delta ** 2 * norm2)) / sse if sse > 0 else 0.0
+        suggested = par.from_x(x_new)
+        out.append({"name": par.name, "unit": par.unit, "value": value, "suggested": suggested,
+                    "statistic": stat, "p": float(chi2.sf(stat, 1)), "cost_share": share})
+    level = 1e-3 / max(len(out), 1)
+    for m in out:
+        m["asks"] = bool(m["p"] < level and m["cost_share"] >= ask_share)
+    return sorted(out, key=lambda m: (not m["asks"], -m["cost_share"]))
 
 
 def _estimate_dict(e: Estimate) -> dict[str, Any]:
