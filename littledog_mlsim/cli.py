@@ -320,7 +320,9 @@ def format_calibration(report: dict) -> str:
         lines.append("every parameter direction identified (95 % half-width <= "
                      f"{report['settings']['weak_halfwidth']:g})")
     for m in report.get("missing") or []:
-        if m["asks"]:
+        if "error" in m:
+            lines.append(f"the test of the parameters not fitted failed: {m['error']}")
+        elif m["asks"]:
             lines.append(f"the residual asks for {m['name']}: about {num(m['suggested'])} "
                          f"{m['unit']} (now {num(m['value'])}; p = {m['p']:.2g}, would remove "
                          f"{100 * m['cost_share']:.1f} % of the cost): add it to --params")

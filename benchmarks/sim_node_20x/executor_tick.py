@@ -1,7 +1,7 @@
 """CPU per timer tick of rclpy's two executors, without the model: a node with a 2 kHz timer
 that publishes a JointState and an Odometry per tick (sim_node's per-step traffic, without the
 step), spun until it has ticked ``--ticks`` times, by rclpy's SingleThreadedExecutor
-(``rclpy.spin``'s) or by rclpy.experimental.EventsExecutor spun as sim_node's ``executor:
+(``spin_until_future_complete``; ``rclpy.spin`` uses the same executor) or by rclpy.experimental.EventsExecutor spun as sim_node's ``executor:
 events`` spins it (``spin_once`` with a 0.1 s timeout, in a loop). Each executor runs in its own
 process, alternately, ``--repeats`` times; printed and written: process CPU time per tick, ticks
 per wall second, and the load average.
@@ -86,6 +86,8 @@ def main() -> int:
                                 str(a.ticks), "--domain", str(a.domain)],
                                capture_output=True, text=True, timeout=300,
                                env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"))
+            if r.returncode != 0:
+                raise SystemExit(f"{kind}: exit {r.returncode}: {r.stderr.strip()[-500:]}")
             runs.append(json.loads(r.stdout.strip().splitlines()[-1]))
             print(runs[-1], flush=True)
     load1 = uptime()

@@ -166,8 +166,8 @@ COMMON_PARAMS: tuple[Param, ...] = (
     Param("publish_tf", True, "publish odom -> base_link on /tf each step (only where tf2_msgs "
           "is installed) and the URDF on /robot_description (always)"),
     Param("executor", "single", "rclpy executor: single (SingleThreadedExecutor) or events "
-          "(rclpy.experimental.EventsExecutor: about a third of the CPU per timer tick and "
-          "publish; benchmarks/sim_node_20x)", "single | events"),
+          "(rclpy.experimental.EventsExecutor: about 0.4x the CPU per timer tick and publish "
+          "in a microbenchmark; benchmarks/sim_node_20x)", "single | events"),
 )
 
 EXECUTORS = ("single", "events")
@@ -185,6 +185,12 @@ class SimulatorNode(ConfiguredNode):
         self.step_mode = self._choice("step_mode", STEP_MODES)
         self._choice("cmd_timeout_action", TIMEOUT_ACTIONS)
         self.executor_kind = self._choice("executor", EXECUTORS)
+        if self.executor_kind == "events":
+            try:
+                from rclpy.experimental import EventsExecutor  # noqa: F401
+            except ImportError as e:
+                raise StartupError(f"parameter executor: events needs rclpy.experimental."
+                                   f"EventsExecutor, which this rclpy lacks ({e})") from None
         depth = self.param("cmd_queue_depth")
         self.stats_period = self.param("stats_period")
         start = self.param("start_time")
@@ -363,8 +369,9 @@ def run_simulator(factory: Callable[[], SimulatorNode], name: str,
     The executor is the node's ``executor`` parameter: rclpy's SingleThreadedExecutor
     (``single``), or ``events``, rclpy.experimental.EventsExecutor, spun one event at a time
     with a 0.1 s timeout: its ``spin()`` never returns on SIGINT/SIGTERM in this rclpy (7.1.6),
-    while ``spin_once`` raises ExternalShutdownException once rclpy's handlers have shut the
-    context down, as ``rclpy.spin`` does.
+    while the ``spin_once`` loop ends with KeyboardInterrupt (SIGINT) or
+    ExternalShutdownException (SIGTERM), both an interruption for ``run_node``. The events
+    executor runs ready callbacks in arrival order, not timers before subscriptions.
     """
     return run_node(name, factory, _spin, args, rclpy_signals=True)
 

@@ -75,6 +75,7 @@ def test_calibrate_recovers_two_parameters_within_their_intervals(reference, tmp
     (["--horizons", "0"], "horizons must be integers in 1..100"),
     (["--robot", "nominal.json"], "no such file"),
     (["--max-evals", "2"], "max_evals must be >= 4"),
+    (["--servo", "auto", "--params", "position_gain"], "acts on the position servo"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(reference, tmp_path, capsys, argv, fragment):
     out = tmp_path / "twin.json"
@@ -208,3 +209,64 @@ def _asks_for_the_gains_left_out(twin: Twin, stdout: str) -> None:
     # at its lower bound (0 ms), a delay the residual would want negative is not asked for
     delay = missing["command_delay_ms"]
     assert delay["asks"] == (delay["suggested"] > 0), delay
+
+
+class _LinearPool:
+    """A stand-in for the re-simulating pool of ``missing_parameters``: each move's residual is
+    linear in the robot's body mass (log), foot friction, command delay and rate filter, with
+    fixed random directions; a rate filter above 210 Hz makes the re-simulation diverge."""
+
+    def __init__(self, n_moves: int = 3, n_t: int = 40) -> None:
+        import numpy as np
+        rng = np.random.default_rng(5)
+        self.shape = (n_t, 1, 33)
+        self.dirs = {k: [rng.normal(size=self.shape) for _ in range(n_moves)]
+                     for k in ("mass", "friction", "delay", "filter")}
+        self.noise = [0.01 * rng.normal(size=self.shape) for _ in range(n_moves)]
+
+    def map(self, fn, config, stride, horizons):
+        import math
+        import numpy as np
+        out = []
+        for i, e in enumerate(self.noise):
+            r = (self.dirs["mass"][i] * (math.log(config.body_mass or 1.8) - math.log(2.0))
+                 + self.dirs["friction"][i] * (config.foot_friction - 0.5)
+                 + self.dirs["delay"][i] * (config.command_delay_ms + 3.0) * 0.01
+                 + self.dirs["filter"][i] * (config.rate_filter_hz - 205.0) * 0.01 + e)
+            if config.rate_filter_hz > 210.0:
+                r = np.full(self.shape, np.inf)
+            out.append(r)
+        return out
+
+
+def test_missing_parameters_reads_a_linear_residual():
+    """The score test on a residual linear in its parameters: the left-out friction is asked
+    for with its true value (a Gauss-Newton step is exact there); a delay whose truth lies
+    below its 0 ms bound asks for nothing; parameters without effect, or whose robot diverges,
+    are not listed; a fitted parameter without effect (a zero Jacobian column) changes
+    nothing."""
+    import math
+    import numpy as np
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot.twin_fit import (CalibrationOptions, _Problem,
+                                                missing_parameters)
+
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0)  # +5 %: diverges
+    opts = CalibrationOptions(horizons=(1,), stride=20)
+    results = []
+    for names in (("body_mass",), ("body_mass", "leg_mass")):      # leg_mass: no effect
+        prob = _Problem(_LinearPool(), base, twin_parameters(names, base), opts, lambda s: None)
+        prob.scale = np.ones((1, 33))
+        x = np.array([math.log(2.0)] + [math.log(0.2366)] * (len(names) - 1))
+        J, r = prob.jac(x), prob.fun(x)
+        results.append({m["name"]: m for m in missing_parameters(prob, x, J, r)})
+    got, with_zero_column = results
+    assert set(got) == {"foot_friction", "command_delay_ms"}, sorted(got)
+    friction = got["foot_friction"]
+    assert friction["asks"] and friction["p"] < 1e-12
+    assert friction["suggested"] == pytest.approx(0.5, abs=0.01)
+    assert 0.5 < friction["cost_share"] < 1
+    delay = got["command_delay_ms"]
+    assert delay["suggested"] == 0.0 and delay["cost_share"] == 0.0 and not delay["asks"]
+    for k in ("suggested", "statistic", "cost_share"):
+        assert with_zero_column["foot_friction"][k] == pytest.approx(friction[k], rel=1e-9)

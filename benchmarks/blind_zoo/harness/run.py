@@ -349,7 +349,8 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
         lo, hi = p["ci95"]
         ident = p.get("at_bound") is None and name not in weak
         rows.append({"name": name, "value": p["value"], "ci95": [lo, hi], "truth": true_v,
-                     "inside": None if true_v is None else bool(lo <= true_v <= hi),
+                     "inside": (None if true_v is None or lo is None or hi is None
+                                else bool(lo <= true_v <= hi)),
                      "at_bound": p.get("at_bound"), "identifiable": ident,
                      "rel_error": None if not true_v else abs(p["value"] / true_v - 1.0)})
     idf = [r for r in rows if r["identifiable"] and r["inside"] is not None]
@@ -424,6 +425,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     arm_args, calibration = arm_arguments(a.arm, reference, work, logs, a.calibrate_arg)
     extra = arm_args + a.diagnose_arg
+    if a.calibrate_arg and a.arm != "calibrated":
+        raise SystemExit("--calibrate-arg is for --arm calibrated")
     arm_tag = (a.arm or "") + twin_slug(a.calibrate_arg)
     if a.calibrate_only:
         if calibration is None:

@@ -1,7 +1,8 @@
 """TestPool rollout error of pybullet robots (names or twin files) on a dataset: the final
 (x, y) error of a 4 s open-loop re-simulation of every TestPool move, mean and median, as
 ``calibrate`` reports before and after. For a gap zoo, the gap robot itself gives the floor a
-calibrated twin can reach (sensor noise and the recorded initial states stay).
+calibrated twin can reach: the re-simulation is noise-free, but the recordings it starts from
+and is scored against carry the gap robot's sensor noise.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/harness/twin_rollout.py \\
         --data /tmp/zoo8work/reference --robot nominal \\
