@@ -529,6 +529,7 @@ def test_physical_odom_fixed_force(recorded):
     assert "IMU" in twin[0]["recording"]
 
 
+@pytest.mark.slow   # the physical route's further effect case; CI keeps the push, delay, friction
 def test_physical_heavy_leg_among_leg_and_contact_terms(recorded):
     """The leg class: one leg twice as heavy, searched against the contact-phase terms of every
     leg (stance slip, swing drag) and the joint and body families."""

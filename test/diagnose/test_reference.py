@@ -89,11 +89,9 @@ def test_what_the_reference_shares_is_absorbed_and_the_change_is_named(recorded)
 
 
 def test_clean_data_against_its_reference_raise_no_alarm(recorded):
-    # three families, the tether's among them (the case is a no-alarm check; the suite's time)
-    phys = dict(PHYS, families=["command_delay", "servo_gain", "odom_force"])
     report = diagnose(recorded["clean"], recorded["root"] / "clean_out", method="lr",
                       figures=False, progress=False, twin="measured",
-                      reference=recorded["reference"], physics_options=phys)
+                      reference=recorded["reference"], physics_options=PHYS)
     assert report["significant"] is False and report["effects"] == [], report["effects"]
     left = report["physics"]["reference"]["unexplained"]
     assert not (left["significant"] and left["material"]), left

@@ -166,7 +166,7 @@ def test_auto_servo_keeps_the_structure_the_data_came_from(reference, tmp_path, 
                                  name="torque_truth")
     assert any(torque.armature)      # the torque-mode PD gets the gearboxes' rotor inertia
     save_twin(Twin(torque, {"note": "torque-mode PD"}), tmp_path / "torque.json")
-    record_dataset(tmp_path / "torque_ref", moves_per_type=2, types=["F", "S"],
+    record_dataset(tmp_path / "torque_ref", moves_per_type=2, types=["F"],
                    robot=str(tmp_path / "torque.json"), jobs=2, progress=False)
     chosen = {}
     for name, data in (("position", reference), ("pd_torque", tmp_path / "torque_ref")):
