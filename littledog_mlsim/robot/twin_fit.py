@@ -397,6 +397,16 @@ def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
     return x2, stages
 
 
+def _rollouts(test_recs: Sequence[MoveRecording], before: RobotConfig, after: RobotConfig,
+              jobs: int) -> dict[str, Any]:
+    """The report's ``rollout``: the TestPool rolled out with ``before`` and ``after``."""
+    return {"test_moves": [r.name for r in test_recs],
+            "before": _rollout_summary(_bl.evaluate_baseline(test_recs, before, one_step=False,
+                                                              jobs=jobs)),
+            "after": _rollout_summary(_bl.evaluate_baseline(test_recs, after, one_step=False,
+                                                             jobs=jobs))}
+
+
 def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
     return {"final_xy_error_m": ev["final_xy_error_m"],
             "final_xy_error_m_median": ev.get("final_xy_error_m_median"),
@@ -466,13 +476,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
               "residual_rms": _rms_report(prob, x0, x), "missing": missing}
     if test_recs:
         say(f"rolling out {len(test_recs)} TestPool moves before and after")
-        report["rollout"] = {
-            "test_moves": [r.name for r in test_recs],
-            "before": _rollout_summary(_bl.evaluate_baseline(test_recs, original,
-                                                              one_step=False,
-                                                              jobs=options.jobs)),
-            "after": _rollout_summary(_bl.evaluate_baseline(test_recs, calibrated,
-                                                             one_step=False, jobs=options.jobs))}
+        report["rollout"] = _rollouts(test_recs, original, calibrated, options.jobs)
     report["wall_s"] = round(time.perf_counter() - t0, 1)
     return Calibration(calibrated, estimates, weak, report)
 
@@ -535,12 +539,7 @@ def _calibrate_structures(train_recs: Sequence[MoveRecording],
     if test_recs:
         say(f"rolling out {len(test_recs)} TestPool moves before and after")
         start = replace(base, sensor_noise=False)
-        report["rollout"] = {
-            "test_moves": [r.name for r in test_recs],
-            "before": _rollout_summary(_bl.evaluate_baseline(test_recs, start, one_step=False,
-                                                              jobs=options.jobs)),
-            "after": _rollout_summary(_bl.evaluate_baseline(test_recs, cal.config,
-                                                             one_step=False, jobs=options.jobs))}
+        report["rollout"] = _rollouts(test_recs, start, cal.config, options.jobs)
     report["wall_s"] = round(time.perf_counter() - t0, 1)
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
