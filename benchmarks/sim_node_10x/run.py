@@ -198,6 +198,7 @@ class Controller:
     def close(self) -> None:
         import rclpy
         self.ex.shutdown()
+        self.thread.join(5)              # the spin has returned before the node goes
         self.node.destroy_node()
         rclpy.try_shutdown()
 

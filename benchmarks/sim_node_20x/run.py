@@ -268,14 +268,30 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
                     ctl.send(cmds[k % len(cmds)])
                     k += 1
                     t += 1.0 / hz
-            th = threading.Thread(target=stream, daemon=True)
-            th.start()
+            if a.controller == "reactive":
+                # a controller that runs in the simulated time: the next command as each joint
+                # state arrives (in the receiving thread), so the commands follow the node's
+                # steps one to one whatever its rate
+                count = [0]
+
+                def react() -> None:
+                    if not stop.is_set():
+                        count[0] += 1
+                        ctl.send(cmds[count[0] % len(cmds)])
+                ctl.on_state = react
+                ctl.send(cmds[0])
+                th = None
+            else:
+                th = threading.Thread(target=stream, daemon=True)
+                th.start()
             time.sleep(a.warmup)
             w0_wall, w0_mono = time.time_ns(), time.monotonic_ns()
             time.sleep(a.duration)
             w1_wall, w1_mono = time.time_ns(), time.monotonic_ns()
             stop.set()
-            th.join(5)
+            if th is not None:
+                th.join(5)
+            ctl.on_state = None
         finally:
             err = ten.stop_node(proc)
         load1 = uptime()
@@ -287,7 +303,8 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
     win = (pub >= w0_wall) & (pub < w1_wall)
     span = (w1_wall - w0_wall) / 1e9
     Lw = L[win]
-    return {"factor": a.factor, "executor": a.executor, "duration_s": span,
+    return {"factor": a.factor, "executor": a.executor, "controller": a.controller,
+            "duration_s": span,
             "published_rate_hz": int(win.sum()) / span, "received_rate_hz": n_rec / span,
             "step_cpu_ms": pct(Lw[:, 3] / 1e6), "step_wall_ms": pct((Lw[:, 2] - Lw[:, 1]) / 1e6),
             "load_before": load0, "load_after": load1,
@@ -302,12 +319,18 @@ def run_node_phases(a, phases: list[str]) -> dict:
     cmds = np.asarray(load_moves(a.data, split="test", types=["F"])[0].cmd)
     ctl = ten.Controller()
     out = {}
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            for _ in range(a.hogs)]
     try:
         if "timer" in phases:
-            out["timer"] = run_timer(a, ten, ctl, cmds)
+            out["timer"] = dict(run_timer(a, ten, ctl, cmds), hogs=a.hogs)
         if "lockstep" in phases:
-            out["lockstep"] = dict(ten.run_lockstep(a, ctl, cmds), executor=a.executor)
+            out["lockstep"] = dict(ten.run_lockstep(a, ctl, cmds), executor=a.executor,
+                                   hogs=a.hogs)
     finally:
+        for h in hogs:
+            h.kill()
+            h.wait()
         ctl.close()
     return out
 
@@ -378,7 +401,8 @@ def markdown(doc: dict) -> list[str]:
         t = r["timer"]
         lines += [f"## 3. sim_node in its own process, timer mode, real_time_factor "
                   f"{t['factor']:g} ({100 * t['factor']:.0f} steps/s asked), executor "
-                  f"{t.get('executor', 'single')}", "",
+                  f"{t.get('executor', 'single')}, {t.get('hogs', 0)} CPU hogs beside it, controller "
+                  f"{t.get('controller', 'stream')}", "",
                   f"Over {t['duration_s']:.1f} s: published {t['published_rate_hz']:.1f} Hz, "
                   f"received {t['received_rate_hz']:.1f} Hz; step CPU p50 "
                   f"{t['step_cpu_ms']['p50']:.3f} ms, p99 {t['step_cpu_ms']['p99']:.3f} ms.  ",
@@ -386,7 +410,8 @@ def markdown(doc: dict) -> list[str]:
     if "lockstep" in r:
         t = r["lockstep"]
         rt = t["round_trip_ms"] or {}
-        lines += ["## 4. Lockstep end to end (controller -> node -> controller)", "",
+        lines += [f"## 4. Lockstep end to end (controller -> node -> controller), executor "
+                  f"{t.get('executor', 'single')}, {t.get('hogs', 0)} CPU hogs beside it", "",
                   f"{t['steps_per_s']:.1f} steps/s over {t['duration_s']:.1f} s; round trip "
                   f"p50 {rt.get('p50', float('nan')):.3f} ms, p99 "
                   f"{rt.get('p99', float('nan')):.3f} ms.  ",
@@ -413,6 +438,12 @@ def main(argv=None) -> int:
     p.add_argument("--factor", type=float, default=20.0, help="timer: real_time_factor")
     p.add_argument("--executor", default="single", choices=("single", "events"),
                    help="timer, lockstep: sim_node's executor parameter")
+    p.add_argument("--controller", default="stream", choices=("stream", "reactive"),
+                   help="timer: stream = one command per 1/(100 factor) s of wall time from "
+                        "a thread, whatever the node's rate; reactive = the next command as "
+                        "each joint state arrives (a controller in simulated time)")
+    p.add_argument("--hogs", type=int, default=0,
+                   help="timer, lockstep: this many CPU busy-loop processes run beside them")
     p.add_argument("--duration", type=float, default=60.0, help="timer: seconds measured")
     p.add_argument("--lockstep-duration", type=float, default=20.0)
     p.add_argument("--warmup", type=float, default=3.0)

@@ -1,0 +1,89 @@
+"""How often the gated alpha-PROJ needs its exact search when the commands do not follow the
+steps one to one.
+
+sim_node in timer mode steps on its own clock and holds the newest command; a controller that
+streams commands at the asked rate while the node steps slower makes the node skip commands.
+This drives sim_node's core (``run.build_backend``: the model's gate radius, covariance on,
+float32 factors) with a TestPool F move's commands in a loop, first one command per step, then
+skipping commands as a node at ``--node-hz`` does under a ``--cmd-hz`` stream (step k takes
+command ``floor(k * cmd_hz / node_hz)``), and reports the CPU per step, the share of steps
+inside the gate and the exact searches per step.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/sim_node_20x/gate_share.py \\
+        --model MODEL --data DATA --out benchmarks/sim_node_20x/quiet/gate_share.json
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parents[1]))
+sys.path.insert(0, str(HERE))
+
+import numpy as np  # noqa: E402
+
+from benchmarks._common import command_line, run_record, uptime, write_results  # noqa: E402
+from run import build_backend  # noqa: E402
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--model", required=True)
+    p.add_argument("--data", required=True)
+    p.add_argument("--steps", type=int, default=15000)
+    p.add_argument("--cmd-hz", type=float, default=2000.0)
+    p.add_argument("--node-hz", type=float, default=1569.0,
+                   help="default: sim_node's published rate in the quiet timer run")
+    p.add_argument("--out", type=Path, default=None)
+    a = p.parse_args(argv)
+    from littledog_mlsim.data.dataset import load_moves
+    cmds = np.asarray(load_moves(a.data, split="test", types=["F"])[0].cmd)
+    model, projection, sim = build_backend(a.model, None, "float32")
+    radius = float(model.gate_radius()[0])
+    query = projection.nn.query
+    calls = [0]
+
+    def counted(*args, **kw):
+        calls[0] += 1
+        return query(*args, **kw)
+    projection.nn.query = counted
+    doc = run_record("sim_node_20x/gate_share.py", argv)
+    rows = []
+    for name, ratio in (("one command per step", 1.0),
+                        (f"commands skipped ({a.cmd_hz:g} Hz stream, node at {a.node_hz:g} Hz)",
+                         a.cmd_hz / a.node_hz)):
+        sim.reset()
+        calls[0] = 0
+        dist = np.empty(a.steps)
+        load = uptime()
+        t0 = time.thread_time_ns()
+        for k in range(a.steps):
+            sim.step(cmds[int(k * ratio) % len(cmds)])
+            dist[k] = sim.nn_distance
+        cpu = (time.thread_time_ns() - t0) / 1e6 / a.steps
+        rows.append({"commands": name, "steps": a.steps, "cpu_ms_per_step": cpu,
+                     "inside_gate_share": float(np.mean(dist <= radius)),
+                     "exact_searches_per_step": calls[0] / a.steps, "load": load})
+    doc["radius"] = radius
+    doc["rows"] = rows
+    lines = ["| commands | steps | CPU per step [ms] | inside the gate | exact searches per step "
+             "| load |", "|---|---|---|---|---|---|"]
+    lines += [f"| {r['commands']} | {r['steps']} | {r['cpu_ms_per_step']:.3f} | "
+              f"{100 * r['inside_gate_share']:.1f} % | {r['exact_searches_per_step']:.3f} | "
+              f"`{r['load']}` |" for r in rows]
+    lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; gate radius "
+             f"{radius:.4f}", ""] + lines
+    if a.out is not None:
+        write_results(a.out, doc, lines)
+    else:
+        print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
