@@ -7,7 +7,10 @@ This drives sim_node's core (``run.build_backend``: the model's gate radius, cov
 float32 factors) with a TestPool F move's commands in a loop, first one command per step, then
 skipping commands as a node at ``--node-hz`` does under a ``--cmd-hz`` stream (step k takes
 command ``floor(k * cmd_hz / node_hz)``), and reports the CPU per step, the share of steps
-inside the gate and the exact searches per step.
+inside the gate and the exact searches per step. The exact searches of the second run are kept
+and timed again with each search method of ``NearestNeighbour`` (``"pca"``, the default here,
+and SciPy's ``"kdtree"``), alternately ``--repeats`` times; the medians and whether both return
+the same indices.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/sim_node_20x/gate_share.py \\
         --model MODEL --data DATA --out benchmarks/sim_node_20x/quiet/gate_share.json
@@ -39,6 +42,7 @@ def main(argv=None) -> int:
     p.add_argument("--cmd-hz", type=float, default=2000.0)
     p.add_argument("--node-hz", type=float, default=1569.0,
                    help="default: sim_node's published rate in the quiet timer run")
+    p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--out", type=Path, default=None)
     a = p.parse_args(argv)
     from littledog_mlsim.data.dataset import load_moves
@@ -47,10 +51,12 @@ def main(argv=None) -> int:
     radius = float(model.gate_radius()[0])
     query = projection.nn.query
     calls = [0]
+    kept: list = []
 
-    def counted(*args, **kw):
+    def counted(X, method=None, upper=None):
         calls[0] += 1
-        return query(*args, **kw)
+        kept.append((np.array(X), None if upper is None else np.array(upper)))
+        return query(X, method, upper)
     projection.nn.query = counted
     doc = run_record("sim_node_20x/gate_share.py", argv)
     rows = []
@@ -59,6 +65,7 @@ def main(argv=None) -> int:
                          a.cmd_hz / a.node_hz)):
         sim.reset()
         calls[0] = 0
+        kept.clear()
         dist = np.empty(a.steps)
         load = uptime()
         t0 = time.thread_time_ns()
@@ -69,13 +76,32 @@ def main(argv=None) -> int:
         rows.append({"commands": name, "steps": a.steps, "cpu_ms_per_step": cpu,
                      "inside_gate_share": float(np.mean(dist <= radius)),
                      "exact_searches_per_step": calls[0] / a.steps, "load": load})
+    projection.nn.query = query
+    projection.nn.build_tree()
+    times: dict = {"pca": [], "kdtree": []}
+    answers: dict = {}
+    for _ in range(a.repeats):
+        for method in times:
+            t0 = time.thread_time_ns()
+            answers[method] = [query(X, method, up if method == "pca" else None)
+                               for X, up in kept]
+            times[method].append((time.thread_time_ns() - t0) / 1e3 / len(kept))
+    search = {"queries": len(kept), "load": uptime(),
+              "us_per_query_median": {m: float(np.median(v)) for m, v in times.items()},
+              "same_indices": all(np.array_equal(x, y) for x, y in
+                                  zip(answers["pca"], answers["kdtree"]))}
     doc["radius"] = radius
     doc["rows"] = rows
+    doc["search_methods"] = search
     lines = ["| commands | steps | CPU per step [ms] | inside the gate | exact searches per step "
              "| load |", "|---|---|---|---|---|---|"]
     lines += [f"| {r['commands']} | {r['steps']} | {r['cpu_ms_per_step']:.3f} | "
               f"{100 * r['inside_gate_share']:.1f} % | {r['exact_searches_per_step']:.3f} | "
               f"`{r['load']}` |" for r in rows]
+    med = search["us_per_query_median"]
+    lines += ["", f"The second run's {search['queries']} exact searches, timed again (median of "
+              f"{a.repeats}, CPU per query): pca {med['pca']:.0f} us, kdtree {med['kdtree']:.0f} us; "
+              f"same indices: {search['same_indices']}. Load `{search['load']}`."]
     lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; gate radius "
              f"{radius:.4f}", ""] + lines
     if a.out is not None:
