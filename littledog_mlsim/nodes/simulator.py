@@ -166,8 +166,8 @@ COMMON_PARAMS: tuple[Param, ...] = (
     Param("publish_tf", True, "publish odom -> base_link on /tf each step (only where tf2_msgs "
           "is installed) and the URDF on /robot_description (always)"),
     Param("executor", "single", "rclpy executor: single (SingleThreadedExecutor) or events "
-          "(rclpy.experimental.EventsExecutor: about 0.4x the CPU per timer tick and publish "
-          "in a microbenchmark; benchmarks/sim_node_20x)", "single | events"),
+          "(rclpy.experimental.EventsExecutor: faster in lockstep, slower in timer mode at "
+          "real_time_factor 20; benchmarks/sim_node_20x)", "single | events"),
 )
 
 EXECUTORS = ("single", "events")
