@@ -61,6 +61,7 @@ def command_line(doc: dict) -> str:
 def write_results(out: Path, doc: dict, lines: list) -> None:
     """Write ``out``.json (``doc``) and ``out``.md (``lines``) and print the Markdown."""
     import json
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
     out.with_suffix(".md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

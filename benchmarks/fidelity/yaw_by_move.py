@@ -1,9 +1,8 @@
 """How much the TrainPool's moves of one type differ in their mean yaw rate.
 
-`README.md` ("Why the open-loop 2 % is out of reach") reads the heading floor from the yaw's
-measurement noise, treating each step's d_yaw noise as independent. A d_yaw is the difference
-of two yaw measurements, so within a move the noise telescopes: a move's mean d_yaw carries
-only its first and last measurements' noise, sqrt(2) sigma / (T dt). This prints, per move type,
+A d_yaw is the difference of two yaw measurements, so within a move the measurement noise
+telescopes: a move's mean d_yaw carries only its first and last measurements' noise,
+sqrt(2) sigma / (T dt) (`README.md`, "Why the open-loop 2 % is not reached"). This prints, per move type,
 each TrainPool move's mean yaw rate (d_yaw / 10 ms over its steps), their spread over the
 moves, the standard error of their mean, and the telescoped noise bound for ``--sigma-mrad``
 (the README's 1.25 mrad per measurement).

@@ -179,8 +179,9 @@ class Controller:
         with self.cond:
             self.received.append(time.monotonic_ns())
             self.cond.notify_all()
-        if self.on_state is not None:
-            self.on_state()
+        cb = self.on_state                   # read once: another thread may clear it
+        if cb is not None:
+            cb()
 
     def send(self, u: np.ndarray) -> None:
         self.msg.position = u.tolist()
@@ -199,7 +200,11 @@ class Controller:
         import rclpy
         self.ex.shutdown()
         self.thread.join(5)              # the spin has returned before the node goes
-        self.node.destroy_node()
+        if self.thread.is_alive():       # never destroy what a running spin waits on
+            print("controller: the spin thread did not stop; its node is left to the exit",
+                  file=sys.stderr)
+        else:
+            self.node.destroy_node()
         rclpy.try_shutdown()
 
 

@@ -45,7 +45,9 @@ def main(argv=None) -> int:
     p.add_argument("--data", required=True)
     p.add_argument("--executor", default="single", choices=("single", "events"))
     p.add_argument("--controller", default="stream", choices=("stream", "reactive"))
-    p.add_argument("--warmup", type=float, default=8.0)
+    p.add_argument("--warmup", type=float, default=8.0,
+                   help="s from the node's start to the first sample (the model loads in 2-3 s, "
+                        "then run.py's own 3 s warm-up)")
     p.add_argument("--seconds", type=float, default=15.0)
     p.add_argument("--rate", type=int, default=500, help="py-spy samples per second")
     p.add_argument("--top", type=int, default=25)
@@ -60,6 +62,7 @@ def main(argv=None) -> int:
              "--phases", "timer", "--executor", a.executor, "--controller", a.controller,
              "--duration", str(a.warmup + a.seconds + 5)],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        ok = False
         try:
             pid = _node_pid(bench.pid)
             time.sleep(a.warmup)
@@ -68,8 +71,15 @@ def main(argv=None) -> int:
                             str(int(a.seconds)), "--rate", str(a.rate), "--format", "raw",
                             "--nonblocking", "-o", str(raw)], check=True,
                            capture_output=True)
+            ok = True
         finally:
-            bench.wait(300)
+            if not ok:
+                bench.terminate()
+            try:
+                bench.wait(300)
+            except subprocess.TimeoutExpired:
+                bench.kill()
+                bench.wait()
         own, incl, total = collections.Counter(), collections.Counter(), 0
         for line in raw.read_text().splitlines():
             stack, _, n = line.rpartition(" ")

@@ -263,31 +263,30 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
             hz = 100.0 * a.factor
 
             def stream() -> None:
-                t, k = time.monotonic(), 0
+                t = time.monotonic()
                 while not stop.wait(max(0.0, t - time.monotonic())):
-                    ctl.send(cmds[k % len(cmds)])
-                    k += 1
+                    ctl.send(cmds[count[0] % len(cmds)])
+                    count[0] += 1
                     t += 1.0 / hz
+            count = [0]
             if a.controller == "reactive":
-                # a controller that runs in the simulated time: the next command as each joint
-                # state arrives (in the receiving thread), so the commands follow the node's
-                # steps one to one whatever its rate
-                count = [0]
+                # a controller that runs in the simulated time: one command per joint state
+                # received, sent from the receiving thread (the node, stepping on its own
+                # clock, still takes whichever command is newest at each step)
 
                 def react() -> None:
                     if not stop.is_set():
                         count[0] += 1
                         ctl.send(cmds[count[0] % len(cmds)])
                 ctl.on_state = react
-                ctl.send(cmds[0])
                 th = None
             else:
                 th = threading.Thread(target=stream, daemon=True)
                 th.start()
             time.sleep(a.warmup)
-            w0_wall, w0_mono = time.time_ns(), time.monotonic_ns()
+            w0_wall, w0_mono, c0 = time.time_ns(), time.monotonic_ns(), count[0]
             time.sleep(a.duration)
-            w1_wall, w1_mono = time.time_ns(), time.monotonic_ns()
+            w1_wall, w1_mono, c1 = time.time_ns(), time.monotonic_ns(), count[0]
             stop.set()
             if th is not None:
                 th.join(5)
@@ -304,11 +303,14 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
     span = (w1_wall - w0_wall) / 1e9
     Lw = L[win]
     return {"factor": a.factor, "executor": a.executor, "controller": a.controller,
-            "duration_s": span,
+            "duration_s": span, "commands_sent_rate_hz": (c1 - c0) / span,
             "published_rate_hz": int(win.sum()) / span, "received_rate_hz": n_rec / span,
             "step_cpu_ms": pct(Lw[:, 3] / 1e6), "step_wall_ms": pct((Lw[:, 2] - Lw[:, 1]) / 1e6),
             "load_before": load0, "load_after": load1,
             "node_errors": [ln for ln in err.splitlines() if "ERROR" in ln][:5]}
+
+
+HOG = "import os\nparent = os.getppid()\nwhile os.getppid() == parent:\n    pass\n"
 
 
 def run_node_phases(a, phases: list[str]) -> dict:
@@ -319,9 +321,10 @@ def run_node_phases(a, phases: list[str]) -> dict:
     cmds = np.asarray(load_moves(a.data, split="test", types=["F"])[0].cmd)
     ctl = ten.Controller()
     out = {}
-    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
-            for _ in range(a.hogs)]
+    hogs: list[subprocess.Popen] = []
     try:
+        for _ in range(a.hogs):        # a busy loop that ends with this process
+            hogs.append(subprocess.Popen([sys.executable, "-c", HOG]))
         if "timer" in phases:
             out["timer"] = dict(run_timer(a, ten, ctl, cmds), hogs=a.hogs)
         if "lockstep" in phases:
@@ -404,7 +407,8 @@ def markdown(doc: dict) -> list[str]:
                   f"{t.get('executor', 'single')}, {t.get('hogs', 0)} CPU hogs beside it, controller "
                   f"{t.get('controller', 'stream')}", "",
                   f"Over {t['duration_s']:.1f} s: published {t['published_rate_hz']:.1f} Hz, "
-                  f"received {t['received_rate_hz']:.1f} Hz; step CPU p50 "
+                  f"received {t['received_rate_hz']:.1f} Hz, commands sent "
+                  f"{t.get('commands_sent_rate_hz', float('nan')):.1f} Hz; step CPU p50 "
                   f"{t['step_cpu_ms']['p50']:.3f} ms, p99 {t['step_cpu_ms']['p99']:.3f} ms.  ",
                   f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
     if "lockstep" in r:
@@ -440,8 +444,8 @@ def main(argv=None) -> int:
                    help="timer, lockstep: sim_node's executor parameter")
     p.add_argument("--controller", default="stream", choices=("stream", "reactive"),
                    help="timer: stream = one command per 1/(100 factor) s of wall time from "
-                        "a thread, whatever the node's rate; reactive = the next command as "
-                        "each joint state arrives (a controller in simulated time)")
+                        "a thread, whatever the node's rate; reactive = one command per joint "
+                        "state received (a controller in simulated time)")
     p.add_argument("--hogs", type=int, default=0,
                    help="timer, lockstep: this many CPU busy-loop processes run beside them")
     p.add_argument("--duration", type=float, default=60.0, help="timer: seconds measured")

@@ -167,7 +167,8 @@ COMMON_PARAMS: tuple[Param, ...] = (
           "is installed) and the URDF on /robot_description (always)"),
     Param("executor", "single", "rclpy executor: single (SingleThreadedExecutor) or events "
           "(rclpy.experimental.EventsExecutor: faster in lockstep, slower in timer mode at "
-          "real_time_factor 20; benchmarks/sim_node_20x)", "single | events"),
+          "real_time_factor 20 with a streaming controller; benchmarks/sim_node_20x)",
+          "single | events"),
 )
 
 EXECUTORS = ("single", "events")
