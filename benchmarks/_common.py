@@ -58,12 +58,14 @@ def command_line(doc: dict) -> str:
     return f"Command: `OPENBLAS_NUM_THREADS={threads} .venv/bin/python {doc['command']}`"
 
 
-def write_results(out: Path, doc: dict, lines: list) -> None:
-    """Write ``out``.json (``doc``) and ``out``.md (``lines``) and print the Markdown."""
+def write_results(out: Path | None, doc: dict, lines: list) -> None:
+    """Write ``out``.json (``doc``) and ``out``.md (``lines``), unless ``out`` is None, and
+    print the Markdown."""
     import json
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
-    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
+        out.with_suffix(".md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 

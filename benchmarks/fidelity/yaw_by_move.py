@@ -61,10 +61,7 @@ def main(argv=None) -> int:
     lines += [f"| {r['type']} | {r['moves']} | {r['mean']:.2f} | {r['std_over_moves']:.2f} | "
               f"{r['std_error_of_mean']:.2f} | {r['telescoped_noise_per_move']:.2f} | "
               f"{r['telescoped_noise_of_mean']:.3f} |" for r in rows]
-    if a.out is not None:
-        write_results(a.out, doc, lines)
-    else:
-        print("\n".join(lines))
+    write_results(a.out, doc, lines)
     return 0
 
 

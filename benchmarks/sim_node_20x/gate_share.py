@@ -104,10 +104,7 @@ def main(argv=None) -> int:
               f"same indices: {search['same_indices']}. Load `{search['load']}`."]
     lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; gate radius "
              f"{radius:.4f}", ""] + lines
-    if a.out is not None:
-        write_results(a.out, doc, lines)
-    else:
-        print("\n".join(lines))
+    write_results(a.out, doc, lines)
     return 0
 
 

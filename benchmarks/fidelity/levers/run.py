@@ -105,10 +105,7 @@ def main(argv=None) -> int:
                      f" | {o['final_yaw_err_rad']:.3f} rad | {o['path_learned_m']:.2f} / "
                      f"{o['path_m']:.2f} m | {100 * c['err_per_m']:.1f} % "
                      f"({100 * c['err_per_m_max']:.1f} %) | {r['train_s']} | `{r['load']}` |")
-    if a.out is not None:
-        write_results(a.out, doc, lines)
-    else:
-        print("\n".join(lines))
+    write_results(a.out, doc, lines)
     return 0
 
 
