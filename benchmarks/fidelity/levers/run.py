@@ -55,7 +55,8 @@ def feature_set(lever: str):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--work", type=Path, required=True, help="models and raw results go here")
+    ap.add_argument("--work", type=Path, required=True,
+                    help="models (reused when present) and each fidelity run's files")
     ap.add_argument("--levers", nargs="+", default=list(LEVERS), choices=LEVERS)
     ap.add_argument("--seeds", nargs="+", default=["0", "1", "2"])
     ap.add_argument("--workers", type=int, default=2)
@@ -87,10 +88,13 @@ def main(argv=None) -> int:
                             "--workers", str(a.workers), "--out", str(out), *extra,
                             *(["--duration", a.duration] if a.duration else [])],
                            check=True, stdout=subprocess.DEVNULL, cwd=ROOT)
-            s = json.loads(out.with_suffix(".json").read_text())["summary"][key]
+            res = json.loads(out.with_suffix(".json").read_text())
+            s = res["summary"][key]
             row[what] = {k: s.get(k) for k in ("err_per_m", "err_per_m_max", "final_err_m",
                                                 "path_m", "path_learned_m",
                                                 "final_yaw_err_rad", "rms_w", "rms_w_pybullet")}
+            row[what]["per_seed_err_per_m"] = {str(r["seed"]): r["err_per_m"]
+                                               for r in res["runs"]}
         rows.append(row)
         print(lever, json.dumps(row), flush=True)
     doc["rows"] = rows
