@@ -4,7 +4,9 @@
 
 1. ``pybullet_node`` (the robot, lockstep) and ``trainer_node`` (``live:=true``) start in one
    ROS domain D; this process drives the robot with open-loop trots (``gait.trot_commands``),
-   one command per step.
+   one command per step. Before the first session it steps the robot until the trainer says
+   it has heard commands, joint states and odometry (``~/record false`` while not recording),
+   so no recorded step is lost to discovery.
 2. First session: ``/trainer_node/record`` true, a forward trot of ``--steps`` steps, record
    false (the trainer writes the run as moves into ``OUT/live_data``), ``/trainer_node/train``:
    the model is written atomically to ``OUT/live_model``.
@@ -34,16 +36,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..layout import TOPIC_JOINT_STATES, TOPIC_ODOM
-
 from .demo import (START_TIMEOUT, STEP_TIMEOUT, Child, DemoError, Log, _Link, _print,
                    _restore_env, _wait, pick_domains)
 
 __all__ = ["LiveResult", "run_live_demo", "main"]
 
-APPLIED = "/pybullet_node/cmd_applied"   # trainer_node's cmd_topic default: what it records
 TRAIN_TIMEOUT = 600.0   # s, one ~/train call (an LR fit takes seconds; LGPR on a few moves ~1 min)
 CALL_TIMEOUT = 30.0     # s, any other service call
+WARMUP_MAX_STEPS = 500  # steps driven at most until the trainer hears the robot
 
 
 @dataclass
@@ -60,6 +60,7 @@ class LiveResult:
     jump_m: float = 0.0                 # |p_after - p_before| across the swap, one step
     median_step_m: float = 0.0          # the median one-step displacement before the swap
     model_swaps: int = 0
+    warmup_steps: int = 0               # steps driven before the trainer heard every topic
     seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -132,6 +133,31 @@ def _drive(link: _Link, cond: threading.Condition, cmds: np.ndarray, children: S
     return stamps
 
 
+def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
+                 children: Sequence[Child]) -> int:
+    """Drive the robot one step at a time (a standing trot's commands), asking the trainer
+    (``~/record false`` while it is not recording) until it has heard every kind of message;
+    returns the steps driven."""
+    from std_srvs.srv import SetBool
+
+    from ..nodes.trainer_node import parse_heard
+
+    end = time.monotonic() + START_TIMEOUT
+    cmds = _trot("F", WARMUP_MAX_STEPS, 0)
+    for k in range(WARMUP_MAX_STEPS):
+        heard = parse_heard(calls.call(SetBool, "/trainer_node/record",
+                                       SetBool.Request(data=False)).message)
+        if heard is None:
+            raise DemoError("trainer_node's ~/record false does not say what it heard")
+        if min(heard.values()) > 0:
+            return k
+        if time.monotonic() > end:
+            break
+        _drive(link, cond, cmds[k:k + 1], children)
+    raise DemoError(f"trainer_node heard no {', '.join(t for t, n in heard.items() if n == 0)} "
+                    f"from pybullet_node within {k} steps")
+
+
 def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr",
                   domain: int | None = None, log: Log = _print) -> LiveResult:
     """The record -> train -> swap loop (module doc); ``out`` gets ``live_data`` (the recorded
@@ -186,16 +212,14 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             calls = _Calls(robot, cond, children)
             calls.ready("trainer_node")
             # the trainer records what reaches its subscriptions (volatile): before the first
-            # command, the graph must show its readers of pybullet_node's applied commands and
-            # outputs; a quiet fresh-clone run once lost the first 23 of 100 steps without this
-            # (discovery: seen in our graph is close to, not proof of, matched in theirs)
-            _wait(cond, lambda: (robot.node.count_subscribers(APPLIED) >= 1
-                                 and robot.node.count_subscribers(TOPIC_JOINT_STATES) >= 2
-                                 and robot.node.count_subscribers(TOPIC_ODOM) >= 2),
-                  START_TIMEOUT, "trainer_node's subscriptions", children)
+            # session the robot steps until the trainer has heard each of its topics, the proof
+            # that pybullet_node's publishers have matched its readers (graph counts are not:
+            # fresh-clone runs lost the first 23 and 34 of 100 steps with them)
+            r.warmup_steps = _until_heard(robot, cond, calls, children)
             r.seconds["start"] = time.perf_counter() - t0
             log(f"pybullet_node and trainer_node (live, {method}) up in domain {d_robot} in "
-                f"{r.seconds['start']:.1f} s")
+                f"{r.seconds['start']:.1f} s (the trainer heard the robot after "
+                f"{r.warmup_steps} step(s))")
 
             def session(move_type: str, seed: int, n: int) -> None:
                 t = time.perf_counter()

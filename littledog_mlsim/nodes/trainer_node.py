@@ -91,6 +91,25 @@ PARAMS: tuple[Param, ...] = (
 # live recordings: moves shorter than this many steps are left out
 MIN_MOVE_STEPS = 10
 
+# live: the kinds of message recorded; ``~/record false`` while not recording answers how many
+# of each arrived since the node started (``heard_text``), so a caller can see that every
+# publisher reaches the trainer before it records (a volatile subscription keeps only what
+# arrives after its publisher has matched it)
+HEARD = ("command", "joint state", "odometry")
+
+
+def heard_text(heard: dict[str, int]) -> str:
+    """``"heard: 3 command, 3 joint state, 3 odometry"``; ``parse_heard`` reads it back."""
+    return "heard: " + ", ".join(f"{heard[k]} {k}" for k in HEARD)
+
+
+def parse_heard(text: str) -> dict[str, int] | None:
+    """The counts in a ``heard_text`` inside ``text``, or None if it holds none."""
+    import re
+
+    m = re.search(r"heard: " + ", ".join(rf"(\d+) {k}" for k in HEARD), text)
+    return None if m is None else {k: int(v) for k, v in zip(HEARD, m.groups())}
+
 
 class TrainingError(Exception):
     """Training failed (bad data, failing fit): one FATAL line, exit status 1."""
@@ -230,6 +249,7 @@ class TrainerNode(ConfiguredNode):
                                f"(no {INDEX_FILE})")
         self.rec = TopicRecording()
         self.recording = False
+        self.heard = dict.fromkeys(HEARD, 0)     # messages received per kind, recording or not
         from nav_msgs.msg import Odometry
         from sensor_msgs.msg import JointState
 
@@ -249,6 +269,7 @@ class TrainerNode(ConfiguredNode):
 
     def _keep(self, add, what: str):
         def keep(msg) -> None:
+            self.heard[what] += 1
             if not self.recording:
                 return
             try:
@@ -269,7 +290,7 @@ class TrainerNode(ConfiguredNode):
                 self.get_logger().info("recording")
             return response
         if not self.recording:
-            response.success, response.message = False, "not recording"
+            response.success, response.message = False, f"not recording; {heard_text(self.heard)}"
             return response
         try:
             response.message = self.stop_recording()

@@ -16,6 +16,8 @@ from littledog_mlsim.models.onestep import OneStepModel
 def test_record_train_swap(tmp_path):
     lines: list[str] = []
     r = run_live_demo(tmp_path, steps=100, log=lines.append)
+    # the robot stepped until the trainer heard it (its commands come only with a step)
+    assert r.warmup_steps >= 1
     # two sessions recorded as moves U_00, U_01; what was recorded is what was sent
     index = read_index(tmp_path / "live_data")
     assert index.names("train") == ["U_00", "U_01"]

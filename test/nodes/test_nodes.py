@@ -55,6 +55,7 @@ from littledog_mlsim.models.lr import LinearRegression  # noqa: E402
 from littledog_mlsim.models.onestep import OneStepModel  # noqa: E402
 from littledog_mlsim.nodes import messages as m  # noqa: E402
 from littledog_mlsim.nodes.bag_player import PLAY_QOS  # noqa: E402
+from littledog_mlsim.nodes.trainer_node import HEARD, parse_heard  # noqa: E402
 from littledog_mlsim.robot.sensors import twist_from_poses  # noqa: E402
 from littledog_mlsim.rollout.learned_sim import standing_train_state  # noqa: E402
 from littledog_mlsim.rollout.simulate import prepare_test_move, rollout  # noqa: E402
@@ -794,8 +795,8 @@ def test_sim_node_load_model_swaps_keeps_the_robot_and_refuses_a_broken_model(
 
 
 def test_trainer_live_requests_out_of_order_are_one_line_refusals(ros, work):
-    """trainer_node live: ~/train with nothing recorded, ~/record false while not recording,
-    a second ~/record true, ~/train while recording: each refused in one line, the node runs
+    """trainer_node live: ~/train with nothing recorded, ~/record false while not recording
+    (it says what it heard), a second ~/record true, ~/train while recording: each refused in one line, the node runs
     on; SIGINT ends it with status 0. A record_dir that is not a dataset: exit status 2."""
     out = work / "live_refusals"
     proc = Proc("trainer_node", {"live": True, "record_dir": out / "data",
@@ -809,7 +810,8 @@ def test_trainer_live_requests_out_of_order_are_one_line_refusals(ros, work):
         a = call_service(train, Trigger.Request())
         assert not a.success and a.message.startswith("nothing recorded")
         a = call_service(record, SetBool.Request(data=False))
-        assert not a.success and a.message == "not recording"
+        assert not a.success and a.message.startswith("not recording")
+        assert parse_heard(a.message) == dict.fromkeys(HEARD, 0)    # nothing published here
         assert call_service(record, SetBool.Request(data=True)).success
         a = call_service(record, SetBool.Request(data=True))
         assert not a.success and a.message == "already recording"
