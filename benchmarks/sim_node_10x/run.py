@@ -53,13 +53,11 @@ from benchmarks._common import pct, uptime  # noqa: E402
 
 
 def sim_params(model: str, radius: float | None, **extra) -> list[str]:
-    args = ["-p", f"model_path:={model}", "-p", "publish_covariance:=true",
-            "-p", "stats_period:=0.0"]
+    params = {"model_path": model, "publish_covariance": "true", "stats_period": "0.0"}
     if radius is not None:
-        args += ["-p", f"radius:={radius!r}"]
-    for k, v in extra.items():
-        args += ["-p", f"{k}:={v}"]
-    return args
+        params["radius"] = repr(radius)
+    params.update(extra)           # sim_node_20x's --node-param may override the defaults
+    return [a for k, v in params.items() for a in ("-p", f"{k}:={v}")]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -165,6 +163,9 @@ class Controller:
                          reliability=ReliabilityPolicy.RELIABLE)
         self.pub = self.node.create_publisher(JointState, "/littledog/cmd", qos)
         self.node.create_subscription(JointState, "/littledog/joint_states", self._on_js, qos)
+        from diagnostic_msgs.msg import DiagnosticStatus
+        self.stats: list[tuple[int, dict]] = []     # (monotonic ns, ~/stats values) received
+        self.node.create_subscription(DiagnosticStatus, "/sim_node/stats", self._on_stats, qos)
         self.msg = JointState()
         self.msg.name = list(JOINT_NAMES)
         self.cond = threading.Condition()
@@ -182,6 +183,10 @@ class Controller:
         cb = self.on_state                   # read once: another thread may clear it
         if cb is not None:
             cb()
+
+    def _on_stats(self, msg) -> None:
+        with self.cond:
+            self.stats.append((time.monotonic_ns(), {v.key: v.value for v in msg.values}))
 
     def send(self, u: np.ndarray) -> None:
         self.msg.position = u.tolist()
@@ -211,6 +216,7 @@ class Controller:
 def start_node(a, log: Path, **params) -> subprocess.Popen:
     if getattr(a, "executor", None):           # sim_node_20x's --executor
         params.setdefault("executor", a.executor)
+    params.update(getattr(a, "node_param", None) or {})     # sim_node_20x's --node-param
     return subprocess.Popen([sys.executable, "-m", "littledog_mlsim.nodes.sim_node",
                              "--ros-args", *sim_params(a.model, a.radius, latency_log=str(log),
                                                        **params)],

@@ -48,6 +48,8 @@ def main(argv=None) -> int:
     p.add_argument("--warmup", type=float, default=8.0,
                    help="s from the node's start to the first sample (the model loads in 2-3 s, "
                         "then run.py's own 3 s warm-up)")
+    p.add_argument("--node-param", action="append", default=[], metavar="NAME=VALUE",
+                   help="a sim_node parameter, passed to run.py (repeatable)")
     p.add_argument("--seconds", type=float, default=15.0)
     p.add_argument("--rate", type=int, default=500, help="py-spy samples per second")
     p.add_argument("--top", type=int, default=25)
@@ -60,7 +62,8 @@ def main(argv=None) -> int:
         bench = subprocess.Popen(
             [sys.executable, str(HERE / "run.py"), "--model", a.model, "--data", a.data,
              "--phases", "timer", "--executor", a.executor, "--controller", a.controller,
-             "--duration", str(a.warmup + a.seconds + 5)],
+             "--duration", str(a.warmup + a.seconds + 5),
+             *(x for kv in a.node_param for x in ("--node-param", kv))],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         ok = False
         try:
@@ -89,10 +92,12 @@ def main(argv=None) -> int:
             for f in set(frames):
                 incl[f] += int(n)
     doc.update(samples=total, load=load, executor=a.executor, controller=a.controller,
+               node_params=a.node_param,
                own=own.most_common(a.top), inclusive=incl.most_common(2 * a.top))
     lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; load `{load}`",
              "", f"{total} samples over {a.seconds:g} s of sim_node at real_time_factor 20 "
-             f"(executor {a.executor}, controller {a.controller}).", "",
+             f"(executor {a.executor}, controller {a.controller}"
+             + "".join(f", `{kv}`" for kv in a.node_param) + ").", "",
              "| own share | function |", "|---|---|"]
     lines += [f"| {100 * n / total:.1f} % | `{f}` |" for f, n in own.most_common(a.top)]
     lines += ["", "| inclusive share | function |", "|---|---|"]

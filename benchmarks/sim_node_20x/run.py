@@ -255,7 +255,7 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "lat.csv"
         proc = ten.start_node(a, log, step_mode="timer", real_time_factor=f"{a.factor:.1f}",
-                              covariance_precision=a.std_dtype)
+                              covariance_precision=a.std_dtype, stats_period="1.0")
         load0 = uptime()
         try:
             ctl.wait_connected()
@@ -297,14 +297,27 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
         L = ten.read_log(log)
     with ctl.cond:
         rec = np.asarray(ctl.received)
+        stats = [v for t, v in ctl.stats if w0_mono <= t < w1_mono]
+        ctl.stats.clear()
     n_rec = int(((rec >= w0_mono) & (rec < w1_mono)).sum())
+    # the node's own counters over the window (~/stats once a second): the share of steps
+    # whose prediction left the gate (each needs the exact nearest-neighbour search)
+    outside = None
+    if len(stats) >= 2 and "extrapolating_steps" in stats[0]:
+        d_steps = int(stats[-1]["steps"]) - int(stats[0]["steps"])
+        d_out = int(stats[-1]["extrapolating_steps"]) - int(stats[0]["extrapolating_steps"])
+        outside = d_out / max(d_steps, 1)
     pub = L[:, 2]
     win = (pub >= w0_wall) & (pub < w1_wall)
     span = (w1_wall - w0_wall) / 1e9
     Lw = L[win]
+    # steps that took a new command (the rest held the last one: the controller's stream and
+    # the node's steps are not in step)
+    fresh = float(np.mean(Lw[:, 0] >= 0)) if len(Lw) else float("nan")
     return {"factor": a.factor, "executor": a.executor, "controller": a.controller,
-            "duration_s": span, "commands_sent_rate_hz": (c1 - c0) / span,
+            "node_params": a.node_param, "duration_s": span, "commands_sent_rate_hz": (c1 - c0) / span,
             "published_rate_hz": int(win.sum()) / span, "received_rate_hz": n_rec / span,
+            "fresh_command_share": fresh, "outside_gate_share": outside,
             "step_cpu_ms": pct(Lw[:, 3] / 1e6), "step_wall_ms": pct((Lw[:, 2] - Lw[:, 1]) / 1e6),
             "load_before": load0, "load_after": load1,
             "node_errors": [ln for ln in err.splitlines() if "ERROR" in ln][:5]}
@@ -329,7 +342,7 @@ def run_node_phases(a, phases: list[str]) -> dict:
             out["timer"] = dict(run_timer(a, ten, ctl, cmds), hogs=a.hogs)
         if "lockstep" in phases:
             out["lockstep"] = dict(ten.run_lockstep(a, ctl, cmds), executor=a.executor,
-                                   hogs=a.hogs)
+                                   hogs=a.hogs, node_params=a.node_param)
     finally:
         for h in hogs:
             h.kill()
@@ -339,6 +352,12 @@ def run_node_phases(a, phases: list[str]) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
+
+
+def _node_params(t: dict) -> list[str]:
+    p = t.get("node_params") or {}
+    return [f"sim_node parameters set here: {', '.join(f'`{k}:={v}`' for k, v in p.items())}.",
+            ""] if p else []
 
 
 def markdown(doc: dict) -> list[str]:
@@ -405,18 +424,22 @@ def markdown(doc: dict) -> list[str]:
         lines += [f"## 3. sim_node in its own process, timer mode, real_time_factor "
                   f"{t['factor']:g} ({100 * t['factor']:.0f} steps/s asked), executor "
                   f"{t.get('executor', 'single')}, {t.get('hogs', 0)} CPU hogs beside it, controller "
-                  f"{t.get('controller', 'stream')}", "",
+                  f"{t.get('controller', 'stream')}", "", *_node_params(t),
                   f"Over {t['duration_s']:.1f} s: published {t['published_rate_hz']:.1f} Hz, "
                   f"received {t['received_rate_hz']:.1f} Hz, commands sent "
                   f"{t.get('commands_sent_rate_hz', float('nan')):.1f} Hz; step CPU p50 "
                   f"{t['step_cpu_ms']['p50']:.3f} ms, p99 {t['step_cpu_ms']['p99']:.3f} ms.  ",
+                  *([f"Steps with a new command: {100 * t['fresh_command_share']:.1f} %; "
+                     f"predictions outside the gate (the node's extrapolating_steps): "
+                     f"{100 * t['outside_gate_share']:.1f} %.  "]
+                    if t.get("outside_gate_share") is not None else []),
                   f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
     if "lockstep" in r:
         t = r["lockstep"]
         rt = t["round_trip_ms"] or {}
         lines += [f"## 4. Lockstep end to end (controller -> node -> controller), executor "
                   f"{t.get('executor', 'single')}, {t.get('hogs', 0)} CPU hogs beside it", "",
-                  f"{t['steps_per_s']:.1f} steps/s over {t['duration_s']:.1f} s; round trip "
+                  *_node_params(t), f"{t['steps_per_s']:.1f} steps/s over {t['duration_s']:.1f} s; round trip "
                   f"p50 {rt.get('p50', float('nan')):.3f} ms, p99 "
                   f"{rt.get('p99', float('nan')):.3f} ms.  ",
                   f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
@@ -448,6 +471,10 @@ def main(argv=None) -> int:
                         "state received (a controller in simulated time)")
     p.add_argument("--hogs", type=int, default=0,
                    help="timer, lockstep: this many CPU busy-loop processes run beside them")
+    p.add_argument("--node-param", action="append", default=[], metavar="NAME=VALUE",
+                   type=lambda s: tuple(s.split("=", 1)),
+                   help="timer, lockstep: a sim_node parameter (repeatable), e.g. "
+                        "projection=none publish_covariance=false for the node's own floor")
     p.add_argument("--duration", type=float, default=60.0, help="timer: seconds measured")
     p.add_argument("--lockstep-duration", type=float, default=20.0)
     p.add_argument("--warmup", type=float, default=3.0)
@@ -456,6 +483,9 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None, help="write OUT.json and OUT.md")
     p.add_argument("--profile-child", type=Path, default=None, help=argparse.SUPPRESS)
     a = p.parse_args(argv)
+    if any(len(kv) != 2 for kv in a.node_param):
+        p.error("--node-param takes NAME=VALUE")
+    a.node_param = dict(a.node_param)
     if a.profile_child is not None:
         a.profile_child.write_text(json.dumps(profile_main(a)))
         return 0

@@ -47,10 +47,12 @@ Step modes (``step_mode``):
 - ``timer``: one step per tick of a 100 Hz timer on the steady clock (period
   ``0.01 / real_time_factor``), independent of ``/clock`` and ``use_sim_time``. Each step uses
   the newest valid command received before the tick (zero-order hold). The node keeps its own
-  schedule: a tick that comes late (CPU contention) also runs the steps missed since, up to
-  ``MAX_CATCH_UP`` = 50 (0.5 s), so the simulated time keeps up with the wall clock and the
-  average rate stays 100 Hz (the late steps go out in a burst); a longer stall skips the rest
-  (``steps_skipped``, warned): the simulated time then falls behind. Until the first command
+  schedule: steps missed by late ticks (CPU contention) are run late, at most
+  ``steps_per_tick`` (default 2) per tick, so the simulated time keeps up with the wall clock
+  and the average rate stays 100 Hz while every other step at least takes a new command (one
+  burst of the whole backlog would hold one command for all of it); a backlog beyond
+  ``MAX_CATCH_UP`` = 50 (0.5 s) is skipped (``steps_skipped``, warned): the simulated time
+  then falls behind. Until the first command
   arrives the robot is commanded ``stand_command`` (default ``layout.HOME_POSE``).
 - ``lockstep``: exactly one step per accepted command, computed and published in the command's
   callback; no timer, no timeout. For deterministic replay a controller sends command k after it
@@ -146,6 +148,10 @@ COMMON_PARAMS: tuple[Param, ...] = (
           "timer | lockstep"),
     Param("real_time_factor", 1.0, "timer mode: simulated seconds per wall second (tick period "
           "0.01 s / real_time_factor)", "> 0"),
+    Param("steps_per_tick", 2, "timer mode: steps one tick runs at most when the node is "
+          "behind its schedule; the backlog drains over the next ticks, which take the "
+          "commands received in between (50: the whole backlog at once, on one held command)",
+          "1..50"),
     Param("publish_clock", True, "publish the simulated time on /clock (10 ms per step)"),
     Param("start_time", 0.0, "simulated time of the initial state [s]", ">= 0"),
     Param("cmd_timeout", 0.5, "timer mode: seconds without a valid command before "
@@ -206,9 +212,11 @@ class SimulatorNode(ConfiguredNode):
                 start_ns=int(round(start * 1e9)), cmd_timeout=self.param("cmd_timeout"),
                 cmd_timeout_action=self.param("cmd_timeout_action"),
                 log_throttle=self.param("log_throttle"),
+                steps_per_tick=self.param("steps_per_tick"),
                 **({} if stand is None else {"stand_command": np.asarray(stand, dtype=float)}))
         except ValueError as e:
-            raise StartupError(str(e) if "stand_command" in str(e) else bounds) from None
+            raise StartupError(str(e) if "stand_command" in str(e) or "steps_per_tick" in str(e)
+                               else bounds) from None
         self.stand_command = config.stand_command
         self._latency_log = self.param("latency_log")
 

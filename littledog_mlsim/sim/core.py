@@ -8,9 +8,11 @@ measurement going out, independent of the transport:
   angles clipped and used;
 - **timer mode**: one step per ``period = 10 ms / real_time_factor`` on the clock's monotonic
   time, each with the newest valid command received before it (zero-order hold; older ones are
-  counted as ``cmd_superseded``). A late tick also runs the steps missed since, up to
-  ``MAX_CATCH_UP`` (0.5 s of steps); beyond that they are skipped (``steps_skipped``). Until
-  the first command the robot is commanded ``stand_command``;
+  counted as ``cmd_superseded``). Steps missed by late ticks are run late, at most
+  ``steps_per_tick`` (default ``STEPS_PER_TICK`` = 2) per tick, so the transport takes the
+  commands that arrived in between (a burst of steps on one held command would hand a learned model a staircase of
+  set-points it never saw); a backlog beyond ``MAX_CATCH_UP`` (0.5 s of steps) is skipped
+  (``steps_skipped``). Until the first command the robot is commanded ``stand_command``;
 - **timeout** (timer mode): after ``cmd_timeout`` s without a valid command, ``hold`` keeps the
   last command or ``stand`` commands ``stand_command``; logged once per timeout and once when
   commands resume;
@@ -53,11 +55,12 @@ from .backend import Backend
 from .command import check_command
 
 __all__ = ["Clock", "SystemClock", "CoreConfig", "Counters", "SimulatorCore", "Throttle",
-           "STEP_MODES", "TIMEOUT_ACTIONS", "MAX_CATCH_UP"]
+           "STEP_MODES", "TIMEOUT_ACTIONS", "MAX_CATCH_UP", "STEPS_PER_TICK"]
 
 STEP_MODES = ("timer", "lockstep")
 TIMEOUT_ACTIONS = ("hold", "stand")
 MAX_CATCH_UP = 50   # timer mode: at most this many missed steps (0.5 s) are run late
+STEPS_PER_TICK = 2  # timer mode, default: steps one tick runs at most (CoreConfig.steps_per_tick)
 
 _log = logging.getLogger(__name__)
 
@@ -115,6 +118,7 @@ class CoreConfig:
     cmd_timeout_action: str = "hold"
     stand_command: np.ndarray = field(default_factory=lambda: HOME_POSE.copy())
     log_throttle: float = 2.0
+    steps_per_tick: int = STEPS_PER_TICK
 
     def __post_init__(self) -> None:
         if self.step_mode not in STEP_MODES:
@@ -128,6 +132,10 @@ class CoreConfig:
                 or not self.log_throttle >= 0:
             raise ValueError("real_time_factor must be > 0, and cmd_timeout, start_time, "
                              "log_throttle >= 0")
+        if not (isinstance(self.steps_per_tick, (int, np.integer))
+                and 1 <= self.steps_per_tick <= MAX_CATCH_UP):
+            raise ValueError(f"steps_per_tick must be an integer in 1..{MAX_CATCH_UP}, "
+                             f"got {self.steps_per_tick!r}")
         stand = np.asarray(self.stand_command, dtype=np.float64)
         if stand.shape != (N_JOINTS,) or not np.all(np.isfinite(stand)):
             raise ValueError(f"stand_command must be {N_JOINTS} finite joint angles")
@@ -290,9 +298,11 @@ class SimulatorCore:
     # -- timer mode ---------------------------------------------------------------------------
 
     def on_tick(self) -> int:
-        """Run the steps due by now on the core's own schedule (timer mode); returns how many
-        ran. One normally; after a late tick the missed ones too, up to MAX_CATCH_UP, so the
-        average rate holds; beyond that they are skipped. Lockstep mode: nothing."""
+        """Run steps due by now on the core's own schedule (timer mode); returns how many ran.
+        One normally; after late ticks the missed ones too, at most ``steps_per_tick`` per
+        call (the rest on the next calls, which the transport makes as soon as its timer is
+        due again, taking the commands received in between), so the average rate holds; a
+        backlog beyond ``MAX_CATCH_UP`` is skipped. Lockstep mode: nothing."""
         if self.lockstep:
             return 0
         now = self.clock.monotonic_ns()
@@ -307,13 +317,16 @@ class SimulatorCore:
             self.counters.steps_skipped += skipped
             self.throttle("skipped", f"fell {behind * self._period_ns / 1e6:.0f} ms behind the "
                                      f"step schedule: skipped {skipped} step(s)")
+            self._ticks_done += skipped
             behind = MAX_CATCH_UP
-        self._ticks_done = due
+        run = min(behind, self.config.steps_per_tick)
+        self._ticks_done += run
         if self.paused:
+            self._ticks_done = due        # no steps while paused, and no backlog after it
             return 0
-        for _ in range(behind):
+        for _ in range(run):
             self._timer_step()
-        return behind
+        return run
 
     def _timer_step(self) -> None:
         start = self.clock.wall_ns()

@@ -14,7 +14,7 @@ import pytest
 
 from littledog_mlsim.layout import CONTROL_DT_NS, HOME_POSE, JOINT_NAMES, JOINT_UPPER
 from littledog_mlsim.sim import MAX_CATCH_UP, Backend, CoreConfig, PybulletBackend, SimulatorCore
-from littledog_mlsim.sim.core import Logs
+from littledog_mlsim.sim.core import STEPS_PER_TICK, Logs
 
 MS = 1_000_000
 
@@ -162,14 +162,31 @@ def test_timeout_once_and_resume(action):
 def test_catch_up_after_a_late_tick_and_skip_beyond_the_limit():
     r = Rig(real_time_factor=2.0)              # 5 ms period
     r.tick(5.0)
-    assert r.tick(5.0 * 7) == 7                # a tick 35 ms late runs the 7 steps due
+    # a tick 35 ms late: 7 steps due, at most STEPS_PER_TICK run now; the next ticks run the
+    # rest, each with the newest command received before it
+    assert r.tick(5.0 * 7) == STEPS_PER_TICK == 2
+    r.cmd(u_(3))
+    assert r.tick(0.0) == 2
+    np.testing.assert_array_equal(r.published[-1][1], u_(3))
+    assert r.tick(0.0) == 2 and r.tick(0.0) == 1 and r.tick(0.0) == 0
     assert r.core.counters.steps == 8 and r.core.counters.steps_skipped == 0
     assert r.tick(1.0) == 0                    # nothing due before the next period
-    n = r.tick(5.0 * (MAX_CATCH_UP + 20))
-    assert n == MAX_CATCH_UP and r.core.counters.steps_skipped == 20
+    # a backlog drains by one a tick while ticks come on time
+    r.tick(5.0 * 4)                            # 4 due: 2 run
+    assert [r.tick(5.0) for _ in range(3)] == [2, 2, 1]
+    assert r.tick(5.0 * (MAX_CATCH_UP + 20)) == 2
+    assert r.core.counters.steps_skipped == 20
     assert any("skipped 20 step(s)" in ln for ln in r.lines["warning"])
+    assert sum(r.tick(0.0) for _ in range(MAX_CATCH_UP)) == MAX_CATCH_UP - 2
+    assert r.tick(0.0) == 0
     # simulated time: one 10 ms step per step run, whatever the wall clock did
     assert r.stamps == [k * CONTROL_DT_NS for k in range(len(r.stamps))]
+    # steps_per_tick = MAX_CATCH_UP: the whole backlog in one tick, on one held command
+    r = Rig(real_time_factor=2.0, steps_per_tick=MAX_CATCH_UP)
+    r.tick(5.0)
+    r.cmd(u_(1))
+    assert r.tick(5.0 * 7) == 7
+    assert [p[1][0] for p in r.published[-7:]] == [u_(1)[0]] * 7
 
 
 def test_lockstep_one_step_per_command_and_pause_drops():
@@ -315,7 +332,9 @@ def test_latency_log(tmp_path):
 
 @pytest.mark.parametrize("bad", [dict(step_mode="fast"), dict(cmd_timeout_action="sit"),
                                  dict(real_time_factor=0.0), dict(cmd_timeout=-1.0),
-                                 dict(stand_command=np.zeros(11))])
+                                 dict(stand_command=np.zeros(11)), dict(steps_per_tick=0),
+                                 dict(steps_per_tick=MAX_CATCH_UP + 1),
+                                 dict(steps_per_tick=1.5)])
 def test_config_refuses_bad_values(bad):
     with pytest.raises(ValueError):
         CoreConfig(**bad)
