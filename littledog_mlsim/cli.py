@@ -228,7 +228,7 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
         physics_options["scheduler"] = a.scheduler
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
                             LearnedRoute(search=search, max_rounds=a.max_rounds,
-                                         rollout=_rollout_options(a)))
+                                         rollout=_rollout_options(a), scheduler=a.scheduler))
     twin = None
     if a.twin is not None:
         from .robot.twin import robot_config_from
@@ -611,9 +611,10 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--jobs", type=int, default=2,
                     help="physics: re-simulation worker processes (default 2)")
     dg.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                    help="physics: re-simulate on the workers of the Dask cluster at ADDRESS "
+                    help="re-simulate (physics) and roll out the rollout route's probes "
+                         "(--rollout-route) on the workers of the Dask cluster at ADDRESS "
                          "(tcp://host:8786; `dask scheduler`, `dask worker ADDRESS`) instead of "
-                         "--jobs local processes; the same result")
+                         "here; the same result")
     dg.set_defaults(func=cmd_diagnose)
 
     im = sub.add_parser("import", help="turn recorded bags (ros2 bag record, ROS 1) into a dataset",

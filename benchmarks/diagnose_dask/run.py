@@ -1,5 +1,9 @@
-"""The physical diagnosis on a Dask cluster: wall time with 1, 2 and 4 worker processes, and
-the time projected at 64 workers from the measured per-re-simulation cost.
+"""The diagnosis on a Dask cluster: wall time with 1, 2 and 4 worker processes, and the time
+projected at 64 workers from the measured per-task cost.
+
+The tasks are the physical route's re-simulations, or with ``--arg=--physics --arg=off
+--arg=--rollout-route`` the learned route's rollout probes (each a cross-fit and its held-out
+rollouts), counted from the report.
 
 For each worker count N this script starts a real ``dask scheduler`` and N ``dask worker
 --nthreads 1`` processes on this machine (the CLI pair a cluster runs), runs ``littledog-mlsim
@@ -58,6 +62,16 @@ def _diagnose(data: str, out: Path, extra: list[str]) -> float:
     return time.perf_counter() - t0
 
 
+def _tasks(report: dict) -> tuple[int, str]:
+    """How many tasks the cluster ran for this report, and what they were."""
+    if "physics" in report:
+        return report["physics"]["n_simulations"], "re-simulations"
+    rr = report.get("rollout_route") or {}
+    n = sum(len(r["probes"]) for r in rr.get("rounds", []))
+    n += sum(len(e.get("scan", [])) - 1 for e in rr.get("effects", []))
+    return n, "rollout probes"
+
+
 def _with_cluster(n: int, fn):
     port = _free_port()
     addr = f"tcp://127.0.0.1:{port}"
@@ -97,7 +111,7 @@ def main(argv=None) -> int:
     try:
         t_local = _diagnose(a.data, work / "local", a.arg + ["--jobs", "1"])
         local = json.loads((work / "local" / "report.json").read_text())
-        n_sims = local["physics"]["n_simulations"]
+        n_sims, what = _tasks(local)
         rows.append({"workers": "local, 1 process", "wall_s": t_local, "same_as_local": True,
                      "load_average": os.getloadavg()})
         for n in [int(x) for x in a.workers.split(",")]:
@@ -118,16 +132,16 @@ def main(argv=None) -> int:
     (a0, b0), *_ = np.linalg.lstsq(A, np.array([t for _, t in fit]), rcond=None)
     doc = {"command": "OPENBLAS_NUM_THREADS=%s %s %s" % (os.environ.get("OPENBLAS_NUM_THREADS"),
                                                        ".venv/bin/python", " ".join(sys.argv)),
-           "code": git_state(), "cpus": os.cpu_count(), "n_simulations": n_sims, "rows": rows,
-           "fit": {"points": fit, "a_s": a0, "b_s": b0,
-                   "per_simulation_s": b0 / n_sims if n_sims else None},
+           "code": git_state(), "cpus": os.cpu_count(), "n_simulations": n_sims, "tasks": what,
+           "rows": rows, "fit": {"points": fit, "a_s": a0, "b_s": b0,
+                                 "per_simulation_s": b0 / n_sims if n_sims else None},
            "projected_64_workers_s": a0 + b0 / 64}
     (out / "result.json").write_text(json.dumps(doc, indent=1, default=str) + "\n")
     lines = ["| workers | wall [s] | report = local | load average |", "|---|---|---|---|"]
     lines += [f"| {r['workers']} | {r['wall_s']:.1f} | {'yes' if r['same_as_local'] else 'NO'} "
               f"| {', '.join(f'{x:.1f}' for x in r['load_average'])} |" for r in rows]
     lines += ["", f"Fit T(N) = a + b/N over {[p[0] for p in fit]}: a = {a0:.1f} s, b = {b0:.1f} s "
-              f"({n_sims} re-simulations, {b0 / max(n_sims, 1) * 1000:.1f} ms each of worker "
+              f"({n_sims} {what}, {b0 / max(n_sims, 1) * 1000:.1f} ms each of worker "
               f"time); projected at 64 workers: {a0 + b0 / 64:.1f} s."]
     (out / "result.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

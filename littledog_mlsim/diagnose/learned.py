@@ -510,6 +510,8 @@ class _Route:
     def __init__(self, train: Sequence[MoveRecording], start: FeatureSet, opts: LearnedOptions,
                  say: Callable[[str], None]) -> None:
         self.train, self.opts, self.say = list(train), opts, say
+        self.client = None        # a distributed.Client: probes run on its workers (``remote``)
+        self._remote = None       # the future of this route on every worker
         self.mv = _moves(self.train)
         self.fold_of_move = move_folds(self.mv.types, opts.n_folds, opts.seed)
         X, Y, mi = start.features_responses(self.train)
@@ -534,6 +536,43 @@ class _Route:
                      self.opts.min_gain)
         return _Probe(aug, float(np.sum(dec.state.gain) + dec.path.total_gain), dec)
 
+    def probes(self, fs: FeatureSet, ev0: Evidence, augs: Sequence[Augmentation],
+               n_candidates: int) -> list[_Probe]:
+        """``probe`` of every candidate, in order: here, or on the Dask workers (``remote``),
+        one task per candidate; the same results either way."""
+        if self.client is None or not augs:
+            return [self.probe(fs, ev0, a, n_candidates) for a in augs]
+        ev = self.client.scatter([ev0], broadcast=True, hash=False)[0]
+        futures = [self.client.submit(_probe_remote, self._remote, fs, ev, a, n_candidates,
+                                      pure=False) for a in augs]
+        return self.client.gather(futures)
+
+    def remote(self, client: Any) -> None:
+        """Run the probes on the workers of ``client`` (a ``distributed.Client``, closed by
+        ``close``): the route (TrainPool, folds, design) goes to every worker once."""
+        self.client = client
+        try:
+            client.wait_for_workers(1, timeout=60)
+            self._remote = client.scatter([self], broadcast=True, hash=False)[0]
+        except Exception:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+        self.client, self._remote = None, None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()       # a worker's copy: no client, no progress callback
+        state.update(client=None, _remote=None, say=None)
+        return state
+
+
+def _probe_remote(route: _Route, fs: FeatureSet, ev0: Evidence, aug: Augmentation,
+                  n_candidates: int) -> _Probe:
+    return route.probe(fs, ev0, aug, n_candidates)
+
 
 def _pick(probes: Sequence[_Probe], tolerance: float, prefer_large_lag: bool) -> _Probe:
     """Parsimony among members within ``tolerance`` of the best total gain: fewest columns
@@ -548,11 +587,9 @@ def _pick(probes: Sequence[_Probe], tolerance: float, prefer_large_lag: bool) ->
 def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: int
             ) -> tuple[_Probe, list[dict[str, Any]]]:
     """Scope, then parameter, of a detected family by the same held-out rollout SSE."""
-    tried = [first]
-    tried += [route.probe(fs, ev0, a, n_candidates) for a in _scope_members(first.aug)]
+    tried = [first] + route.probes(fs, ev0, _scope_members(first.aug), n_candidates)
     scoped = _pick(tried, route.opts.tolerance, False)
-    params = [scoped] + [route.probe(fs, ev0, a, n_candidates)
-                         for a in _param_members(scoped.aug)]
+    params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
     best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
     scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
              "p_value": float(p.decision.p_value)} for p in tried + params[1:]]
@@ -815,12 +852,15 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
                      *, start: FeatureSet | None = None, options: LearnedOptions | None = None,
                      library: Sequence[Augmentation] | None = None,
                      mass_kg: float | None = None,
-                     progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                     progress: Callable[[str], None] | None = None,
+                     scheduler: str | None = None) -> dict[str, Any]:
     """The learned route on TrainPool ``train_recs``, scored on TestPool ``test_recs``; returns
     the report dict of the module doc. ``start``: the model's feature set before the search
     (default :func:`.candidates.measured_robot_features`); ``library``: the family probes
     (default :func:`family_probes`); ``mass_kg``: the robot's total mass (default the
-    guide's, from :mod:`..robot.config`)."""
+    guide's, from :mod:`..robot.config`); ``scheduler``: the address of a Dask scheduler
+    whose workers run the probes (each a cross-fit and its held-out rollouts), with the same
+    report (``seconds`` aside) as here."""
     from .candidates import measured_robot_features
     opts = options or LearnedOptions()
     _check_input(train_recs, test_recs, opts)
@@ -828,7 +868,27 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     t_start = time.perf_counter()
     start = measured_robot_features() if start is None else start
     lib = list(family_probes() if library is None else library)
-    route = _Route(train_recs, start, opts, say)
+    client = None
+    if scheduler:              # an unreachable scheduler: a ValueError of one line, at once
+        from ..models.parallel import connect_client
+        client = connect_client(scheduler)
+    route = None
+    try:
+        route = _Route(train_recs, start, opts, say)
+        if client is not None:
+            route.remote(client)
+        return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start)
+    finally:
+        if route is not None:
+            route.close()
+        elif client is not None:
+            client.close()
+
+
+def _search(route: _Route, train_recs: Sequence[MoveRecording],
+            test_recs: Sequence[MoveRecording], start: FeatureSet, lib: list[Augmentation],
+            opts: LearnedOptions, mass_kg: float | None, t_start: float) -> dict[str, Any]:
+    say = route.say
     model0, ev0 = route.fit(start)
     fs, model, ev = start, model0, ev0
     rounds: list[dict[str, Any]] = []
@@ -837,7 +897,7 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     for k in range(opts.max_rounds):
         taken = {p.aug.family for p, _ in found}
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
-        last = [route.probe(fs, ev, a, len(lib)) for a in todo]
+        last = route.probes(fs, ev, todo, len(lib))
         rounds.append({"round": k, "probes": [p.to_dict() for p in last]})
         ok = [p for p in last if p.decision.significant and p.decision.material]
         say(f"round {k}: " + ", ".join(f"{p.aug.label()} gain {p.total_gain:+.2f} "

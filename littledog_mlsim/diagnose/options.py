@@ -51,13 +51,15 @@ class LearnedRoute:
     held-out k-step rollouts (:func:`.learned.diagnose_learned`, probing ``rollout_library``,
     default its family probes) and add what it accepts to the report model; None: not. Opt-in: on
     clean data recorded with command excitation it still takes the robot's own command response
-    for an effect (``benchmarks/learned_route/README.md``)."""
+    for an effect (``benchmarks/learned_route/README.md``). ``scheduler``: the address of a Dask
+    scheduler whose workers run the rollout search's probes (the same report)."""
 
     search: SearchModel | None = None
     library: Sequence[Any] | None = None
     max_rounds: int = 4
     rollout: Any = None
     rollout_library: Sequence[Any] | None = None
+    scheduler: str | None = None
     name = "learned"
 
 

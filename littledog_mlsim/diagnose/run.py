@@ -224,7 +224,8 @@ def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet) -> dict[st
     with)."""
     from .learned import diagnose_learned
     return diagnose_learned(run.train, run.test, start=start, options=route.rollout,
-                            library=route.rollout_library, progress=run.say)
+                            library=route.rollout_library, progress=run.say,
+                            scheduler=route.scheduler)
 
 
 def _accepted(rollout: Mapping[str, Any], fs: FeatureSet) -> list[Any]:

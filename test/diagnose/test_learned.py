@@ -11,6 +11,7 @@ computed by hand.
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -54,8 +55,13 @@ def _run(path: Path) -> dict:
                             library=LIBRARY)
 
 
-def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(data):
-    report = _run(data["push"])
+@pytest.fixture(scope="module")
+def push_report(data):
+    return _run(data["push"])
+
+
+def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_report):
+    report = push_report
     assert report["significant"], report["rounds"]
     e = report["effects"][0]
     assert e["family"] == "pose (heading)", e
@@ -139,3 +145,25 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, t
     assert any(a.get("name") == "heading" or "heading" in str(a) for a in last["augmentations"])
     md = (tmp_path / "d" / "report.md").read_text()
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
+
+
+def test_probes_on_a_dask_cluster_give_the_local_report(data, push_report):
+    """``scheduler``: the probes (cross-fits and their rollouts) on a real scheduler and two
+    worker processes; the report is the local one (wall time aside)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=2,
+                                  threads_per_worker=1, processes=True) as cluster:
+        remote = diagnose_learned(load_moves(data["push"], "train"),
+                                  load_moves(data["push"], "test"), options=SMALL,
+                                  library=LIBRARY, scheduler=cluster.scheduler_address)
+    local = dict(push_report)
+    assert remote.pop("seconds") > 0 and local.pop("seconds") > 0
+    assert remote["significant"] and len(remote["rounds"][0]["probes"]) == len(LIBRARY)
+    assert json.dumps(remote, sort_keys=True, default=str) == \
+        json.dumps(local, sort_keys=True, default=str)
+
+
+def test_unreachable_scheduler_is_one_line(data):
+    with pytest.raises(ValueError, match="cannot connect to the Dask scheduler tcp://127.0.0.1:9"):
+        diagnose_learned(load_moves(data["clean"], "train"), load_moves(data["clean"], "test"),
+                         options=SMALL, library=LIBRARY, scheduler="tcp://127.0.0.1:9")
