@@ -3,7 +3,8 @@ projected at 64 workers from the measured per-task cost.
 
 The tasks are the physical route's re-simulations, or with ``--arg=--physics --arg=off
 --arg=--rollout-route`` the learned route's rollout probes (each a cross-fit and its held-out
-rollouts), counted from the report.
+rollouts), counted from the report (``n_simulations`` and ``per_simulation_s`` in the JSON
+then count and cost probes; ``tasks`` says which).
 
 For each worker count N this script starts a real ``dask scheduler`` and N ``dask worker
 --nthreads 1`` processes on this machine (the CLI pair a cluster runs), runs ``littledog-mlsim

@@ -37,12 +37,13 @@ def one_run(a, spt: int, controller: str, out: Path) -> dict:
     subprocess.run([sys.executable, str(HERE / "run.py"), "--model", a.model, "--data", a.data,
                     "--phases", "timer", "--factor", str(a.factor), "--duration",
                     str(a.duration), "--controller", controller, "--node-param",
-                    f"steps_per_tick={spt}", "--hogs", str(a.hogs), "--out", str(out)],
+                    f"steps_per_tick={spt}", "--hogs", str(a.hogs), "--executor", a.executor,
+                    "--out", str(out)],
                    check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     t = json.loads(out.with_suffix(".json").read_text())["results"]["timer"]
     return {"published_rate_hz": t["published_rate_hz"],
             "fresh_command_share": t["fresh_command_share"],
-            "outside_gate_share": t["outside_gate_share"],
+            "outside_gate_share": t["outside_gate_share"], "skipped_share": t["skipped_share"],
             "step_cpu_p50_ms": t["step_cpu_ms"]["p50"], "step_cpu_p99_ms": t["step_cpu_ms"]["p99"],
             "load_before": t["load_before"], "load_after": t["load_after"]}
 
@@ -58,6 +59,7 @@ def main(argv=None) -> int:
     p.add_argument("--duration", type=float, default=20.0, help="s measured per run")
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--hogs", type=int, default=0, help="CPU busy loops beside each run (run.py)")
+    p.add_argument("--executor", default="single", choices=("single", "events"))
     p.add_argument("--out", type=Path, default=None)
     a = p.parse_args(argv)
     doc = run_record("sim_node_20x/catch_up.py", argv)
@@ -79,7 +81,8 @@ def main(argv=None) -> int:
              f"start `{doc['load_start']}`, at the end `{doc['load_end']}` (each run's own in the "
              f"JSON)", "",
              f"real_time_factor {a.factor:g} ({100 * a.factor:.0f} steps/s asked), "
-             f"{a.duration:g} s per run, {a.hogs} CPU hogs beside each, medians of {a.repeats} "
+             f"{a.duration:g} s per run, executor {a.executor}, {a.hogs} CPU hogs beside each, "
+             f"medians of {a.repeats} "
              f"runs (configurations alternating).", "",
              "| steps_per_tick | controller | published [Hz] | steps with a new command | "
              "outside the gate | step CPU p50 / p99 [ms] | rates of the runs [Hz] |",

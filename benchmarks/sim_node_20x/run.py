@@ -302,11 +302,14 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
     n_rec = int(((rec >= w0_mono) & (rec < w1_mono)).sum())
     # the node's own counters over the window (~/stats once a second): the share of steps
     # whose prediction left the gate (each needs the exact nearest-neighbour search)
-    outside = None
-    if len(stats) >= 2 and "extrapolating_steps" in stats[0]:
+    outside = skipped = None
+    if len(stats) >= 2:
         d_steps = int(stats[-1]["steps"]) - int(stats[0]["steps"])
-        d_out = int(stats[-1]["extrapolating_steps"]) - int(stats[0]["extrapolating_steps"])
-        outside = d_out / max(d_steps, 1)
+        d_skip = int(stats[-1]["steps_skipped"]) - int(stats[0]["steps_skipped"])
+        skipped = d_skip / max(d_steps + d_skip, 1)       # of the steps due
+        if "extrapolating_steps" in stats[0]:
+            d_out = int(stats[-1]["extrapolating_steps"]) - int(stats[0]["extrapolating_steps"])
+            outside = d_out / max(d_steps, 1)
     pub = L[:, 2]
     win = (pub >= w0_wall) & (pub < w1_wall)
     span = (w1_wall - w0_wall) / 1e9
@@ -315,9 +318,11 @@ def run_timer(a, ten, ctl, cmds: np.ndarray) -> dict:
     # the node's steps are not in step)
     fresh = float(np.mean(Lw[:, 0] >= 0)) if len(Lw) else float("nan")
     return {"factor": a.factor, "executor": a.executor, "controller": a.controller,
-            "node_params": a.node_param, "duration_s": span, "commands_sent_rate_hz": (c1 - c0) / span,
+            "node_params": a.node_param, "duration_s": span,
+            "commands_sent_rate_hz": (c1 - c0) / span,
             "published_rate_hz": int(win.sum()) / span, "received_rate_hz": n_rec / span,
             "fresh_command_share": fresh, "outside_gate_share": outside,
+            "skipped_share": skipped,
             "step_cpu_ms": pct(Lw[:, 3] / 1e6), "step_wall_ms": pct((Lw[:, 2] - Lw[:, 1]) / 1e6),
             "load_before": load0, "load_after": load1,
             "node_errors": [ln for ln in err.splitlines() if "ERROR" in ln][:5]}
@@ -431,7 +436,8 @@ def markdown(doc: dict) -> list[str]:
                   f"{t['step_cpu_ms']['p50']:.3f} ms, p99 {t['step_cpu_ms']['p99']:.3f} ms.  ",
                   *([f"Steps with a new command: {100 * t['fresh_command_share']:.1f} %; "
                      f"predictions outside the gate (the node's extrapolating_steps): "
-                     f"{100 * t['outside_gate_share']:.1f} %.  "]
+                     f"{100 * t['outside_gate_share']:.1f} %; steps skipped: "
+                     f"{100 * (t.get('skipped_share') or 0):.1f} % of those due.  "]
                     if t.get("outside_gate_share") is not None else []),
                   f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
     if "lockstep" in r:
@@ -439,7 +445,8 @@ def markdown(doc: dict) -> list[str]:
         rt = t["round_trip_ms"] or {}
         lines += [f"## 4. Lockstep end to end (controller -> node -> controller), executor "
                   f"{t.get('executor', 'single')}, {t.get('hogs', 0)} CPU hogs beside it", "",
-                  *_node_params(t), f"{t['steps_per_s']:.1f} steps/s over {t['duration_s']:.1f} s; round trip "
+                  *_node_params(t),
+                  f"{t['steps_per_s']:.1f} steps/s over {t['duration_s']:.1f} s; round trip "
                   f"p50 {rt.get('p50', float('nan')):.3f} ms, p99 "
                   f"{rt.get('p99', float('nan')):.3f} ms.  ",
                   f"Load: before `{t['load_before']}`, after `{t['load_after']}`.", ""]
@@ -474,7 +481,7 @@ def main(argv=None) -> int:
     p.add_argument("--node-param", action="append", default=[], metavar="NAME=VALUE",
                    type=lambda s: tuple(s.split("=", 1)),
                    help="timer, lockstep: a sim_node parameter (repeatable), e.g. "
-                        "projection=none publish_covariance=false for the node's own floor")
+                        "--node-param steps_per_tick=50")
     p.add_argument("--duration", type=float, default=60.0, help="timer: seconds measured")
     p.add_argument("--lockstep-duration", type=float, default=20.0)
     p.add_argument("--warmup", type=float, default=3.0)

@@ -79,6 +79,7 @@ class _Calls:
 
     def __init__(self, link: _Link, cond: threading.Condition, children: Sequence[Child]) -> None:
         self.link, self.cond, self.children = link, cond, children
+        self._clients: dict[str, Any] = {}
 
     def ready(self, node_name: str) -> None:
         from rcl_interfaces.srv import GetParameters
@@ -101,7 +102,9 @@ class _Calls:
         raise DemoError(f"{node_name} did not answer within {START_TIMEOUT:g} s")
 
     def call(self, srv_type: Any, name: str, request: Any, timeout: float = CALL_TIMEOUT) -> Any:
-        client = self.link.node.create_client(srv_type, name)
+        client = self._clients.get(name)        # one client per service, reused
+        if client is None:
+            client = self._clients[name] = self.link.node.create_client(srv_type, name)
         end = time.monotonic() + timeout
         while not client.service_is_ready():
             if time.monotonic() > end:
@@ -135,15 +138,15 @@ def _drive(link: _Link, cond: threading.Condition, cmds: np.ndarray, children: S
 
 def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
                  children: Sequence[Child]) -> int:
-    """Drive the robot one step at a time (a standing trot's commands), asking the trainer
-    (``~/record false`` while it is not recording) until it has heard every kind of message;
-    returns the steps driven."""
+    """Drive the robot one step at a time (a standing trot's commands, move type S), asking
+    the trainer (``~/record false`` while it is not recording) until it has heard every kind
+    of message; returns the steps driven."""
     from std_srvs.srv import SetBool
 
     from ..nodes.trainer_node import parse_heard
 
     end = time.monotonic() + START_TIMEOUT
-    cmds = _trot("F", WARMUP_MAX_STEPS, 0)
+    cmds = _trot("S", WARMUP_MAX_STEPS, 0)
     for k in range(WARMUP_MAX_STEPS):
         heard = parse_heard(calls.call(SetBool, "/trainer_node/record",
                                        SetBool.Request(data=False)).message)
@@ -155,7 +158,7 @@ def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
             break
         _drive(link, cond, cmds[k:k + 1], children)
     raise DemoError(f"trainer_node heard no {', '.join(t for t, n in heard.items() if n == 0)} "
-                    f"from pybullet_node within {k} steps")
+                    f"from pybullet_node within {k + 1} steps")
 
 
 def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr",

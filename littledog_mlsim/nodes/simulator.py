@@ -48,12 +48,13 @@ Step modes (``step_mode``):
   ``0.01 / real_time_factor``), independent of ``/clock`` and ``use_sim_time``. Each step uses
   the newest valid command received before the tick (zero-order hold). The node keeps its own
   schedule: steps missed by late ticks (CPU contention) are run late, at most
-  ``steps_per_tick`` (default 2) per tick, so the simulated time keeps up with the wall clock
-  and the average rate stays 100 Hz while every other step at least takes a new command (one
-  burst of the whole backlog would hold one command for all of it); a backlog beyond
-  ``MAX_CATCH_UP`` = 50 (0.5 s) is skipped (``steps_skipped``, warned): the simulated time
-  then falls behind. Until the first command
-  arrives the robot is commanded ``stand_command`` (default ``layout.HOME_POSE``).
+  ``steps_per_tick`` (default 2) per tick, so, while the node has the time for it, the
+  simulated time keeps up with the wall clock and the average rate stays 100 Hz, and at least
+  every other step takes a new command (one burst of the whole backlog would hold one command
+  for all of it); a backlog beyond ``MAX_CATCH_UP`` = 50 (0.5 s) is skipped (``steps_skipped``,
+  warned): the simulated time then falls behind (in sustained overload, all the time). Until
+  the first command arrives the robot is commanded ``stand_command`` (default
+  ``layout.HOME_POSE``).
 - ``lockstep``: exactly one step per accepted command, computed and published in the command's
   callback; no timer, no timeout. For deterministic replay a controller sends command k after it
   received state k. A controller may also send faster than the node steps: the command
@@ -149,9 +150,9 @@ COMMON_PARAMS: tuple[Param, ...] = (
     Param("real_time_factor", 1.0, "timer mode: simulated seconds per wall second (tick period "
           "0.01 s / real_time_factor)", "> 0"),
     Param("steps_per_tick", 2, "timer mode: steps one tick runs at most when the node is "
-          "behind its schedule; the backlog drains over the next ticks, which take the "
-          "commands received in between (50: the whole backlog at once, on one held command)",
-          "1..50"),
+          "behind its schedule; ticks on time drain the backlog by steps_per_tick - 1 each and "
+          "take the commands received in between (50: the whole backlog at once, on one held "
+          "command)", "2..50"),
     Param("publish_clock", True, "publish the simulated time on /clock (10 ms per step)"),
     Param("start_time", 0.0, "simulated time of the initial state [s]", ">= 0"),
     Param("cmd_timeout", 0.5, "timer mode: seconds without a valid command before "

@@ -9,9 +9,10 @@ measurement going out, independent of the transport:
 - **timer mode**: one step per ``period = 10 ms / real_time_factor`` on the clock's monotonic
   time, each with the newest valid command received before it (zero-order hold; older ones are
   counted as ``cmd_superseded``). Steps missed by late ticks are run late, at most
-  ``steps_per_tick`` (default ``STEPS_PER_TICK`` = 2) per tick, so the transport takes the
-  commands that arrived in between (a burst of steps on one held command would hand a learned model a staircase of
-  set-points it never saw); a backlog beyond ``MAX_CATCH_UP`` (0.5 s of steps) is skipped
+  ``steps_per_tick`` (2..50, default ``STEPS_PER_TICK`` = 2) per tick, so the transport
+  takes the commands that arrived in between (a burst of steps on one held command would hand
+  a learned model a staircase of set-points it never saw); ticks on time drain the backlog by
+  ``steps_per_tick - 1`` each; a backlog beyond ``MAX_CATCH_UP`` (0.5 s of steps) is skipped
   (``steps_skipped``). Until the first command the robot is commanded ``stand_command``;
 - **timeout** (timer mode): after ``cmd_timeout`` s without a valid command, ``hold`` keeps the
   last command or ``stand`` commands ``stand_command``; logged once per timeout and once when
@@ -133,8 +134,8 @@ class CoreConfig:
             raise ValueError("real_time_factor must be > 0, and cmd_timeout, start_time, "
                              "log_throttle >= 0")
         if not (isinstance(self.steps_per_tick, (int, np.integer))
-                and 1 <= self.steps_per_tick <= MAX_CATCH_UP):
-            raise ValueError(f"steps_per_tick must be an integer in 1..{MAX_CATCH_UP}, "
+                and 2 <= self.steps_per_tick <= MAX_CATCH_UP):   # 1 would never drain
+            raise ValueError(f"steps_per_tick must be an integer in 2..{MAX_CATCH_UP}, "
                              f"got {self.steps_per_tick!r}")
         stand = np.asarray(self.stand_command, dtype=np.float64)
         if stand.shape != (N_JOINTS,) or not np.all(np.isfinite(stand)):
@@ -301,8 +302,10 @@ class SimulatorCore:
         """Run steps due by now on the core's own schedule (timer mode); returns how many ran.
         One normally; after late ticks the missed ones too, at most ``steps_per_tick`` per
         call (the rest on the next calls, which the transport makes as soon as its timer is
-        due again, taking the commands received in between), so the average rate holds; a
-        backlog beyond ``MAX_CATCH_UP`` is skipped. Lockstep mode: nothing."""
+        due again, taking the commands received in between), so the average rate holds while
+        the node has the time for it; a backlog beyond ``MAX_CATCH_UP`` is skipped (in
+        sustained overload the backlog stays there and the steps it cannot run are skipped).
+        Lockstep mode: nothing."""
         if self.lockstep:
             return 0
         now = self.clock.monotonic_ns()

@@ -348,7 +348,7 @@ class TestTimerMode:
             streamer.stop()
         assert int(st[counter]) == before + n_bad
         assert proc.alive()
-        # 3 s window: a catch-up burst after a CPU stall can add up to ~3 % (see sim docs)
+        # 3 s window: steps caught up after a CPU stall can add up to ~3 % (see sim docs)
         assert abs(rate - 100.0) <= 4.0, \
             f"{rate:.2f} Hz while receiving bad commands; {starvation(probe)}"
         with probe.cond:

@@ -167,7 +167,8 @@ def test_catch_up_after_a_late_tick_and_skip_beyond_the_limit():
     assert r.tick(5.0 * 7) == STEPS_PER_TICK == 2
     r.cmd(u_(3))
     assert r.tick(0.0) == 2
-    np.testing.assert_array_equal(r.published[-1][1], u_(3))
+    np.testing.assert_array_equal(r.published[-3][1], HOME_POSE)   # the tick before: stand
+    np.testing.assert_array_equal(r.published[-2][1], u_(3))       # the next tick's first step
     assert r.tick(0.0) == 2 and r.tick(0.0) == 1 and r.tick(0.0) == 0
     assert r.core.counters.steps == 8 and r.core.counters.steps_skipped == 0
     assert r.tick(1.0) == 0                    # nothing due before the next period
@@ -181,6 +182,13 @@ def test_catch_up_after_a_late_tick_and_skip_beyond_the_limit():
     assert r.tick(0.0) == 0
     # simulated time: one 10 ms step per step run, whatever the wall clock did
     assert r.stamps == [k * CONTROL_DT_NS for k in range(len(r.stamps))]
+    # a pause drops the backlog: no burst after it
+    r.tick(5.0 * 10)
+    assert r.core.counters.steps_skipped == 20
+    r.core.set_paused(True)
+    assert r.tick(0.0) == 0
+    r.core.set_paused(False)
+    assert r.tick(0.0) == 0 and r.tick(5.0) == 1
     # steps_per_tick = MAX_CATCH_UP: the whole backlog in one tick, on one held command
     r = Rig(real_time_factor=2.0, steps_per_tick=MAX_CATCH_UP)
     r.tick(5.0)
@@ -332,7 +340,7 @@ def test_latency_log(tmp_path):
 
 @pytest.mark.parametrize("bad", [dict(step_mode="fast"), dict(cmd_timeout_action="sit"),
                                  dict(real_time_factor=0.0), dict(cmd_timeout=-1.0),
-                                 dict(stand_command=np.zeros(11)), dict(steps_per_tick=0),
+                                 dict(stand_command=np.zeros(11)), dict(steps_per_tick=1),
                                  dict(steps_per_tick=MAX_CATCH_UP + 1),
                                  dict(steps_per_tick=1.5)])
 def test_config_refuses_bad_values(bad):
