@@ -16,7 +16,8 @@
    trainer replaces ``OUT/live_model`` atomically.
 5. ``/sim_node/load_model``: sim_node swaps to the new model without a restart and carries on
    from where its robot was: the demo checks the next step follows on from the last one (same
-   time line, the pose continuous), then trots on with the new model.
+   time line, the pose continuous), then trots on with the new model (the same trot carried
+   across the swap, so the commands do not jump there).
 
 Prints what each stage did and how long it took; every process it starts is stopped at the
 end (SIGINT, then SIGKILL). Problems are one line (``live_demo: error: ...``), exit status 1.
@@ -59,6 +60,7 @@ class LiveResult:
     stamp_after_ns: int = 0                               # the first step after it
     jump_m: float = 0.0                 # |p_after - p_before| across the swap, one step
     median_step_m: float = 0.0          # the median one-step displacement before the swap
+    travelled_m: float = 0.0            # |p_before - p_first|: how far a reset would jump back
     model_swaps: int = 0
     warmup_steps: int = 0               # steps driven before the trainer heard every topic
     seconds: dict[str, float] = field(default_factory=dict)
@@ -136,29 +138,55 @@ def _drive(link: _Link, cond: threading.Condition, cmds: np.ndarray, children: S
     return stamps
 
 
-def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
-                 children: Sequence[Child]) -> int:
-    """Drive the robot one step at a time (a standing trot's commands, move type S), asking
-    the trainer (``~/record false`` while it is not recording) until it has heard every kind
-    of message; returns the steps driven."""
+def _heard(calls: _Calls, recording: bool) -> dict[str, int]:
+    """What trainer_node has heard since it started: its answer to the ``~/record`` request it
+    refuses (false while not recording, true while recording)."""
     from std_srvs.srv import SetBool
 
     from ..nodes.trainer_node import parse_heard
 
+    ans = calls.call(SetBool, "/trainer_node/record", SetBool.Request(data=recording))
+    heard = parse_heard(ans.message)
+    if ans.success or heard is None:
+        raise DemoError(f"trainer_node's ~/record {str(recording).lower()} did not say what it "
+                        f"heard: {ans.message}")
+    return heard
+
+
+def _settled(calls: _Calls, recording: bool, commands: int) -> dict[str, int]:
+    """Wait until trainer_node has taken in ``commands`` commands (one per robot step) and its
+    counts hold still over 50 ms: the messages of the steps driven so far have all arrived."""
+    end = time.monotonic() + START_TIMEOUT
+    heard = _heard(calls, recording)
+    while True:
+        time.sleep(0.05)
+        again = _heard(calls, recording)
+        if again == heard and heard["command"] == commands:
+            return heard
+        if time.monotonic() > end:
+            raise DemoError(f"trainer_node heard {again} after {commands} robot steps")
+        heard = again
+
+
+def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
+                 children: Sequence[Child]) -> int:
+    """Drive the robot one step at a time (a standing trot's commands, move type S) until
+    trainer_node has heard every kind of message, then until it has taken in all of them
+    (``_settled``), so that none reaches a recording started next. Returns the steps driven."""
     end = time.monotonic() + START_TIMEOUT
     cmds = _trot("S", WARMUP_MAX_STEPS, 0)
-    for k in range(WARMUP_MAX_STEPS):
-        heard = parse_heard(calls.call(SetBool, "/trainer_node/record",
-                                       SetBool.Request(data=False)).message)
-        if heard is None:
-            raise DemoError("trainer_node's ~/record false does not say what it heard")
-        if min(heard.values()) > 0:
-            return k
-        if time.monotonic() > end:
-            break
+    k = 0
+    heard = _heard(calls, False)
+    while min(heard.values()) == 0:
+        if k == WARMUP_MAX_STEPS or time.monotonic() > end:
+            raise DemoError(f"trainer_node heard no "
+                            f"{', '.join(t for t, n in heard.items() if n == 0)} from "
+                            f"pybullet_node within {k} steps")
         _drive(link, cond, cmds[k:k + 1], children)
-    raise DemoError(f"trainer_node heard no {', '.join(t for t, n in heard.items() if n == 0)} "
-                    f"from pybullet_node within {k + 1} steps")
+        k += 1
+        heard = _heard(calls, False)
+    _settled(calls, False, k)
+    return k
 
 
 def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr",
@@ -219,6 +247,7 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             # that pybullet_node's publishers have matched its readers (graph counts are not:
             # fresh-clone runs lost the first 23 and 34 of 100 steps with them)
             r.warmup_steps = _until_heard(robot, cond, calls, children)
+            robot_steps = [r.warmup_steps]          # robot steps so far: commands it applied
             r.seconds["start"] = time.perf_counter() - t0
             log(f"pybullet_node and trainer_node (live, {method}) up in domain {d_robot} in "
                 f"{r.seconds['start']:.1f} s (the trainer heard the robot after "
@@ -230,6 +259,9 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
                 if not ans.success:
                     raise DemoError(f"~/record true: {ans.message}")
                 _drive(robot, cond, _trot(move_type, n, seed), children)
+                robot_steps[0] += n
+                # the last steps' messages may still be on their way to the trainer
+                _settled(calls, True, robot_steps[0])
                 ans = calls.call(SetBool, "/trainer_node/record", SetBool.Request(data=False))
                 if not ans.success:
                     raise DemoError(f"~/record false: {ans.message}")
@@ -256,7 +288,9 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             log(f"sim_node up on that model in domain {d_learned} in "
                 f"{time.perf_counter() - t0:.1f} s")
             n_before = max(steps // 3, 20)
-            before = _drive(learned, cond, _trot("F", n_before, 1), children)
+            # one trot across the swap: a jump in the commands would move the robot by itself
+            trot = _trot("F", 2 * n_before, 1)
+            before = _drive(learned, cond, trot[:n_before], children)
             r.steps_before_swap = len(before)
 
             session("FL", 2, steps)
@@ -268,7 +302,7 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             r.swap = ans.message
             r.seconds["swap"] = time.perf_counter() - t0
             log(f"sim_node: {ans.message}")
-            after = _drive(learned, cond, _trot("FL", n_before, 3), children)
+            after = _drive(learned, cond, trot[n_before:], children)
             r.steps_after_swap = len(after)
             with cond:
                 p = {t: m.odometry_arrays(learned.odom[t])["position"] for t in before + after}
@@ -276,9 +310,11 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             r.jump_m = float(np.linalg.norm(p[after[0]][:2] - p[before[-1]][:2]))
             r.median_step_m = float(np.median([np.linalg.norm(p[b][:2] - p[a][:2])
                                                for a, b in zip(before, before[1:])]))
+            r.travelled_m = float(np.linalg.norm(p[before[-1]][:2] - p[before[0]][:2]))
             log(f"across the swap: step {r.stamp_before_ns / 1e9:.2f} s -> "
                 f"{r.stamp_after_ns / 1e9:.2f} s, the body moved {1000 * r.jump_m:.2f} mm "
-                f"(median step before: {1000 * r.median_step_m:.2f} mm); "
+                f"(median step before: {1000 * r.median_step_m:.2f} mm, "
+                f"{1000 * r.travelled_m:.0f} mm travelled on the first model); "
                 f"{r.steps_after_swap} steps on the new model")
         finally:
             for lk in links:

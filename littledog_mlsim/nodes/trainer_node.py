@@ -91,10 +91,11 @@ PARAMS: tuple[Param, ...] = (
 # live recordings: moves shorter than this many steps are left out
 MIN_MOVE_STEPS = 10
 
-# live: the kinds of message recorded; ``~/record false`` while not recording answers how many
-# of each arrived since the node started (``heard_text``), so a caller can see that every
-# publisher reaches the trainer before it records (a volatile subscription keeps only what
-# arrives after its publisher has matched it)
+# live: the kinds of message recorded; the refusals of ``~/record`` (false while not recording,
+# true while recording) answer how many of each arrived since the node started (``heard_text``),
+# so a caller can see that every publisher reaches the trainer before it records (a volatile
+# subscription keeps only what arrives after its publisher has matched it), and that the last
+# messages it sent have arrived before it stops a recording
 HEARD = ("command", "joint state", "odometry")
 
 
@@ -282,7 +283,8 @@ class TrainerNode(ConfiguredNode):
     def _on_record(self, request: SetBool.Request, response: SetBool.Response):
         if request.data:
             if self.recording:
-                response.success, response.message = False, "already recording"
+                response.success, response.message = (False, f"already recording; "
+                                                                  f"{heard_text(self.heard)}")
             else:
                 self.rec.clear()
                 self.recording = True
