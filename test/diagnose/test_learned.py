@@ -73,8 +73,13 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_repor
     assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
 
 
-def test_clean_data_raises_no_alarm(data):
-    report = _run(data["clean"])
+@pytest.fixture(scope="module")
+def clean_report(data):
+    return _run(data["clean"])
+
+
+def test_clean_data_raises_no_alarm(clean_report):
+    report = clean_report
     assert report["significant"] is False, [p for r in report["rounds"] for p in r["probes"]]
     assert report["effects"] == [] and report["residual"]["unexplained"] == []
     assert report["test"]["after"] == report["test"]["before"]
@@ -147,18 +152,20 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, t
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
 
 
-def test_probes_on_a_dask_cluster_give_the_local_report(data, push_report):
+def test_probes_on_a_dask_cluster_give_the_local_report(data, clean_report):
     """``scheduler``: the probes (cross-fits and their rollouts) on a real scheduler and two
-    worker processes; the report is the local one (wall time aside)."""
+    worker processes; the report is the local one (wall time aside). On the clean data (the
+    screen's probes only: a found effect's scope and parameter probes go through the same
+    ``_Route.probes``)."""
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=2,
                                   threads_per_worker=1, processes=True) as cluster:
-        remote = diagnose_learned(load_moves(data["push"], "train"),
-                                  load_moves(data["push"], "test"), options=SMALL,
+        remote = diagnose_learned(load_moves(data["clean"], "train"),
+                                  load_moves(data["clean"], "test"), options=SMALL,
                                   library=LIBRARY, scheduler=cluster.scheduler_address)
-    local = dict(push_report)
+    local = dict(clean_report)
     assert remote.pop("seconds") > 0 and local.pop("seconds") > 0
-    assert remote["significant"] and len(remote["rounds"][0]["probes"]) == len(LIBRARY)
+    assert len(remote["rounds"][0]["probes"]) == len(LIBRARY)
     assert json.dumps(remote, sort_keys=True, default=str) == \
         json.dumps(local, sort_keys=True, default=str)
 
