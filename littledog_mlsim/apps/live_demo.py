@@ -61,7 +61,6 @@ class LiveResult:
     jump_m: float = 0.0                 # |p_after - p_before| across the swap, one step
     median_step_m: float = 0.0          # the median one-step displacement before the swap
     travelled_m: float = 0.0            # |p_before - p_first|: how far a reset would jump back
-    model_swaps: int = 0
     warmup_steps: int = 0               # steps driven before the trainer heard every topic
     seconds: dict[str, float] = field(default_factory=dict)
 
@@ -81,7 +80,7 @@ class _Calls:
 
     def __init__(self, link: _Link, cond: threading.Condition, children: Sequence[Child]) -> None:
         self.link, self.cond, self.children = link, cond, children
-        self._clients: dict[str, Any] = {}
+        self._clients: dict[tuple[Any, str], Any] = {}
 
     def ready(self, node_name: str) -> None:
         from rcl_interfaces.srv import GetParameters
@@ -103,21 +102,30 @@ class _Calls:
                 time.sleep(0.05)
         raise DemoError(f"{node_name} did not answer within {START_TIMEOUT:g} s")
 
-    def call(self, srv_type: Any, name: str, request: Any, timeout: float = CALL_TIMEOUT) -> Any:
-        client = self._clients.get(name)        # one client per service, reused
+    def call(self, srv_type: Any, name: str, request: Any, timeout: float = CALL_TIMEOUT,
+             resend: float | None = None) -> Any:
+        """One call on the service's client (one per type and name, reused). ``resend``: for
+        a request that changes nothing, the seconds after which an unanswered one is sent
+        again (a new client's first answer can be lost while the server matches it)."""
+        client = self._clients.get((srv_type, name))
         if client is None:
-            client = self._clients[name] = self.link.node.create_client(srv_type, name)
+            client = self._clients[(srv_type, name)] = self.link.node.create_client(srv_type,
+                                                                                   name)
         end = time.monotonic() + timeout
         while not client.service_is_ready():
             if time.monotonic() > end:
                 raise DemoError(f"no service {name}")
             time.sleep(0.02)
         fut = client.call_async(request)
+        sent = time.monotonic()
         while not fut.done():
             for c in self.children:
                 c.check()
             if time.monotonic() > end:
                 raise DemoError(f"{name}: no answer within {timeout:g} s")
+            if resend is not None and time.monotonic() - sent > resend:
+                client.remove_pending_request(fut)
+                fut, sent = client.call_async(request), time.monotonic()
             time.sleep(0.02)
         return fut.result()
 
@@ -140,12 +148,14 @@ def _drive(link: _Link, cond: threading.Condition, cmds: np.ndarray, children: S
 
 def _heard(calls: _Calls, recording: bool) -> dict[str, int]:
     """What trainer_node has heard since it started: its answer to the ``~/record`` request it
-    refuses (false while not recording, true while recording)."""
+    refuses (false while not recording, true while recording; either changes nothing, so an
+    unanswered one is sent again)."""
     from std_srvs.srv import SetBool
 
     from ..nodes.trainer_node import parse_heard
 
-    ans = calls.call(SetBool, "/trainer_node/record", SetBool.Request(data=recording))
+    ans = calls.call(SetBool, "/trainer_node/record", SetBool.Request(data=recording),
+                     resend=1.0)
     heard = parse_heard(ans.message)
     if ans.success or heard is None:
         raise DemoError(f"trainer_node's ~/record {str(recording).lower()} did not say what it "
@@ -153,26 +163,33 @@ def _heard(calls: _Calls, recording: bool) -> dict[str, int]:
     return heard
 
 
-def _settled(calls: _Calls, recording: bool, commands: int) -> dict[str, int]:
-    """Wait until trainer_node has taken in ``commands`` commands (one per robot step) and its
-    counts hold still over 50 ms: the messages of the steps driven so far have all arrived."""
+def _settled(calls: _Calls, recording: bool, at_least: dict[str, int] | None = None,
+             polls: int = 1) -> dict[str, int]:
+    """Wait until trainer_node's counts reach ``at_least`` (each kind; a robot step sends one
+    of each) and then hold still over ``polls`` consecutive 50 ms waits: the messages of the
+    steps driven so far have all arrived. Returns the counts."""
+    from ..nodes.trainer_node import heard_text
+
     end = time.monotonic() + START_TIMEOUT
-    heard = _heard(calls, recording)
-    while True:
+    heard, still = _heard(calls, recording), 0
+    while still < polls:
         time.sleep(0.05)
         again = _heard(calls, recording)
-        if again == heard and heard["command"] == commands:
-            return heard
+        reached = at_least is None or all(again[k] >= n for k, n in at_least.items())
+        still = still + 1 if (again == heard and reached) else 0
         if time.monotonic() > end:
-            raise DemoError(f"trainer_node heard {again} after {commands} robot steps")
+            raise DemoError(f"trainer_node's counts did not settle: {heard_text(again)}"
+                            + ("" if at_least is None else f", expected {heard_text(at_least)}"))
         heard = again
+    return heard
 
 
 def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
-                 children: Sequence[Child]) -> int:
+                 children: Sequence[Child]) -> tuple[int, dict[str, int]]:
     """Drive the robot one step at a time (a standing trot's commands, move type S) until
-    trainer_node has heard every kind of message, then until it has taken in all of them
-    (``_settled``), so that none reaches a recording started next. Returns the steps driven."""
+    trainer_node has heard every kind of message, then until its counts hold still (three
+    50 ms polls), so that none of these steps reaches a recording started next. Returns the
+    steps driven and the counts."""
     end = time.monotonic() + START_TIMEOUT
     cmds = _trot("S", WARMUP_MAX_STEPS, 0)
     k = 0
@@ -185,8 +202,7 @@ def _until_heard(link: _Link, cond: threading.Condition, calls: _Calls,
         _drive(link, cond, cmds[k:k + 1], children)
         k += 1
         heard = _heard(calls, False)
-    _settled(calls, False, k)
-    return k
+    return k, _settled(calls, False, polls=3)
 
 
 def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr",
@@ -246,8 +262,8 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             # session the robot steps until the trainer has heard each of its topics, the proof
             # that pybullet_node's publishers have matched its readers (graph counts are not:
             # fresh-clone runs lost the first 23 and 34 of 100 steps with them)
-            r.warmup_steps = _until_heard(robot, cond, calls, children)
-            robot_steps = [r.warmup_steps]          # robot steps so far: commands it applied
+            r.warmup_steps, settled = _until_heard(robot, cond, calls, children)
+            counts = [settled]                  # what the trainer has heard, once settled
             r.seconds["start"] = time.perf_counter() - t0
             log(f"pybullet_node and trainer_node (live, {method}) up in domain {d_robot} in "
                 f"{r.seconds['start']:.1f} s (the trainer heard the robot after "
@@ -259,9 +275,9 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
                 if not ans.success:
                     raise DemoError(f"~/record true: {ans.message}")
                 _drive(robot, cond, _trot(move_type, n, seed), children)
-                robot_steps[0] += n
-                # the last steps' messages may still be on their way to the trainer
-                _settled(calls, True, robot_steps[0])
+                # the last steps' messages may still be on their way to the trainer: wait for
+                # one more of each kind per step driven
+                counts[0] = _settled(calls, True, {k: v + n for k, v in counts[0].items()})
                 ans = calls.call(SetBool, "/trainer_node/record", SetBool.Request(data=False))
                 if not ans.success:
                     raise DemoError(f"~/record false: {ans.message}")
