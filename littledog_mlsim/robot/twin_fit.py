@@ -25,10 +25,11 @@ Method
    forward differences left the gains a third of the way from the truth after 24
    re-simulations, central ones reached it).
 4. **Uncertainty.** At the optimum, cov = s^2 (J^T J)^-1 with s^2 = SSE / (n - p), the residual
-   variance, and its sandwich form clustered by sampled state (the residuals of one state, all
-   elements and horizons, may be correlated; states ``stride`` steps apart are taken as
-   independent); the 95 % interval is x +- 1.96 sd in the fit's coordinate with the wider of
-   the two sd (so a log parameter's interval is a factor, and stays positive). The intervals
+   variance, and its sandwich forms clustered by sampled state (the residuals of one state, all
+   elements and horizons, may be correlated) and by move (every state of a move may be: a
+   systematic error of the twin repeats along a move); the 95 % interval is x +- 1.96 sd in the
+   fit's coordinate with the widest of the three sd (so a log parameter's interval is a
+   factor, and stays positive). The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
    fit, not the robot. Nor do they cover what the optimiser left: a fit stopped by the
@@ -300,32 +301,50 @@ def _least_squares(prob: _Problem, x0: np.ndarray, max_nfev: int) -> tuple[np.nd
         return np.array(best), "evaluation budget spent"
 
 
-def _covariances(J: np.ndarray, r: np.ndarray, cluster: int) -> tuple[np.ndarray, np.ndarray,
-                                                                      float, int]:
-    """(plain, per-sample robust) covariance of the fit coordinates, s^2 and the d.o.f.
+def _sandwich(J: np.ndarray, r: np.ndarray, bread: np.ndarray, sizes: Sequence[int]
+              ) -> np.ndarray:
+    """(J^T J)^-1 [sum_c J_c^T r_c r_c^T J_c] (J^T J)^-1 C / (C - 1) over C clusters of
+    ``sizes`` consecutive residuals each."""
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    g = np.add.reduceat(J * r[:, None], starts, axis=0)          # (C, p)
+    c = len(sizes)
+    return bread @ (g.T @ g) @ bread * (c / max(c - 1, 1))
 
-    plain = s^2 (J^T J)^-1, s^2 = SSE / (n - p). robust: the sandwich
-    (J^T J)^-1 [sum_c J_c^T r_c r_c^T J_c] (J^T J)^-1 C / (C - 1) over the C sampled states
-    (``cluster`` consecutive residuals each: every horizon and element of one state), which
-    lets the residuals of one state be correlated (module doc, 4)."""
+
+def _covariances(J: np.ndarray, r: np.ndarray, cluster: int,
+                 move_sizes: Sequence[int] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, float, int, np.ndarray | None]:
+    """(plain, per-state robust) covariance of the fit coordinates, s^2, the d.o.f. and the
+    per-move robust covariance (None without ``move_sizes``).
+
+    plain = s^2 (J^T J)^-1, s^2 = SSE / (n - p). The robust ones are sandwiches clustered by
+    sampled state (``cluster`` consecutive residuals each: every horizon and element of one
+    state), which lets the residuals of one state be correlated, and by move (``move_sizes``:
+    the residuals of each move, in order), which lets every state of a move be (module doc,
+    4)."""
     n, p = J.shape
     dof = max(n - p, 1)
     s2 = float(np.sum(r ** 2)) / dof
     bread = np.linalg.pinv(J.T @ J)
     c = n // cluster
-    g = np.einsum("cki,ck->ci", J[:c * cluster].reshape(c, cluster, p),
-                  r[:c * cluster].reshape(c, cluster))
-    robust = bread @ (g.T @ g) @ bread * (c / max(c - 1, 1))
-    return s2 * bread, robust, s2, dof
+    robust = _sandwich(J[:c * cluster], r[:c * cluster], bread, [cluster] * c)
+    by_move = None
+    if move_sizes is not None and len(move_sizes) > 1 and sum(move_sizes) == n:
+        by_move = _sandwich(J, r, bread, list(move_sizes))
+    return s2 * bread, robust, s2, dof, by_move
 
 
 def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
                start: np.ndarray) -> tuple[list[Estimate], dict[str, Any], list[np.ndarray]]:
-    """Estimates with 95 % intervals (module doc, 4): the wider of the plain and the per-sample
-    robust interval."""
-    plain, robust, s2, dof = _covariances(J, r, len(prob.o.horizons) * len(STATE_NAMES))
+    """Estimates with 95 % intervals (module doc, 4): the widest of the plain, the per-state and
+    the per-move robust interval."""
+    sizes = [m.size for m in prob.raw(x)]
+    plain, robust, s2, dof, by_move = _covariances(J, r, len(prob.o.horizons) * len(STATE_NAMES),
+                                                   sizes)
     sd_plain = np.sqrt(np.clip(np.diag(plain), 0, None))
     sd = np.maximum(sd_plain, np.sqrt(np.clip(np.diag(robust), 0, None)))
+    if by_move is not None:
+        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(by_move), 0, None)))
     out = []
     for k, par in enumerate(prob.params):
         span = prob.hi[k] - prob.lo[k]
@@ -338,7 +357,11 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     stats = {"residual_variance": s2, "dof": dof,
              "sd_coordinate_plain": {p.name: float(v) for p, v in zip(prob.params, sd_plain)},
              "sd_coordinate": {p.name: float(v) for p, v in zip(prob.params, sd)}}
-    return out, stats, [plain, robust]
+    if by_move is not None:
+        stats["sd_coordinate_by_move"] = {
+            p.name: float(v) for p, v in zip(prob.params, np.sqrt(np.clip(np.diag(by_move), 0,
+                                                                          None)))}
+    return out, stats, [plain, robust] + ([] if by_move is None else [by_move])
 
 
 def weak_directions(J: np.ndarray, params: Sequence[TwinParameter],

@@ -270,3 +270,25 @@ def test_missing_parameters_reads_a_linear_residual():
     assert delay["suggested"] == 0.0 and delay["cost_share"] == 0.0 and not delay["asks"]
     for k in ("suggested", "statistic", "cost_share"):
         assert with_zero_column["foot_friction"][k] == pytest.approx(friction[k], rel=1e-9)
+
+
+def test_move_clustered_sandwich_widens_when_a_move_repeats_its_error():
+    """The per-move sandwich (module doc, 4): with every cluster one sampled state it is the
+    per-state one; with an error that repeats along each move (a twin's systematic miss) it is
+    several times wider than the per-state one, which takes the states as independent."""
+    import numpy as np
+
+    from littledog_mlsim.robot.twin_fit import _covariances
+
+    rng = np.random.default_rng(0)
+    n_moves, states, cluster = 40, 25, 3
+    n = n_moves * states * cluster
+    J = rng.standard_normal((n, 2))
+    offset = np.repeat(rng.standard_normal(n_moves), states * cluster)
+    r = 0.5 * offset * J[:, 0] + 0.1 * rng.standard_normal(n)
+    plain, per_state, _, _, by_move = _covariances(J, r, cluster, [states * cluster] * n_moves)
+    assert np.sqrt(by_move[0, 0]) > 3 * np.sqrt(per_state[0, 0])
+    _, _, _, _, same = _covariances(J, r, cluster, [cluster] * (n // cluster))
+    np.testing.assert_allclose(same, per_state, rtol=1e-12)
+    _, _, _, _, none = _covariances(J, r, cluster, None)
+    assert none is None
