@@ -343,8 +343,9 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
                                                    sizes)
     sd_plain = np.sqrt(np.clip(np.diag(plain), 0, None))
     sd = np.maximum(sd_plain, np.sqrt(np.clip(np.diag(robust), 0, None)))
-    if by_move is not None:
-        sd = np.maximum(sd, np.sqrt(np.clip(np.diag(by_move), 0, None)))
+    sd_move = None if by_move is None else np.sqrt(np.clip(np.diag(by_move), 0, None))
+    if sd_move is not None:
+        sd = np.maximum(sd, sd_move)
     out = []
     for k, par in enumerate(prob.params):
         span = prob.hi[k] - prob.lo[k]
@@ -357,10 +358,8 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     stats = {"residual_variance": s2, "dof": dof,
              "sd_coordinate_plain": {p.name: float(v) for p, v in zip(prob.params, sd_plain)},
              "sd_coordinate": {p.name: float(v) for p, v in zip(prob.params, sd)}}
-    if by_move is not None:
-        stats["sd_coordinate_by_move"] = {
-            p.name: float(v) for p, v in zip(prob.params, np.sqrt(np.clip(np.diag(by_move), 0,
-                                                                          None)))}
+    if sd_move is not None:
+        stats["sd_coordinate_by_move"] = {p.name: float(v) for p, v in zip(prob.params, sd_move)}
     return out, stats, [plain, robust] + ([] if by_move is None else [by_move])
 
 
