@@ -159,6 +159,32 @@ def test_what_is_left_is_unexplained_only_if_the_data_exceed_the_reference():
     assert len(left["channels"]) == 8 and left["channels"][0]["ratio"] > 1.7
 
 
+
+def test_a_difference_in_one_channel_is_left_even_if_the_pooled_ratio_hides_it():
+    """The reference route stops once nothing is left against the reference; a change that
+    lives in one channel of 36 must still count as left (``channel_significant``)."""
+    import numpy as np
+    from littledog_mlsim.diagnose.physical.driver import unexplained
+    V, R = list(range(12)), list(range(12, 24))
+    rng = np.random.default_rng(2)   # each move's own scale times each channel's scatter
+    S = np.exp(rng.normal(0.0, 0.5, (24, 1)) + rng.normal(0.0, 0.3, (24, 36)))
+
+    class Ctx:
+        def __init__(self, S):
+            self.S = S
+
+        def sse(self, hyp, moves):
+            return self.S[list(moves)]
+
+    left = unexplained(Ctx(S), V, R, 0.01)
+    assert not left["significant"] and not left["channel_significant"], left
+    one = S.copy()
+    one[:12, 5] *= 6.0
+    left = unexplained(Ctx(one), V, R, 0.01)
+    assert not left["significant"], left
+    assert left["channel_significant"] and left["channel_p_value"] < 0.01, left
+    assert left["channels"][0]["ratio"] > 3, left
+
 def test_a_move_cut_a_few_steps_short_keeps_four_segments():
     """An imported move is often a few steps shorter than 4 s: its last 1 s segment starts
     earlier; a move shorter than 3 s is left out of the physical route."""

@@ -269,12 +269,14 @@ def markdown(rows: list[dict[str, Any]], clean: list[dict[str, Any]], summary: d
 
 
 #: the arms of a gap zoo (zoo8's runs/run1/RULE.md): diagnose arguments; "calibrated" adds
-#: ``--twin`` with the twin ``calibrate`` fits on the reference
+#: ``--twin`` with the twin ``calibrate`` fits on the reference, "calibrated+reference" (not an
+#: arm of zoo8's rule) that twin and the reference
 ARMS = {
     "learned": ["--physics", "off", "--rollout-route"],
     "nominal+reference": ["--twin", "nominal", "--reference", "{reference}"],
     "nominal": ["--twin", "nominal"],
     "calibrated": ["--twin", "{twin}"],
+    "calibrated+reference": ["--twin", "{twin}", "--reference", "{reference}"],
 }
 
 
@@ -296,7 +298,7 @@ def arm_arguments(arm: str | None, reference: Dataset | None, work: Path, logs: 
     if any("{reference}" in x or "{twin}" in x for x in ARMS[arm]) and reference is None:
         raise SystemExit(f"--arm {arm} needs --reference-seed")
     fill = {"reference": str(reference.path) if reference else ""}
-    if arm == "calibrated":
+    if arm.startswith("calibrated"):
         slug = twin_slug(list(calibrate_args))
         twin = work / f"calibrated_twin{slug}.json"
         seconds_file = work / f"calibrated_twin{slug}.seconds"
@@ -425,8 +427,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     arm_args, calibration = arm_arguments(a.arm, reference, work, logs, a.calibrate_arg)
     extra = arm_args + a.diagnose_arg
-    if a.calibrate_arg and a.arm != "calibrated":
-        raise SystemExit("--calibrate-arg is for --arm calibrated")
+    if a.calibrate_arg and not (a.arm or "").startswith("calibrated"):
+        raise SystemExit("--calibrate-arg is for --arm calibrated or calibrated+reference")
     arm_tag = (a.arm or "") + twin_slug(a.calibrate_arg)
     if a.calibrate_only:
         if calibration is None:

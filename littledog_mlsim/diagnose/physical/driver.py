@@ -201,8 +201,10 @@ def _rounds(ctx: SearchContext, sp: _Split, o: PhysicalOptions, robot_mass: floa
             foot_mu: float, say: Callable[[str], None]
             ) -> tuple[list[Finding], list[Finding], list[dict[str, Any]], SearchContext]:
     """(findings, rejected, twin errors, the last context): rounds until one is not accepted or
-    ``max_rounds`` findings; with a reference, a finding the reference shares joins the base as
-    a twin error instead (at most ``reference_rounds`` of them)."""
+    ``max_rounds`` findings. With a reference, a finding the reference shares joins the base as
+    a twin error instead (at most ``reference_rounds`` of them); the same round's other fitted
+    hypotheses are then tried as the change (:func:`_changed_alternative`), and the search
+    stops once the data's held-out error no longer exceeds the reference's (:func:`unexplained`)."""
     findings: list[Finding] = []
     rejected: list[Finding] = []
     twin_errors: list[dict[str, Any]] = []
@@ -210,7 +212,7 @@ def _rounds(ctx: SearchContext, sp: _Split, o: PhysicalOptions, robot_mass: floa
     while len(findings) < o.max_rounds:
         t1 = time.perf_counter()
         last: list[HeldOutDecision] = []
-        fin = _round(ctx, replace_observer(o, last), sp, robot_mass, foot_mu, say, rnd)
+        fin, cands = _round(ctx, replace_observer(o, last), sp, robot_mass, foot_mu, say, rnd)
         rnd += 1
         verdict = "accepted" if fin.accepted else "not accepted"
         check = None
@@ -219,28 +221,94 @@ def _rounds(ctx: SearchContext, sp: _Split, o: PhysicalOptions, robot_mass: floa
             if not check["changed"]:
                 verdict = "the reference shares it: a twin error, not a change"
         say(f"physics round {rnd}: {fin.statement}: p = {fin.p_value:.2g}, max held-out "
-            f"cut {np.nanmax(fin.gain):.3f} -> {verdict} "
-            + (f"(move cut {check['data_move_cut']:.3f} here, "
-               f"{check['reference_move_cut']:.3f} on the reference, p = {check['p_value']:.2g}) "
-               if check else "") + f"({time.perf_counter() - t1:.1f} s)")
+            f"cut {np.nanmax(fin.gain):.3f} -> {verdict} " + _check_text(check)
+            + f"({time.perf_counter() - t1:.1f} s)")
         if not fin.accepted:
             rejected.append(fin)
             break
-        if check is not None and not check["changed"]:
-            twin_errors.append({"family": fin.family, "scope": fin.scope, "params": fin.params,
-                                "statement": fin.statement, "p_value": fin.p_value, **check})
-            if len(twin_errors) >= o.reference_rounds:
-                say("physics: the most twin errors the reference may cancel "
-                    f"({o.reference_rounds}) are taken; stopping")
-                break
-        else:
+        if check is None or check["changed"]:
             if check is not None:
                 fin = replace(fin, reference_check=check)
             findings.append(fin)
             if len(findings) >= o.max_rounds:
                 break
-        ctx = _rebase(ctx, ctx.base + (fin.hyp,))
+            ctx = _rebase(ctx, ctx.base + (fin.hyp,))
+            continue
+        twin_errors.append({"family": fin.family, "scope": fin.scope, "params": fin.params,
+                            "statement": fin.statement, "p_value": fin.p_value, **check})
+        before, ctx = ctx, _rebase(ctx, ctx.base + (fin.hyp,))
+        alt = _changed_alternative(before, ctx, last[-1], sp, o, robot_mass, foot_mu, cands, say)
+        if alt is not None:
+            findings.append(alt)
+            if len(findings) >= o.max_rounds:
+                break
+            ctx = _rebase(ctx, ctx.base + (alt.hyp,))
+            continue
+        if len(twin_errors) >= o.reference_rounds:
+            say("physics: the most twin errors the reference may cancel "
+                f"({o.reference_rounds}) are taken; stopping")
+            break
+        left = unexplained(ctx, sp.V, sp.R, o.alpha)
+        if not left["significant"] and not left["channel_significant"]:
+            say("physics: with the twin errors absorbed, the data's held-out error does not "
+                f"exceed the reference's (pooled p = {left['p_value']:.2g}, per channel "
+                f"p = {left['channel_p_value']:.2g}); stopping")
+            break
     return findings, rejected, twin_errors, ctx
+
+
+#: how many of a round's other significant hypotheses are tried as the change once its finding
+#: is a twin error (each costs one re-simulation of the reference's moves)
+MAX_ALTERNATIVES = 4
+
+
+def _check_text(check: dict[str, Any] | None) -> str:
+    if check is None:
+        return ""
+    return (f"(move cut {check['data_move_cut']:.3f} here, "
+            f"{check['reference_move_cut']:.3f} on the reference, p = {check['p_value']:.2g}) ")
+
+
+def _changed_alternative(before: SearchContext, after: SearchContext, held: HeldOutDecision,
+                         sp: _Split, o: PhysicalOptions, robot_mass: float, foot_mu: float,
+                         cands: Sequence[Candidate], say: Callable[[str], None]
+                         ) -> Finding | None:
+    """Once a round's finding is a twin error: the round's other fitted hypotheses that were
+    significant and material on the data's held-out moves, best first (at most
+    :data:`MAX_ALTERNATIVES`), each checked against the reference as the finding was
+    (:func:`reference_check`, on the base it was fitted on, ``before``). The first that the
+    reference does not share is fitted again on the base with the twin error (``after``) and
+    decided again on the held-out moves at ``alpha`` over the number of hypotheses the round
+    compared (its choice among them is not free); accepted there and still a change, it is the
+    round's finding. None if no hypothesis qualifies: the next round screens afresh."""
+    order = sorted(range(len(held.hypotheses)), key=lambda k: -held.move_cut[k])
+    eligible = [k for k in order if k != held.chosen
+                and held.decisions[k].significant and held.decisions[k].material]
+    for k in eligible[:MAX_ALTERNATIVES]:
+        c = held.hypotheses[k]
+        check = _contrast(before, c.hyp(), held.S0, held.S1[k], sp.R, o.alpha)
+        say(f"physics: the round's alternative {c.family} {c.scope} "
+            f"{'is a change' if check['changed'] else 'is shared with the reference'} "
+            + _check_text(check))
+        if not check["changed"]:
+            continue
+        start = c.fitted if c.fitted is not None else c.magnitude
+        refit = fit(after, replace(c, magnitude=float(start), fitted=None),
+                    _screen_moves(sp.F, o.screen_moves), sp.F)
+        if segments_only(refit.family):
+            refit = wide_magnitude(after, refit, sp.F)
+        last: list[HeldOutDecision] = []
+        fin = validate(after, [refit], sp.V, sp.T, o.alpha / len(held.hypotheses), o.min_gain,
+                       o.horizons_s, cands, robot_mass, foot_mu,
+                       replace_observer(o, last).observer)
+        check = reference_check(after, fin, last[-1], sp.R, o.alpha) if fin.accepted else None
+        ok = fin.accepted and check["changed"]
+        say(f"physics: with the twin error absorbed: {fin.statement}: p = {fin.p_value:.2g} "
+            f"(at {o.alpha / len(held.hypotheses):.2g}) -> "
+            + ("accepted, a change " if ok else "not accepted ") + _check_text(check))
+        if ok:
+            return replace(fin, reference_check=check)
+    return None
 
 
 #: the data's re-simulation error against the reference's above which the difference is
@@ -254,7 +322,9 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
     channel over the reference moves' mean (both with the twin and every accepted correction
     and finding), pooled per move; significant if the data's moves exceed the reference's
     (one-sided Mann-Whitney U at ``alpha``), material if the pooled ratio is at least
-    :data:`UNEXPLAINED_RATIO`. ``channels``: the channels with the largest ratios."""
+    :data:`UNEXPLAINED_RATIO`. ``channel_p_value``: the same test per channel, the smallest p
+    times the number of channels (``channel_significant`` below ``alpha``), for a difference
+    that lives in a few channels. ``channels``: the channels with the largest ratios."""
     from scipy.stats import mannwhitneyu
     from .channels import CHANNELS
     SV, SR = ctx.sse(None, V), ctx.sse(None, R)
@@ -267,7 +337,12 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
     ratio[ok] = np.nanmean(SV[:, ok], axis=0) / ref[ok]
     order = [int(j) for j in np.argsort(-np.nan_to_num(ratio, nan=-np.inf))[:8]]
     pooled = float(np.mean(per_v))
+    p_ch = [float(mannwhitneyu(SV[:, j], SR[:, j], alternative="greater",
+                               nan_policy="omit").pvalue) for j in np.flatnonzero(ok)]
+    p_ch = [x for x in p_ch if np.isfinite(x)]
+    p_channel = min(1.0, min(p_ch, default=1.0) * max(len(p_ch), 1))
     return {"pooled_ratio": pooled, "p_value": p, "significant": bool(p < alpha),
+            "channel_p_value": p_channel, "channel_significant": bool(p_channel < alpha),
             "material": bool(pooled >= UNEXPLAINED_RATIO),
             "channels": [{"channel": CHANNELS[j], "ratio": float(ratio[j])} for j in order],
             "n_data_moves": len(V), "n_reference_moves": len(R)}
@@ -293,13 +368,19 @@ def reference_check(ctx: SearchContext, fin: Finding, held: HeldOutDecision,
     a change cuts the data's error and not the reference's. Changed: the data's cuts exceed the
     reference's (one-sided Mann-Whitney U at ``alpha``) and the reference's mean cut is below
     half the data's."""
+    return _contrast(ctx, fin.hyp, held.S0, held.S1[held.chosen], R, alpha)
+
+
+def _contrast(ctx: SearchContext, hyp: Any, S0: np.ndarray, S1_data: np.ndarray,
+              R: Sequence[int], alpha: float) -> dict[str, Any]:
+    """:func:`reference_check` of the hypothesis ``hyp`` whose held-out SSE on the data is
+    ``S1_data`` against the base's ``S0``."""
     from scipy.stats import mannwhitneyu
     from ..stats import move_cuts
     from .channels import sse
-    S1_data = held.S1[held.chosen]
-    cut_data = move_cuts(held.S0, S1_data)
+    cut_data = move_cuts(S0, S1_data)
     S0_ref = ctx.sse(None, R)
-    S1_ref = np.array([sse(e) for e in ctx.run([fin.hyp], R)[0]])
+    S1_ref = np.array([sse(e) for e in ctx.run([hyp], R)[0]])
     cut_ref = move_cuts(S0_ref, S1_ref)
     p = float(mannwhitneyu(cut_data, cut_ref, alternative="greater").pvalue)
     m_data, m_ref = float(np.mean(cut_data)), float(np.mean(cut_ref))
@@ -308,11 +389,18 @@ def reference_check(ctx: SearchContext, fin: Finding, held: HeldOutDecision,
             "n_data_moves": int(cut_data.size), "n_reference_moves": int(cut_ref.size)}
 
 
+def _screen_moves(F: Sequence[int], n: int) -> list[int]:
+    """The fit moves a round screens and first fits on: ``n`` of ``F``, spread."""
+    return list(F[::max(1, len(F) // n)][:n])
+
+
 def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float,
-           foot_mu: float, say: Callable[[str], None], rnd: int) -> Finding:
-    """One round: screen, fit the shortlist, decide on the held-out moves."""
+           foot_mu: float, say: Callable[[str], None], rnd: int
+           ) -> tuple[Finding, list[Candidate]]:
+    """One round: screen, fit the shortlist, decide on the held-out moves; (the finding, the
+    screen's candidates)."""
     F = sp.F
-    FS = F[::max(1, len(F) // o.screen_moves)][:o.screen_moves]  # screening and fit moves
+    FS = _screen_moves(F, o.screen_moves)
     cands = screen(ctx, FS, list(FAMILIES if o.families is None else o.families), say)
     top = [fit(ctx, c, FS, F) for c in shortlist(cands, o.n_refine)]
     # the push class's other form, fitted on its own: the held-out moves then compare a push
@@ -327,7 +415,7 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
     say(f"physics round {rnd + 1}: fitted " + "; ".join(
         f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}" for c in top))
     return validate(ctx, top, sp.V, sp.T, o.alpha, o.min_gain, o.horizons_s, cands,
-                    robot_mass, foot_mu, o.observer)
+                    robot_mass, foot_mu, o.observer), cands
 
 
 def _fmt_params(c: Candidate) -> str:
