@@ -174,3 +174,27 @@ def test_unreachable_scheduler_is_one_line(data):
     with pytest.raises(ValueError, match="cannot connect to the Dask scheduler tcp://127.0.0.1:9"):
         diagnose_learned(load_moves(data["clean"], "train"), load_moves(data["clean"], "test"),
                          options=SMALL, library=LIBRARY, scheduler="tcp://127.0.0.1:9")
+
+
+def _probe(joints: str, move_gains, total: float):
+    from types import SimpleNamespace
+    d = np.outer(np.asarray(move_gains, float), np.full(33, 1.0 / 33))
+    return SimpleNamespace(aug=ElapsedTracking(joints=joints), total_gain=total,
+                           decision=SimpleNamespace(state=SimpleNamespace(d=d)))
+
+
+def test_the_scope_widens_only_where_the_wider_scope_gains_on_most_moves():
+    """A drift on every joint that matters most in the knees: the knees are within the
+    parsimony tolerance of all joints, and all joints gain a little more on nearly every move,
+    so the scope widens. Where the extra gain is noise, the knees stay."""
+    from littledog_mlsim.diagnose.learned import _widen
+    rng = np.random.default_rng(0)
+    knees_gain = 0.08 + 0.02 * rng.random(60)
+    knees = _probe("knees", knees_gain, 4.8)
+    hips = _probe("hip_pitches", 0.5 * knees_gain, 2.4)
+    everywhere = _probe("all", knees_gain + 0.004 + 0.002 * rng.standard_normal(60), 5.0)
+    assert _widen(knees, [everywhere, knees, hips], 0.01) is everywhere
+    noise = _probe("all", knees_gain + 0.004 * rng.standard_normal(60), 4.9)
+    assert _widen(knees, [noise, knees, hips], 0.01) is knees
+    # a scope that does not contain the chosen one is never taken
+    assert _widen(hips, [knees, hips], 0.01) is hips
