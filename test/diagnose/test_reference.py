@@ -224,3 +224,55 @@ def _untimed(x):
     if isinstance(x, list):
         return [_untimed(v) for v in x]
     return x
+
+
+def _rounds_with(monkeypatch, alternatives, left_significant, **opts):
+    """``driver._rounds`` with its steps replaced: every round's finding is accepted and shared
+    with the reference; ``alternatives`` the successive answers of ``_changed_alternative``;
+    ``left_significant`` whether the data still exceed the reference. Returns (findings, twin
+    errors, the number of rounds run)."""
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.diagnose.physical import driver
+    calls = {"rounds": 0}
+    answers = list(alternatives)
+
+    def round_(ctx, o, sp, robot_mass, foot_mu, say, rnd):
+        calls["rounds"] += 1
+        o.observer(None)
+        return SimpleNamespace(accepted=True, statement=f"twin error {rnd}", p_value=1e-4,
+                               gain=np.ones(3), family="command_delay", scope="all",
+                               params={}, hyp=("twin", rnd)), []
+
+    monkeypatch.setattr(driver, "_round", round_)
+    monkeypatch.setattr(driver, "reference_check",
+                        lambda *a: {"changed": False, "p_value": 0.5, "data_move_cut": 1.0,
+                                    "reference_move_cut": 1.0})
+    monkeypatch.setattr(driver, "_changed_alternative", lambda *a: answers.pop(0))
+    monkeypatch.setattr(driver, "_rebase", lambda ctx, base: SimpleNamespace(base=tuple(base)))
+    monkeypatch.setattr(driver, "unexplained",
+                        lambda *a: {"significant": left_significant, "channel_significant":
+                                    False, "p_value": 0.5, "channel_p_value": 1.0})
+    o = driver.PhysicalOptions(**opts)
+    sp = SimpleNamespace(R=[0], V=[1])
+    found, rejected, twin, ctx = driver._rounds(SimpleNamespace(base=()), sp, o, 1.0, 1.0,
+                                                lambda s: None)
+    return found, twin, calls["rounds"]
+
+
+def test_a_twin_error_round_stops_when_nothing_is_left(monkeypatch):
+    found, twin, rounds = _rounds_with(monkeypatch, [None, None, None], False)
+    assert (found, len(twin), rounds) == ([], 1, 1)
+    found, twin, rounds = _rounds_with(monkeypatch, [None, None, None], True)
+    assert (found, len(twin), rounds) == ([], 3, 3)   # at most three corrections
+
+
+def test_a_twin_error_rounds_alternative_is_the_finding_and_the_cap_holds(monkeypatch):
+    from types import SimpleNamespace
+    alt = SimpleNamespace(hyp=("change", 0))
+    found, twin, rounds = _rounds_with(monkeypatch, [alt], True)
+    assert found == [alt] and len(twin) == 1 and rounds == 1
+    # more rounds asked for: the cap of corrections still ends the search
+    alts = [SimpleNamespace(hyp=("change", k)) for k in range(3)]
+    found, twin, rounds = _rounds_with(monkeypatch, list(alts), True, max_rounds=5)
+    assert found == alts and len(twin) == 3 and rounds == 3

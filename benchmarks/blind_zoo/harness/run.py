@@ -432,7 +432,7 @@ def main(argv: list[str] | None = None) -> int:
     arm_tag = (a.arm or "") + twin_slug(a.calibrate_arg)
     if a.calibrate_only:
         if calibration is None:
-            raise SystemExit("--calibrate-only needs --arm calibrated")
+            raise SystemExit("--calibrate-only needs --arm calibrated or calibrated+reference")
         out.mkdir(parents=True, exist_ok=True)
         doc = {"command": "OPENBLAS_NUM_THREADS=%s .venv/bin/python %s" % (
                    os.environ.get("OPENBLAS_NUM_THREADS"), " ".join(sys.argv)),

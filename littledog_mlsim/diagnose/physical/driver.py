@@ -235,19 +235,21 @@ def _rounds(ctx: SearchContext, sp: _Split, o: PhysicalOptions, robot_mass: floa
             ctx = _rebase(ctx, ctx.base + (fin.hyp,))
             continue
         twin_errors.append({"family": fin.family, "scope": fin.scope, "params": fin.params,
-                            "statement": fin.statement, "p_value": fin.p_value, **check})
+                            "statement": fin.statement, "finding_p_value": fin.p_value,
+                            **check})
         before, ctx = ctx, _rebase(ctx, ctx.base + (fin.hyp,))
         alt = _changed_alternative(before, ctx, last[-1], sp, o, robot_mass, foot_mu, cands, say)
         if alt is not None:
             findings.append(alt)
-            if len(findings) >= o.max_rounds:
-                break
-            ctx = _rebase(ctx, ctx.base + (alt.hyp,))
-            continue
+        if len(findings) >= o.max_rounds:
+            break
         if len(twin_errors) >= o.reference_rounds:
             say("physics: the most twin errors the reference may cancel "
                 f"({o.reference_rounds}) are taken; stopping")
             break
+        if alt is not None:
+            ctx = _rebase(ctx, ctx.base + (alt.hyp,))
+            continue
         left = unexplained(ctx, sp.V, sp.R, o.alpha)
         if not left["significant"] and not left["channel_significant"]:
             say("physics: with the twin errors absorbed, the data's held-out error does not "
@@ -276,17 +278,20 @@ def _changed_alternative(before: SearchContext, after: SearchContext, held: Held
     """Once a round's finding is a twin error: the round's other fitted hypotheses that were
     significant and material on the data's held-out moves, best first (at most
     :data:`MAX_ALTERNATIVES`), each checked against the reference as the finding was
-    (:func:`reference_check`, on the base it was fitted on, ``before``). The first that the
-    reference does not share is fitted again on the base with the twin error (``after``) and
-    decided again on the held-out moves at ``alpha`` over the number of hypotheses the round
-    compared (its choice among them is not free); accepted there and still a change, it is the
-    round's finding. None if no hypothesis qualifies: the next round screens afresh."""
+    (:func:`reference_check`, on the base it was fitted on, ``before``), at ``alpha`` over the
+    number checked. Each that the reference does not share is, in turn, fitted again on the
+    base with the twin error (``after``), decided again on the held-out moves at ``alpha`` over
+    the number of hypotheses the round compared (its choice among them is not free), and
+    checked against the reference again (same level); the first that passes is the round's
+    finding. None if none does: the caller then tests what is left, or screens afresh."""
     order = sorted(range(len(held.hypotheses)), key=lambda k: -held.move_cut[k])
     eligible = [k for k in order if k != held.chosen
                 and held.decisions[k].significant and held.decisions[k].material]
-    for k in eligible[:MAX_ALTERNATIVES]:
+    eligible = eligible[:MAX_ALTERNATIVES]
+    level = o.alpha / max(len(eligible), 1)
+    for k in eligible:
         c = held.hypotheses[k]
-        check = _contrast(before, c.hyp(), held.S0, held.S1[k], sp.R, o.alpha)
+        check = _contrast(before, c.hyp(), held.S0, held.S1[k], sp.R, level)
         say(f"physics: the round's alternative {c.family} {c.scope} "
             f"{'is a change' if check['changed'] else 'is shared with the reference'} "
             + _check_text(check))
@@ -299,9 +304,8 @@ def _changed_alternative(before: SearchContext, after: SearchContext, held: Held
             refit = wide_magnitude(after, refit, sp.F)
         last: list[HeldOutDecision] = []
         fin = validate(after, [refit], sp.V, sp.T, o.alpha / len(held.hypotheses), o.min_gain,
-                       o.horizons_s, cands, robot_mass, foot_mu,
-                       replace_observer(o, last).observer)
-        check = reference_check(after, fin, last[-1], sp.R, o.alpha) if fin.accepted else None
+                       o.horizons_s, cands, robot_mass, foot_mu, last.append)
+        check = reference_check(after, fin, last[-1], sp.R, level) if fin.accepted else None
         ok = fin.accepted and check["changed"]
         say(f"physics: with the twin error absorbed: {fin.statement}: p = {fin.p_value:.2g} "
             f"(at {o.alpha / len(held.hypotheses):.2g}) -> "
