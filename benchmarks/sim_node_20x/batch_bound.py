@@ -1,0 +1,189 @@
+"""What the batched simulator's exact mean must read per step, and how fast this machine reads it.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/sim_node_20x/batch_bound.py \
+        --model MODEL --data DATA --out benchmarks/sim_node_20x/quiet/batch_bound
+
+The batch target of issue 27 is 1,000x real time per core at N = 64 robots: 64 x 10 ms of robot
+time per 0.64 ms of CPU. LGPR predicts each robot from its own cluster; the mean must stay bit
+for bit, so a robot's prediction reads every training input (the cluster's Z^T, d x n) and every
+weight (alpha, n x p) of its cluster. This script steps the batched simulator
+(``VectorLearnedSimulator``, the same robots as ``run.py``'s batch phase, std off, gated
+alpha-PROJ) for ``--steps`` steps, records which clusters each step's prediction visits and with
+which queries, and then replays the steps in their order three ways, each timed in thread CPU
+time per step:
+
+1. ``read``: one reduction over each visited cluster's Z^T and alpha (every byte the exact mean
+   needs, read once, nothing computed with it), minus ``calls``: the same number of reductions
+   over one-element arrays (the Python and NumPy call cost of the loop);
+2. ``predict``: the model's own per-cluster prediction (``LGPR._local``) on the recorded queries:
+   the mean's whole cost without the rest of the step;
+3. the simulator's whole step, as measured while recording.
+
+Each figure is turned into the real-time factor per core it would allow alone:
+N x 10 ms / time per step. The replay keeps the steps' order, so clusters that stay in the
+caches from one step to the next count as they do in a rollout.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parents[1]))
+from benchmarks._common import pct, run_record, uptime  # noqa: E402
+
+BATCH_OFFSET = 50          # as run.py: steps between robots that share a TestPool move
+CONTROL_DT_S = 0.01
+
+
+def record(model_path: str, data: str, N: int, steps: int):
+    """(per-step visits [(cluster, queries)], per-step CPU ms of the whole step, the LGPR)."""
+    from littledog_mlsim.data.dataset import load_moves
+    from littledog_mlsim.models.onestep import OneStepModel
+    from littledog_mlsim.rollout.simulate import prepare_test_moves
+    from littledog_mlsim.rollout.vector_sim import VectorLearnedSimulator
+
+    model = OneStepModel.load(model_path)
+    lgpr = model.estimator
+    if not hasattr(lgpr, "_local"):
+        raise SystemExit(f"{model_path}: not an LGPR model ({type(lgpr).__name__})")
+    radius = model.gate_radius()[0]
+    projection = model.projection("alpha", alpha=0.5, radius=radius)
+    projection.nn.prepare()
+    model.prepare(return_std=False)
+    moves = prepare_test_moves(load_moves(data, split="test"))
+    s0, u, pose0 = [], [], []
+    for i in range(N):
+        m = moves[i % len(moves)]
+        o = (i // len(moves)) * BATCH_OFFSET
+        s0.append(m.s0 if o == 0 else m.states[o - 1])
+        u.append(m.actions[o:])
+        pose0.append([m.pose0.x0, m.pose0.y0, m.pose0.yaw0])
+    T = min(len(x) for x in u)
+    u = np.stack([x[:T] for x in u])
+    sim = VectorLearnedSimulator(model, projection, np.stack(s0), np.array(pose0),
+                                 use_variance=False, trust_radius=radius)
+    for t in range(5):
+        sim.step(u[:, t])
+    sim.reset()
+    local = lgpr._local
+    visits: list[list[tuple[int, np.ndarray]]] = []
+
+    def logged(c, Xq, want_var):
+        visits[-1].append((int(c), np.array(Xq)))
+        return local(c, Xq, want_var)
+
+    cpu = np.empty(steps)
+    for t in range(steps):
+        visits.append([])
+        lgpr._local = logged
+        c0 = time.thread_time_ns()
+        sim.step(u[:, t % T])
+        cpu[t] = (time.thread_time_ns() - c0) / 1e6
+        lgpr._local = local
+    del lgpr._local
+    return visits, cpu, lgpr
+
+
+def replay(visits, lgpr, repeats: int = 3) -> dict:
+    arrays = {c: (lgpr._rows[c][2], lgpr._alpha[c]) for step in visits for c, _ in step}
+    if any(lgpr._rows[c] is None for c in arrays):
+        raise SystemExit("a visited cluster has per-output kernels: this script reads the "
+                         "shared-kernel form only")
+    tiny = np.zeros(1)
+    nbytes = np.array([sum(sum(a.nbytes for a in arrays[c]) for c in {c for c, _ in s})
+                       for s in visits], dtype=float)
+
+    def timed(fn) -> np.ndarray:
+        best = None
+        for _ in range(repeats):          # the median over repeats, per step
+            out = np.empty(len(visits))
+            for t, step in enumerate(visits):
+                c0 = time.thread_time_ns()
+                fn(step)
+                out[t] = (time.thread_time_ns() - c0) / 1e6
+            best = out[None] if best is None else np.vstack([best, out])
+        return np.median(best, axis=0)
+
+    def read(step):
+        for c in {c for c, _ in step}:
+            zt, al = arrays[c]
+            np.add.reduce(zt, axis=None)
+            np.add.reduce(al, axis=None)
+
+    def calls(step):
+        for c in {c for c, _ in step}:
+            np.add.reduce(tiny, axis=None)
+            np.add.reduce(tiny, axis=None)
+
+    def predict(step):
+        for c, Xq in step:
+            lgpr._local(c, Xq, False)
+
+    return {"bytes": nbytes, "read_ms": timed(read), "calls_ms": timed(calls),
+            "predict_ms": timed(predict),
+            "clusters": np.array([len({c for c, _ in s}) for s in visits], dtype=float)}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--model", required=True, help="a paper-size LGPR model directory")
+    p.add_argument("--data", required=True, help="its dataset (the TestPool moves drive it)")
+    p.add_argument("--n", type=int, default=64, help="robots in the batch")
+    p.add_argument("--steps", type=int, default=300)
+    p.add_argument("--out", default=None, help="write OUT.json and OUT.md")
+    a = p.parse_args(argv)
+    doc = run_record("sim_node_20x/batch_bound.py", argv)
+    doc["load_before"] = uptime()
+    visits, step_ms, lgpr = record(a.model, a.data, a.n, a.steps)
+    r = replay(visits, lgpr)
+    doc["load_after"] = uptime()
+    net = r["read_ms"] - r["calls_ms"]
+    robot_ms = a.n * CONTROL_DT_S * 1e3
+
+    def rtf(ms: np.ndarray) -> float:
+        return float(robot_ms / np.median(ms))
+    doc["result"] = {
+        "N": a.n, "steps": a.steps, "clusters_per_step": pct(r["clusters"]),
+        "mbytes_per_step": pct(r["bytes"] / 1e6),
+        "read_ms": pct(r["read_ms"]), "calls_ms": pct(r["calls_ms"]), "read_net_ms": pct(net),
+        "read_gb_per_s": float(np.median(r["bytes"]) / np.median(net) / 1e6),
+        "predict_ms": pct(r["predict_ms"]), "step_ms": pct(step_ms),
+        "rtf_if_only_read": rtf(net), "rtf_if_only_predict": rtf(r["predict_ms"]),
+        "rtf_step": rtf(step_ms), "target_ms_per_step": robot_ms / 1000.0}
+    res = doc["result"]
+    lines = [f"# What the exact mean reads per batched step (N = {a.n}, {a.steps} steps)", "",
+             f"Command: `OPENBLAS_NUM_THREADS={doc['openblas_num_threads']} .venv/bin/python "
+             f"{doc['command']}`  ", f"Code: {doc['git']}; date {doc['date']}; load before "
+             f"`{doc['load_before']}`, after `{doc['load_after']}`", "",
+             "| per step | median | p99 |", "|---|---|---|"]
+    for key, name in [("clusters_per_step", "clusters visited"),
+                      ("mbytes_per_step", "MB of Z^T and alpha in them"),
+                      ("read_net_ms", "reading them once [ms] (calls subtracted)"),
+                      ("calls_ms", "the loop's calls alone [ms]"),
+                      ("predict_ms", "the per-cluster predictions [ms]"),
+                      ("step_ms", "the whole batched step [ms]")]:
+        lines.append(f"| {name} | {res[key]['p50']:.3f} | {res[key]['p99']:.3f} |")
+    lines += ["", f"Read bandwidth: {res['read_gb_per_s']:.1f} GB/s. The target (1,000x at "
+              f"N = {a.n}) allows {res['target_ms_per_step']:.2f} ms per step; alone, the read "
+              f"would allow {res['rtf_if_only_read']:.0f}x, the predictions "
+              f"{res['rtf_if_only_predict']:.0f}x, and the whole step gives "
+              f"{res['rtf_step']:.0f}x real time per core."]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if a.out:
+        Path(a.out + ".json").write_text(json.dumps(doc, indent=1) + "\n")
+        Path(a.out + ".md").write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
