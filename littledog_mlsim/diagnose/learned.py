@@ -592,42 +592,64 @@ def _move_gains(p: _Probe) -> np.ndarray:
     return np.asarray(p.decision.state.d).sum(axis=1)
 
 
-def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float) -> _Probe:
-    """The parsimonious scope, widened while a tried scope whose joints strictly contain it
-    gains more move by move: per move, the wider probe's held-out state gain minus the
-    narrower's, one-sided Wilcoxon signed-rank test, at ``alpha`` over the number of wider
-    scopes (the wider with the larger total gain of those that pass). A drift on every joint
-    that matters most in the knees keeps the knees within the parsimony tolerance of all
-    joints; the hips' share, small in total, shows on nearly every move."""
+def _wider_p(cur: _Probe, tried: Sequence[_Probe]) -> dict[str, float]:
+    """For each tried scope whose joints strictly contain ``cur``'s: the one-sided Wilcoxon
+    signed-rank p that it gains more move by move (per move, its held-out state gain minus
+    ``cur``'s), times the number of such scopes (capped at 1)."""
     from scipy.stats import wilcoxon
+    if "joints" not in cur.aug.params():
+        return {}
+    inner = set(JOINT_GROUPS[cur.aug.joints])
+    wider = [p for p in tried if "joints" in p.aug.params()
+             and set(JOINT_GROUPS[p.aug.joints]) > inner]
+    out = {}
+    for p in wider:
+        diff = _move_gains(p) - _move_gains(cur)
+        pv = float(wilcoxon(diff, alternative="greater").pvalue) if np.any(diff != 0) else 1.0
+        out[p.aug.label()] = min(1.0, pv * len(wider))
+    return out
+
+
+def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float
+           ) -> tuple[_Probe, dict[str, float]]:
+    """The parsimonious scope, widened while a tried scope whose joints strictly contain it
+    gains more move by move (:func:`_wider_p` below ``alpha``; of those that pass, the one with
+    the larger total gain); and the wider scopes' p against the scope kept. A drift on every
+    joint that matters most in the knees keeps the knees within the parsimony tolerance of all
+    joints; where the hips' share shows on most moves, all joints are taken, and where it does
+    not, the report says the data cannot tell the two apart."""
     cur = chosen
-    while "joints" in cur.aug.params():
-        inner = set(JOINT_GROUPS[cur.aug.joints])
-        wider = [p for p in tried if "joints" in p.aug.params()
-                 and set(JOINT_GROUPS[p.aug.joints]) > inner]
-        passed = []
-        for p in wider:
-            diff = _move_gains(p) - _move_gains(cur)
-            pv = (float(wilcoxon(diff, alternative="greater").pvalue) if np.any(diff != 0)
-                  else 1.0)
-            if pv * len(wider) < alpha:
-                passed.append(p)
+    while True:
+        ps = _wider_p(cur, tried)
+        passed = [p for p in tried if ps.get(p.aug.label(), 1.0) < alpha]
         if not passed:
-            break
+            return cur, ps
         cur = max(passed, key=lambda p: p.total_gain)
-    return cur
 
 
 def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: int
             ) -> tuple[_Probe, list[dict[str, Any]]]:
     """Scope, then parameter, of a detected family by the same held-out rollout SSE."""
     tried = [first] + route.probes(fs, ev0, _scope_members(first.aug), n_candidates)
-    scoped = _widen(_pick(tried, route.opts.tolerance, False), tried, route.opts.scope_alpha)
+    scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
+                           route.opts.scope_alpha)
     params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
     best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
     scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
-             "p_value": float(p.decision.p_value)} for p in tried + params[1:]]
+             "p_value": float(p.decision.p_value),
+             **({"p_wider": wider[p.aug.label()]} if p.aug.label() in wider else {})}
+            for p in tried + params[1:]]
     return best, scan
+
+
+def _scope_rivals(scan: Sequence[dict[str, Any]], tolerance: float, alpha: float
+                  ) -> list[dict[str, Any]]:
+    """The wider scopes the data cannot tell from the one kept: within ``tolerance`` of the
+    best total gain of the scan, and not gaining more move by move (``p_wider`` >= alpha)."""
+    best = max(s["total_gain"] for s in scan)
+    return [{"label": s["label"], "total_gain": s["total_gain"], "p_wider": s["p_wider"]}
+            for s in scan if "p_wider" in s and s["p_wider"] >= alpha
+            and s["total_gain"] >= best - tolerance * abs(best)]
 
 
 # ------------------------------------------------------------------------------ physical names
@@ -959,6 +981,12 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar)
         if isinstance(p.aug, Heading):
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
+        rivals = _scope_rivals(scan, opts.tolerance, opts.scope_alpha)
+        if rivals:
+            numbers = {**numbers, "scope_cannot_tell": rivals}
+            text += "; the data cannot tell this scope from " + ", ".join(
+                f"{r['label']} (gain {r['total_gain']:.2f} against {p.total_gain:.2f}, "
+                f"not larger move by move: p = {r['p_wider']:.2g})" for r in rivals)
         effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
                         "scope": p.aug.params().get("joints", "body"), "statement": text,
                         "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers,

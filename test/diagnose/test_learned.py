@@ -186,15 +186,25 @@ def _probe(joints: str, move_gains, total: float):
 def test_the_scope_widens_only_where_the_wider_scope_gains_on_most_moves():
     """A drift on every joint that matters most in the knees: the knees are within the
     parsimony tolerance of all joints, and all joints gain a little more on nearly every move,
-    so the scope widens. Where the extra gain is noise, the knees stay."""
-    from littledog_mlsim.diagnose.learned import _widen
+    so the scope widens. Where the extra gain is noise, the knees stay, and the report says
+    the data cannot tell them from all joints."""
+    from littledog_mlsim.diagnose.learned import _scope_rivals, _widen
     rng = np.random.default_rng(0)
     knees_gain = 0.08 + 0.02 * rng.random(60)
     knees = _probe("knees", knees_gain, 4.8)
     hips = _probe("hip_pitches", 0.5 * knees_gain, 2.4)
     everywhere = _probe("all", knees_gain + 0.004 + 0.002 * rng.standard_normal(60), 5.0)
-    assert _widen(knees, [everywhere, knees, hips], 0.01) is everywhere
+    chosen, wider = _widen(knees, [everywhere, knees, hips], 0.01)
+    assert chosen is everywhere and wider == {}
     noise = _probe("all", knees_gain + 0.004 * rng.standard_normal(60), 4.9)
-    assert _widen(knees, [noise, knees, hips], 0.01) is knees
+    chosen, wider = _widen(knees, [noise, knees, hips], 0.01)
+    assert chosen is knees and wider["elapsed_tracking(joints=all)"] >= 0.01
     # a scope that does not contain the chosen one is never taken
-    assert _widen(hips, [knees, hips], 0.01) is hips
+    assert _widen(hips, [knees, hips], 0.01) == (hips, {})
+    # the report names the wider scope it cannot tell from the one kept
+    scan = [{"label": "elapsed_tracking(joints=all)", "total_gain": 4.9, "p_value": 1e-6,
+             "p_wider": wider["elapsed_tracking(joints=all)"]},
+            {"label": "elapsed_tracking(joints=knees)", "total_gain": 4.8, "p_value": 1e-6}]
+    rivals = _scope_rivals(scan, 0.1, 0.01)
+    assert [r["label"] for r in rivals] == ["elapsed_tracking(joints=all)"]
+    assert _scope_rivals([{**scan[0], "total_gain": 3.0}, scan[1]], 0.1, 0.01) == []
