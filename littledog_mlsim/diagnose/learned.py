@@ -58,8 +58,11 @@ Report (:func:`diagnose_learned`'s dict)
 ---------------------------------------
 ``route``: "learned"; ``significant``: bool (an effect was accepted); ``effects``: list of
 ``{family, label, augmentation (to_dict), p_value, gain (1 s rollout SSE cut, total over
-elements), max_gain, outputs, scope, statement (physical sentence), physical (numbers),
-scan (the scope/parameter candidates with their total gain)}``; ``rounds``: per round the
+elements), max_gain, outputs, scope, statement (physical sentence), physical (numbers; with
+``scope_cannot_tell`` where a wider scope within the tolerance does not gain more move by move,
+:func:`_scope_rivals`), scan (the scope/parameter candidates: label, total_gain, p_value,
+stage "scope" or "parameter", ``p_wider`` for a scope wider than the one kept, ``kept_scope``
+on that one)}``; ``rounds``: per round the
 probes ``{label, family, p_value, total_gain, max_gain, significant, material}``;
 ``evidence``: before/after TrainPool held-out rollout errors per horizon
 (``{horizon_s: {rms_state (33 names), rms_odom_xy_m, rms_body_xy_m, n_rollouts}}``);
@@ -636,19 +639,27 @@ def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candi
     params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
     best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
     scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
-             "p_value": float(p.decision.p_value),
-             **({"p_wider": wider[p.aug.label()]} if p.aug.label() in wider else {})}
-            for p in tried + params[1:]]
+             "p_value": float(p.decision.p_value), "stage": stage,
+             **({"p_wider": wider[p.aug.label()]} if p.aug.label() in wider else {}),
+             **({"kept_scope": True} if p is scoped else {})}
+            for stage, group in (("scope", tried), ("parameter", params[1:])) for p in group]
     return best, scan
 
 
 def _scope_rivals(scan: Sequence[dict[str, Any]], tolerance: float, alpha: float
                   ) -> list[dict[str, Any]]:
-    """The wider scopes the data cannot tell from the one kept: within ``tolerance`` of the
-    best total gain of the scan, and not gaining more move by move (``p_wider`` >= alpha)."""
-    best = max(s["total_gain"] for s in scan)
-    return [{"label": s["label"], "total_gain": s["total_gain"], "p_wider": s["p_wider"]}
-            for s in scan if "p_wider" in s and s["p_wider"] >= alpha
+    """The wider scopes the data cannot tell from the one kept (``kept_scope``), at the
+    round's first parameter: within ``tolerance`` of the best total gain of the scope stage,
+    and not gaining more move by move (``p_wider`` >= alpha). Each with the kept scope's
+    label and gain for comparison."""
+    scopes = [s for s in scan if s.get("stage", "scope") == "scope"]
+    kept = [s for s in scopes if s.get("kept_scope")]
+    if not scopes or not kept:
+        return []
+    best = max(s["total_gain"] for s in scopes)
+    return [{"label": s["label"], "total_gain": s["total_gain"], "p_wider": s["p_wider"],
+             "kept": kept[0]["label"], "kept_total_gain": kept[0]["total_gain"]}
+            for s in scopes if "p_wider" in s and s["p_wider"] >= alpha
             and s["total_gain"] >= best - tolerance * abs(best)]
 
 
@@ -963,6 +974,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         best, scan = _refine(route, fs, ev, max(ok, key=lambda p: p.total_gain), len(lib))
         if not (best.decision.significant and best.decision.material):
             best = max(ok, key=lambda p: p.total_gain)
+            scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}
+                    for e in scan]   # the scope compared was not kept
         found.append((best, scan))
         fs = fs.with_augmentation(best.aug)
         model, ev = route.fit(fs)
@@ -985,8 +998,9 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
         if rivals:
             numbers = {**numbers, "scope_cannot_tell": rivals}
             text += "; the data cannot tell this scope from " + ", ".join(
-                f"{r['label']} (gain {r['total_gain']:.2f} against {p.total_gain:.2f}, "
-                f"not larger move by move: p = {r['p_wider']:.2g})" for r in rivals)
+                f"{r['label']} (gain {r['total_gain']:.2f} against {r['kept_total_gain']:.2f} "
+                f"for {r['kept']}, not larger move by move: p = {r['p_wider']:.2g})"
+                for r in rivals)
         effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
                         "scope": p.aug.params().get("joints", "body"), "statement": text,
                         "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers,

@@ -204,7 +204,13 @@ def test_the_scope_widens_only_where_the_wider_scope_gains_on_most_moves():
     # the report names the wider scope it cannot tell from the one kept
     scan = [{"label": "elapsed_tracking(joints=all)", "total_gain": 4.9, "p_value": 1e-6,
              "p_wider": wider["elapsed_tracking(joints=all)"]},
-            {"label": "elapsed_tracking(joints=knees)", "total_gain": 4.8, "p_value": 1e-6}]
+            {"label": "elapsed_tracking(joints=knees)", "total_gain": 4.8, "p_value": 1e-6,
+             "kept_scope": True},
+            {"label": "command_lag(lag=9)", "total_gain": 9.0, "p_value": 1e-9,
+             "stage": "parameter"}]   # a parameter member does not set the tolerance
     rivals = _scope_rivals(scan, 0.1, 0.01)
     assert [r["label"] for r in rivals] == ["elapsed_tracking(joints=all)"]
+    assert rivals[0]["kept"] == "elapsed_tracking(joints=knees)"
+    assert rivals[0]["kept_total_gain"] == 4.8
     assert _scope_rivals([{**scan[0], "total_gain": 3.0}, scan[1]], 0.1, 0.01) == []
+    assert _scope_rivals(scan[:1], 0.1, 0.01) == []    # no scope kept (the fallback)
