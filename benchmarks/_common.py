@@ -80,3 +80,24 @@ def pct(x) -> dict:
     x = np.asarray(x, dtype=float)
     return {"n": int(x.size), "mean": float(x.mean()), "p50": float(np.percentile(x, 50)),
             "p99": float(np.percentile(x, 99)), "max": float(x.max())}
+
+
+#: steps between the starts of batch robots that share a TestPool move
+BATCH_OFFSET = 50
+
+
+def batch_robots(moves, n: int, offset: int = BATCH_OFFSET):
+    """(s0 (n, 33), commands (n, T, 12), pose0 (n, 3)) of ``n`` robots for the batched
+    simulator: robot i drives TestPool move i mod M (``rollout.simulate.prepare_test_moves``),
+    started ``offset`` x (i // M) steps into it from the recorded state there, so that no two
+    robots are the same; T is the shortest remaining command stream."""
+    import numpy as np
+    s0, u, pose0 = [], [], []
+    for i in range(n):
+        m = moves[i % len(moves)]
+        o = (i // len(moves)) * offset
+        s0.append(m.s0 if o == 0 else m.states[o - 1])
+        u.append(m.actions[o:])
+        pose0.append([m.pose0.x0, m.pose0.y0, m.pose0.yaw0])
+    T = min(len(x) for x in u)
+    return np.stack(s0), np.stack([x[:T] for x in u]), np.array(pose0)

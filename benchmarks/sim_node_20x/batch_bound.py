@@ -41,9 +41,8 @@ import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1]))
-from benchmarks._common import pct, run_record, uptime  # noqa: E402
+from benchmarks._common import batch_robots, pct, run_record, uptime  # noqa: E402
 
-BATCH_OFFSET = 50          # as run.py: steps between robots that share a TestPool move
 CONTROL_DT_S = 0.01
 
 
@@ -63,16 +62,9 @@ def record(model_path: str, data: str, N: int, steps: int):
     projection.nn.prepare()
     model.prepare(return_std=False)
     moves = prepare_test_moves(load_moves(data, split="test"))
-    s0, u, pose0 = [], [], []
-    for i in range(N):
-        m = moves[i % len(moves)]
-        o = (i // len(moves)) * BATCH_OFFSET
-        s0.append(m.s0 if o == 0 else m.states[o - 1])
-        u.append(m.actions[o:])
-        pose0.append([m.pose0.x0, m.pose0.y0, m.pose0.yaw0])
-    T = min(len(x) for x in u)
-    u = np.stack([x[:T] for x in u])
-    sim = VectorLearnedSimulator(model, projection, np.stack(s0), np.array(pose0),
+    s0, u, pose0 = batch_robots(moves, N)
+    T = u.shape[1]
+    sim = VectorLearnedSimulator(model, projection, s0, pose0,
                                  use_variance=False, trust_radius=radius)
     for t in range(5):
         sim.step(u[:, t])

@@ -54,7 +54,7 @@ ROOT = HERE.parents[1]
 
 
 sys.path.insert(0, str(ROOT))
-from benchmarks._common import pct, uptime  # noqa: E402
+from benchmarks._common import BATCH_OFFSET, batch_robots, pct, uptime  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------------------
@@ -167,7 +167,6 @@ def run_profile(a, code_root: str | None, std_dtype: str = "float64") -> dict:
 # 2. batch
 
 
-BATCH_OFFSET = 50    # steps between the starts of robots that share a TestPool move
 
 
 def run_batch(a) -> dict:
@@ -194,19 +193,9 @@ def run_batch(a) -> dict:
     out = []
     for use_var in (False, True):
         for N in a.batch_n:
-            # robot i: TestPool move i mod M, started (i // M) * OFFSET steps into it (from the
-            # recorded state there), so that no two robots are the same
-            s0, u, pose0 = [], [], []
-            for i in range(N):
-                m = moves[i % len(moves)]
-                o = (i // len(moves)) * BATCH_OFFSET
-                s0.append(m.s0 if o == 0 else m.states[o - 1])
-                u.append(m.actions[o:])
-                pose0.append([m.pose0.x0, m.pose0.y0, m.pose0.yaw0])   # (pose: not compared)
-            T = min(len(x) for x in u)
-            u = np.stack([x[:T] for x in u])
-            s0 = np.stack(s0)
-            sim = VectorLearnedSimulator(model, projection, s0, np.array(pose0),
+            s0, u, pose0 = batch_robots(moves, N, BATCH_OFFSET)   # (pose: not compared)
+            T = u.shape[1]
+            sim = VectorLearnedSimulator(model, projection, s0, pose0,
                                          use_variance=use_var, trust_radius=radius)
             steps = max(20, min(T, a.batch_robot_steps // N))
             for t in range(5):                       # warm up
