@@ -276,3 +276,18 @@ def test_a_twin_error_rounds_alternative_is_the_finding_and_the_cap_holds(monkey
     alts = [SimpleNamespace(hyp=("change", k)) for k in range(3)]
     found, twin, rounds = _rounds_with(monkeypatch, list(alts), True, max_rounds=5)
     assert found == alts and len(twin) == 3 and rounds == 3
+
+
+def test_what_is_left_in_a_few_channels_is_reported_as_unexplained():
+    from littledog_mlsim.diagnose.physical.driver import left_suspicion
+    base = {"pooled_ratio": 1.23, "p_value": 0.016, "significant": False, "material": False,
+            "channel_p_value": 0.0027, "channel_significant": True,
+            "channels": [{"channel": "q_front_right_hip_pitch", "ratio": 3.1}]}
+    s = left_suspicion(base, capped=True)
+    assert len(s) == 1 and s[0]["kind"] == "unexplained", s
+    assert "q_front_right_hip_pitch" in s[0]["why"] and "per channel p = 0.0027" in s[0]["why"]
+    assert "stopped at the most twin errors" in s[0]["why"]
+    assert left_suspicion({**base, "channel_significant": False}, capped=False) == []
+    pooled = left_suspicion({**base, "significant": True, "material": True,
+                             "pooled_ratio": 1.8, "channel_significant": False}, False)
+    assert "1.80x the reference's" in pooled[0]["why"] and "no family" in pooled[0]["why"]

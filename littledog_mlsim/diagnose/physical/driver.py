@@ -155,16 +155,8 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     finally:
         runner.close()
     sus = suspicions(findings, rejected, o.excitation, o.alpha, o.min_gain)
-    if left is not None and left["significant"] and left["material"]:
-        sus.append({"family": "other", "scope": "body", "params": {},
-                    "kind": "unexplained",
-                    "why": (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
-                            f"reference's (p = {left['p_value']:.2g}), most on "
-                            + ", ".join(c["channel"] for c in left["channels"][:4])
-                            + "; no family of the library explains it"),
-                    "recording": "record the same move types with command excitation "
-                                 "(record --excitation 0.05) and from several headings, beside "
-                                 "a new clean reference"})
+    if left is not None:
+        sus += left_suspicion(left, len(twin_errors) >= o.reference_rounds)
     res = PhysIdResult(findings, rejected, sus, cfg.name, len(sp.F), len(sp.V), n_sims,
                        time.perf_counter() - t_start, o.alpha, o.min_gain, library_size(),
                        tuple(o.horizons_s), baseline_h, notes)
@@ -313,6 +305,28 @@ def _changed_alternative(before: SearchContext, after: SearchContext, held: Held
         if ok:
             return replace(fin, reference_check=check)
     return None
+
+
+def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
+    """The ``suspected`` entry (kind ``unexplained``) for what :func:`unexplained` leaves: a
+    pooled excess over the reference that is significant and material, or one in a few
+    channels (``channel_significant``); none if the data do not exceed the reference.
+    ``capped``: the search stopped at the most corrections the reference may cancel."""
+    pooled = left["significant"] and left["material"]
+    if not (pooled or left.get("channel_significant")):
+        return []
+    where = ", ".join(c["channel"] for c in left["channels"][:4])
+    why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
+           f"(p = {left['p_value']:.2g}), most on {where}" if pooled else
+           f"the data's re-simulation error exceeds the reference's on {where} (per channel "
+           f"p = {left['channel_p_value']:.2g}; {left['pooled_ratio']:.2f}x pooled)")
+    why += ("; the search stopped at the most twin errors the reference may cancel"
+            if capped else "; no family of the library explains it")
+    return [{"family": "other", "scope": "body", "params": {}, "kind": "unexplained",
+             "why": why,
+             "recording": "record the same move types with command excitation "
+                          "(record --excitation 0.05) and from several headings, beside a new "
+                          "clean reference"}]
 
 
 #: the data's re-simulation error against the reference's above which the difference is
