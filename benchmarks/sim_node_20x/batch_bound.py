@@ -41,7 +41,8 @@ import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1]))
-from benchmarks._common import batch_robots, pct, run_record, uptime  # noqa: E402
+from benchmarks._common import (batch_robots, pct, run_record, time_calls,  # noqa: E402
+                                uptime)
 
 CONTROL_DT_S = 0.01
 
@@ -89,70 +90,45 @@ def record(model_path: str, data: str, N: int, steps: int):
 
 
 def replay(visits, lgpr, repeats: int = 3) -> dict:
-    visited = {c for step in visits for c, _ in step}
+    distinct = [list({c for c, _ in step}) for step in visits]   # each step's clusters
+    visited = {c for cs in distinct for c in cs}
     if any(lgpr._rows[c] is None for c in visited):
         raise SystemExit("a visited cluster has per-output kernels: this script reads the "
                          "shared-kernel form only")
     arrays = {c: (lgpr._rows[c][2].ravel(), lgpr._alpha[c].ravel()) for c in visited}
+    size = {c: sum(a.nbytes for a in arrays[c]) for c in visited}
     ones = np.ones(max(a.size for pair in arrays.values() for a in pair))
     tiny = np.zeros(1)
-    nbytes = np.array([sum(sum(a.nbytes for a in arrays[c]) for c in {c for c, _ in s})
-                       for s in visits], dtype=float)
 
-    def timed(fn) -> np.ndarray:
-        best = None
-        for _ in range(repeats):          # the median over repeats, per step
-            out = np.empty(len(visits))
-            for t, step in enumerate(visits):
-                c0 = time.thread_time_ns()
-                fn(step)
-                out[t] = (time.thread_time_ns() - c0) / 1e6
-            best = out[None] if best is None else np.vstack([best, out])
-        return np.median(best, axis=0)
+    def timed(fn, items) -> np.ndarray:
+        """Thread CPU ms of ``fn(item)`` per item, the median over ``repeats`` passes."""
+        return np.median([time_calls(fn, items)[1] for _ in range(repeats)], axis=0)
 
-    def read(step):              # a BLAS dot with ones: a vectorised read of every value
-        for c in {c for c, _ in step}:
+    def read(cs):                # a BLAS dot with ones: a vectorised read of every value
+        for c in cs:
             zt, al = arrays[c]
             np.dot(zt, ones[:zt.size])
             np.dot(al, ones[:al.size])
 
-    def calls(step):
-        for c in {c for c, _ in step}:
+    def calls(cs):
+        for _ in cs:
             np.dot(tiny, tiny)
             np.dot(tiny, tiny)
-
-    # the control: the same reads of one cluster's data again and again (in the caches), as
-    # many per step as the steps visit, so the replay's time is the memory's, not the reader's
-    c0 = max(arrays, key=lambda c: sum(a.nbytes for a in arrays[c]))
-
-    def read_hot(step):
-        zt, al = arrays[c0]
-        for _ in range(int(step[0][1])):
-            np.dot(zt, ones[:zt.size])
-            np.dot(al, ones[:al.size])
-    n_vis = [len({c for c, _ in s}) for s in visits]
-    hot = [[(c0, n)] for n in n_vis]
-    hot_bytes = np.array([n * sum(a.nbytes for a in arrays[c0]) for n in n_vis], dtype=float)
 
     def predict(step):
         for c, Xq in step:
             lgpr._local(c, Xq, False)
 
-    def timed_on(items, fn) -> np.ndarray:
-        out = []
-        for _ in range(repeats):
-            row = np.empty(len(items))
-            for t, it in enumerate(items):
-                c = time.thread_time_ns()
-                fn(it)
-                row[t] = (time.thread_time_ns() - c) / 1e6
-            out.append(row)
-        return np.median(np.array(out), axis=0)
-
-    hot_ms = timed_on(hot, read_hot)
-    return {"bytes": nbytes, "read_ms": timed(read), "calls_ms": timed(calls),
-            "predict_ms": timed(predict), "hot_ms": hot_ms, "hot_bytes": hot_bytes,
-            "clusters": np.array([len({c for c, _ in s}) for s in visits], dtype=float)}
+    # the control: the same reads of one cluster's data again and again (in the caches), as
+    # many per step as the steps visit, so the replay's time is the memory's, not the reader's
+    c0 = max(visited, key=size.get)
+    n_vis = [len(cs) for cs in distinct]
+    return {"bytes": np.array([sum(size[c] for c in cs) for cs in distinct], dtype=float),
+            "read_ms": timed(read, distinct), "calls_ms": timed(calls, distinct),
+            "predict_ms": timed(predict, visits),
+            "hot_ms": timed(read, [[c0] * n for n in n_vis]),
+            "hot_bytes": np.array([n * size[c0] for n in n_vis], dtype=float),
+            "clusters": np.array(n_vis, dtype=float)}
 
 
 def main(argv=None) -> int:

@@ -18,9 +18,9 @@ Four phases (``--phases``), one model (a paper-size LGPR), gated alpha-PROJ (the
    states of both codes are compared bit for bit (the mean must not change).
 2. ``batch``: the batched learned simulator (``rollout.vector_sim.VectorLearnedSimulator``)
    stepping N robots at once (``--batch-n``, default 1, 8, 64, 256), each driven by a TestPool
-   move's commands (robot i: move i mod 66, from ``BATCH_OFFSET`` x (i // 66) steps into it,
-   so no two robots are alike): steps x robots per CPU second = real-time factor per core (one
-   step is 10 ms of robot time), and the share of the model's ``predict`` in it. With the
+   move's commands (robot i: move i mod 66, from ``_common.BATCH_OFFSET`` x (i // 66) steps
+   into it, so no two robots are alike): steps x robots per CPU second = real-time factor per
+   core (one step is 10 ms of robot time), and the share of the model's ``predict`` in it. With the
    model's std off (the rollout's setting) and on.
 
 3. ``timer`` (sim_node in its own process, ``real_time_factor`` ``--factor``, default 20, its
@@ -54,7 +54,7 @@ ROOT = HERE.parents[1]
 
 
 sys.path.insert(0, str(ROOT))
-from benchmarks._common import BATCH_OFFSET, batch_robots, pct, uptime  # noqa: E402
+from benchmarks._common import batch_robots, pct, uptime  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------------------
@@ -167,8 +167,6 @@ def run_profile(a, code_root: str | None, std_dtype: str = "float64") -> dict:
 # 2. batch
 
 
-
-
 def run_batch(a) -> dict:
     from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.models.onestep import OneStepModel
@@ -193,7 +191,7 @@ def run_batch(a) -> dict:
     out = []
     for use_var in (False, True):
         for N in a.batch_n:
-            s0, u, pose0 = batch_robots(moves, N, BATCH_OFFSET)   # (pose: not compared)
+            s0, u, pose0 = batch_robots(moves, N)   # (pose: not compared)
             T = u.shape[1]
             sim = VectorLearnedSimulator(model, projection, s0, pose0,
                                          use_variance=use_var, trust_radius=radius)
