@@ -39,7 +39,8 @@ def cmd_record(a: argparse.Namespace) -> int:
 
     s = record_dataset(a.out, moves_per_type=a.moves_per_type, types=a.types, seed=a.seed,
                        robot=a.robot, effects_file=a.effects, storage=a.storage, jobs=a.jobs,
-                       overwrite=a.overwrite, progress=not a.quiet, excitation=a.excitation)
+                       overwrite=a.overwrite, progress=not a.quiet, excitation=a.excitation,
+                       extra=dict(a.extra or []))
     print(f"recorded {s.n_bags} bags ({s.n_steps} steps, {s.n_steps * 0.01:.0f} s of robot time) "
           f"into {s.out} in {s.wall_s:.1f} s wall with {s.jobs} process(es); "
           f"{s.realtime_factor_per_core:.1f}x real time per core (CPU time)")
@@ -51,6 +52,17 @@ def cmd_info(a: argparse.Namespace) -> int:
 
     print(format_summary(summarise_dataset(a.data, check_bags=not a.index_only)))
     return 0
+
+
+def _extra_moves(text: str) -> tuple[str, int]:
+    """``KIND=N`` of ``record --extra`` -> (kind, n)."""
+    from .control.moves import MOVE_KINDS
+
+    kind, sep, n = text.partition("=")
+    if not sep or kind not in MOVE_KINDS or not n.strip().isdigit():
+        raise argparse.ArgumentTypeError(f"expected KIND=N with KIND one of "
+                                         f"{', '.join(MOVE_KINDS)} and N >= 0, got {text!r}")
+    return kind, int(n)
 
 
 def _option(text: str) -> tuple[str, object]:
@@ -475,6 +487,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--excitation", type=float, default=0.0, metavar="RAD",
                    help="std of white noise added to every joint command, for system identification "
                         "(default 0: the plain trot; at most 0.2)")
+    r.add_argument("--extra", type=_extra_moves, action="append", metavar="KIND=N",
+                   help="N more TrainPool moves of KIND: trot (constant trots), switch (a "
+                        "transition to another type within the move), varied (continuously "
+                        "varied commands), each N per move type; velocity or waypoints "
+                        "(closed-loop runs of that controller), N in all; repeatable")
     r.add_argument("--storage", choices=["mcap", "sqlite3"], default="mcap", help="rosbag2 storage plugin")
     r.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     r.add_argument("--overwrite", action="store_true", help="replace an existing dataset directory")

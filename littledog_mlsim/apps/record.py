@@ -1,5 +1,12 @@
 """Record a dataset: trot every move type on the pybullet LittleDog and write one bag per move.
 
+Besides the paper's constant trots (``moves_per_type`` of each type, split 14 : 6 into TrainPool
+and TestPool at 20), ``extra`` adds TrainPool moves of other kinds (``control.moves``): more
+constant trots, trots with a transition, continuously varied trots (each so many per move type,
+named after the plain moves of their type), and closed-loop runs of the velocity tracker and the
+waypoint follower (so many in all, move type ``U``). The TestPool keeps the plain trots only, so
+the paper's TestPool error stays comparable across datasets of one seed.
+
 The dataset is built in a temporary sibling directory and renamed into place only when every bag
 and ``dataset.yaml`` are written, so a failed or interrupted run leaves no partial bag behind and
 never touches an existing dataset (which is only replaced when ``overwrite`` is set).
@@ -12,14 +19,16 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
 from tqdm import tqdm
 
 from .. import __version__
 from ..fileio import atomic_directory
-from ..layout import CONTROL_DT_NS, MOVE_TYPES, STEPS_PER_MOVE, bag_name
+from ..control.moves import CLOSED_LOOP_KINDS, MOVE_KINDS
+from ..layout import (CONTROL_DT_NS, DATASET_MOVE_TYPES, MOVE_TYPES, STEPS_PER_MOVE,
+                      UNKNOWN_MOVE_TYPE, bag_name)
 
 if TYPE_CHECKING:
     from ..robot.config import RobotConfig
@@ -27,11 +36,13 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class MoveJob:
-    """One move to record; seeds derive from (dataset seed, move type, index) only."""
+    """One move to record; seeds derive from (dataset seed, move type, index, kind) only (a
+    constant trot's from the first three, as before kinds existed)."""
 
     move_type: str
     index: int
     seed: int
+    kind: str = "trot"
 
     @property
     def name(self) -> str:
@@ -39,7 +50,10 @@ class MoveJob:
 
     def seeds(self) -> tuple[int, int]:
         """(gait seed, robot/sensor seed), independent streams for this move."""
-        ss = np.random.SeedSequence([self.seed, MOVE_TYPES.index(self.move_type), self.index])
+        key = [self.seed, DATASET_MOVE_TYPES.index(self.move_type), self.index]
+        if self.kind != "trot":
+            key.append(1 + MOVE_KINDS.index(self.kind))
+        ss = np.random.SeedSequence(key)
         gait_ss, robot_ss = ss.spawn(2)
         return int(gait_ss.generate_state(1)[0]), int(robot_ss.generate_state(1)[0])
 
@@ -63,30 +77,72 @@ class RecordSummary:
 def _record_one(job: MoveJob, bag_path: str, robot: "RobotConfig", effects_file: str | None,
                 storage: str, excitation: float = 0.0) -> tuple[str, int, float]:
     """Worker: simulate one move and write its bag. Returns (name, n_steps, CPU seconds)."""
+    from ..control.moves import closed_loop_policy, open_loop_commands
     from ..data.bags import write_bag
-    from ..gait.trot import excite_commands, sample_trot_params, trot_commands
+    from ..gait.trot import excite_commands
     from ..robot.effects import load_effects
-    from ..robot.sim import simulate_move
+    from ..robot.sim import simulate_closed_loop, simulate_move
 
     t0 = time.process_time()
     gait_seed, robot_seed = job.seeds()
     gait_rng = np.random.default_rng(gait_seed)
-    params = sample_trot_params(job.move_type, gait_rng)
-    commands = excite_commands(trot_commands(params), excitation, gait_rng)
     effects = load_effects(effects_file) if effects_file else ()
-    rec = simulate_move(commands, robot=robot, effects=effects, seed=robot_seed,
-                        name=job.name, move_type=job.move_type)
+    if job.kind in CLOSED_LOOP_KINDS:
+        policy = closed_loop_policy(job.kind, gait_rng)
+
+        def excited(obs):
+            return excite_commands(policy(obs)[None], excitation, gait_rng)[0]
+
+        rec = simulate_closed_loop(excited, STEPS_PER_MOVE, robot=robot, effects=effects,
+                                   seed=robot_seed, name=job.name, move_type=job.move_type)
+    else:
+        commands = open_loop_commands(job.kind, job.move_type, gait_rng, excitation)
+        rec = simulate_move(commands, robot=robot, effects=effects, seed=robot_seed,
+                            name=job.name, move_type=job.move_type)
     write_bag(bag_path, rec, storage=storage)
     return job.name, rec.n_steps, time.process_time() - t0
 
 
-def plan_jobs(moves_per_type: int, types: Sequence[str], seed: int) -> list[MoveJob]:
+def check_extra(extra: Mapping[str, int] | None) -> dict[str, int]:
+    """``extra`` as {kind: count}, in MOVE_KINDS order; ValueError (one line) on an unknown kind
+    or a count that is not a non-negative integer."""
+    out: dict[str, int] = {}
+    for kind, n in (extra or {}).items():
+        if kind not in MOVE_KINDS:
+            raise ValueError(f"unknown extra move kind {kind!r}; expected one of "
+                             f"{' '.join(MOVE_KINDS)}")
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"extra {kind} moves must be a non-negative integer, got {n!r}")
+    for kind in MOVE_KINDS:
+        if (extra or {}).get(kind):
+            out[kind] = int(extra[kind])
+    return out
+
+
+def plan_jobs(moves_per_type: int, types: Sequence[str], seed: int,
+              extra: Mapping[str, int] | None = None) -> list[MoveJob]:
+    """The plain trots (type-major), then the extra moves: per move type for the open-loop
+    kinds (indices after the plain moves, kind by kind), in all for the closed-loop kinds (type
+    U, numbered from 0 across kinds)."""
     for t in types:
         if t not in MOVE_TYPES:
             raise ValueError(f"unknown move type {t!r}; expected some of {' '.join(MOVE_TYPES)}")
     if moves_per_type < 1:
         raise ValueError(f"--moves-per-type must be at least 1, got {moves_per_type}")
-    return [MoveJob(t, i, seed) for t in types for i in range(moves_per_type)]
+    jobs = [MoveJob(t, i, seed) for t in types for i in range(moves_per_type)]
+    extra = check_extra(extra)
+    for t in types:
+        i = moves_per_type
+        for kind, n in extra.items():
+            if kind not in CLOSED_LOOP_KINDS:
+                jobs += [MoveJob(t, i + j, seed, kind) for j in range(n)]
+                i += n
+    u = 0
+    for kind, n in extra.items():
+        if kind in CLOSED_LOOP_KINDS:
+            jobs += [MoveJob(UNKNOWN_MOVE_TYPE, u + j, seed, kind) for j in range(n)]
+            u += n
+    return jobs
 
 
 class _NoProgress:
@@ -104,15 +160,20 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    robot: str | os.PathLike | "RobotConfig" = "measured",
                    effects_file: str | None = None, storage: str = "mcap",
                    jobs: int | None = None, overwrite: bool = False,
-                   progress: bool = True, excitation: float = 0.0) -> RecordSummary:
+                   progress: bool = True, excitation: float = 0.0,
+                   extra: Mapping[str, int] | None = None) -> RecordSummary:
     """Record ``moves_per_type`` moves of each type into the dataset directory ``out``.
+
+    ``extra``: {kind: count} of TrainPool moves of other kinds (``control.moves.MOVE_KINDS``):
+    per move type for trot, switch and varied, in all for velocity and waypoints;
+    ``dataset.yaml`` lists them under ``info.extra_moves`` (kind -> bag names).
 
     ``robot``: a robot name, a twin file (``robot.twin``) or a RobotConfig; the dataset's
     ``dataset.yaml`` records it (``robot.twin.robot_source``).
     ``excitation`` [rad]: standard deviation of white noise added to every joint command
     (:func:`~littledog_mlsim.gait.trot.excite_commands`); 0 records the plain trot.
     """
-    from ..data.dataset import dataset_entries, write_index
+    from ..data.dataset import BagEntry, dataset_entries, write_index
     from ..robot.effects import load_effects
     from ..robot.twin import robot_config_from, robot_source
 
@@ -127,7 +188,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     source = robot_source(robot)
     if effects_file:
         load_effects(effects_file)           # fails early on a bad effects file
-    plan = plan_jobs(moves_per_type, types, seed)
+    plan = plan_jobs(moves_per_type, types, seed, extra)
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(plan)))
 
     t0 = time.perf_counter()
@@ -150,14 +211,20 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                     bar.update()
         bar.close()
         entries = dataset_entries(moves_per_type, types)
+        extras = [j for j in plan if j.kind != "trot" or j.index >= moves_per_type]
+        entries += [BagEntry(j.name, j.move_type, "train") for j in extras]
         info = {**source, "seed": seed, "storage": storage,
                 "moves_per_type": moves_per_type, "types": list(types),
                 "steps_per_move": STEPS_PER_MOVE, "control_dt_ns": CONTROL_DT_NS,
                 "recorded_by": f"littledog_mlsim {__version__}"}
         if excitation:
             info["command_excitation_rad"] = float(excitation)
+        if extras:
+            info["extra_moves"] = {k: [j.name for j in extras if j.kind == k]
+                                   for k in check_extra(extra)}
         write_index(tmp, entries, info)
-    per_type = {t: moves_per_type for t in types}
+    per_type = {t: sum(j.move_type == t for j in plan)
+                for t in (*types, UNKNOWN_MOVE_TYPE) if any(j.move_type == t for j in plan)}
     return RecordSummary(out=out, n_bags=len(plan), n_steps=sum(r[1] for r in results),
                          wall_s=time.perf_counter() - t0, cpu_s=sum(r[2] for r in results),
                          jobs=jobs, per_type=per_type)

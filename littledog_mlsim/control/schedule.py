@@ -14,10 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gait.trot import DEFAULT_RANGES, TrotRanges, sample_trot_params
-from ..layout import CONTROL_DT, MOVE_TYPES
+from ..layout import CONTROL_DT, MOVE_TYPES, STEPS_PER_MOVE
 from .gait import TrotCommand
 
-__all__ = ["Segment", "Schedule", "gait_switch_schedule", "straight_trot_schedule", "blend"]
+__all__ = ["Segment", "Schedule", "gait_switch_schedule", "straight_trot_schedule", "blend",
+           "switch_move_schedule", "varied_schedule"]
 
 
 @dataclass(frozen=True)
@@ -106,3 +107,43 @@ def straight_trot_schedule(duration: float, rng: np.random.Generator, move_type:
     if n_total < 1:
         raise ValueError("duration must be positive")
     return _build([move_type], [n_total], rng, 1, ranges)
+
+
+def switch_move_schedule(move_type: str, rng: np.random.Generator,
+                         n_steps: int = STEPS_PER_MOVE, switch_time: tuple[float, float] = (1.0, 2.5),
+                         blend_time: float = 0.5, types: tuple[str, ...] = MOVE_TYPES,
+                         ranges: TrotRanges = DEFAULT_RANGES) -> Schedule:
+    """One move with a transition: a trot of ``move_type`` that, at a time drawn uniformly from
+    ``switch_time`` [s], blends over ``blend_time`` [s] into a trot of another type drawn
+    uniformly from ``types`` (the gait-switching schedule's join, within one move)."""
+    if move_type not in MOVE_TYPES:
+        raise ValueError(f"unknown move type {move_type!r}")
+    others = [t for t in types if t != move_type]
+    if not others:
+        raise ValueError("a transition needs a second move type")
+    k = int(round(rng.uniform(*switch_time) / CONTROL_DT))
+    if not 0 < k < n_steps:
+        raise ValueError(f"switch_time {switch_time} does not fall inside {n_steps} steps")
+    other = str(rng.choice(others))
+    return _build([move_type, other], [k, n_steps - k], rng,
+                  max(1, int(round(blend_time / CONTROL_DT))), ranges)
+
+
+def varied_schedule(move_type: str, rng: np.random.Generator, n_steps: int = STEPS_PER_MOVE,
+                    knot_time: tuple[float, float] = (0.6, 1.2),
+                    ranges: TrotRanges = DEFAULT_RANGES) -> Schedule:
+    """One move whose command varies continuously: every parameter of a ``move_type`` trot is
+    drawn anew (as ``sample_trot_params`` draws it for that type) at knots spaced by a time drawn
+    uniformly from ``knot_time`` [s], and the command moves from knot to knot by smoothstep over
+    the whole interval, so it never holds still. The first knot is reached by the data's ramp
+    from standing."""
+    if move_type not in MOVE_TYPES:
+        raise ValueError(f"unknown move type {move_type!r}")
+    if n_steps < 1 or not 0 < knot_time[0] <= knot_time[1]:
+        raise ValueError("n_steps and knot_time must be positive")
+    sizes: list[int] = []
+    left = n_steps
+    while left > 0:
+        sizes.append(min(left, max(1, int(round(rng.uniform(*knot_time) / CONTROL_DT)))))
+        left -= sizes[-1]
+    return _build([move_type] * len(sizes), sizes, rng, n_steps, ranges)

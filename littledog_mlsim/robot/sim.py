@@ -22,7 +22,7 @@ import pybullet as p
 
 from ..data.recording import MoveRecording
 from ..layout import (CONTROL_DT, CONTROL_DT_NS, DATASET_MOVE_TYPES, HOME_POSE, JOINT_LOWER,
-                      JOINT_NAMES, JOINT_UPPER, LEGS, N_JOINTS)
+                      JOINT_NAMES, JOINT_UPPER, LEGS, N_JOINTS, UNKNOWN_MOVE_TYPE)
 from .config import URDF_PATH, RobotConfig, as_config, per_joint, robot_config
 from ..rotations import quat_from_rotvec, quat_multiply, quat_to_matrix
 from .sensors import JointEncoders, MotionCapture, twist_from_poses
@@ -350,13 +350,49 @@ def simulate_move(commands: np.ndarray, *, robot: str | RobotConfig = "measured"
         raise ValueError(f"commands must have shape (N, {N_JOINTS}), got {cmd.shape}")
     if not np.all(np.isfinite(cmd)):
         raise ValueError("commands hold NaN or inf")
-    if move_type not in DATASET_MOVE_TYPES:
-        raise ValueError(f"unknown move type {move_type!r}; expected one of "
-                         f"{' '.join(DATASET_MOVE_TYPES)}")
+    _check_move_type(move_type)
     sim = get_sim(robot)
     obs = [sim.reset(initial=initial, seed=seed, effects=effects)]
     for u in cmd:
         obs.append(sim.step(u))
+    return _as_recording(obs, cmd, name, move_type, start_ns)
+
+
+def simulate_closed_loop(policy: Callable[[dict], np.ndarray], n_steps: int, *,
+                         robot: str | RobotConfig = "measured", effects: Sequence[Any] = (),
+                         seed: int = 0, name: str = "U_00", move_type: str = UNKNOWN_MOVE_TYPE,
+                         initial: InitialState | None = None, start_ns: int = 0) -> MoveRecording:
+    """Simulate one move driven by ``policy`` and record it as :func:`simulate_move` does.
+
+    ``policy(measurement)`` is called with each measurement k = 0..n_steps-1 (the dict
+    :meth:`LittleDogSim.step` returns) and gives the joint command (12,) held until the next
+    one; the recording's ``cmd`` are those commands. A non-finite or misshapen command is a
+    ValueError naming its step.
+    """
+    if int(n_steps) < 1:
+        raise ValueError(f"n_steps must be at least 1, got {n_steps}")
+    _check_move_type(move_type)
+    sim = get_sim(robot)
+    obs = [sim.reset(initial=initial, seed=seed, effects=effects)]
+    cmd = np.empty((int(n_steps), N_JOINTS))
+    for k in range(int(n_steps)):
+        u = np.asarray(policy(obs[-1]), dtype=float)
+        if u.shape != (N_JOINTS,) or not np.all(np.isfinite(u)):
+            raise ValueError(f"the policy's command at step {k} is not {N_JOINTS} finite "
+                             f"angles: {u!r}")
+        cmd[k] = u
+        obs.append(sim.step(u))
+    return _as_recording(obs, cmd, name, move_type, start_ns)
+
+
+def _check_move_type(move_type: str) -> None:
+    if move_type not in DATASET_MOVE_TYPES:
+        raise ValueError(f"unknown move type {move_type!r}; expected one of "
+                         f"{' '.join(DATASET_MOVE_TYPES)}")
+
+
+def _as_recording(obs: list, cmd: np.ndarray, name: str, move_type: str,
+                  start_ns: int) -> MoveRecording:
     n = cmd.shape[0]
     arrays = {f: np.array([o[f] for o in obs], dtype=float) for f in OBS_FIELDS}
     rec = MoveRecording(name=name, move_type=move_type,

@@ -1,4 +1,4 @@
-"""Model-input levers against the fidelity targets: each feature set's LGPR under the same
+"""Model-input and data levers against the fidelity targets: each lever's LGPR under the same
 schedules and seeds.
 
 For each lever (``--levers``) this trains an LGPR on the dataset's TrainPool with that feature
@@ -13,6 +13,24 @@ yaw error and the learned path. The levers:
 - ``command_increment``: u_t - u_{t-1} of every joint (the set-points' rate, which carries the
   commanded turn of the feet);
 - ``command_lag8``: u_{t-8} of every joint (the set-points about a quarter gait period ago).
+
+Data levers (the paper's 45 inputs, trained on a dataset ``record --extra`` makes: the same
+seed, robot and plain moves as ``--data``, plus TrainPool moves of other kinds,
+``littledog_mlsim.control.moves``; recorded into WORK once and reused):
+
+- ``more_trots``: 4 more constant trots per type (the control: as many more moves of the kind
+  the data already has);
+- ``switch``: 4 trots per type with a transition to another type within the move;
+- ``varied``: 4 continuously varied trots per type;
+- ``closed_loop``: 22 closed-loop runs of the velocity tracker and 22 of the waypoint follower
+  (the DAgger-style lever: the controllers' own runs on the robot; references and waypoints
+  drawn at random, not the benchmark's);
+- ``all_kinds``: switch, varied and closed_loop together.
+
+``--scenarios``/``--controllers`` choose the open-loop schedules and closed-loop controllers
+(default: the straight trot and the velocity tracker); ``--testpool`` also scores each model's
+4 s TestPool rollouts on ``--data``'s TestPool (``littledog-mlsim evaluate``'s gated alpha-PROJ,
+the model's own radius).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/fidelity/levers/run.py \\
         --data bags/default --work WORK --out benchmarks/fidelity/levers/result
@@ -34,13 +52,23 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from benchmarks._common import command_line, run_record, uptime, write_results  # noqa: E402
 
-LEVERS = ("paper", "measured", "command_increment", "command_lag8")
+FEATURE_LEVERS = ("paper", "measured", "command_increment", "command_lag8")
+DATA_LEVERS = {
+    "more_trots": {"trot": 4},
+    "switch": {"switch": 4},
+    "varied": {"varied": 4},
+    "closed_loop": {"velocity": 22, "waypoints": 22},
+    "all_kinds": {"switch": 4, "varied": 4, "velocity": 22, "waypoints": 22},
+}
+LEVERS = FEATURE_LEVERS + tuple(DATA_LEVERS)
+SCENARIO_KEY = {"straight": "open-loop", "switch": "open-loop", "velocity": "closed-loop",
+                "waypoints": "closed-loop"}
 
 
 def feature_set(lever: str):
     from littledog_mlsim.models.feature_library import CommandIncrement, CommandLag
     from littledog_mlsim.models.features import FeatureSet
-    if lever == "paper":
+    if lever == "paper" or lever in DATA_LEVERS:
         return None
     if lever == "measured":
         from littledog_mlsim.diagnose.candidates import measured_robot_features
@@ -52,13 +80,37 @@ def feature_set(lever: str):
     raise SystemExit(f"unknown lever {lever!r}")
 
 
+def lever_data(lever: str, base: Path, work: Path) -> Path:
+    """The dataset a lever trains on: ``base`` itself, or (data levers) a dataset recorded
+    like it with the lever's extra moves, in WORK (reused when present)."""
+    if lever not in DATA_LEVERS:
+        return base
+    from littledog_mlsim.apps.record import record_dataset
+    from littledog_mlsim.data.dataset import read_index
+    out = work / f"data_{lever}"
+    if not out.exists():
+        info = read_index(base).info
+        record_dataset(out, moves_per_type=int(info["moves_per_type"]),
+                       types=list(info["types"]), seed=int(info["seed"]),
+                       robot=info.get("twin") or info.get("robot", "measured"),
+                       storage=str(info.get("storage", "mcap")), progress=False,
+                       extra=DATA_LEVERS[lever])
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--work", type=Path, required=True,
-                    help="models (reused when present) and each fidelity run's files")
-    ap.add_argument("--levers", nargs="+", default=list(LEVERS), choices=LEVERS)
+                    help="models and data levers' datasets (reused when present) and each "
+                         "fidelity run's files")
+    ap.add_argument("--levers", nargs="+", default=list(FEATURE_LEVERS), choices=LEVERS)
     ap.add_argument("--seeds", nargs="+", default=["0", "1", "2"])
+    ap.add_argument("--scenarios", nargs="+", default=["straight"], choices=("straight", "switch"))
+    ap.add_argument("--controllers", nargs="+", default=["velocity"],
+                    choices=("velocity", "waypoints"))
+    ap.add_argument("--testpool", action="store_true",
+                    help="also the 4 s TestPool rollouts on --data's TestPool")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--duration", default=None, help="s, both schedules (default: fidelity.py's)")
     ap.add_argument("--out", type=Path, default=None)
@@ -70,47 +122,84 @@ def main(argv=None) -> int:
     if not lr.exists():
         train_from_dataset(a.data, "lr", progress=False).save(lr)
     rows = []
+    runs = [("open-loop", ["--scenarios", *a.scenarios]),
+            ("closed-loop", ["--controllers", *a.controllers])]
     for lever in a.levers:
         model = a.work / f"lgpr_{lever}"
         t0 = time.perf_counter()
+        data = lever_data(lever, a.data, a.work)
+        record_s = time.perf_counter() - t0
         if not model.exists():
-            train_from_dataset(a.data, "lgpr", progress=False,
+            train_from_dataset(data, "lgpr", progress=False,
                                feature_set=feature_set(lever)).save(model)
-        train_s = time.perf_counter() - t0
-        row = {"lever": lever, "train_s": round(train_s, 1), "load": uptime()}
-        for what, extra, key in (
-                ("open-loop", ["--scenarios", "straight"], "straight/lgpr-gated"),
-                ("closed-loop", ["--controllers", "velocity"], "velocity/lgpr-gated")):
+        train_s = time.perf_counter() - t0 - record_s
+        row = {"lever": lever, "data": data.name, "record_s": round(record_s, 1),
+               "train_s": round(train_s, 1), "load": uptime()}
+        for what, extra in runs:
             out = a.work / f"{what}_{lever}"
             subprocess.run([sys.executable, str(ROOT / "benchmarks/fidelity/fidelity.py"), what,
-                            "--data", str(a.data), "--lgpr", str(model), "--lr", str(lr),
+                            "--data", str(data), "--lgpr", str(model), "--lr", str(lr),
                             "--configs", "lgpr-gated", "--seeds", *a.seeds,
                             "--workers", str(a.workers), "--out", str(out), *extra,
                             *(["--duration", a.duration] if a.duration else [])],
                            check=True, stdout=subprocess.DEVNULL, cwd=ROOT)
             res = json.loads(out.with_suffix(".json").read_text())
-            s = res["summary"][key]
-            row[what] = {k: s.get(k) for k in ("err_per_m", "err_per_m_max", "final_err_m",
-                                                "path_m", "path_learned_m",
-                                                "final_yaw_err_rad", "rms_w", "rms_w_pybullet")}
-            row[what]["per_seed_err_per_m"] = {str(r["seed"]): r["err_per_m"]
-                                               for r in res["runs"]}
+            for scen in extra[1:]:
+                s = res["summary"][f"{scen}/lgpr-gated"]
+                row[scen] = {k: s.get(k) for k in ("err_per_m", "err_per_m_max", "final_err_m",
+                                                   "path_m", "path_learned_m",
+                                                   "final_yaw_err_rad", "rms_w",
+                                                   "rms_w_pybullet", "reached",
+                                                   "reached_pybullet")}
+                row[scen]["per_seed_err_per_m"] = {
+                    str(r["seed"]): r["err_per_m"] for r in res["runs"]
+                    if r.get("scenario", r.get("controller")) == scen}
+        if a.testpool:
+            from littledog_mlsim.apps.evaluate import evaluate
+            m = evaluate(model, a.data, a.work / f"testpool_{lever}", projections=["alpha"])
+            (label, v), = m["rollout"].items()
+            row["testpool"] = {"projection": label, "nmse_mean": m["nmse_mean"],
+                               **{k: v.get(k) for k in ("final_xy_error_m",
+                                                        "final_xy_error_m_median")}}
         rows.append(row)
         print(lever, json.dumps(row), flush=True)
     doc["rows"] = rows
-    lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; seeds "
-             f"{' '.join(a.seeds)}", "",
-             "| lever | straight 60 s: gap / path, median (worst) | final yaw error | learned / "
-             "pybullet path | velocity tracker 40 s: gap / path, median (worst) | train [s] | "
-             "load |", "|---|---|---|---|---|---|---|"]
-    for r in rows:
-        o, c = r["open-loop"], r["closed-loop"]
-        lines.append(f"| {r['lever']} | {100 * o['err_per_m']:.1f} % ({100 * o['err_per_m_max']:.1f} %)"
-                     f" | {o['final_yaw_err_rad']:.3f} rad | {o['path_learned_m']:.2f} / "
-                     f"{o['path_m']:.2f} m | {100 * c['err_per_m']:.1f} % "
-                     f"({100 * c['err_per_m_max']:.1f} %) | {r['train_s']} | `{r['load']}` |")
-    write_results(a.out, doc, lines)
+    write_results(a.out, doc, table(doc, a))
     return 0
+
+
+def _pct(d: dict | None) -> str:
+    if not d or d.get("err_per_m") is None:
+        return "-"
+    return f"{100 * d['err_per_m']:.1f} % ({100 * d['err_per_m_max']:.1f} %)"
+
+
+def table(doc: dict, a) -> list[str]:
+    scen = [*a.scenarios, *a.controllers]
+    names = {"straight": "straight trot", "switch": "gait switching",
+             "velocity": "velocity tracker", "waypoints": "waypoint follower"}
+    head = ["lever", "data"] + [f"{names[s]}: gap / path, median (worst)" for s in scen]
+    if "straight" in scen:
+        head.append("straight: final yaw error")
+    if a.testpool:
+        head.append("4 s TestPool error, gated alpha [m]")
+    head += ["train [s]", "load"]
+    span = (f"{a.duration} s each" if a.duration else
+            "60 s open loop, 40 s closed loop (fidelity.py's defaults)")
+    lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; seeds "
+             f"{' '.join(a.seeds)}; {span}; LGPR with the gated alpha-PROJ", "",
+             "| " + " | ".join(head) + " |",
+             "|" + "---|" * len(head)]
+    for r in doc["rows"]:
+        cells = [r["lever"], r["data"]] + [_pct(r.get(s)) for s in scen]
+        if "straight" in scen:
+            y = (r.get("straight") or {}).get("final_yaw_err_rad")
+            cells.append("-" if y is None else f"{y:.3f} rad")
+        if a.testpool:
+            cells.append(f"{r['testpool']['final_xy_error_m']:.4f}")
+        cells += [str(r["train_s"]), f"`{r['load']}`"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 if __name__ == "__main__":
