@@ -175,3 +175,32 @@ def test_excitation_changes_the_recorded_commands_and_is_noted(tmp_path: Path, d
     assert move_problems(excited) == []               # still a trot that goes forward
     assert read_index(out).info["command_excitation_rad"] == 0.03
     assert "command_excitation_rad" not in read_index(dataset).info
+
+
+def test_extra_moves_go_to_the_trainpool_and_leave_the_plain_moves_alone(tmp_path: Path,
+                                                                        dataset: Path):
+    out = tmp_path / "extra"
+    assert main(["record", "--out", str(out), "--moves-per-type", "2", "--types", "F,L",
+                 "--extra", "switch=1", "--extra", "velocity=1", "--extra", "trot=1",
+                 "--jobs", "2", "--quiet"]) == 0
+    index = read_index(out)
+    assert index.info["extra_moves"] == {"trot": ["F_02", "L_02"], "switch": ["F_03", "L_03"],
+                                         "velocity": ["U_00"]}
+    split = {e.name: e.split for e in index.entries}
+    assert [n for n, s in split.items() if s == "test"] == ["F_01", "L_01"]
+    moves = {m.name: m for m in load_moves(out, split="all")}
+    plain = {m.name: m for m in load_moves(dataset, split="all")}
+    for name in ("F_00", "F_01", "L_00", "L_01"):                   # the plain moves: unchanged
+        np.testing.assert_array_equal(moves[name].q, plain[name].q)
+    assert moves["U_00"].move_type == "U"
+    assert min(moves[n].position[:, 2].min() for n in ("F_03", "L_03", "U_00")) > 0.1  # upright
+    assert not np.array_equal(moves["F_03"].cmd, moves["F_02"].cmd)
+    assert MoveJob("F", 3, 0, "switch").seeds() != MoveJob("F", 3, 0).seeds()
+
+
+@pytest.mark.parametrize("arg", ["bogus=1", "switch=-1", "switch", "velocity=x"])
+def test_a_bad_extra_is_a_usage_error(arg, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["record", "--out", "X", "--extra", arg])
+    assert exc.value.code == 2
+    assert "expected KIND=N" in capsys.readouterr().err
