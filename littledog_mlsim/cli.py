@@ -117,12 +117,18 @@ def cmd_train(a: argparse.Namespace) -> int:
     if a.features != "paper":  # the default model's features: diagnose.measured_robot_features
         from .diagnose.candidates import BASELINES
         extra_kw["feature_set"] = BASELINES[a.features]()
+    if a.dad < 0:
+        raise CliError(f"--dad must be >= 0, got {a.dad}")
+    if a.dad:
+        extra_kw["dad_rounds"] = a.dad
     model = train_from_dataset(a.data, a.method, options=options, max_train_samples=a.n_train,
                                seed=a.seed, progress=not a.quiet, target=a.target, **extra_kw)
     model.save(a.out)
     extra = ""
     if a.method == "lgpr":
         extra = f", {model.estimator.n_clusters_} clusters"
+    if a.dad:
+        extra += f", {a.dad} DaD round(s) adding {sum(model.info['dad']['pairs_added'])} pairs"
     print(f"trained {a.method} (target {model.target}) on {model.info['n_train']} of "
           f"{model.info['n_train_pool']} TrainPool samples{extra} in "
           f"{time.perf_counter() - t0:.1f} s; wrote {a.out}")
@@ -513,6 +519,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="inputs: the paper's 45 (default) or those plus the measured robot's own "
                         "structure, the previous state (found by `diagnose`; see "
                         "benchmarks/diagnose/diagnose.md)")
+    t.add_argument("--dad", type=int, default=0, metavar="N",
+                   help="N rounds of Data as Demonstrator: the model's own rollouts over the "
+                        "TrainPool (gated alpha-PROJ) added as inputs, the recorded next states "
+                        "as targets, and the model fitted again (default 0; paper inputs only)")
     t.add_argument("--clusters", type=int, default=None, metavar="K", help="lgpr: number of k-means clusters")
     t.add_argument("--cluster-size", type=int, default=None, metavar="M",
                    help="lgpr: points per cluster when --clusters is not given (default 1000)")

@@ -99,7 +99,8 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, ...], method:
                 options: Mapping[str, Any] | None = None, random_state: int = 0,
                 n_train: int | None = None, target: str = "delta",
                 gpr_pilot_points: int | None = None, progress: bool = False,
-                info: Mapping[str, Any] | None = None, gate: bool = True) -> OneStepModel:
+                info: Mapping[str, Any] | None = None, gate: bool = True,
+                projection_data: tuple[np.ndarray, np.ndarray] | None = None) -> OneStepModel:
     """Fit a one-step model of ``method`` on ``train`` with ``feature_set``.
 
     ``train``: the recorded moves (the TrainPool), or their arrays ``(X, Y)`` as
@@ -113,7 +114,9 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, ...], method:
     target, seed, n_train_pool, fit time). The projection data are the states of all of
     ``train``. ``gate``: also compute the gated alpha-PROJ's default radius from the moves
     (``projection.gate_radius``, stored in the model file as ``gate``); it needs the
-    moves or ``(X, Y, groups)`` with at least two moves. ValueError (one line) on bad input.
+    moves or ``(X, Y, groups)`` with at least two moves. ``projection_data``: (states, move
+    index) the projection and its gate use instead of ``train``'s (DaD: the recorded states
+    only). ValueError (one line) on bad input.
     """
     opts = dict(options or {})
     target = opts.pop("target", target)
@@ -149,13 +152,17 @@ def fit_onestep(train: Sequence[MoveRecording] | tuple[np.ndarray, ...], method:
         meta["hyperparameter_pilot_points"] = int(gpr_pilot_points)
         meta["hyperparameter_pilot_s"] = pilot_s
     meta.update(info or {})
-    model = OneStepModel.fit(estimator, X[rows], Y[rows], target=target, train_states=Y,
+    if projection_data is not None:
+        Y_proj, groups = projection_data
+    else:
+        Y_proj = Y
+    model = OneStepModel.fit(estimator, X[rows], Y[rows], target=target, train_states=Y_proj,
                              data_fingerprint=fingerprint_arrays(X, Y), info=meta,
                              feature_set=feature_set)
     log.info("fitted %s in %.1f s", method, time.perf_counter() - t0)
     if gate and groups is not None and np.unique(groups).size >= 2:
         t1 = time.perf_counter()
-        model.gate = gate_radius(Y, groups)
+        model.gate = gate_radius(Y_proj, groups)
         log.info("gate radius %.4g (quantile %g of the leave-move-out distances) in %.1f s",
                  model.gate["radius"], model.gate["quantile"], time.perf_counter() - t1)
     return model
@@ -165,26 +172,34 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
                        options: Mapping[str, Any] | None = None,
                        max_train_samples: int | None = None, seed: int = 0,
                        progress: bool = True, target: str = "delta",
-                       feature_set: FeatureSet | None = None) -> OneStepModel:
+                       feature_set: FeatureSet | None = None,
+                       dad_rounds: int = 0) -> OneStepModel:
     """Fit ``method`` (lr, lwpr, gpr, sor, lgpr) on the TrainPool of ``data_dir``.
 
     :func:`fit_onestep` on the TrainPool with ``n_train`` = ``max_train_samples``, default
     :data:`DEFAULT_MAX_TRAIN` for the method (else all). ``seed`` seeds the subset and the
     regressor. ``progress``: log progress, the regressor's own too (``verbose``), shown on
     stderr unless the program configured logging (:func:`..logs.progress_to_stderr`). ``feature_set``: the inputs (default: the paper's
-    45). Returns the fitted model (not saved). ValueError (one line) on bad input,
+    45). ``dad_rounds``: after the fit, that many rounds of Data as Demonstrator
+    (:mod:`.dad`: the model's own rollouts over the TrainPool added, with the recorded next
+    states as targets, and the model fitted again; ``info.dad``). Returns the fitted model (not
+    saved). ValueError (one line) on bad input,
     DatasetError/BagError for an unusable dataset.
     """
     if max_train_samples is not None and int(max_train_samples) < 2:
         raise ValueError(f"max_train_samples must be >= 2; got {max_train_samples}")
     make_estimator(method, {k: v for k, v in (options or {}).items() if k != "target"})  # early
+    if isinstance(dad_rounds, bool) or int(dad_rounds) != dad_rounds or dad_rounds < 0:
+        raise ValueError(f"dad_rounds must be a non-negative integer; got {dad_rounds!r}")
+    if dad_rounds and feature_set is not None and not feature_set.is_base:
+        raise ValueError("DaD supports the paper's inputs only; drop the feature set or DaD")
     with progress_to_stderr(progress):
         return _train_from_dataset(data_dir, method, options, max_train_samples, seed, progress,
-                                   target, feature_set)
+                                   target, feature_set, int(dad_rounds))
 
 
 def _train_from_dataset(data_dir, method, options, max_train_samples, seed, progress, target,
-                        feature_set) -> OneStepModel:
+                        feature_set, dad_rounds=0) -> OneStepModel:
     t0 = time.perf_counter()
     index = read_index(data_dir)
     log.info("loading the TrainPool of %s (%d bags)", data_dir, len(index.names("train")))
@@ -196,9 +211,26 @@ def _train_from_dataset(data_dir, method, options, max_train_samples, seed, prog
     info = {"data_dir": os.fspath(data_dir), "n_moves": len(moves),
             "max_train_samples": None if cap is None else int(cap),
             "dataset_info": json.loads(json.dumps(index.info, default=str))}
-    return fit_onestep((X, Y, groups), method, feature_set=feature_set, options=options,
-                       random_state=seed, n_train=cap, target=target, progress=progress,
-                       info=info)
+    model = fit_onestep((X, Y, groups), method, feature_set=feature_set, options=options,
+                        random_state=seed, n_train=cap, target=target, progress=progress,
+                        info=info)
+    if not dad_rounds:
+        return model
+    from .dad import dad_pairs
+    Xa, Ya, added = X, Y, []
+    for r in range(dad_rounds):
+        t1 = time.perf_counter()
+        Xd, Yd, _ = dad_pairs(model, moves)
+        Xa, Ya = np.vstack([Xa, Xd]), np.vstack([Ya, Yd])
+        added.append(int(Xd.shape[0]))
+        info_r = {**info, "dad": {"rounds": r + 1, "pairs_added": list(added),
+                                  "n_recorded": int(X.shape[0])}}
+        log.info("DaD round %d: %d pairs added in %.1f s; fitting on %d", r + 1, Xd.shape[0],
+                 time.perf_counter() - t1, Xa.shape[0])
+        model = fit_onestep((Xa, Ya), method, feature_set=feature_set, options=options,
+                            random_state=seed, n_train=cap, target=target, progress=progress,
+                            info=info_r, projection_data=(Y, groups))
+    return model
 
 
 __all__ = ["fit_onestep", "train_from_dataset", "make_estimator", "subset_rows",

@@ -14,6 +14,11 @@ yaw error and the learned path. The levers:
   commanded turn of the feet);
 - ``command_lag8``: u_{t-8} of every joint (the set-points about a quarter gait period ago).
 
+Model levers (the paper's inputs): ``blend`` (each query blends the 2 nearest local GPs,
+``train --blend``: the paper's own suggestion that a point may belong to several clusters);
+``dad`` (one round of Data as Demonstrator, ``train --dad 1``: the model's own rollouts over
+the TrainPool added with the recorded next states as targets).
+
 Data levers (the paper's 45 inputs, trained on a dataset ``record --extra`` makes: the same
 seed, robot and plain moves as ``--data``, plus TrainPool moves of other kinds,
 ``littledog_mlsim.control.moves``; recorded into WORK once and reused):
@@ -60,7 +65,9 @@ DATA_LEVERS = {
     "closed_loop": {"velocity": 22, "waypoints": 22},
     "all_kinds": {"switch": 4, "varied": 4, "velocity": 22, "waypoints": 22},
 }
-LEVERS = FEATURE_LEVERS + tuple(DATA_LEVERS)
+MODEL_OPTIONS = {"blend": {"blend": True}}
+DAD_ROUNDS = {"dad": 1}
+LEVERS = FEATURE_LEVERS + tuple(MODEL_OPTIONS) + tuple(DAD_ROUNDS) + tuple(DATA_LEVERS)
 SCENARIO_KEY = {"straight": "open-loop", "switch": "open-loop", "velocity": "closed-loop",
                 "waypoints": "closed-loop"}
 
@@ -68,7 +75,7 @@ SCENARIO_KEY = {"straight": "open-loop", "switch": "open-loop", "velocity": "clo
 def feature_set(lever: str):
     from littledog_mlsim.models.feature_library import CommandIncrement, CommandLag
     from littledog_mlsim.models.features import FeatureSet
-    if lever == "paper" or lever in DATA_LEVERS:
+    if lever == "paper" or lever in DATA_LEVERS or lever in MODEL_OPTIONS or lever in DAD_ROUNDS:
         return None
     if lever == "measured":
         from littledog_mlsim.diagnose.candidates import measured_robot_features
@@ -130,8 +137,9 @@ def main(argv=None) -> int:
         data = lever_data(lever, a.data, a.work)
         record_s = time.perf_counter() - t0
         if not model.exists():
-            train_from_dataset(data, "lgpr", progress=False,
-                               feature_set=feature_set(lever)).save(model)
+            train_from_dataset(data, "lgpr", progress=False, options=MODEL_OPTIONS.get(lever),
+                               feature_set=feature_set(lever),
+                               dad_rounds=DAD_ROUNDS.get(lever, 0)).save(model)
         train_s = time.perf_counter() - t0 - record_s
         row = {"lever": lever, "data": data.name, "record_s": round(record_s, 1),
                "train_s": round(train_s, 1), "load": uptime()}
