@@ -17,7 +17,9 @@ Sub-commands (each writes ``<name>.json``, ``<name>.md`` and figures in this dir
   forward trot (``straight_trot_schedule``), ``--duration`` s each.
 - ``soak``: one gait-switching schedule of ``--duration`` s (600 = 10 minutes).
 - ``closed-loop``: per seed, a waypoint follower and a PI body-velocity tracker
-  (``control.controllers``), ``--duration`` s each, in every simulator.
+  (``control.controllers``), ``--duration`` s each, in every simulator; ``--controllers
+  trajectory`` adds the trajectory tracker (a timed curved reference with sideways motion,
+  ``trajectory_reference``), written after the levers' first table and not tuned on.
 
 Configurations (``--configs``): ``lgpr-none``, ``lgpr-alpha`` (plain alpha-PROJ 0.5),
 ``lgpr-gated`` (alpha 0.5, radius = the ``--quantile`` of the TrainPool's leave-move-out
@@ -55,7 +57,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from _common import command_line, run_record, write_results  # noqa: E402
 from littledog_mlsim.control.controllers import (  # noqa: E402
-    Observation, VelocityTracker, WaypointFollower)
+    Observation, TrajectoryTracker, VelocityTracker, WaypointFollower, reference_trajectory)
 from littledog_mlsim.control.gait import StreamingTrot  # noqa: E402
 from littledog_mlsim.control.schedule import (  # noqa: E402
     blend, gait_switch_schedule, straight_trot_schedule)
@@ -217,7 +219,26 @@ def _controller(kind: str, seed: int, n: int):
             rows += [b, np.tile(nxt, (seg - 50, 1))]
             prev = nxt
         return VelocityTracker(np.vstack(rows)[:n])
+    if kind == "trajectory":
+        return TrajectoryTracker(*trajectory_reference(np.random.default_rng(3000 + seed), n))
     raise ValueError(kind)
+
+
+def trajectory_reference(rng: np.random.Generator, n: int, segment: int = 800,
+                         join: int = 100) -> tuple[np.ndarray, np.ndarray]:
+    """(poses (n, 3), body velocity (n, 3)) of the trajectory tracker's reference: 8 s
+    segments, each with a forward speed from 0.03-0.05 m/s, a sideways speed within +-0.015 m/s
+    and a yaw rate within +-0.15 rad/s, joined by smoothstep over 1 s, from rest. The speeds
+    are those the soft-servo robot reaches (about 40 % of a trot's commanded speed)."""
+    rows, prev = [], np.zeros(3)
+    for _ in range(int(np.ceil(n / segment))):
+        nxt = np.array([rng.uniform(0.03, 0.05), rng.uniform(-0.015, 0.015),
+                        rng.uniform(-0.15, 0.15)])
+        b = blend(TrotCommand(*prev), TrotCommand(*nxt), join)[:, :3]
+        rows += [b, np.tile(nxt, (segment - join, 1))]
+        prev = nxt
+    v = np.vstack(rows)[:n]
+    return reference_trajectory(v), v
 
 
 def run_closed_loop(cfg: str, seed: int, kind: str, n: int) -> dict:
@@ -266,6 +287,8 @@ def run_closed_loop(cfg: str, seed: int, kind: str, n: int) -> dict:
         out["reached_steps"] = list(ctrl.reached_steps)
         out["n_waypoints"] = int(ctrl.waypoints.shape[0])
         out["waypoints"] = ctrl.waypoints.tolist()
+    elif kind == "trajectory":
+        out["reference_path"] = ctrl.poses
     else:
         out["reference"] = ctrl.reference
     return out
@@ -565,6 +588,16 @@ def cmd_open_loop(a, soak: bool = False) -> int:
     return 0
 
 
+def path_tracking(res: dict) -> dict:
+    """RMS distance [m] of the robot's (x, y) from the reference trajectory's at the same step,
+    over the steps done."""
+    k = int(res["steps_done"])
+    if k == 0:
+        return {"rms_ref_m": float("nan")}
+    d = res["position"][:k, :2] - np.asarray(res["reference_path"])[:k, :2]
+    return {"rms_ref_m": float(np.sqrt(np.mean(np.sum(d ** 2, axis=1))))}
+
+
 def cmd_closed_loop(a) -> int:
     import matplotlib
     matplotlib.use("Agg")
@@ -609,7 +642,10 @@ def cmd_closed_loop(a) -> int:
         ref = results[(kind, seed, "pybullet")]
         m = compare(res, ref, n, z_range)
         m.update(controller=kind, seed=seed, config=cfg)
-        if kind == "waypoints":
+        if kind == "trajectory":
+            m["tracking"] = path_tracking(res)
+            m["tracking_pybullet"] = path_tracking(ref)
+        elif kind == "waypoints":
             m["reached"] = len(res["reached_steps"])
             m["reached_pybullet"] = len(ref["reached_steps"])
             m["n_waypoints"] = res["n_waypoints"]
@@ -626,7 +662,13 @@ def cmd_closed_loop(a) -> int:
              f"(quantile {a.quantile}).", ""]
     doc["summary"] = {}
     for kind in a.controllers:
-        if kind == "waypoints":
+        if kind == "trajectory":
+            lines += ["## Trajectory tracker (timed curved reference, feedforward + pose "
+                      "feedback)", "",
+                      "| simulator | path (pybullet) m | final gap m | gap / path | max gap m | "
+                      "RMS distance from the reference, learned m | pybullet m | first "
+                      "implausible s |", "|---|---|---|---|---|---|---|---|"]
+        elif kind == "waypoints":
             lines += ["## Waypoint follower (4 waypoints 0.4 m apart)", "",
                       "| simulator | path (pybullet) m | final gap m | gap / path | max gap m | "
                       "waypoints reached (learned / pybullet, sum of seeds) | median time to "
@@ -647,7 +689,16 @@ def cmd_closed_loop(a) -> int:
                     "err_per_m_max": float(np.nanmax([r["err_per_m"] for r in rs])),
                     "max_err_m": _med([r["max_err_m"] for r in rs]),
                     "first_implausible_s": first, "runs_implausible": k_imp}
-            if kind == "waypoints":
+            if kind == "trajectory":
+                summ["rms_ref_m"] = _med([r["tracking"]["rms_ref_m"] for r in rs])
+                summ["rms_ref_m_pybullet"] = _med([r["tracking_pybullet"]["rms_ref_m"]
+                                                   for r in rs])
+                lines.append(
+                    f"| {LABEL[cfg]} | {summ['path_m']:.2f} | {summ['final_err_m']:.3f} | "
+                    f"{100 * summ['err_per_m']:.1f} % (worst {100 * summ['err_per_m_max']:.1f} %)"
+                    f" | {summ['max_err_m']:.3f} | {summ['rms_ref_m']:.3f} | "
+                    f"{summ['rms_ref_m_pybullet']:.3f} | {_fmt(first, 2)} ({k_imp}/{len(rs)}) |")
+            elif kind == "waypoints":
                 summ["reached"] = sum(r["reached"] for r in rs)
                 summ["reached_pybullet"] = sum(r["reached_pybullet"] for r in rs)
                 dts = []
@@ -684,6 +735,8 @@ def cmd_closed_loop(a) -> int:
         if kind == "waypoints":
             wp = np.array(ref["waypoints"])
             ax.plot(*wp.T, "rx", ms=10, label="waypoints")
+        if kind == "trajectory":
+            ax.plot(*np.asarray(ref["reference_path"])[:, :2].T, "r:", lw=1, label="reference")
         ax.set(xlabel="x [m]", ylabel="y [m]", title=f"{kind}, seed {seed}", aspect="equal")
         ax.legend(fontsize=7)
         fig.tight_layout()
@@ -707,7 +760,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenarios", nargs="+", default=["switch", "straight"],
                     choices=("switch", "straight"))
     ap.add_argument("--controllers", nargs="+", default=["waypoints", "velocity"],
-                    choices=("waypoints", "velocity"))
+                    choices=("waypoints", "velocity", "trajectory"))
     ap.add_argument("--quantile", type=float, default=0.9)
     ap.add_argument("--radius", type=float, default=None, help="gate radius (default: from "
                     "--quantile)")

@@ -14,6 +14,9 @@ angles. They keep their commands inside the ranges the data's trots were drawn f
   diagonal pair lower in the gravity-aligned body frame) are taken as fixed on the ground, so
   v_b = -(d/dt p_foot + w x p_foot), averaged over the stance feet and over one gait period
   (which removes the stride's oscillation); the yaw rate is the odometry's, averaged likewise.
+- :class:`TrajectoryTracker` (pose): a timed reference trajectory of poses; the reference's
+  own body velocity fed forward plus proportional feedback on the pose error, with the
+  sideways velocity as well as forward speed and yaw rate (the robot is holonomic).
 """
 from __future__ import annotations
 
@@ -29,7 +32,8 @@ from ..layout import CONTROL_DT, N_JOINTS, wrap_angle
 from ..rotations import quat_to_rpy, rpy_to_matrix
 from .gait import TrotCommand
 
-__all__ = ["Observation", "WaypointFollower", "VelocityTracker", "STANCE_PAIRS"]
+__all__ = ["Observation", "WaypointFollower", "VelocityTracker", "TrajectoryTracker",
+           "reference_trajectory", "STANCE_PAIRS"]
 
 # Diagonal pairs in LEGS order (front_left, front_right, back_left, back_right).
 STANCE_PAIRS = (np.array([0, 3]), np.array([1, 2]))
@@ -182,5 +186,84 @@ class VelocityTracker:
         cmd = np.clip(raw, -self.limits, self.limits)
         if np.array_equal(cmd, raw):          # anti-windup: integrate only when not saturated
             self._integral += err * self.dt
+        return TrotCommand(float(cmd[0]), float(cmd[1]), float(cmd[2]), self.step_height,
+                           self.period)
+
+
+def reference_trajectory(body_velocity: np.ndarray, pose0: np.ndarray = np.zeros(3),
+                         dt: float = CONTROL_DT) -> np.ndarray:
+    """Poses (n, 3) x, y, yaw in odom of a body moving from ``pose0`` with ``body_velocity``
+    (n, 3): vx, vy [m/s] in its own frame and yaw rate [rad/s] per step (row k: the pose after
+    k + 1 steps)."""
+    v = np.asarray(body_velocity, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
+        raise ValueError(f"body_velocity must be (n, 3) finite values, got {v.shape}")
+    out = np.empty_like(v)
+    x, y, yaw = (float(a) for a in pose0)
+    for k, (vx, vy, w) in enumerate(v):
+        c, s = np.cos(yaw), np.sin(yaw)
+        x += (c * vx - s * vy) * dt
+        y += (s * vx + c * vy) * dt
+        yaw += w * dt
+        out[k] = x, y, yaw
+    return out
+
+
+class TrajectoryTracker:
+    """Follow a timed reference trajectory: feedforward plus proportional pose feedback.
+
+    Args:
+        poses: (n, 3) reference x, y, yaw in odom per step (after its end the last pose holds,
+            with zero feedforward).
+        body_velocity: (n, 3) the reference's own vx, vy (in its frame) and yaw rate per step,
+            the feedforward (``reference_trajectory`` makes poses from it).
+        k_position, k_heading: feedback gains [1/s] on the position error (in the body frame)
+            and on the heading error.
+        step_height, period: of the trot; limits: |vx|, |vy|, |yaw rate| bounds (default: the
+            data's ranges).
+
+    Per step: e = R(yaw)^T (p_ref - p) and dyaw = wrap(yaw_ref - yaw); (vx, vy) = R(dyaw) v_ref
+    + k_position e (the reference's body velocity seen from the robot's frame, plus the
+    position feedback); yaw rate = w_ref + k_heading dyaw; each clipped to its limit.
+    ``error`` holds the last position error (2,) [m] in odom.
+    """
+
+    def __init__(self, poses: np.ndarray, body_velocity: np.ndarray, k_position: float = 0.5,
+                 k_heading: float = 1.0, step_height: float = 0.025, period: float = 0.35,
+                 limits: tuple[float, float, float] = (DEFAULT_RANGES.speed_forward[1],
+                                                      DEFAULT_RANGES.speed_sideways[1],
+                                                      DEFAULT_RANGES.yaw_rate_turn[1])) -> None:
+        p = np.asarray(poses, dtype=np.float64)
+        v = np.asarray(body_velocity, dtype=np.float64)
+        if (p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 1 or v.shape != p.shape
+                or not np.all(np.isfinite(p)) or not np.all(np.isfinite(v))):
+            raise ValueError(f"poses and body_velocity must be (n >= 1, 3) finite values, got "
+                             f"{p.shape} and {v.shape}")
+        self.poses, self.body_velocity = p, v
+        self.k_position, self.k_heading = float(k_position), float(k_heading)
+        self.step_height, self.period = float(step_height), float(period)
+        self.limits = np.asarray(limits, dtype=np.float64)
+        self.reset()
+
+    def reset(self) -> None:
+        self._k = 0
+        self.error = np.zeros(2)
+
+    def command(self, obs: Observation) -> TrotCommand:
+        n = self.poses.shape[0]
+        k = min(self._k, n - 1)
+        ff = self.body_velocity[k] if self._k < n else np.zeros(3)
+        self._k += 1
+        xr, yr, yaw_r = self.poses[k]
+        yaw = float(obs.rpy[2])
+        c, s = np.cos(yaw), np.sin(yaw)
+        self.error = np.array([xr - obs.position[0], yr - obs.position[1]])
+        e_body = np.array([c * self.error[0] + s * self.error[1],
+                           -s * self.error[0] + c * self.error[1]])
+        dyaw = float(wrap_angle(yaw_r - yaw))
+        cd, sd = np.cos(dyaw), np.sin(dyaw)
+        v_ff = np.array([cd * ff[0] - sd * ff[1], sd * ff[0] + cd * ff[1]])
+        raw = np.array([*(v_ff + self.k_position * e_body), ff[2] + self.k_heading * dyaw])
+        cmd = np.clip(raw, -self.limits, self.limits)
         return TrotCommand(float(cmd[0]), float(cmd[1]), float(cmd[2]), self.step_height,
                            self.period)

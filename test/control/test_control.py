@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from littledog_mlsim.control.controllers import (STANCE_PAIRS, Observation, VelocityTracker,
-                                                 WaypointFollower)
+from littledog_mlsim.control.controllers import (STANCE_PAIRS, Observation, TrajectoryTracker,
+                                                 VelocityTracker, WaypointFollower,
+                                                 reference_trajectory)
 from littledog_mlsim.control.gait import StreamingTrot, TrotCommand
 from littledog_mlsim.control.schedule import gait_switch_schedule, straight_trot_schedule
 from littledog_mlsim.gait.ik import forward_kinematics, inverse_kinematics
@@ -134,3 +135,22 @@ def test_pi_tracker_removes_a_steady_gain_error():
         c = tr.command(_obs(0, 0, 0))
         tr.achieved = 0.4 * np.array([c.vx, c.vy, c.yaw_rate])
     assert c.vx == tr.limits[0] and np.all(np.abs(tr._integral) < 1.0)
+
+
+def test_trajectory_tracker_follows_a_curved_holonomic_reference():
+    n = 3000
+    t = np.arange(n) * CONTROL_DT
+    v = np.stack([np.full(n, 0.08), 0.03 * np.sin(0.2 * t), 0.2 * np.sin(0.1 * t)], axis=1)
+    poses = reference_trajectory(v)
+    ctrl = TrajectoryTracker(poses, v)
+    x, y, yaw = 0.05, -0.04, 0.2                          # start off the reference
+    for k in range(n):
+        c = ctrl.command(_obs(x, y, yaw))
+        assert abs(c.vx) <= ctrl.limits[0] and abs(c.vy) <= ctrl.limits[1]
+        x += (np.cos(yaw) * c.vx - np.sin(yaw) * c.vy) * CONTROL_DT
+        y += (np.sin(yaw) * c.vx + np.cos(yaw) * c.vy) * CONTROL_DT
+        yaw += c.yaw_rate * CONTROL_DT
+    np.testing.assert_allclose([x, y], poses[-1, :2], atol=0.01)
+    assert abs(yaw - poses[-1, 2]) < 0.01
+    with pytest.raises(ValueError, match="finite"):
+        TrajectoryTracker(poses[:5], np.full((5, 3), np.nan))

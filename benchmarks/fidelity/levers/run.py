@@ -68,8 +68,6 @@ DATA_LEVERS = {
 MODEL_OPTIONS = {"blend": {"blend": True}}
 DAD_ROUNDS = {"dad": 1}
 LEVERS = FEATURE_LEVERS + tuple(MODEL_OPTIONS) + tuple(DAD_ROUNDS) + tuple(DATA_LEVERS)
-SCENARIO_KEY = {"straight": "open-loop", "switch": "open-loop", "velocity": "closed-loop",
-                "waypoints": "closed-loop"}
 
 
 def feature_set(lever: str):
@@ -113,9 +111,10 @@ def main(argv=None) -> int:
                          "fidelity run's files")
     ap.add_argument("--levers", nargs="+", default=list(FEATURE_LEVERS), choices=LEVERS)
     ap.add_argument("--seeds", nargs="+", default=["0", "1", "2"])
-    ap.add_argument("--scenarios", nargs="+", default=["straight"], choices=("straight", "switch"))
-    ap.add_argument("--controllers", nargs="+", default=["velocity"],
-                    choices=("velocity", "waypoints"))
+    ap.add_argument("--scenarios", nargs="*", default=["straight"], choices=("straight", "switch"),
+                    help="open-loop schedules (none: no open-loop run)")
+    ap.add_argument("--controllers", nargs="*", default=["velocity"],
+                    choices=("velocity", "waypoints", "trajectory"))
     ap.add_argument("--testpool", action="store_true",
                     help="also the 4 s TestPool rollouts on --data's TestPool")
     ap.add_argument("--workers", type=int, default=2)
@@ -129,8 +128,9 @@ def main(argv=None) -> int:
     if not lr.exists():
         train_from_dataset(a.data, "lr", progress=False).save(lr)
     rows = []
-    runs = [("open-loop", ["--scenarios", *a.scenarios]),
-            ("closed-loop", ["--controllers", *a.controllers])]
+    runs = [(what, [flag, *names]) for what, flag, names in (
+        ("open-loop", "--scenarios", a.scenarios), ("closed-loop", "--controllers", a.controllers))
+        if names]
     for lever in a.levers:
         model = a.work / f"lgpr_{lever}"
         t0 = time.perf_counter()
@@ -158,7 +158,8 @@ def main(argv=None) -> int:
                                                    "path_m", "path_learned_m",
                                                    "final_yaw_err_rad", "rms_w",
                                                    "rms_w_pybullet", "reached",
-                                                   "reached_pybullet")}
+                                                   "reached_pybullet", "rms_ref_m",
+                                                   "rms_ref_m_pybullet")}
                 row[scen]["per_seed_err_per_m"] = {
                     str(r["seed"]): r["err_per_m"] for r in res["runs"]
                     if r.get("scenario", r.get("controller")) == scen}
@@ -185,7 +186,8 @@ def _pct(d: dict | None) -> str:
 def table(doc: dict, a) -> list[str]:
     scen = [*a.scenarios, *a.controllers]
     names = {"straight": "straight trot", "switch": "gait switching",
-             "velocity": "velocity tracker", "waypoints": "waypoint follower"}
+             "velocity": "velocity tracker", "waypoints": "waypoint follower",
+             "trajectory": "trajectory tracker"}
     head = ["lever", "data"] + [f"{names[s]}: gap / path, median (worst)" for s in scen]
     if "straight" in scen:
         head.append("straight: final yaw error")
