@@ -19,6 +19,9 @@ Model levers (the paper's inputs): ``blend`` (each query blends the 2 nearest lo
 ``dad`` (one round of Data as Demonstrator, ``train --dad 1``: the model's own rollouts over
 the TrainPool added with the recorded next states as targets).
 
+A lever ``A+B`` combines levers: at most one data lever and one input lever, with any model
+levers (for example ``varied+command_increment``).
+
 Data levers (the paper's 45 inputs, trained on a dataset ``record --extra`` makes: the same
 seed, robot and plain moves as ``--data``, plus TrainPool moves of other kinds,
 ``littledog_mlsim.control.moves``; recorded into WORK once and reused):
@@ -70,10 +73,34 @@ DAD_ROUNDS = {"dad": 1}
 LEVERS = FEATURE_LEVERS + tuple(MODEL_OPTIONS) + tuple(DAD_ROUNDS) + tuple(DATA_LEVERS)
 
 
+def parts(lever: str) -> dict:
+    """A lever or a combination ``A+B`` (at most one data lever and one input lever): {"data":
+    data lever or None, "inputs": input lever or None, "options": model options, "dad":
+    rounds}. SystemExit on a name that is none of them."""
+    out = {"data": None, "inputs": None, "options": {}, "dad": 0}
+    for part in lever.split("+"):
+        if part not in LEVERS:
+            raise SystemExit(f"unknown lever {part!r} in {lever!r}; expected {', '.join(LEVERS)}")
+        if part in DATA_LEVERS or (part in FEATURE_LEVERS and part != "paper"):
+            key = "data" if part in DATA_LEVERS else "inputs"
+            if out[key]:
+                raise SystemExit(f"{lever!r} combines two {key} levers")
+            out[key] = part
+        out["options"].update(MODEL_OPTIONS.get(part, {}))
+        out["dad"] += DAD_ROUNDS.get(part, 0)
+    return out
+
+
+def _lever(text: str) -> str:
+    parts(text)
+    return text
+
+
 def feature_set(lever: str):
     from littledog_mlsim.models.feature_library import CommandIncrement, CommandLag
     from littledog_mlsim.models.features import FeatureSet
-    if lever == "paper" or lever in DATA_LEVERS or lever in MODEL_OPTIONS or lever in DAD_ROUNDS:
+    lever = parts(lever)["inputs"] or "paper"
+    if lever == "paper":
         return None
     if lever == "measured":
         from littledog_mlsim.diagnose.candidates import measured_robot_features
@@ -88,7 +115,8 @@ def feature_set(lever: str):
 def lever_data(lever: str, base: Path, work: Path) -> Path:
     """The dataset a lever trains on: ``base`` itself, or (data levers) a dataset recorded
     like it with the lever's extra moves, in WORK (reused when present)."""
-    if lever not in DATA_LEVERS:
+    lever = parts(lever)["data"]
+    if lever is None:
         return base
     from littledog_mlsim.apps.record import record_dataset
     from littledog_mlsim.data.dataset import read_index
@@ -109,7 +137,9 @@ def main(argv=None) -> int:
     ap.add_argument("--work", type=Path, required=True,
                     help="models and data levers' datasets (reused when present) and each "
                          "fidelity run's files")
-    ap.add_argument("--levers", nargs="+", default=list(FEATURE_LEVERS), choices=LEVERS)
+    ap.add_argument("--levers", nargs="+", type=_lever, default=list(FEATURE_LEVERS),
+                    help=f"levers ({', '.join(LEVERS)}) or combinations A+B (one data lever, "
+                         f"one input lever, model levers)")
     ap.add_argument("--seeds", nargs="+", default=["0", "1", "2"])
     ap.add_argument("--scenarios", nargs="*", default=["straight"], choices=("straight", "switch"),
                     help="open-loop schedules (none: no open-loop run)")
@@ -137,9 +167,9 @@ def main(argv=None) -> int:
         data = lever_data(lever, a.data, a.work)
         record_s = time.perf_counter() - t0
         if not model.exists():
-            train_from_dataset(data, "lgpr", progress=False, options=MODEL_OPTIONS.get(lever),
-                               feature_set=feature_set(lever),
-                               dad_rounds=DAD_ROUNDS.get(lever, 0)).save(model)
+            pl = parts(lever)
+            train_from_dataset(data, "lgpr", progress=False, options=pl["options"] or None,
+                               feature_set=feature_set(lever), dad_rounds=pl["dad"]).save(model)
         train_s = time.perf_counter() - t0 - record_s
         row = {"lever": lever, "data": data.name, "record_s": round(record_s, 1),
                "train_s": round(train_s, 1), "load": uptime()}
