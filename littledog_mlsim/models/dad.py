@@ -43,13 +43,17 @@ def dad_pairs(model: Any, moves: Sequence[MoveRecording], projection: Any = None
     with the recorded command u_k, and the recorded next state s_{k+1}.
 
     ``projection``: of the rollouts (default: :func:`served_projection`). Pairs whose predicted
-    state is not finite are left out.
+    state is not finite are left out, and so are moves of fewer than 3 steps (an imported
+    recording may hold them); the move index counts the moves kept.
     """
     fs = getattr(model, "feature_set", None)
     if fs is not None and not fs.is_base:
         raise ValueError("DaD supports the paper's inputs only (state and command); this model "
                          "has a feature set with more")
     projection = served_projection(model) if projection is None else projection
+    moves = [m for m in moves if m.n_steps >= 3]       # a pair needs two predicted steps
+    if not moves:
+        raise ValueError("DaD needs a TrainPool move of at least 3 steps")
     tms = prepare_test_moves(moves)
     preds = rollout_moves(model, tms, projection)
     xs, ys, gs = [], [], []

@@ -63,3 +63,17 @@ def test_train_dad_on_the_command_line(small_dataset: Path, tmp_path, capsys):
                  "--dad", "1", "--quiet"]) == 0
     assert "1 DaD round(s) adding" in capsys.readouterr().out
     assert OneStepModel.load(out).info["dad"]["rounds"] == 1
+
+
+def test_moves_too_short_for_a_pair_are_left_out(small_dataset: Path):
+    from dataclasses import fields, replace
+    moves = load_moves(small_dataset, split="train")
+    model = train_from_dataset(small_dataset, "lr", progress=False)
+    per_step = {f.name for f in fields(moves[0])} - {"name", "move_type"}
+    short = replace(moves[0], **{k: getattr(moves[0], k)[:3] for k in per_step
+                                 if k != "cmd"}, cmd=moves[0].cmd[:2])   # 2 steps
+    X, _, g = dad_pairs(model, [short, *moves[1:]])
+    X2, _, _ = dad_pairs(model, moves[1:])
+    np.testing.assert_array_equal(X, X2)
+    with pytest.raises(ValueError, match="at least 3 steps"):
+        dad_pairs(model, [short])
