@@ -79,7 +79,7 @@ import logging
 import math
 import time
 from dataclasses import asdict, dataclass, replace
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
@@ -678,10 +678,16 @@ def _scope_words(aug: Augmentation) -> str:
 
 
 def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
-                       X: np.ndarray, mass_kg: float, elapsed_mean_s: float
-                       ) -> tuple[str, dict[str, Any]]:
+                       X: np.ndarray, mass_kg: float, elapsed_mean_s: float,
+                       floor: Mapping[str, Any] | None = None) -> tuple[str, dict[str, Any]]:
     """(sentence, numbers) naming the effect ``aug`` of the fitted ``model`` (features X;
-    ``elapsed_mean_s``: the mean time since the move's start over X's rows)."""
+    ``elapsed_mean_s``: the mean time since the move's start over X's rows; ``floor``: the
+    recordings' floor plane, :func:`.families.learned.floor_plane`, which names a position
+    effect an inclined floor where a plane explains the body heights)."""
+    from .families.learned import slope_reading
+    slope = slope_reading(floor) if aug.family == "pose (position)" else None
+    if slope is not None:
+        return slope["statement"], {**slope["params"], "floor_plane": dict(floor or {})}
     sl = fs.column_slices()[list(fs.augmentations).index(aug)]
     if isinstance(aug, Heading):
         return _heading_statement(model.linear_coef(sl), mass_kg)
@@ -706,13 +712,14 @@ def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
             {"strongest_on": where})
 
 
-def vocabulary_reading(aug: Augmentation, numbers: dict[str, Any], text: str
-                       ) -> dict[str, Any]:
+def vocabulary_reading(aug: Augmentation, numbers: dict[str, Any], text: str,
+                       floor: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The effect in the diagnosis vocabulary (``{family, scope, params, statement}``, the
-    physical route's form): the learned family's reading (:mod:`.families.learned`) with the
-    physical numbers this route measured where the family's parameters name them."""
+    physical route's form): the learned family's reading (:mod:`.families.learned`; ``floor``
+    as for :func:`physical_statement`) with the physical numbers this route measured where the
+    family's parameters name them."""
     from .families.learned import physical_reading
-    out = physical_reading(aug)
+    out = physical_reading(aug, floor)
     params = dict(out["params"])
     for k in list(params) + ["direction_deg"]:
         if isinstance(numbers.get(k), (int, float)):
@@ -986,12 +993,14 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
             mass_kg, t_start) -> dict[str, Any]:
+    from .families.learned import floor_plane
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
                   * CONTROL_DT)
+    floor = floor_plane(train)
     effects = []
     for p, scan in found:
-        text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar)
+        text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar, floor)
         if isinstance(p.aug, Heading):
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
         rivals = _scope_rivals(scan, opts.tolerance, opts.scope_alpha)
@@ -1004,7 +1013,7 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
         effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
                         "scope": p.aug.params().get("joints", "body"), "statement": text,
                         "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers,
-                                                                               text),
+                                                                               text, floor),
                         "scan": scan})
     mv_test = _moves(test)
     before = _test_scores(model0, start, test, mv_test, opts)

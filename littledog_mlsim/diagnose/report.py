@@ -59,7 +59,8 @@ def _outputs(s: CandidateScore, alpha: float, min_gain: float) -> list[str]:
     return [STATE_NAMES[j] for j in np.flatnonzero(mask)]
 
 
-def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -> dict:
+def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict,
+            floor: Mapping[str, Any] | None = None) -> dict:
     s = r.picked
     assert s is not None
     fam = [c for c in r.scores if c.augmentation.family == s.augmentation.family]
@@ -89,21 +90,23 @@ def _effect(k: int, r: Round, sel: SelectionResult, before: dict, after: dict) -
                              "gain": _named(np.asarray(d["gain"]))} for d in r.delay_profile]),
         },
         "before": before, "after": after, "nmse_cut": cut,
-        "physical": learned_physical(s.augmentation),
+        "physical": learned_physical(s.augmentation, floor),
     }
 
 
-def learned_physical(aug: Any) -> dict[str, Any]:
+def learned_physical(aug: Any, floor: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The vocabulary's family/scope of a feature the learned loop added (docs/diagnosis.md);
     the learned loop measures no physical magnitude, so the primary parameter is null except a
-    command delay's (lag x 10 ms) and a command filter's (:mod:`.families.learned`)."""
+    command delay's (lag x 10 ms), a command filter's, and a position effect's where the floor
+    is a plane (``floor``: report.json's ``floor_plane``; :mod:`.families.learned`)."""
     from .families.learned import physical_reading
-    return physical_reading(aug)
+    return physical_reading(aug, floor)
 
 
 def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> dict[str, Any]:
     """The report.json document (see module doc)."""
-    effects = [_effect(k, r, sel, stages[k], stages[k + 1])
+    floor = info.get("floor_plane")
+    effects = [_effect(k, r, sel, stages[k], stages[k + 1], floor)
                for k, r in enumerate([r for r in sel.rounds if r.picked is not None])]
     rounds = []
     for r in sel.rounds:

@@ -209,6 +209,8 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     stages, last_model = _stages(run, feature_sets)
     keywords = _report_keywords(run, last_model)
     keywords["route"] = {"name": "learned", "why": why}
+    from .families.learned import floor_plane
+    keywords["floor_plane"] = floor_plane(run.train)
     if rollout is not None:
         keywords["rollout_route"] = rollout
     report = write_report(run.out, sel, stages, **keywords)

@@ -214,3 +214,38 @@ def test_the_scope_widens_only_where_the_wider_scope_gains_on_most_moves():
     assert rivals[0]["kept_total_gain"] == 4.8
     assert _scope_rivals([{**scan[0], "total_gain": 3.0}, scan[1]], 0.1, 0.01) == []
     assert _scope_rivals(scan[:1], 0.1, 0.01) == []    # no scope kept (the fallback)
+
+
+def _walks(slope_deg: float, uphill_deg: float, rng) -> list:
+    """Recordings whose body walks straight out from the origin in 11 directions over a floor
+    inclined by ``slope_deg`` rising towards ``uphill_deg``, the body bobbing 2 mm."""
+    from types import SimpleNamespace
+    g = np.tan(np.radians(slope_deg)) * np.array([np.cos(np.radians(uphill_deg)),
+                                                  np.sin(np.radians(uphill_deg))])
+    out = []
+    for a in np.linspace(0, 2 * np.pi, 11, endpoint=False):
+        xy = np.outer(np.linspace(0, 0.4, 401), [np.cos(a), np.sin(a)])
+        z = 0.138 + xy @ g + 0.002 * np.sin(np.arange(401) * 0.6) + rng.normal(0, 5e-4, 401)
+        out.append(SimpleNamespace(position=np.column_stack([xy, z])))
+    return out
+
+
+def test_a_position_effect_on_an_inclined_floor_is_named_a_slope():
+    from littledog_mlsim.diagnose.families.learned import floor_plane, physical_reading
+    from littledog_mlsim.diagnose.learned import physical_statement, vocabulary_reading
+    from littledog_mlsim.models.feature_library import PlanarPosition
+    rng = np.random.default_rng(0)
+    floor = floor_plane(_walks(2.0, 200.0, rng))
+    assert abs(floor["slope_deg"] - 2.0) < 0.05 and abs(floor["uphill_direction_deg"] - 200) < 2
+    assert floor["r2"] > 0.9
+    reading = physical_reading(PlanarPosition(), floor)
+    assert (reading["family"], reading["scope"]) == ("ground_slope", "body")
+    assert abs(reading["params"]["slope_deg"] - 2.0) < 0.05
+    text, numbers = physical_statement(PlanarPosition(), None, None, None, 2.5, 1.0, floor)
+    assert "inclined by about 2.0 deg" in text and numbers["slope_deg"] == floor["slope_deg"]
+    assert vocabulary_reading(PlanarPosition(), numbers, text, floor)["family"] == "ground_slope"
+    flat = floor_plane(_walks(0.0, 0.0, rng))                 # a flat floor: no plane to read
+    assert flat["r2"] < 0.05
+    assert physical_reading(PlanarPosition(), flat)["family"] == "other"
+    assert physical_reading(PlanarPosition())["family"] == "other"
+    assert floor_plane([]) is None

@@ -11,7 +11,10 @@ and its report read these attributes and methods, never a family's name.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, Sequence
+import math
+from typing import TYPE_CHECKING, Any, ClassVar, Mapping, Sequence
+
+import numpy as np
 
 from ...models import feature_library as fl
 from ...models.feature_base import Augmentation
@@ -25,7 +28,7 @@ if TYPE_CHECKING:
     from ..selection import CandidateScore
 
 __all__ = ["LearnedFamily", "LEARNED_FAMILIES", "register_learned", "learned_family",
-           "DELAY_TOLERANCE"]
+           "DELAY_TOLERANCE", "PLANE_R2", "floor_plane", "slope_reading", "physical_reading"]
 
 # Members whose total held-out gain is within this fraction of the best one's count as equal.
 DELAY_TOLERANCE = 0.1
@@ -192,11 +195,63 @@ class GaitPhaseFeatures(LearnedFamily):
     parameter = "magnitude"
 
 
-def physical_reading(aug: Augmentation) -> dict[str, Any]:
+# A position effect reads as an inclined floor when a plane through the measured body heights
+# explains at least this share of their variance over the floor (flat floors: below 0.01).
+PLANE_R2 = 0.5
+
+
+def floor_plane(recs: Sequence[Any]) -> dict[str, Any] | None:
+    """The floor under the recordings as a plane: the body height z_w fitted by least squares as
+    a + g . (x_w, y_w) over every measurement of ``recs`` (odometry level in the world, so a
+    floor inclined in the world lifts the body as it walks uphill). {slope_deg,
+    uphill_direction_deg (odom), rise_per_m (|g|), r2 (the share of z_w's variance the plane
+    explains), n_samples}; None with fewer than 3 measurements or no spread over the floor."""
+    if not recs:
+        return None
+    P = np.vstack([np.asarray(r.position, dtype=np.float64) for r in recs])
+    P = P[np.all(np.isfinite(P), axis=1)]
+    if P.shape[0] < 3:
+        return None
+    A = np.column_stack([np.ones(P.shape[0]), P[:, 0] - P[:, 0].mean(), P[:, 1] - P[:, 1].mean()])
+    if np.linalg.matrix_rank(A) < 3:
+        return None
+    coef, *_ = np.linalg.lstsq(A, P[:, 2], rcond=None)
+    var = float(P[:, 2].var())
+    r2 = 0.0 if var <= 0 else float(1.0 - (P[:, 2] - A @ coef).var() / var)
+    g = coef[1:]
+    return {"slope_deg": math.degrees(math.atan(math.hypot(*g))),
+            "uphill_direction_deg": math.degrees(math.atan2(g[1], g[0])) % 360.0,
+            "rise_per_m": float(math.hypot(*g)), "r2": r2, "n_samples": int(P.shape[0])}
+
+
+def slope_reading(floor: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """A position effect's reading as an inclined floor (the vocabulary's ``ground_slope``)
+    when ``floor`` (:func:`floor_plane`) explains at least :data:`PLANE_R2` of the body height's
+    variance; else None."""
+    if not floor or floor.get("r2", 0.0) < PLANE_R2:
+        return None
+    return {"family": "ground_slope", "scope": "body",
+            "params": {"slope_deg": floor["slope_deg"],
+                       "uphill_direction_deg": floor["uphill_direction_deg"]},
+            "statement": (f"the floor rises about {100 * floor['rise_per_m']:.1f} cm per metre "
+                          f"towards {floor['uphill_direction_deg']:.0f} deg in odom: inclined by "
+                          f"about {floor['slope_deg']:.1f} deg (a plane through the measured "
+                          f"body heights explains {floor['r2']:.0%} of their variation over "
+                          f"the floor)")}
+
+
+def physical_reading(aug: Augmentation, floor: Mapping[str, Any] | None = None
+                     ) -> dict[str, Any]:
     """The vocabulary's family, scope and parameter of a feature the learned loop added
     (report.json's ``effects[i].physical``): the loop measures no physical magnitude, so the
-    parameter is null except a command delay's (lag x 10 ms) and a command filter's."""
+    parameter is null except a command delay's (lag x 10 ms) and a command filter's, and a
+    position effect's where the recordings' floor is a plane (``floor``, :func:`floor_plane`;
+    :func:`slope_reading`): an inclined floor."""
     from .scopes import group_scope
+    if aug.family == "pose (position)":
+        slope = slope_reading(floor)
+        if slope is not None:
+            return slope
     fam = learned_family(aug.family)
     params = aug.params()
     scope = group_scope(params.get("joints", "all")) if fam.acts_on_joints else "body"
