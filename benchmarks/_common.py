@@ -9,15 +9,19 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def git_state() -> str:
-    """HEAD commit and the modified tracked files: the code a benchmark measured."""
+    """HEAD commit, the modified tracked files and the untracked Python files: the code a
+    benchmark measured."""
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
                               capture_output=True, text=True).stdout.strip()
         dirty = subprocess.run(["git", "diff", "--name-only", "HEAD"], cwd=ROOT,
                                capture_output=True, text=True).stdout.split()
+        new = subprocess.run(["git", "ls-files", "--others", "--exclude-standard", "--",
+                              "*.py"], cwd=ROOT, capture_output=True, text=True).stdout.split()
     except OSError:
         return "unknown"
-    return head + (f" + uncommitted changes to {', '.join(dirty)}" if dirty else "")
+    return (head + (f" + uncommitted changes to {', '.join(dirty)}" if dirty else "")
+            + (f" + untracked {', '.join(new)}" if new else ""))
 
 
 def time_calls(fn, inputs, pace_s: float = 0.0):

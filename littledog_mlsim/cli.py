@@ -37,6 +37,10 @@ def _types(text: str) -> list[str]:
 def cmd_record(a: argparse.Namespace) -> int:
     from .apps.record import record_dataset
 
+    kinds = [k for k, _ in a.extra or []]
+    twice = sorted({k for k in kinds if kinds.count(k) > 1})
+    if twice:
+        raise CliError(f"--extra gives {', '.join(twice)} more than once")
     s = record_dataset(a.out, moves_per_type=a.moves_per_type, types=a.types, seed=a.seed,
                        robot=a.robot, effects_file=a.effects, storage=a.storage, jobs=a.jobs,
                        overwrite=a.overwrite, progress=not a.quiet, excitation=a.excitation,
@@ -59,7 +63,7 @@ def _extra_moves(text: str) -> tuple[str, int]:
     from .control.moves import MOVE_KINDS
 
     kind, sep, n = text.partition("=")
-    if not sep or kind not in MOVE_KINDS or not n.strip().isdigit():
+    if not sep or kind not in MOVE_KINDS or not (n.strip().isascii() and n.strip().isdigit()):
         raise argparse.ArgumentTypeError(f"expected KIND=N with KIND one of "
                                          f"{', '.join(MOVE_KINDS)} and N >= 0, got {text!r}")
     return kind, int(n)
@@ -119,6 +123,8 @@ def cmd_train(a: argparse.Namespace) -> int:
         extra_kw["feature_set"] = BASELINES[a.features]()
     if a.dad < 0:
         raise CliError(f"--dad must be >= 0, got {a.dad}")
+    if a.dad and a.features != "paper":
+        raise CliError(f"--dad takes the paper's inputs only; drop --features {a.features}")
     if a.dad:
         extra_kw["dad_rounds"] = a.dad
     model = train_from_dataset(a.data, a.method, options=options, max_train_samples=a.n_train,

@@ -36,13 +36,17 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class MoveJob:
-    """One move to record; seeds derive from (dataset seed, move type, index, kind) only (a
-    constant trot's from the first three, as before kinds existed)."""
+    """One move to record; seeds derive from (dataset seed, move type, seed index, kind) only
+    (a constant trot's from the first three, as before kinds existed). An extra move's seed
+    index is the one it would have if its kind were the only extra one (the plain moves'
+    count plus its number within its kind; a closed-loop run's number within its kind), so
+    the moves of one kind do not change with the count of another."""
 
     move_type: str
     index: int
     seed: int
     kind: str = "trot"
+    seed_index: int | None = None   # the index its seeds use (default: ``index``)
 
     @property
     def name(self) -> str:
@@ -50,7 +54,8 @@ class MoveJob:
 
     def seeds(self) -> tuple[int, int]:
         """(gait seed, robot/sensor seed), independent streams for this move."""
-        key = [self.seed, DATASET_MOVE_TYPES.index(self.move_type), self.index]
+        index = self.index if self.seed_index is None else self.seed_index
+        key = [self.seed, DATASET_MOVE_TYPES.index(self.move_type), index]
         if self.kind != "trot":
             key.append(1 + MOVE_KINDS.index(self.kind))
         ss = np.random.SeedSequence(key)
@@ -135,12 +140,12 @@ def plan_jobs(moves_per_type: int, types: Sequence[str], seed: int,
         i = moves_per_type
         for kind, n in extra.items():
             if kind not in CLOSED_LOOP_KINDS:
-                jobs += [MoveJob(t, i + j, seed, kind) for j in range(n)]
+                jobs += [MoveJob(t, i + j, seed, kind, moves_per_type + j) for j in range(n)]
                 i += n
     u = 0
     for kind, n in extra.items():
         if kind in CLOSED_LOOP_KINDS:
-            jobs += [MoveJob(UNKNOWN_MOVE_TYPE, u + j, seed, kind) for j in range(n)]
+            jobs += [MoveJob(UNKNOWN_MOVE_TYPE, u + j, seed, kind, j) for j in range(n)]
             u += n
     return jobs
 

@@ -66,6 +66,6 @@ def dad_pairs(model: Any, moves: Sequence[MoveRecording], projection: Any = None
         ys.append(m.states[1:][ok])
         gs.append(np.full(int(ok.sum()), i, dtype=np.int64))
     X, Y, g = np.vstack(xs), np.vstack(ys), np.concatenate(gs)
-    log.info("DaD: %d pairs from %d moves (mean |s^ - s| %.4g per element)", X.shape[0],
+    log.info("DaD: %d pairs from %d moves (mean |s^_k - s_k+1| %.4g per element)", X.shape[0],
              len(tms), float(np.mean(np.abs(X[:, :N_STATE] - Y))) if len(X) else float("nan"))
     return X, Y, g

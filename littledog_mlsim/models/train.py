@@ -182,8 +182,9 @@ def train_from_dataset(data_dir: str | os.PathLike, method: str, *,
     stderr unless the program configured logging (:func:`..logs.progress_to_stderr`). ``feature_set``: the inputs (default: the paper's
     45). ``dad_rounds``: after the fit, that many rounds of Data as Demonstrator
     (:mod:`.dad`: the model's own rollouts over the TrainPool added, with the recorded next
-    states as targets, and the model fitted again; ``info.dad``). Returns the fitted model (not
-    saved). ValueError (one line) on bad input,
+    states as targets, and the model fitted again; ``info.dad``; a method's size cap then
+    subsamples the recorded and added pairs together). Returns the fitted model (not saved).
+    ValueError (one line) on bad input,
     DatasetError/BagError for an unusable dataset.
     """
     if max_train_samples is not None and int(max_train_samples) < 2:
@@ -204,6 +205,8 @@ def _train_from_dataset(data_dir, method, options, max_train_samples, seed, prog
     index = read_index(data_dir)
     log.info("loading the TrainPool of %s (%d bags)", data_dir, len(index.names("train")))
     moves = load_moves(data_dir, "train")
+    if dad_rounds and not any(m.n_steps >= 3 for m in moves):
+        raise ValueError(f"{data_dir}: DaD needs a TrainPool move of at least 3 steps")
     X, Y, groups = training_arrays(moves, feature_set, groups=True)
     log.info("%d samples from %d moves in %.1f s", X.shape[0], len(moves),
              time.perf_counter() - t0)

@@ -379,7 +379,8 @@ def simulate_closed_loop(policy: Callable[[dict], np.ndarray], n_steps: int, *,
         u = np.asarray(policy(obs[-1]), dtype=float)
         if u.shape != (N_JOINTS,) or not np.all(np.isfinite(u)):
             raise ValueError(f"the policy's command at step {k} is not {N_JOINTS} finite "
-                             f"angles: {u!r}")
+                             f"angles (shape {u.shape}, {int(np.sum(~np.isfinite(u)))} "
+                             f"not finite)")
         cmd[k] = u
         obs.append(sim.step(u))
     return _as_recording(obs, cmd, name, move_type, start_ns)

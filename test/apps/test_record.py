@@ -198,9 +198,28 @@ def test_extra_moves_go_to_the_trainpool_and_leave_the_plain_moves_alone(tmp_pat
     assert MoveJob("F", 3, 0, "switch").seeds() != MoveJob("F", 3, 0).seeds()
 
 
-@pytest.mark.parametrize("arg", ["bogus=1", "switch=-1", "switch", "velocity=x"])
+def test_the_moves_of_one_extra_kind_do_not_depend_on_another_kinds_count():
+    from littledog_mlsim.apps.record import plan_jobs
+    alone = {(j.kind, j.move_type): j.seeds() for j in plan_jobs(2, ["F"], 0, {"switch": 1,
+                                                                              "waypoints": 1})
+             if j.kind != "trot"}
+    more = {(j.kind, j.move_type): j.seeds() for j in plan_jobs(2, ["F"], 0, {
+        "trot": 3, "switch": 1, "velocity": 2, "waypoints": 1}) if j.kind in ("switch",
+                                                                            "waypoints")}
+    assert more == alone
+
+
+@pytest.mark.parametrize("arg", ["bogus=1", "switch=-1", "switch", "velocity=x", "switch=\u00b2"])
 def test_a_bad_extra_is_a_usage_error(arg, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["record", "--out", "X", "--extra", arg])
     assert exc.value.code == 2
     assert "expected KIND=N" in capsys.readouterr().err
+
+
+def test_an_extra_kind_given_twice_is_one_line(tmp_path: Path, capsys):
+    assert main(["record", "--out", str(tmp_path / "x"), "--extra", "switch=1",
+                 "--extra", "switch=2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "switch more than once" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x").exists()

@@ -55,6 +55,9 @@ def test_dad_refuses_inputs_with_a_history_and_bad_rounds(small_dataset: Path, t
     assert main(["train", "--data", str(small_dataset), "--method", "lr", "--out",
                  str(tmp_path / "m"), "--dad", "-1"]) == 2
     assert "--dad" in capsys.readouterr().err and not (tmp_path / "m").exists()
+    assert main(["train", "--data", str(small_dataset), "--method", "lr", "--out",
+                 str(tmp_path / "m"), "--dad", "1", "--features", "measured"]) == 2
+    assert "drop --features measured" in capsys.readouterr().err
 
 
 def test_train_dad_on_the_command_line(small_dataset: Path, tmp_path, capsys):

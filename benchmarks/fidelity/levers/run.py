@@ -127,6 +127,7 @@ def lever_data(lever: str, base: Path, work: Path) -> Path:
                        types=list(info["types"]), seed=int(info["seed"]),
                        robot=info.get("twin") or info.get("robot", "measured"),
                        storage=str(info.get("storage", "mcap")), progress=False,
+                       excitation=float(info.get("command_excitation_rad", 0.0)),
                        extra=DATA_LEVERS[lever])
     return out
 
