@@ -333,6 +333,11 @@ def _md_head(doc: dict) -> list[str]:
            f"(adjusted p < {srch['alpha']}) and materially (>= {srch['min_gain']:.0%} held-out "
            f"nMSE cut of one element) more residual variance than chance; nothing was added.")
         + "\n")
+    readings = [f"- `{e['label']}` reads as {ph['family']} at {ph['scope']}: {ph['statement']}"
+                for e in doc["effects"] for ph in [e.get("physical") or {}]
+                if any(v is not None for v in (ph.get("params") or {}).values())]
+    if readings:                         # the effects the vocabulary gives a magnitude
+        L += readings + [""]
     add(f"Method: residuals of a {srch.get('kind')} search model (M = "
         f"{srch.get('n_random_features')} random features, ARD length scales from a GP) "
         f"cross-fitted over {srch.get('n_folds')} folds of moves; each candidate is added as a "

@@ -419,7 +419,8 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
                                      doc["stages"], **info)
     assert physical["physics"] and physical["effects"][0]["augmentation"]
     assert undocumented_report_keys(physical) == []
-    assert set(physical) == set(doc) | {"physics"}
+    assert set(physical) == (set(doc) - {"floor_plane"}) | {"physics"}   # floor: learned only
+    assert doc["floor_plane"]["r2"] < 0.5                  # a flat floor: no slope to read
 
 
 def test_knee_coulomb_friction_is_found_as_friction(recorded):
