@@ -47,7 +47,9 @@ Method
    read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
    odom and multiplied by the robot's mass ("about N newtons toward D deg in odom"); a delay in
    ms; a low-pass time constant; a stiffness drift in % per second (the t*(u-q) coefficient over
-   the model's own d(ddq)/du). Position and phase effects are named by where/when they act.
+   the model's own d(ddq)/du). A position effect is an inclined floor where a plane through
+   the TrainPool's body heights explains them (:func:`.families.learned.slope_reading`), else
+   it is named by where it acts; a phase effect by when it acts.
 6. **Residual structure** (:func:`residual_structure`): after the last accepted effect, the
    rollout residual is regressed (cross-fitted by move) on position, heading, time in the move
    and gait phase; its size is compared with the model's one-step predictive std. A material
@@ -686,8 +688,8 @@ def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
     effect an inclined floor where a plane explains the body heights)."""
     from .families.learned import slope_reading
     slope = slope_reading(floor) if aug.family == "pose (position)" else None
-    if slope is not None:
-        return slope["statement"], {**slope["params"], "floor_plane": dict(floor or {})}
+    if slope is not None:                # the plane itself: report.json's floor_plane
+        return slope["statement"], dict(slope["params"])
     sl = fs.column_slices()[list(fs.augmentations).index(aug)]
     if isinstance(aug, Heading):
         return _heading_statement(model.linear_coef(sl), mass_kg)

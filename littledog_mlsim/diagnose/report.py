@@ -315,6 +315,12 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
     return L + [""]
 
 
+def _params_text(params: Mapping[str, Any]) -> str:
+    """``name value, ...`` of the parameters that have a value."""
+    return ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                     for k, v in params.items() if v is not None)
+
+
 def _md_head(doc: dict) -> list[str]:
     L: list[str] = []
     add = L.append
@@ -333,7 +339,8 @@ def _md_head(doc: dict) -> list[str]:
            f"(adjusted p < {srch['alpha']}) and materially (>= {srch['min_gain']:.0%} held-out "
            f"nMSE cut of one element) more residual variance than chance; nothing was added.")
         + "\n")
-    readings = [f"- `{e['label']}` reads as {ph['family']} at {ph['scope']}: {ph['statement']}"
+    readings = [f"- `{e['label']}` reads as {ph['family']} at {ph['scope']} "
+                f"({_params_text(ph['params'])}): {ph['statement']}"
                 for e in doc["effects"] for ph in [e.get("physical") or {}]
                 if any(v is not None for v in (ph.get("params") or {}).values())]
     if readings:                         # the effects the vocabulary gives a magnitude

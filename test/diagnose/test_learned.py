@@ -249,3 +249,6 @@ def test_a_position_effect_on_an_inclined_floor_is_named_a_slope():
     assert physical_reading(PlanarPosition(), flat)["family"] == "other"
     assert physical_reading(PlanarPosition())["family"] == "other"
     assert floor_plane([]) is None
+    from types import SimpleNamespace                          # all along one line: no plane
+    line = np.column_stack([np.linspace(0, 1, 50), np.full(50, 0.3), np.full(50, 0.14)])
+    assert floor_plane([SimpleNamespace(position=line)]) is None

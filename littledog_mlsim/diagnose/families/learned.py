@@ -28,7 +28,8 @@ if TYPE_CHECKING:
     from ..selection import CandidateScore
 
 __all__ = ["LearnedFamily", "LEARNED_FAMILIES", "register_learned", "learned_family",
-           "DELAY_TOLERANCE", "PLANE_R2", "floor_plane", "slope_reading", "physical_reading"]
+           "DELAY_TOLERANCE", "PLANE_R2", "PLANE_MIN_SPREAD_M", "floor_plane", "slope_reading",
+           "physical_reading"]
 
 # Members whose total held-out gain is within this fraction of the best one's count as equal.
 DELAY_TOLERANCE = 0.1
@@ -196,8 +197,11 @@ class GaitPhaseFeatures(LearnedFamily):
 
 
 # A position effect reads as an inclined floor when a plane through the measured body heights
-# explains at least this share of their variance over the floor (flat floors: below 0.01).
+# explains at least this share of their variance over the floor.
 PLANE_R2 = 0.5
+# ... and when the positions spread at least this far [m] (standard deviation) across their
+# narrowest direction, so that the plane's tilt is measured in both directions.
+PLANE_MIN_SPREAD_M = 0.02
 
 
 def floor_plane(recs: Sequence[Any]) -> dict[str, Any] | None:
@@ -205,16 +209,19 @@ def floor_plane(recs: Sequence[Any]) -> dict[str, Any] | None:
     a + g . (x_w, y_w) over every measurement of ``recs`` (odometry level in the world, so a
     floor inclined in the world lifts the body as it walks uphill). {slope_deg,
     uphill_direction_deg (odom), rise_per_m (|g|), r2 (the share of z_w's variance the plane
-    explains), n_samples}; None with fewer than 3 measurements or no spread over the floor."""
+    explains), n_samples}; None with fewer than 3 measurements, or positions that spread less
+    than :data:`PLANE_MIN_SPREAD_M` across their narrowest direction (along a line the tilt
+    across it is not measured)."""
     if not recs:
         return None
     P = np.vstack([np.asarray(r.position, dtype=np.float64) for r in recs])
     P = P[np.all(np.isfinite(P), axis=1)]
     if P.shape[0] < 3:
         return None
-    A = np.column_stack([np.ones(P.shape[0]), P[:, 0] - P[:, 0].mean(), P[:, 1] - P[:, 1].mean()])
-    if np.linalg.matrix_rank(A) < 3:
+    XY = P[:, :2] - P[:, :2].mean(axis=0)
+    if np.linalg.svd(XY, compute_uv=False)[-1] / math.sqrt(P.shape[0]) < PLANE_MIN_SPREAD_M:
         return None
+    A = np.column_stack([np.ones(P.shape[0]), XY])
     coef, *_ = np.linalg.lstsq(A, P[:, 2], rcond=None)
     var = float(P[:, 2].var())
     r2 = 0.0 if var <= 0 else float(1.0 - (P[:, 2] - A @ coef).var() / var)
@@ -232,7 +239,8 @@ def slope_reading(floor: Mapping[str, Any] | None) -> dict[str, Any] | None:
         return None
     return {"family": "ground_slope", "scope": "body",
             "params": {"slope_deg": floor["slope_deg"],
-                       "uphill_direction_deg": floor["uphill_direction_deg"]},
+                       "uphill_direction_deg": floor["uphill_direction_deg"],
+                       "odom": "level in the world"},
             "statement": (f"the floor rises about {100 * floor['rise_per_m']:.1f} cm per metre "
                           f"towards {floor['uphill_direction_deg']:.0f} deg in odom: inclined by "
                           f"about {floor['slope_deg']:.1f} deg (a plane through the measured "
