@@ -155,3 +155,11 @@ def rpy_to_quat1(roll: float, pitch: float, yaw: float) -> np.ndarray:
     q = np.array([sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
                   cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy])
     return -q if q[3] < 0 else q
+
+
+def rotate_xy(v: np.ndarray, angle: float) -> np.ndarray:
+    """Planar vectors ``v`` (..., 2) turned by ``angle`` [rad] about z (counter-clockwise):
+    a body-frame (x, y) into odom with the body's yaw, or back with minus it."""
+    c, s = math.cos(angle), math.sin(angle)
+    v = np.asarray(v, dtype=np.float64)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)

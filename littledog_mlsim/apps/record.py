@@ -226,7 +226,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
             info["command_excitation_rad"] = float(excitation)
         if extras:
             info["extra_moves"] = {k: [j.name for j in extras if j.kind == k]
-                                   for k in check_extra(extra)}
+                                   for k in dict.fromkeys(j.kind for j in extras)}
         write_index(tmp, entries, info)
     per_type = {t: sum(j.move_type == t for j in plan)
                 for t in (*types, UNKNOWN_MOVE_TYPE) if any(j.move_type == t for j in plan)}

@@ -29,7 +29,7 @@ import numpy as np
 from ..gait.ik import forward_kinematics
 from ..gait.trot import DEFAULT_RANGES
 from ..layout import CONTROL_DT, N_JOINTS, wrap_angle
-from ..rotations import quat_to_rpy, rpy_to_matrix
+from ..rotations import quat_to_rpy, rotate_xy, rpy_to_matrix
 from .gait import TrotCommand
 
 __all__ = ["Observation", "WaypointFollower", "VelocityTracker", "TrajectoryTracker",
@@ -190,7 +190,8 @@ class VelocityTracker:
                            self.period)
 
 
-def reference_trajectory(body_velocity: np.ndarray, pose0: np.ndarray = np.zeros(3),
+def reference_trajectory(body_velocity: np.ndarray,
+                         pose0: tuple[float, float, float] = (0.0, 0.0, 0.0),
                          dt: float = CONTROL_DT) -> np.ndarray:
     """Poses (n, 3) x, y, yaw in odom of a body moving from ``pose0`` with ``body_velocity``
     (n, 3): vx, vy [m/s] in its own frame and yaw rate [rad/s] per step (row k: the pose after
@@ -199,13 +200,11 @@ def reference_trajectory(body_velocity: np.ndarray, pose0: np.ndarray = np.zeros
     if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
         raise ValueError(f"body_velocity must be (n, 3) finite values, got {v.shape}")
     out = np.empty_like(v)
-    x, y, yaw = (float(a) for a in pose0)
+    xy, yaw = np.array(pose0[:2], dtype=np.float64), float(pose0[2])
     for k, (vx, vy, w) in enumerate(v):
-        c, s = np.cos(yaw), np.sin(yaw)
-        x += (c * vx - s * vy) * dt
-        y += (s * vx + c * vy) * dt
+        xy = xy + rotate_xy((vx, vy), yaw) * dt
         yaw += w * dt
-        out[k] = x, y, yaw
+        out[k] = xy[0], xy[1], yaw
     return out
 
 
@@ -254,16 +253,11 @@ class TrajectoryTracker:
         k = min(self._k, n - 1)
         ff = self.body_velocity[k] if self._k < n else np.zeros(3)
         self._k += 1
-        xr, yr, yaw_r = self.poses[k]
         yaw = float(obs.rpy[2])
-        c, s = np.cos(yaw), np.sin(yaw)
-        self.error = np.array([xr - obs.position[0], yr - obs.position[1]])
-        e_body = np.array([c * self.error[0] + s * self.error[1],
-                           -s * self.error[0] + c * self.error[1]])
-        dyaw = float(wrap_angle(yaw_r - yaw))
-        cd, sd = np.cos(dyaw), np.sin(dyaw)
-        v_ff = np.array([cd * ff[0] - sd * ff[1], sd * ff[0] + cd * ff[1]])
-        raw = np.array([*(v_ff + self.k_position * e_body), ff[2] + self.k_heading * dyaw])
+        self.error = self.poses[k, :2] - obs.position[:2]
+        dyaw = float(wrap_angle(self.poses[k, 2] - yaw))
+        v = rotate_xy(ff[:2], dyaw) + self.k_position * rotate_xy(self.error, -yaw)
+        raw = np.array([v[0], v[1], ff[2] + self.k_heading * dyaw])
         cmd = np.clip(raw, -self.limits, self.limits)
         return TrotCommand(float(cmd[0]), float(cmd[1]), float(cmd[2]), self.step_height,
                            self.period)

@@ -23,12 +23,14 @@ measurement to the next joint command (:func:`closed_loop_policy`). Every draw c
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from ..gait.trot import DEFAULT_RANGES, excite_commands, sample_trot_params, trot_commands
 from ..layout import CONTROL_DT, MOVE_TYPES, STEPS_PER_MOVE
+from ..rotations import rotate_xy
 from .controllers import Observation, VelocityTracker, WaypointFollower
 from .gait import StreamingTrot, TrotCommand
 from .schedule import blend, switch_move_schedule, varied_schedule
@@ -49,11 +51,7 @@ def open_loop_commands(kind: str, move_type: str, rng: np.random.Generator,
     """Joint commands (n_steps, 12) of one open-loop move of ``kind`` and ``move_type``, plus
     white command noise of ``excitation`` [rad] (``gait.trot.excite_commands``)."""
     if kind == "trot":
-        params = sample_trot_params(move_type, rng)
-        if n_steps != params.n_steps:
-            from dataclasses import replace
-            params = replace(params, n_steps=n_steps)
-        commands = trot_commands(params)
+        commands = trot_commands(replace(sample_trot_params(move_type, rng), n_steps=n_steps))
     elif kind in ("switch", "varied"):
         make = switch_move_schedule if kind == "switch" else varied_schedule
         sched = make(move_type, rng, n_steps=n_steps)
@@ -80,9 +78,7 @@ class _RelativeWaypoints:
 
     def command(self, obs: Observation) -> TrotCommand:
         if self.follower is None:
-            yaw = float(obs.rpy[2])
-            c, s = np.cos(yaw), np.sin(yaw)
-            world = self._relative @ np.array([[c, s], [-s, c]]) + obs.position[:2]
+            world = rotate_xy(self._relative, float(obs.rpy[2])) + obs.position[:2]
             self.follower = WaypointFollower(world, **self._kwargs)
         return self.follower.command(obs)
 
