@@ -1,15 +1,16 @@
 """Calibrate a twin on a robot whose parameters are known only to this script: coverage and time.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/calibrate/calibrate_gap.py \
-        [--work /tmp/calibrate_gap] [--moves-per-type 20] [--max-evals 80] [--jobs 2]
+        [--work /tmp/calibrate_gap] [--moves-per-type 20] [--max-evals 80] [--jobs 2] \
+        [--name calibrate_gap]
 
 1. Writes ``gap_robot.json``: the ``measured`` robot (torque-mode PD, sensor noise) with five
    parameters moved by 7-20 % (body mass, hip-pitch and knee stiffness, knee damping, knee
    torque limit).
 2. Records the reference with ``littledog-mlsim record --robot gap_robot.json`` (all 11 types).
 3. Runs ``littledog-mlsim calibrate --robot measured`` on it, fitting those five parameters.
-4. Writes ``calibrate_gap.json`` (the twin's provenance, truth, coverage, times) and
-   ``calibrate_gap.md`` (the table).
+4. Writes ``NAME.json`` (the twin's provenance, truth, coverage, times) and ``NAME.md`` (the
+   table), NAME ``calibrate_gap`` unless ``--name`` says otherwise.
 """
 from __future__ import annotations
 
@@ -72,6 +73,8 @@ def main() -> None:
     ap.add_argument("--moves-per-type", type=int, default=20)
     ap.add_argument("--max-evals", type=int, default=80)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--name", default="calibrate_gap",
+                    help="result files NAME.json and NAME.md in this folder")
     a = ap.parse_args()
     a.work.mkdir(parents=True, exist_ok=True)
     gap = gap_robot()
@@ -96,7 +99,8 @@ def main() -> None:
                           and lo <= truth <= hi}
     doc = {"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/calibrate/"
                       f"calibrate_gap.py --moves-per-type {a.moves_per_type} "
-                      f"--max-evals {a.max_evals} --jobs {a.jobs}",
+                      f"--max-evals {a.max_evals} --jobs {a.jobs}"
+                      + ("" if a.name == "calibrate_gap" else f" --name {a.name}"),
            "calibrate_command": "littledog-mlsim " + " ".join(cal_cmd),
            "code": git_state(), "when": datetime.now(timezone.utc).isoformat(timespec="seconds"),
            "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
@@ -106,7 +110,7 @@ def main() -> None:
            "coverage": coverage,
            "n_inside": sum(c["inside"] for c in coverage.values()),
            "calibration": twin.provenance["calibration"], "stdout": stdout}
-    atomic_write_text(HERE / "calibrate_gap.json", json.dumps(doc, indent=2) + "\n")
+    atomic_write_text(HERE / f"{a.name}.json", json.dumps(doc, indent=2) + "\n")
     roll = doc["calibration"].get("rollout", {})
     md = [f"# calibrate on the gap robot", "", f"Command: `{doc['command']}`", "",
           f"Code: {doc['code']}; {doc['when']}; load average at the end "
@@ -124,7 +128,7 @@ def main() -> None:
           f"Time: record {doc['record']['wall_s']} s wall ({doc['record']['cpu_s']} s CPU); "
           f"calibrate {doc['calibrate']['wall_s']} s wall ({doc['calibrate']['cpu_s']} s CPU), "
           f"{a.jobs} worker processes on a shared machine.", ""]
-    atomic_write_text(HERE / "calibrate_gap.md", "\n".join(md))
+    atomic_write_text(HERE / f"{a.name}.md", "\n".join(md))
     print("\n".join(md))
 
 
