@@ -40,6 +40,11 @@ seed, robot and plain moves as ``--data``, plus TrainPool moves of other kinds,
 4 s TestPool rollouts on ``--data``'s TestPool (``littledog-mlsim evaluate``'s gated alpha-PROJ,
 the model's own radius).
 
+``--configs`` chooses the learned simulators and projections (``fidelity.py``'s configurations;
+default ``lgpr-gated``). An ``lr-*`` configuration runs a linear regression trained on the
+lever's own data and inputs (``lr_LEVER`` in WORK); the model levers (``blend``, ``dad``) are
+LGPR's, so their rows run the paper's LR (the LR of the lever's data and inputs without them).
+
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/fidelity/levers/run.py \\
         --data bags/default --work WORK --out benchmarks/fidelity/levers/result
 """
@@ -132,6 +137,19 @@ def lever_data(lever: str, base: Path, work: Path) -> Path:
     return out
 
 
+def lr_model(lever: str, data: Path, work: Path) -> Path:
+    """The linear regression of a lever: trained on the lever's data with its inputs (the
+    model levers do not apply to it), in WORK (reused when present)."""
+    from littledog_mlsim.models.train import train_from_dataset
+    pl = parts(lever)
+    name = "_".join(["lr"] + [x for x in (pl["data"], pl["inputs"]) if x])
+    out = work / name
+    if not out.exists():
+        train_from_dataset(data, "lr", progress=False,
+                           feature_set=feature_set(lever)).save(out)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, required=True)
@@ -148,6 +166,8 @@ def main(argv=None) -> int:
                     choices=("velocity", "waypoints", "trajectory"))
     ap.add_argument("--testpool", action="store_true",
                     help="also the 4 s TestPool rollouts on --data's TestPool")
+    ap.add_argument("--configs", nargs="+", default=["lgpr-gated"],
+                    help="fidelity.py configurations (simulator and projection), each scored")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--duration", default=None, help="s, both schedules (default: fidelity.py's)")
     ap.add_argument("--out", type=Path, default=None)
@@ -155,9 +175,10 @@ def main(argv=None) -> int:
     from littledog_mlsim.models.train import train_from_dataset
     a.work.mkdir(parents=True, exist_ok=True)
     doc = run_record("fidelity/levers/run.py", argv)
-    lr = a.work / "lr"
-    if not lr.exists():
-        train_from_dataset(a.data, "lr", progress=False).save(lr)
+    from benchmarks.fidelity.fidelity import CONFIGS
+    bad = [c for c in a.configs if c not in CONFIGS]
+    if bad:
+        raise SystemExit(f"unknown configuration {bad[0]!r}; expected {', '.join(CONFIGS)}")
     rows = []
     runs = [(what, [flag, *names]) for what, flag, names in (
         ("open-loop", "--scenarios", a.scenarios), ("closed-loop", "--controllers", a.controllers))
@@ -172,28 +193,33 @@ def main(argv=None) -> int:
             train_from_dataset(data, "lgpr", progress=False, options=pl["options"] or None,
                                feature_set=feature_set(lever), dad_rounds=pl["dad"]).save(model)
         train_s = time.perf_counter() - t0 - record_s
+        lr = lr_model(lever, data, a.work)
         row = {"lever": lever, "data": data.name, "record_s": round(record_s, 1),
-               "train_s": round(train_s, 1), "load": uptime()}
+               "train_s": round(train_s, 1), "lr": lr.name, "load": uptime()}
         for what, extra in runs:
             out = a.work / f"{what}_{lever}"
             subprocess.run([sys.executable, str(ROOT / "benchmarks/fidelity/fidelity.py"), what,
                             "--data", str(data), "--lgpr", str(model), "--lr", str(lr),
-                            "--configs", "lgpr-gated", "--seeds", *a.seeds,
+                            "--configs", *a.configs, "--seeds", *a.seeds,
                             "--workers", str(a.workers), "--out", str(out), *extra,
                             *(["--duration", a.duration] if a.duration else [])],
                            check=True, stdout=subprocess.DEVNULL, cwd=ROOT)
             res = json.loads(out.with_suffix(".json").read_text())
             for scen in extra[1:]:
-                s = res["summary"][f"{scen}/lgpr-gated"]
-                row[scen] = {k: s.get(k) for k in ("err_per_m", "err_per_m_max", "final_err_m",
-                                                   "path_m", "path_learned_m",
-                                                   "final_yaw_err_rad", "rms_w",
-                                                   "rms_w_pybullet", "reached",
-                                                   "reached_pybullet", "rms_ref_m",
-                                                   "rms_ref_m_pybullet")}
-                row[scen]["per_seed_err_per_m"] = {
-                    str(r["seed"]): r["err_per_m"] for r in res["runs"]
-                    if r.get("scenario", r.get("controller")) == scen}
+                for cfg in a.configs:
+                    s = res["summary"][f"{scen}/{cfg}"]
+                    cell = {k: s.get(k) for k in ("err_per_m", "err_per_m_max", "final_err_m",
+                                                  "path_m", "path_learned_m",
+                                                  "final_yaw_err_rad", "rms_w",
+                                                  "rms_w_pybullet", "reached",
+                                                  "reached_pybullet", "rms_ref_m",
+                                                  "rms_ref_m_pybullet")}
+                    cell["per_seed_err_per_m"] = {
+                        str(r["seed"]): r["err_per_m"] for r in res["runs"]
+                        if r.get("scenario", r.get("controller")) == scen
+                        and r.get("config") == cfg}
+                    # the first configuration keeps the row's historical keys
+                    row[scen if cfg == a.configs[0] else f"{scen}/{cfg}"] = cell
         if a.testpool:
             from littledog_mlsim.apps.evaluate import evaluate
             m = evaluate(model, a.data, a.work / f"testpool_{lever}", projections=["alpha"])
@@ -219,7 +245,10 @@ def table(doc: dict, a) -> list[str]:
     names = {"straight": "straight trot", "switch": "gait switching",
              "velocity": "velocity tracker", "waypoints": "waypoint follower",
              "trajectory": "trajectory tracker"}
-    head = ["lever", "data"] + [f"{names[s]}: gap / path, median (worst)" for s in scen]
+    cfgs = list(getattr(a, "configs", None) or ["lgpr-gated"])
+    keys = [(sc, sc if c == cfgs[0] else f"{sc}/{c}", c) for sc in scen for c in cfgs]
+    head = ["lever", "data"] + [f"{names[sc]}" + (f", {c}" if len(cfgs) > 1 else "")
+                                + ": gap / path, median (worst)" for sc, _, c in keys]
     if "straight" in scen:
         head.append("straight: final yaw error")
     if a.testpool:
@@ -227,12 +256,14 @@ def table(doc: dict, a) -> list[str]:
     head += ["train [s]", "load"]
     span = (f"{a.duration} s each" if a.duration else
             "60 s open loop, 40 s closed loop (fidelity.py's defaults)")
+    what = ("LGPR with the gated alpha-PROJ" if cfgs == ["lgpr-gated"] else
+            "configurations " + ", ".join(cfgs) + " (fidelity.py)")
     lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; seeds "
-             f"{' '.join(a.seeds)}; {span}; LGPR with the gated alpha-PROJ", "",
+             f"{' '.join(a.seeds)}; {span}; {what}", "",
              "| " + " | ".join(head) + " |",
              "|" + "---|" * len(head)]
     for r in doc["rows"]:
-        cells = [r["lever"], r["data"]] + [_pct(r.get(s)) for s in scen]
+        cells = [r["lever"], r["data"]] + [_pct(r.get(k)) for _, k, _ in keys]
         if "straight" in scen:
             y = (r.get("straight") or {}).get("final_yaw_err_rad")
             cells.append("-" if y is None else f"{y:.3f} rad")
