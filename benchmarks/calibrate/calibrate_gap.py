@@ -2,7 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/calibrate/calibrate_gap.py \
         [--work /tmp/calibrate_gap] [--moves-per-type 20] [--max-evals 80] [--jobs 2] \
-        [--name calibrate_gap]
+        [--name calibrate_gap] [--no-sensor-noise]
 
 1. Writes ``gap_robot.json``: the ``measured`` robot (torque-mode PD, sensor noise) with five
    parameters moved by 7-20 % (body mass, hip-pitch and knee stiffness, knee damping, knee
@@ -38,10 +38,11 @@ HERE = Path(__file__).resolve().parent
 PARAMS = ("body_mass", "kp_hip_pitch", "kp_knee", "kd_knee", "torque_limit_knee")
 
 
-def gap_robot():
+def gap_robot(sensor_noise: bool = True):
     m = robot_config("measured")
     return dataclasses.replace(m, name="gap", body_mass=2.45, kp=(7.5, 8.3, 5.8),
-                               kd=(0.32, 0.32, 0.27), torque_limit=(1.7, 1.7, 0.55))
+                               kd=(0.32, 0.32, 0.27), torque_limit=(1.7, 1.7, 0.55),
+                               sensor_noise=sensor_noise and m.sensor_noise)
 
 
 def run(cmd: list[str]) -> tuple[float, float, str]:
@@ -75,14 +76,18 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--name", default="calibrate_gap",
                     help="result files NAME.json and NAME.md in this folder")
+    ap.add_argument("--no-sensor-noise", action="store_true",
+                    help="record the gap robot without sensor noise (its robot file then "
+                         "goes to WORK)")
     a = ap.parse_args()
     a.work.mkdir(parents=True, exist_ok=True)
-    gap = gap_robot()
+    gap = gap_robot(not a.no_sensor_noise)
+    robot_file = a.work / "gap_robot.json" if a.no_sensor_noise else HERE / "gap_robot.json"
     save_twin(Twin(gap, {"note": "benchmarks/calibrate: the robot calibrate must recover"}),
-              HERE / "gap_robot.json")
+              robot_file)
     data, out = a.work / "reference", a.work / "twin.json"
     rec_wall, rec_cpu, _ = run(["record", "--out", str(data), "--robot",
-                                str(HERE / "gap_robot.json"), "--moves-per-type",
+                                str(robot_file), "--moves-per-type",
                                 str(a.moves_per_type), "--jobs", str(a.jobs), "--overwrite",
                                 "--quiet"])
     cal_cmd = ["calibrate", "--data", str(data), "--robot", "measured", "--out", str(out),
@@ -100,7 +105,8 @@ def main() -> None:
     doc = {"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/calibrate/"
                       f"calibrate_gap.py --moves-per-type {a.moves_per_type} "
                       f"--max-evals {a.max_evals} --jobs {a.jobs}"
-                      + ("" if a.name == "calibrate_gap" else f" --name {a.name}"),
+                      + ("" if a.name == "calibrate_gap" else f" --name {a.name}")
+                      + (" --no-sensor-noise" if a.no_sensor_noise else ""),
            "calibrate_command": "littledog-mlsim " + " ".join(cal_cmd),
            "code": git_state(), "when": datetime.now(timezone.utc).isoformat(timespec="seconds"),
            "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
