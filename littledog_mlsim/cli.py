@@ -317,7 +317,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  horizons=tuple(a.horizons), moves_per_type=a.moves_per_type,
                                  max_evals=a.max_evals, jobs=a.jobs, name=a.name,
                                  scheduler=a.scheduler, servo=a.servo,
-                                 test_missing=not a.no_missing_test)
+                                 test_missing=not a.no_missing_test,
+                                 initial_state=a.initial_state)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -708,6 +709,11 @@ def build_parser() -> argparse.ArgumentParser:
     cb.add_argument("--no-missing-test", action="store_true",
                     help="skip the score test of the parameters not fitted (one re-simulation "
                          "each) that names what else the residual asks for")
+    cb.add_argument("--initial-state", choices=("measured", "smoothed"), default="measured",
+                    help="the re-simulations' starting states: as measured (default), or "
+                         "estimated from the measurements around each (a local quadratic fit: "
+                         "the twist without the motion-capture noise of a 10 ms difference, the "
+                         "joint rates without the encoders' filter lag)")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     cb.add_argument("--scheduler", default=None, metavar="ADDRESS",

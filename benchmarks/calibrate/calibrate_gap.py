@@ -2,7 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/calibrate/calibrate_gap.py \
         [--work /tmp/calibrate_gap] [--moves-per-type 20] [--max-evals 80] [--jobs 2] \
-        [--name calibrate_gap] [--no-sensor-noise]
+        [--name calibrate_gap] [--no-sensor-noise] [--initial-state measured]
 
 1. Writes ``gap_robot.json``: the ``measured`` robot (torque-mode PD, sensor noise) with five
    parameters moved by 7-20 % (body mass, hip-pitch and knee stiffness, knee damping, knee
@@ -79,6 +79,8 @@ def main() -> None:
     ap.add_argument("--no-sensor-noise", action="store_true",
                     help="record the gap robot without sensor noise (its robot file then "
                          "goes to WORK)")
+    ap.add_argument("--initial-state", choices=("measured", "smoothed"), default="measured",
+                    help="calibrate's --initial-state")
     a = ap.parse_args()
     a.work.mkdir(parents=True, exist_ok=True)
     gap = gap_robot(not a.no_sensor_noise)
@@ -92,7 +94,7 @@ def main() -> None:
                                 "--quiet"])
     cal_cmd = ["calibrate", "--data", str(data), "--robot", "measured", "--out", str(out),
                "--params", ",".join(PARAMS), "--max-evals", str(a.max_evals),
-               "--jobs", str(a.jobs), "--quiet"]
+               "--jobs", str(a.jobs), "--initial-state", a.initial_state, "--quiet"]
     cal_wall, cal_cpu, stdout = run(cal_cmd)
     twin = load_twin(out)
     coverage = {}
@@ -106,7 +108,9 @@ def main() -> None:
                       f"calibrate_gap.py --moves-per-type {a.moves_per_type} "
                       f"--max-evals {a.max_evals} --jobs {a.jobs}"
                       + ("" if a.name == "calibrate_gap" else f" --name {a.name}")
-                      + (" --no-sensor-noise" if a.no_sensor_noise else ""),
+                      + (" --no-sensor-noise" if a.no_sensor_noise else "")
+                      + (f" --initial-state {a.initial_state}"
+                         if a.initial_state != "measured" else ""),
            "calibrate_command": "littledog-mlsim " + " ".join(cal_cmd),
            "code": git_state(), "when": datetime.now(timezone.utc).isoformat(timespec="seconds"),
            "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),

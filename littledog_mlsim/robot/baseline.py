@@ -141,11 +141,26 @@ def delayed_recording(rec: MoveRecording, delay_ms: float) -> MoveRecording:
     return dataclasses.replace(rec, cmd=out)
 
 
+#: how a re-simulation's starting state is taken from a recording (:class:`InitialState`)
+INITIAL_STATES = ("measured", "smoothed")
+
+
+def _initial(rec: MoveRecording, k: int, initial: str) -> InitialState:
+    if initial == "smoothed":
+        return InitialState.smoothed(rec, k)
+    if initial == "measured":
+        return InitialState.from_recording(rec, k)
+    raise ValueError(f"initial state must be one of {', '.join(INITIAL_STATES)}, got {initial!r}")
+
+
 def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
-            effects: Sequence[Any] = ()) -> np.ndarray:
+            effects: Sequence[Any] = (), initial: str = "measured") -> np.ndarray:
     """States s_{k+1}..s_{k+n} of the robot started in measurement k and fed u_k..u_{k+n-1}
-    (with the effect plug-ins ``effects`` switched on, reset at the start)."""
-    obs = [sim.reset(initial=InitialState.from_recording(rec, k), effects=effects)]
+    (with the effect plug-ins ``effects`` switched on, reset at the start); ``initial``: the
+    starting state as measured (:meth:`InitialState.from_recording`) or estimated from the
+    measurements around k (:meth:`InitialState.smoothed`)."""
+    start = _initial(rec, k, initial)
+    obs = [sim.reset(initial=start, effects=effects)]
     for u in rec.cmd[k:k + n]:
         obs.append(sim.step(u))
     arrays = {f: np.array([o[f] for o in obs], dtype=float) for f in OBS_FIELDS}
@@ -185,14 +200,19 @@ def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 
 
 
 def k_step_predictions(rec: MoveRecording, config: RobotConfig, horizon: int, stride: int = 1,
-                       effects: Sequence[Any] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       effects: Sequence[Any] = (), initial: str = "measured"
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``horizon`` physics steps from each measured state: (t, Y_true, Y_pred).
 
     For t = 1, 1 + stride, ... with t + horizon <= N: the robot is put in the state measured at
     t and fed the recorded u_t..u_{t+horizon-1}; ``Y_pred[i, h]`` is its s_{t+h+1} and
     ``Y_true[i, h]`` the recorded one, each (n, horizon, 33). ``horizon`` 1 gives the samples
-    of :func:`one_step_predictions` that leave room for the horizon.
+    of :func:`one_step_predictions` that leave room for the horizon. ``initial``: the starting
+    state as measured (default) or smoothed (:data:`INITIAL_STATES`, :func:`_replay`).
     """
+    if initial not in INITIAL_STATES:
+        raise ValueError(f"initial state must be one of {', '.join(INITIAL_STATES)}, "
+                         f"got {initial!r}")
     if int(horizon) != horizon or horizon < 1:
         raise ValueError(f"horizon must be a positive integer, got {horizon!r}")
     sim = _sim_for(_replay_config(config))
@@ -201,7 +221,7 @@ def k_step_predictions(rec: MoveRecording, config: RobotConfig, horizon: int, st
     ts = np.arange(1, rec.n_steps - horizon + 1, stride)
     if ts.size == 0:
         raise ValueError(f"{rec.name}: {rec.n_steps} commands leave no {horizon}-step sample")
-    pred = np.stack([_replay(sim, rec, int(t), int(horizon), effects) for t in ts])
+    pred = np.stack([_replay(sim, rec, int(t), int(horizon), effects, initial) for t in ts])
     true = np.stack([s[t:t + horizon] for t in ts])
     return ts, true, pred
 

@@ -48,11 +48,13 @@ class JointEncoders:
             return np.asarray(q, dtype=float).copy()
         return np.rint(q * self._counts_per_rad) * self.resolution
 
-    def reset(self, q: np.ndarray, dq: np.ndarray) -> None:
-        """Start from a state at rest in the filter: angles q (12,), rates dq (12,)."""
+    def reset(self, q: np.ndarray, dq: np.ndarray, reported: np.ndarray | None = None) -> None:
+        """Start from angles q (12,) and rates dq (12,); the rate filter from ``reported``
+        (12,), the rates reported at the start, or at rest in the filter (``dq``) if None."""
         self.position = self.quantise(q)
         self.raw_rate = np.asarray(dq, dtype=float).copy()
-        self.rate = self.raw_rate.copy()
+        self.rate = (self.raw_rate.copy() if reported is None
+                     else np.asarray(reported, dtype=float).copy())
 
     def update(self, q: np.ndarray, dq: np.ndarray) -> None:
         """One sample of the true angles q (12,) and rates dq (12,), dt after the previous one."""

@@ -120,6 +120,7 @@ class CalibrationOptions:
     servo: str = "keep"                     # keep | position | pd_torque | auto (module doc, 8)
     ask_share: float = 0.01                 # cost share a missing parameter must remove (doc, 7)
     test_missing: bool = True               # score-test the parameters not fitted (doc, 7)
+    initial_state: str = "measured"         # measured | smoothed starting states (doc, 1)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -139,6 +140,9 @@ class CalibrationOptions:
             raise ValueError(f"diff_step must be in [1e-4, 0.5], got {self.diff_step}")
         if self.jobs < 1:
             raise ValueError(f"jobs must be >= 1, got {self.jobs}")
+        if self.initial_state not in _bl.INITIAL_STATES:
+            raise ValueError(f"initial_state must be one of {', '.join(_bl.INITIAL_STATES)}, "
+                             f"got {self.initial_state!r}")
 
 
 @dataclass(frozen=True)
@@ -187,19 +191,22 @@ class Calibration:
 # residuals, evaluated in worker processes (one per move)
 
 
-def _residual_task(config: RobotConfig, stride: int, horizons: tuple[int, ...],
+def _residual_task(config: RobotConfig, stride: int, horizons: tuple[int, ...], initial: str,
                    i: int) -> np.ndarray:
     """Raw residuals (n_t, len(horizons), 33) of move i (``baseline._RECS``)."""
-    _, true, pred = _bl.k_step_predictions(_bl._RECS[i], config, max(horizons), stride)
+    _, true, pred = _bl.k_step_predictions(_bl._RECS[i], config, max(horizons), stride,
+                                           initial=initial)
     with np.errstate(invalid="ignore", over="ignore"):
         r = pred[:, [h - 1 for h in horizons]] - true[:, [h - 1 for h in horizons]]
     return np.where(np.isfinite(r), r, np.inf)
 
 
 def twin_residuals(pool: Any, config: RobotConfig, stride: int,
-                   horizons: tuple[int, ...]) -> list[np.ndarray]:
-    """Per move, the raw residuals (n_t, len(horizons), 33) of ``config`` (module doc, 1)."""
-    return pool.map(_residual_task, config, int(stride), tuple(int(h) for h in horizons))
+                   horizons: tuple[int, ...], initial: str = "measured") -> list[np.ndarray]:
+    """Per move, the raw residuals (n_t, len(horizons), 33) of ``config`` (module doc, 1),
+    re-simulated from the ``initial`` starting states (``baseline.INITIAL_STATES``)."""
+    return pool.map(_residual_task, config, int(stride), tuple(int(h) for h in horizons),
+                    str(initial))
 
 
 def _weighted(raw: Sequence[np.ndarray], scale: np.ndarray) -> np.ndarray:
@@ -250,7 +257,7 @@ class _Problem:
                 raise _BudgetSpent
             t0 = time.perf_counter()
             self.cache[key] = twin_residuals(self.pool, self.config(x), self.o.stride,
-                                             self.o.horizons)
+                                             self.o.horizons, self.o.initial_state)
             cost = None if self.scale is None else 0.5 * float(np.sum(self.fun(x) ** 2))
             self.say(f"  [{len(self.cache)}/{self.o.max_evals}] "
                      + " ".join(f"{p.name}={p.from_x(float(v)):.4g}"
@@ -494,7 +501,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
               "n_evals": n_evals, "train_moves": [r.name for r in train_recs],
               "settings": {"stride": options.stride, "horizons": list(options.horizons),
                            "max_evals": options.max_evals, "diff_step": options.diff_step,
-                           "weak_halfwidth": options.weak_halfwidth},
+                           "weak_halfwidth": options.weak_halfwidth,
+                           "initial_state": options.initial_state},
               "residual_rms": _rms_report(prob, x0, x), "missing": missing}
     if test_recs:
         say(f"rolling out {len(test_recs)} TestPool moves before and after")
@@ -605,7 +613,8 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
         if not lo_x <= xc + step <= hi_x:
             continue
         moved = par.set(config, par.from_x(xc + step))
-        raw = twin_residuals(prob.pool, moved, prob.o.stride, prob.o.horizons)
+        raw = twin_residuals(prob.pool, moved, prob.o.stride, prob.o.horizons,
+                             prob.o.initial_state)
         w = _weighted(raw, prob.scale)
         if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)):
             continue                  # the moved robot diverges: no slope to read

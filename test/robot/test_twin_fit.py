@@ -189,6 +189,8 @@ def test_auto_servo_keeps_the_structure_the_data_came_from(reference, tmp_path, 
     from littledog_mlsim.robot.twin_fit import CalibrationOptions
     with pytest.raises(ValueError, match="servo must be one of keep, position, pd_torque, auto"):
         CalibrationOptions(servo="hydraulic").check()
+    with pytest.raises(ValueError, match="initial_state must be one of measured, smoothed"):
+        CalibrationOptions(initial_state="guessed").check()
 
 
 
@@ -224,7 +226,7 @@ class _LinearPool:
                      for k in ("mass", "friction", "delay", "filter")}
         self.noise = [0.01 * rng.normal(size=self.shape) for _ in range(n_moves)]
 
-    def map(self, fn, config, stride, horizons):
+    def map(self, fn, config, stride, horizons, initial="measured"):
         import math
         import numpy as np
         out = []
