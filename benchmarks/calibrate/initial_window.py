@@ -27,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from benchmarks._common import command_line, run_record, write_results  # noqa: E402
 
 CASES = [("measured", None, None), ("smoothed", 2, 0), ("smoothed", 3, 0), ("smoothed", 4, 0),
+         ("smoothed", 5, 0),
          ("smoothed", 8, 0), ("smoothed", 5, 1)]
 
 
