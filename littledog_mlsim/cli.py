@@ -247,7 +247,7 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
         raise CliError("--horizons: comma-separated seconds in (0, 4]")
     physics_options = {"fit_per_type": a.fit_moves, "validate_per_type": a.validate_moves,
                        "max_rounds": a.physics_rounds, "jobs": a.jobs,
-                       "horizons_s": tuple(a.horizons)}
+                       "horizons_s": tuple(a.horizons), "initial_state": a.initial_state}
     if a.scheduler:
         physics_options["scheduler"] = a.scheduler
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
@@ -633,6 +633,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "rollouts (world-fixed forces, time drift, ...: effects too small at one "
                          "step); report key rollout_route (docs/diagnosis.md). Opt-in: it still "
                          "alarms on clean data recorded with command excitation")
+    dg.add_argument("--initial-state", choices=("measured", "smoothed"), default="measured",
+                    help="physics: re-simulated segments start from the measured state "
+                         "(default) or from a local fit of the body's pose around it")
     dg.add_argument("--fit-moves", type=int, default=1,
                     help="physics: TrainPool moves per type that choose and fit (default 1)")
     dg.add_argument("--validate-moves", type=int, default=2,

@@ -38,6 +38,8 @@ def test_bad_options_fail_with_one_line_naming_them(tmp_path):
         DiagnoseOptions.from_keywords(alhpa=0.1)
     with pytest.raises(ValueError, match="unknown physics option 'fit_moves'"):
         PhysicalRoute({"fit_moves": 2})
+    with pytest.raises(ValueError, match="initial_state must be measured or smoothed"):
+        PhysicalRoute({"initial_state": "guessed"})
     with pytest.raises(ValueError, match="not both"):
         diagnose(tmp_path, tmp_path / "out", DiagnoseOptions(), method="lr")
     assert not (tmp_path / "out").exists()

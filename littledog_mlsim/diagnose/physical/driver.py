@@ -43,7 +43,9 @@ class PhysicalOptions:
     ``reference_per_type`` of its TrainPool moves of each type are the control, and at most
     ``reference_rounds`` findings are taken as the twin's errors (module doc). ``scheduler``:
     re-simulate on the workers of this Dask cluster (:class:`.resim.DaskRunner`) instead of
-    ``jobs`` local processes; the result is the same.
+    ``jobs`` local processes; the result is the same. ``initial_state``: each re-simulated
+    segment starts from the state as measured, or ``"smoothed"`` (a local fit of the body's
+    pose around it, :meth:`~littledog_mlsim.robot.sim.InitialState.smoothed`).
     """
 
     robot: Any = "measured"
@@ -63,6 +65,7 @@ class PhysicalOptions:
     reference_per_type: int = 2
     reference_rounds: int = 3
     scheduler: str | None = None
+    initial_state: str = "measured"
 
     @classmethod
     def from_keywords(cls, base: "PhysicalOptions | None" = None, **kw: Any
@@ -73,7 +76,11 @@ class PhysicalOptions:
         bad = sorted(set(kw) - known)
         if bad:
             raise ValueError(f"unknown physics option {bad[0]!r} (known: {', '.join(sorted(known))})")
-        return replace(base or cls(), **kw)
+        out = replace(base or cls(), **kw)
+        if out.initial_state not in ("measured", "smoothed"):
+            raise ValueError("physics option initial_state must be measured or smoothed, got "
+                             f"{out.initial_state!r}")
+        return out
 
 
 @dataclass(frozen=True)
@@ -125,6 +132,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     from ...robot.config import as_config
     from ...robot.sim import InitialState, get_sim
     o = PhysicalOptions.from_keywords(options, **kw)
+    start = InitialState.smoothed if o.initial_state == "smoothed" else InitialState.from_recording
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
     cfg = replace(as_config(o.robot), sensor_noise=False)
@@ -133,7 +141,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         say(f"physics: {note}")
     sp = _split(train, test, o, reference)
     moves = [Move(r.name, r.move_type, np.asarray(r.cmd, dtype=np.float64),
-                  {k: InitialState.from_recording(r, k) for k in seg_starts(r.n_steps)},
+                  {k: start(r, k) for k in seg_starts(r.n_steps)},
                   seg_starts(r.n_steps)) for r in sp.recs]
     runner = DaskRunner(cfg, moves, o.scheduler) if o.scheduler else Runner(cfg, moves, o.jobs)
     robot_mass = get_sim(cfg).total_mass()
