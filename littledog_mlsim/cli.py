@@ -712,11 +712,11 @@ def build_parser() -> argparse.ArgumentParser:
     cb.add_argument("--no-missing-test", action="store_true",
                     help="skip the score test of the parameters not fitted (one re-simulation "
                          "each) that names what else the residual asks for")
-    cb.add_argument("--initial-state", choices=("measured", "smoothed"), default="measured",
-                    help="the re-simulations' starting states: as measured (default), or "
-                         "estimated from the measurements around each (a local quadratic fit: "
-                         "the twist without the motion-capture noise of a 10 ms difference, the "
-                         "joint rates without the encoders' filter lag)")
+    cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
+                    help="the re-simulations' starting states: smoothed (a local quadratic fit "
+                         "of the body's pose, without the motion-capture noise of a 10 ms "
+                         "difference in its twist), as measured, or auto (default): smoothed "
+                         "where the recording's body-position noise exceeds 0.2 mm")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     cb.add_argument("--scheduler", default=None, metavar="ADDRESS",

@@ -12,7 +12,7 @@ starting states and the recording's noise only: every 7th TrainPool move (8 move
 state, 1 and 10 control steps ahead. Per starting state (``measured``:
 ``InitialState.from_recording``; ``smoothed bw/jw``: ``InitialState.smoothed`` with those
 body and joint half-windows) the RMS of the residual over the body elements, the joint angles
-and the joint rates.
+and the joint rates; per dataset its body-position noise (``twin_fit.pose_noise``).
 """
 from __future__ import annotations
 
@@ -41,15 +41,18 @@ def main(argv=None) -> int:
     from littledog_mlsim.robot import baseline as bl
     from littledog_mlsim.robot.sim import InitialState
     from littledog_mlsim.robot.twin import load_twin
+    from littledog_mlsim.robot.twin_fit import pose_noise
     doc = run_record("calibrate/initial_window.py", argv)
     cfg = dataclasses.replace(load_twin(a.robot).robot, sensor_noise=False)
     smoothed = InitialState.smoothed.__func__
     groups = {"body": slice(0, 9), "q": slice(9, 21), "dq": slice(21, 33)}
-    rows = []
+    rows, noise = [], {}
     try:
         for item in a.data:
             label, _, path = item.partition("=")
-            recs = load_moves(path, "train")[::7][:8]
+            every = load_moves(path, "train")
+            noise[label] = pose_noise(every)
+            recs = every[::7][:8]
             for kind, bw, jw in CASES:
                 if bw is not None:
                     InitialState.smoothed = classmethod(
@@ -68,13 +71,16 @@ def main(argv=None) -> int:
                 print(row, flush=True)
     finally:
         InitialState.smoothed = classmethod(smoothed)
-    doc["rows"] = rows
+    doc["rows"], doc["pose_noise_m"] = rows, noise
     lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}", "",
              "| data | starting state (body/joint half-window) | 1 step: body | q | dq | "
              "10 steps: body | q | dq |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['data']} | {r['start']} | " + " | ".join(
             f"{r[f'{h}_{g}']:.4f}" for h in ("h1", "h10") for g in groups) + " |")
+    lines += ["", "Body-position noise of each dataset's TrainPool (`twin_fit.pose_noise`, what "
+              "`calibrate --initial-state auto` compares with 0.2 mm): " + "; ".join(
+                  f"{k} {v * 1e3:.3f} mm" for k, v in noise.items())]
     write_results(a.out, doc, lines)
     return 0
 

@@ -11,7 +11,14 @@ Method
    (:func:`~littledog_mlsim.robot.baseline.k_step_predictions`); at each horizon h the residual is
    s_{t+h}(simulated) - s_{t+h}(measured), per state element. One step isolates the parameters
    of a step; a few steps (0.1 s by default) let effects accumulate that one step hides
-   (masses, friction).
+   (masses, friction). The state at t is taken as measured (``initial_state="measured"``) or
+   :meth:`~littledog_mlsim.robot.sim.InitialState.smoothed` (``"smoothed"``: the body's pose
+   and twist from a local quadratic fit of the poses around t, the joints as measured). As
+   measured, the twist is a 10 ms difference of noisy poses, and the fit explains part of that
+   starting error with the parameters (errors in the variables); on noise-free poses the fit's
+   curvature error is the larger one (benchmarks/calibrate). ``"auto"`` (default) smooths
+   where the recordings' body-position noise (:func:`pose_noise`) exceeds
+   :data:`POSE_NOISE_FLOOR`.
 2. **Weights.** Each (horizon, element) residual is divided by its RMS: first at the starting
    robot, then, after a first fit, at that fit's optimum, and the fit is run again from there
    (two-stage weighted least squares, so that every channel counts by its own noise level and
@@ -120,7 +127,7 @@ class CalibrationOptions:
     servo: str = "keep"                     # keep | position | pd_torque | auto (module doc, 8)
     ask_share: float = 0.01                 # cost share a missing parameter must remove (doc, 7)
     test_missing: bool = True               # score-test the parameters not fitted (doc, 7)
-    initial_state: str = "measured"         # measured | smoothed starting states (doc, 1)
+    initial_state: str = "auto"             # auto | smoothed | measured starting states (doc, 1)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -140,9 +147,9 @@ class CalibrationOptions:
             raise ValueError(f"diff_step must be in [1e-4, 0.5], got {self.diff_step}")
         if self.jobs < 1:
             raise ValueError(f"jobs must be >= 1, got {self.jobs}")
-        if self.initial_state not in _bl.INITIAL_STATES:
-            raise ValueError(f"initial_state must be one of {', '.join(_bl.INITIAL_STATES)}, "
-                             f"got {self.initial_state!r}")
+        if self.initial_state not in ("auto",) + _bl.INITIAL_STATES:
+            raise ValueError("initial_state must be one of auto, "
+                             f"{', '.join(_bl.INITIAL_STATES)}, got {self.initial_state!r}")
 
 
 @dataclass(frozen=True)
@@ -443,6 +450,41 @@ def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
             "per_move": {m["name"]: m.get("final_xy_error_m") for m in ev.get("per_move", [])}}
 
 
+#: the body-position noise [m] above which ``initial_state="auto"`` smooths the starting states
+POSE_NOISE_FLOOR = 2e-4
+
+
+def pose_noise(recs: Sequence[MoveRecording], half_window: int = 3, every: int = 10) -> float:
+    """The recordings' body-position noise [m]: the median over windows of 2 w + 1 samples
+    (every ``every``-th step of every move) of the RMS residual of a quadratic fitted per axis,
+    scaled by sqrt(n / (n - 3)) for the three fitted coefficients. A noise-free trot leaves
+    its curvature's share, tens of micrometres; motion capture leaves its noise."""
+    n = 2 * half_window + 1
+    t = np.arange(-half_window, half_window + 1, dtype=float)
+    A = np.stack([np.ones(n), t, t * t], axis=1)
+    proj = np.eye(n) - A @ np.linalg.pinv(A)          # residual maker of the quadratic fit
+    out = []
+    for r in recs:
+        pos = np.asarray(r.position, float)
+        for k in range(half_window, pos.shape[0] - half_window, every):
+            res = proj @ pos[k - half_window:k + half_window + 1]
+            out.append(math.sqrt(float(np.mean(res ** 2)) * n / (n - 3)))
+    return float(np.median(out)) if out else 0.0
+
+
+def _resolve_initial_state(options: "CalibrationOptions", recs: Sequence[MoveRecording],
+                           say: Callable[[str], None]) -> "CalibrationOptions":
+    """``options`` with ``initial_state="auto"`` made ``smoothed`` where the recordings' pose
+    noise (:func:`pose_noise`) exceeds :data:`POSE_NOISE_FLOOR`, else ``measured``."""
+    if options.initial_state != "auto":
+        return options
+    noise = pose_noise(recs)
+    chosen = "smoothed" if noise > POSE_NOISE_FLOOR else "measured"
+    say(f"starting states: {chosen} (body-position noise about {noise * 1e3:.2f} mm, "
+        f"{'above' if chosen == 'smoothed' else 'below'} {POSE_NOISE_FLOOR * 1e3:.1f} mm)")
+    return replace(options, initial_state=chosen)
+
+
 def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
                    base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
                    progress: Callable[[str], None] | None = None) -> Calibration:
@@ -456,6 +498,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     t0 = time.perf_counter()
     options.check()
     say = progress or (lambda s: None)
+    options = _resolve_initial_state(options, train_recs, say)
     if options.servo == "auto":
         if options.params:          # valid for both structures, or refused before any fit
             for servo in ("position", "pd_torque"):
@@ -502,7 +545,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
               "settings": {"stride": options.stride, "horizons": list(options.horizons),
                            "max_evals": options.max_evals, "diff_step": options.diff_step,
                            "weak_halfwidth": options.weak_halfwidth,
-                           "initial_state": options.initial_state},
+                           "initial_state": options.initial_state,
+                           "pose_noise_m": pose_noise(train_recs)},
               "residual_rms": _rms_report(prob, x0, x), "missing": missing}
     if test_recs:
         say(f"rolling out {len(test_recs)} TestPool moves before and after")

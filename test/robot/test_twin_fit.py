@@ -189,7 +189,7 @@ def test_auto_servo_keeps_the_structure_the_data_came_from(reference, tmp_path, 
     from littledog_mlsim.robot.twin_fit import CalibrationOptions
     with pytest.raises(ValueError, match="servo must be one of keep, position, pd_torque, auto"):
         CalibrationOptions(servo="hydraulic").check()
-    with pytest.raises(ValueError, match="initial_state must be one of measured, smoothed"):
+    with pytest.raises(ValueError, match="initial_state must be one of auto, measured, smoothed"):
         CalibrationOptions(initial_state="guessed").check()
 
 
@@ -294,3 +294,27 @@ def test_move_clustered_sandwich_widens_when_a_move_repeats_its_error():
     np.testing.assert_allclose(same, per_state, rtol=1e-12)
     _, _, _, _, none = _covariances(J, r, cluster, None)
     assert none is None
+
+
+def test_pose_noise_reads_the_motion_capture_noise_and_auto_follows_it():
+    """``initial_state="auto"`` smooths the starting states of noisy recordings only: the
+    estimate reads a known pose noise and stays near zero on a smooth motion."""
+    import numpy as np
+    from synthetic import make_recording
+
+    from littledog_mlsim.robot.twin_fit import (POSE_NOISE_FLOOR, CalibrationOptions,
+                                                _resolve_initial_state, pose_noise)
+    clean = [make_recording(n=300, seed=s) for s in range(3)]
+    rng = np.random.default_rng(2)
+    noisy = [dataclasses.replace(r, position=r.position + 3e-4 * rng.standard_normal(
+        r.position.shape)) for r in clean]
+    assert pose_noise(clean) < 0.05e-3
+    assert pose_noise(noisy) == pytest.approx(3e-4, rel=0.15)
+    said = []
+    auto = CalibrationOptions()
+    assert auto.initial_state == "auto"
+    assert _resolve_initial_state(auto, noisy, said.append).initial_state == "smoothed"
+    assert _resolve_initial_state(auto, clean, said.append).initial_state == "measured"
+    assert "above" in said[0] and "below" in said[1] and POSE_NOISE_FLOOR == 2e-4
+    fixed = CalibrationOptions(initial_state="measured")
+    assert _resolve_initial_state(fixed, noisy, said.append) is fixed
