@@ -964,18 +964,25 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
 def _search(route: _Route, train_recs: Sequence[MoveRecording],
             test_recs: Sequence[MoveRecording], start: FeatureSet, lib: list[Augmentation],
             opts: LearnedOptions, mass_kg: float | None, t_start: float) -> dict[str, Any]:
+    from .families.learned import floor_plane, slope_reading, start_spread
     say = route.say
     model0, ev0 = route.fit(start)
     fs, model, ev = start, model0, ev0
     rounds: list[dict[str, Any]] = []
     found: list[tuple[_Probe, list[dict[str, Any]]]] = []
     last: list[_Probe] = []
+    spread = start_spread(train_recs)
+    position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
+    confounded: list[_Probe] = []
     for k in range(opts.max_rounds):
-        taken = {p.aug.family for p, _ in found}
+        taken = {p.aug.family for p, _ in found} | {p.aug.family for p in confounded}
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
         last = route.probes(fs, ev, todo, len(lib))
         rounds.append({"round": k, "probes": [p.to_dict() for p in last]})
         ok = [p for p in last if p.decision.significant and p.decision.material]
+        if position_unsupported:       # position stands for the move's type and progress
+            confounded += [p for p in ok if isinstance(p.aug, PlanarPosition)]
+            ok = [p for p in ok if not isinstance(p.aug, PlanarPosition)]
         say(f"round {k}: " + ", ".join(f"{p.aug.label()} gain {p.total_gain:+.2f} "
                                        f"p {p.decision.p_value:.2g}" for p in last))
         if not ok:
@@ -989,8 +996,21 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         fs = fs.with_augmentation(best.aug)
         model, ev = route.fit(fs)
         say(f"round {k}: accepted {best.aug.label()}")
-    return _report(route, train_recs, test_recs, start, fs, model0, model, ev0, ev, found,
-                   rounds, last, opts, mass_kg or _default_mass(), t_start)
+    report = _report(route, train_recs, test_recs, start, fs, model0, model, ev0, ev, found,
+                     rounds, [p for p in last if all(p is not c for c in confounded)], opts,
+                     mass_kg or _default_mass(), t_start)
+    report["start_spread"] = spread
+    report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
+                             "recording": RECORDINGS["position"]} for p in confounded]
+    report["verdict"] = _verdict(report)
+    return report
+
+
+def _confounded_why(spread: Mapping[str, Any]) -> str:
+    return (f"significant and material, but every move starts within {spread['xy_sd_m']:.3f} m "
+            f"(SD) and {spread['heading_sd_rad']:.2f} rad of the others, so where a move is "
+            "follows from its type and elapsed time: the data cannot tell the floor from the "
+            "move's progress, and no plane through the body heights backs an inclined floor")
 
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,

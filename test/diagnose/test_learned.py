@@ -252,3 +252,28 @@ def test_a_position_effect_on_an_inclined_floor_is_named_a_slope():
     from types import SimpleNamespace                          # all along one line: no plane
     line = np.column_stack([np.linspace(0, 1, 50), np.full(50, 0.3), np.full(50, 0.14)])
     assert floor_plane([SimpleNamespace(position=line)]) is None
+
+
+def test_start_spread_says_when_position_follows_the_move():
+    """Moves that all start at one place and heading leave position a function of the move's
+    type and time (a position effect is then only suspected, unless a floor plane backs it);
+    moves started from their own places and headings do not."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose.families.learned import start_spread
+    from littledog_mlsim.rotations import rpy_to_quat
+    rng = np.random.default_rng(4)
+
+    def moves(xy_sd, yaw_sd):
+        return [SimpleNamespace(position=np.array([[*rng.normal(0, xy_sd, 2), 0.14]]),
+                                orientation=rpy_to_quat(np.array([0.0, 0.0, rng.normal(0, yaw_sd)])
+                                                        )[None, :]) for _ in range(40)]
+    same = start_spread(moves(3e-4, 1e-3))                     # motion-capture noise only
+    assert same["confounded"] and same["xy_sd_m"] < 1e-3 and same["heading_sd_rad"] < 5e-3
+    assert not start_spread(moves(0.3, 1e-3))["confounded"]    # several places
+    assert not start_spread(moves(3e-4, 1.0))["confounded"]    # several headings
+    wrapped = start_spread(moves(3e-4, 1e-3) + [SimpleNamespace(   # headings around +-pi
+        position=np.array([[0.0, 0.0, 0.14]]),
+        orientation=rpy_to_quat(np.array([0.0, 0.0, np.pi - 1e-3]))[None, :])])
+    assert wrapped["heading_sd_rad"] > 0.1
+    assert start_spread([])["confounded"]

@@ -231,6 +231,29 @@ def floor_plane(recs: Sequence[Any]) -> dict[str, Any] | None:
             "rise_per_m": float(math.hypot(*g)), "r2": r2, "n_samples": int(P.shape[0])}
 
 
+#: starts closer than this (the SD of the moves' first (x, y) [m], and of their first heading
+#: [rad]) leave a move's position a function of its type and elapsed time
+START_SPREAD_M = 0.05
+START_SPREAD_RAD = 0.1
+
+
+def start_spread(recs: Sequence[Any]) -> dict[str, Any]:
+    """How far apart the moves start: the SD over moves of the first (x, y) (the larger axis)
+    and of the first heading (circular). ``confounded``: both below :data:`START_SPREAD_M` and
+    :data:`START_SPREAD_RAD`, so that where a move is follows from its type and elapsed time
+    and a position effect cannot be told from one of the move's progress."""
+    from ...rotations import quat_to_rpy
+    if len(recs) < 2:
+        return {"xy_sd_m": 0.0, "heading_sd_rad": 0.0, "confounded": True}
+    xy = np.array([np.asarray(r.position[0], float)[:2] for r in recs])
+    yaw = np.array([float(quat_to_rpy(np.asarray(r.orientation[0], float))[2]) for r in recs])
+    r_len = float(np.hypot(np.mean(np.cos(yaw)), np.mean(np.sin(yaw))))
+    yaw_sd = float(np.sqrt(max(-2.0 * np.log(max(r_len, 1e-12)), 0.0)))
+    xy_sd = float(np.max(np.std(xy, axis=0)))
+    return {"xy_sd_m": xy_sd, "heading_sd_rad": yaw_sd,
+            "confounded": bool(xy_sd < START_SPREAD_M and yaw_sd < START_SPREAD_RAD)}
+
+
 def slope_reading(floor: Mapping[str, Any] | None) -> dict[str, Any] | None:
     """A position effect's reading as an inclined floor (the vocabulary's ``ground_slope``)
     when ``floor`` (:func:`floor_plane`) explains at least :data:`PLANE_R2` of the body height's
