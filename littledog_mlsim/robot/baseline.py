@@ -68,7 +68,7 @@ from ..data.states import features_responses, states_from_recording
 from ..fileio import atomic_write_text, read_document
 from ..layout import CONTROL_DT, MOVE_TYPES, S, STATE_NAMES
 from .config import RobotConfig, config_from_dict, config_to_dict, robot_config
-from .sim import OBS_FIELDS, InitialState, LittleDogSim
+from .sim import INITIAL_STATES, OBS_FIELDS, InitialState, LittleDogSim
 from ..rollout.metrics import nmse_array, rollout_metrics, xy_error
 from ..rollout.simulate import prepare_test_moves, predicted_paths
 
@@ -141,26 +141,13 @@ def delayed_recording(rec: MoveRecording, delay_ms: float) -> MoveRecording:
     return dataclasses.replace(rec, cmd=out)
 
 
-#: how a re-simulation's starting state is taken from a recording (:class:`InitialState`)
-INITIAL_STATES = ("measured", "smoothed")
-
-
-def _initial(rec: MoveRecording, k: int, initial: str) -> InitialState:
-    if initial == "smoothed":
-        return InitialState.smoothed(rec, k)
-    if initial == "measured":
-        return InitialState.from_recording(rec, k)
-    raise ValueError(f"initial state must be one of {', '.join(INITIAL_STATES)}, got {initial!r}")
-
-
 def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
             effects: Sequence[Any] = (), initial: str = "measured") -> np.ndarray:
     """States s_{k+1}..s_{k+n} of the robot started in measurement k and fed u_k..u_{k+n-1}
     (with the effect plug-ins ``effects`` switched on, reset at the start); ``initial``: the
     starting state as measured (:meth:`InitialState.from_recording`) or estimated from the
     measurements around k (:meth:`InitialState.smoothed`)."""
-    start = _initial(rec, k, initial)
-    obs = [sim.reset(initial=start, effects=effects)]
+    obs = [sim.reset(initial=InitialState.at(rec, k, initial), effects=effects)]
     for u in rec.cmd[k:k + n]:
         obs.append(sim.step(u))
     arrays = {f: np.array([o[f] for o in obs], dtype=float) for f in OBS_FIELDS}

@@ -35,6 +35,8 @@ FOOT_RADIUS = 0.0103  # m, the URDF's foot sphere
 GRAVITY = 9.81
 OBS_FIELDS: tuple[str, ...] = ("q", "dq", "position", "orientation", "linear_velocity",
                                "angular_velocity")
+#: how a re-simulation's starting state is taken from a recording (:meth:`InitialState.at`)
+INITIAL_STATES: tuple[str, ...] = ("measured", "smoothed")
 
 
 @dataclass(frozen=True)
@@ -93,34 +95,43 @@ class InitialState:
         if not 0 <= k < n1:
             raise ValueError(f"{rec.name}: step {k} is outside the recording's {n1} measurements")
 
-        def fit(y: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
-            if w == 0:                  # as measured (no rate: the caller's)
-                return y[k].copy(), np.zeros(y.shape[1])
+        def window(w: int) -> tuple[slice, np.ndarray] | None:
             lo, hi = max(0, k - w), min(n1 - 1, k + w)
             if hi - lo < 2:             # too short a move for a quadratic
-                return y[k].copy(), None
+                return None
             t = (np.arange(lo, hi + 1) - k) * CONTROL_DT
-            A = np.stack([np.ones_like(t), t, t * t], axis=1)
-            coef = np.linalg.lstsq(A, y[lo:hi + 1], rcond=None)[0]
-            return coef[0], coef[1]
+            return slice(lo, hi + 1), np.linalg.pinv(np.stack([np.ones_like(t), t, t * t], 1))
 
-        pos, v_world = fit(np.asarray(rec.position, float), body_half_window)
-        q_k = np.asarray(rec.orientation[k], float)
-        lo, hi = max(0, k - body_half_window), min(n1 - 1, k + body_half_window)
-        rel = np.zeros((n1, 3))
-        rel[lo:hi + 1] = rotvec_from_quat(quat_multiply(
-            np.repeat(quat_conjugate(q_k)[None, :], hi - lo + 1, axis=0),
-            np.asarray(rec.orientation[lo:hi + 1], float)))
-        phi, omega = fit(rel, body_half_window)
-        orn = quat_multiply(q_k[None, :], quat_from_rotvec(phi[None, :]))[0]
-        q, dq = fit(np.asarray(rec.q, float), joint_half_window)
-        if joint_half_window == 0:
-            dq = np.asarray(rec.dq[k], float).copy()
-        if v_world is None or omega is None or dq is None:
+        body = window(body_half_window)
+        joints = window(joint_half_window) if joint_half_window > 0 else None
+        if body is None or (joint_half_window > 0 and joints is None):
             return cls.from_recording(rec, k)
+        sl, fit = body                  # rows 0 and 1 of fit @ y: value and slope at k
+        pos, v_world = fit[:2] @ np.asarray(rec.position[sl], float)
+        q_k = np.asarray(rec.orientation[k], float)
+        orns = np.asarray(rec.orientation[sl], float)
+        rel = rotvec_from_quat(quat_multiply(np.broadcast_to(quat_conjugate(q_k), orns.shape),
+                                             orns))
+        phi, omega = fit[:2] @ rel
+        orn = quat_multiply(q_k[None, :], quat_from_rotvec(phi[None, :]))[0]
+        if joints is None:
+            q, dq = np.asarray(rec.q[k], float).copy(), np.asarray(rec.dq[k], float).copy()
+        else:
+            q, dq = joints[1][:2] @ np.asarray(rec.q[joints[0]], float)
         r = quat_to_matrix(orn)
         return cls(pos, orn / np.linalg.norm(orn), q, dq, r.T @ v_world, omega,
                    np.asarray(rec.dq[k], float).copy())
+
+    @classmethod
+    def at(cls, rec: MoveRecording, k: int, kind: str = "measured") -> "InitialState":
+        """The starting state at step k of ``kind`` (:data:`INITIAL_STATES`): ``"measured"``
+        (:meth:`from_recording`) or ``"smoothed"`` (:meth:`smoothed`); ValueError otherwise."""
+        if kind == "measured":
+            return cls.from_recording(rec, k)
+        if kind == "smoothed":
+            return cls.smoothed(rec, k)
+        raise ValueError(f"initial state must be one of {', '.join(INITIAL_STATES)}, "
+                         f"got {kind!r}")
 
     def validated(self) -> "InitialState":
         """A float64 copy, raising ValueError on a wrong shape, NaN or a zero quaternion."""

@@ -77,7 +77,7 @@ class PhysicalOptions:
         if bad:
             raise ValueError(f"unknown physics option {bad[0]!r} (known: {', '.join(sorted(known))})")
         out = replace(base or cls(), **kw)
-        if out.initial_state not in ("measured", "smoothed"):
+        if out.initial_state not in ("measured", "smoothed"):   # robot.sim.INITIAL_STATES
             raise ValueError("physics option initial_state must be measured or smoothed, got "
                              f"{out.initial_state!r}")
         return out
@@ -132,7 +132,6 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     from ...robot.config import as_config
     from ...robot.sim import InitialState, get_sim
     o = PhysicalOptions.from_keywords(options, **kw)
-    start = InitialState.smoothed if o.initial_state == "smoothed" else InitialState.from_recording
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
     cfg = replace(as_config(o.robot), sensor_noise=False)
@@ -141,7 +140,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         say(f"physics: {note}")
     sp = _split(train, test, o, reference)
     moves = [Move(r.name, r.move_type, np.asarray(r.cmd, dtype=np.float64),
-                  {k: start(r, k) for k in seg_starts(r.n_steps)},
+                  {k: InitialState.at(r, k, o.initial_state) for k in seg_starts(r.n_steps)},
                   seg_starts(r.n_steps)) for r in sp.recs]
     runner = DaskRunner(cfg, moves, o.scheduler) if o.scheduler else Runner(cfg, moves, o.jobs)
     robot_mass = get_sim(cfg).total_mass()
