@@ -263,8 +263,11 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
         twin = a.twin
     if a.reference is not None and not (a.reference / "dataset.yaml").is_file():
         raise CliError(f"--reference {a.reference}: no dataset there (no dataset.yaml)")
-    if (twin is not None or a.reference is not None) and a.physics == "off":
-        raise CliError("--twin and --reference name effects by re-simulation; drop --physics off")
+    if twin is not None and a.physics == "off":
+        raise CliError("--twin names effects by re-simulation; drop --physics off")
+    if a.reference is not None and a.physics == "off" and not a.rollout_route:
+        raise CliError("--reference with --physics off contrasts the rollout route's findings; "
+                       "add --rollout-route")
     return DiagnoseOptions(
         route=route, twin=twin, reference=a.reference, model=a.model, baseline=a.baseline, method=a.method, options=options,
         alpha=a.significance, min_gain=a.min_gain, projections=a.projections,
@@ -627,7 +630,9 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--reference", type=Path, default=None, metavar="DATASET",
                     help="a clean recording of the same robot: report what changed since it, "
                          "cancelling the twin's own errors against it (twin: --twin, else the "
-                         "dataset's robot, else nominal); takes the physical route")
+                         "dataset's robot, else nominal); takes the physical route, except with "
+                         "--physics off --rollout-route, where each rollout-route finding must "
+                         "gain more here than on the reference (no twin)")
     dg.add_argument("--rollout-route", action="store_true",
                     help="learned route: after the one-step loop, also search by held-out k-step "
                          "rollouts (world-fixed forces, time drift, ...: effects too small at one "

@@ -74,6 +74,13 @@ xy_error_at (horizon -> mean m)}`` of the model fitted on the whole TrainPool;
 ``channels``, ``moves``, ``z_ratio``, ``recording``); ``suspected``: families significant but
 not material, or material but above alpha, each with the recording that would settle it;
 ``verdict``: one sentence; ``options``: the options used; ``seconds``.
+
+With a reference (a recording of the same robot before the change), each accepted effect also
+has ``reference`` (:func:`contrast`: ``reference_total_gain``, ``reference_p_value``,
+``reference_significant``, ``p_state``, ``p_path``, ``p_change``, ``changed``), and the report
+has ``reference``: ``{n_moves, shared}``, where ``shared`` lists, in the form of ``effects``,
+what the search accepted but the reference shows as much (not a change; the model carries it,
+and ``significant`` does not count it).
 """
 from __future__ import annotations
 
@@ -96,7 +103,7 @@ from .selection import SearchModel, move_folds
 from .stats import PathTest, path_test, sse_decision
 
 __all__ = ["LearnedOptions", "CrossFitModel", "Evidence", "diagnose_learned", "family_probes",
-           "rollout_evidence", "residual_structure", "physical_statement", "SCOPES"]
+           "rollout_evidence", "residual_structure", "physical_statement", "contrast", "SCOPES"]
 
 log = logging.getLogger(__name__)
 
@@ -929,17 +936,24 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
                      library: Sequence[Augmentation] | None = None,
                      mass_kg: float | None = None,
                      progress: Callable[[str], None] | None = None,
-                     scheduler: str | None = None) -> dict[str, Any]:
+                     scheduler: str | None = None,
+                     reference: Sequence[MoveRecording] | None = None) -> dict[str, Any]:
     """The learned route on TrainPool ``train_recs``, scored on TestPool ``test_recs``; returns
     the report dict of the module doc. ``start``: the model's feature set before the search
     (default :func:`.candidates.measured_robot_features`); ``library``: the family probes
     (default :func:`family_probes`); ``mass_kg``: the robot's total mass (default the
     guide's, from :mod:`..robot.config`); ``scheduler``: the address of a Dask scheduler
     whose workers run the probes (each a cross-fit and its held-out rollouts), with the same
-    report (``seconds`` aside) as here."""
+    report (``seconds`` aside) as here. ``reference``: the TrainPool of a recording of the same
+    robot before the change; an effect is then reported only if it cuts the data's held-out
+    rollout error more than the reference's (:func:`contrast`), and one that does not is the
+    robot's own: carried by the model, listed under ``reference.shared``."""
     from .candidates import measured_robot_features
     opts = options or LearnedOptions()
     _check_input(train_recs, test_recs, opts)
+    if reference is not None and len(reference) < 2 * opts.n_folds:
+        raise ValueError(f"diagnose_learned: the reference needs at least {2 * opts.n_folds} "
+                         f"TrainPool moves for {opts.n_folds} folds, got {len(reference)}")
     say = progress or (lambda s: log.info(s))
     t_start = time.perf_counter()
     start = measured_robot_features() if start is None else start
@@ -951,9 +965,11 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     route = None
     try:
         route = _Route(train_recs, start, opts, say)
+        ref_route = None if reference is None else _Route(reference, start, opts, say)
         if client is not None:
             route.remote(client)
-        return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start)
+        return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start,
+                       ref_route)
     finally:
         if route is not None:
             route.close()
@@ -963,19 +979,23 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
 
 def _search(route: _Route, train_recs: Sequence[MoveRecording],
             test_recs: Sequence[MoveRecording], start: FeatureSet, lib: list[Augmentation],
-            opts: LearnedOptions, mass_kg: float | None, t_start: float) -> dict[str, Any]:
+            opts: LearnedOptions, mass_kg: float | None, t_start: float,
+            ref_route: "_Route | None" = None) -> dict[str, Any]:
     from .families.learned import floor_plane, slope_reading, start_spread
     say = route.say
     model0, ev0 = route.fit(start)
     fs, model, ev = start, model0, ev0
     rounds: list[dict[str, Any]] = []
     found: list[tuple[_Probe, list[dict[str, Any]]]] = []
+    shared: list[tuple[_Probe, list[dict[str, Any]]]] = []   # in the reference as well
+    contrasts: dict[str, dict[str, Any]] = {}
     last: list[_Probe] = []
     spread = start_spread(train_recs)
     position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
     confounded: list[_Probe] = []
     for k in range(opts.max_rounds):
-        taken = {p.aug.family for p, _ in found} | {p.aug.family for p in confounded}
+        taken = ({p.aug.family for p, _ in found + shared}
+                 | {p.aug.family for p in confounded})
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
         last = route.probes(fs, ev, todo, len(lib))
         rounds.append({"round": k, "probes": [p.to_dict() for p in last]})
@@ -992,13 +1012,22 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             best = max(ok, key=lambda p: p.total_gain)
             scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}
                     for e in scan]   # the scope compared was not kept
-        found.append((best, scan))
+        if ref_route is not None:
+            c = contrast(route, ref_route, fs, best)
+            contrasts[best.aug.label()] = c
+            say(f"round {k}: {best.aug.label()} gain {best.total_gain:+.2f} here, "
+                f"{c['reference_total_gain']:+.2f} on the reference: p(change) {c['p_change']:.2g}")
+        (found if ref_route is None or contrasts[best.aug.label()]["changed"]
+         else shared).append((best, scan))
         fs = fs.with_augmentation(best.aug)
         model, ev = route.fit(fs)
-        say(f"round {k}: accepted {best.aug.label()}")
+        say(f"round {k}: accepted {best.aug.label()}" + (
+            "" if found and found[-1][0] is best else " (in the reference as well)"))
     report = _report(route, train_recs, test_recs, start, fs, model0, model, ev0, ev, found,
                      rounds, [p for p in last if all(p is not c for c in confounded)], opts,
-                     mass_kg or _default_mass(), t_start)
+                     mass_kg or _default_mass(), t_start, shared,
+                     None if ref_route is None else contrasts,
+                     None if ref_route is None else ref_route.mv.n)
     report["start_spread"] = spread
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
                              "recording": RECORDINGS["position"]} for p in confounded]
@@ -1013,15 +1042,35 @@ def _confounded_why(spread: Mapping[str, Any]) -> str:
             "move's progress, and no plane through the body heights backs an inclined floor")
 
 
+def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe
+             ) -> dict[str, Any]:
+    """Does ``probe``'s candidate gain more on the data than on the reference? The candidate
+    is added to ``fs`` on the reference's TrainPool too (the same cross-fit and held-out
+    rollouts); each move's state cut and path log ratio of the two datasets are compared by
+    :func:`.stats.contrast_test`. ``changed``: p_change < alpha; otherwise the reference shows
+    it as much: the robot's own, not a change since the reference."""
+    from .stats import contrast_test
+    _, ev_ref = ref_route.fit(fs)
+    on_ref = ref_route.probe(fs, ev_ref, probe.aug, 1)
+    p_state, p_path, p = contrast_test(
+        _move_gains(probe), _move_gains(on_ref), probe.decision.path.log_ratios,
+        on_ref.decision.path.log_ratios)
+    return {"reference_total_gain": on_ref.total_gain,
+            "reference_p_value": float(on_ref.decision.p_value),
+            "reference_significant": bool(on_ref.decision.significant),
+            "p_state": p_state, "p_path": p_path, "p_change": p,
+            "changed": bool(p < route.opts.alpha)}
+
+
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
-            mass_kg, t_start) -> dict[str, Any]:
+            mass_kg, t_start, shared=(), contrasts=None, n_reference=None) -> dict[str, Any]:
     from .families.learned import floor_plane
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
                   * CONTROL_DT)
     floor = floor_plane(train)
-    effects = []
-    for p, scan in found:
+    effects, carried = [], []
+    for (p, scan), into in [(f, effects) for f in found] + [(f, carried) for f in shared]:
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar, floor)
         if isinstance(p.aug, Heading):
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
@@ -1032,14 +1081,17 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
                 f"{r['label']} (gain {r['total_gain']:.2f} against {r['kept_total_gain']:.2f} "
                 f"for {r['kept']}, not larger move by move: p = {r['p_wider']:.2g})"
                 for r in rivals)
-        effects.append({**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
-                        "scope": p.aug.params().get("joints", "body"), "statement": text,
-                        "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers,
-                                                                               text, floor),
-                        "scan": scan})
+        entry = {**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
+                 "scope": p.aug.params().get("joints", "body"), "statement": text,
+                 "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers, text,
+                                                                       floor),
+                 "scan": scan}
+        if contrasts is not None:
+            entry["reference"] = contrasts[p.aug.label()]
+        into.append(entry)
     mv_test = _moves(test)
     before = _test_scores(model0, start, test, mv_test, opts)
-    after = _test_scores(model, fs, test, mv_test, opts) if found else before
+    after = _test_scores(model, fs, test, mv_test, opts) if found or shared else before
     residual = residual_structure(ev, route.mv, route.fold_of_move, _phase_columns(route.train),
                                   route.h_dec, opts)
     suspected = [{**p.to_dict(), "why": ("significant but below the materiality minimum"
@@ -1054,6 +1106,8 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
               "test": {"before": before, "after": after}, "residual": residual,
               "suspected": suspected, "feature_set": fs.to_dict(),
               "options": asdict(opts), "seconds": time.perf_counter() - t_start}
+    if n_reference is not None:
+        report["reference"] = {"n_moves": n_reference, "shared": carried}
     report["verdict"] = _verdict(report)
     return report
 
@@ -1074,6 +1128,10 @@ def _verdict(report: dict[str, Any]) -> str:
         parts.append("unexplained structure left in the 1 s rollout residual, by "
                      + ", ".join(res["unexplained"]) + " (on " + ", ".join(res["channels"][:6])
                      + "); " + "; ".join(res["recording"].values()))
+    carried = report.get("reference", {}).get("shared", [])
+    if carried:
+        parts.append("in the reference as well (the robot's own, carried by the model; not a "
+                     "change since it): " + "; ".join(e["statement"] for e in carried))
     if report["suspected"]:
         parts.append("the data cannot tell: " + ", ".join(
             f"{s['label']} ({s['why']})" for s in report["suspected"]))

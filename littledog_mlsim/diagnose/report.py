@@ -307,6 +307,11 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
     for e in r.get("effects", []):
         L.append(f"- `{e['label']}` (p = {e.get('p_value', float('nan')):.2g}): "
                  f"{e.get('statement', '')}")
+    for e in (r.get("reference") or {}).get("shared", []):
+        c = e.get("reference", {})
+        L.append(f"- in the reference as well: `{e['label']}` (gain {e.get('gain', 0):.2f} here, "
+                 f"{c.get('reference_total_gain', float('nan')):.2f} on the reference; p of a "
+                 f"change {c.get('p_change', float('nan')):.2g}): {e.get('statement', '')}")
     for s in r.get("suspected", []):
         L.append(f"- suspected: {s.get('label', s)}")
     res = r.get("residual") or {}

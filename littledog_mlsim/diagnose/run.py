@@ -141,9 +141,15 @@ def choose_route(o: DiagnoseOptions, info: Mapping[str, Any]
     """(route, the physical route's robot, why): the report's ``route`` says which and why."""
     from ..robot.config import ROBOT_NAMES
     named = info.get("robot")
+    if isinstance(o.route, LearnedRoute) and o.reference is not None and o.twin is None:
+        if o.route.rollout is None:
+            raise ValueError("a reference without a twin contrasts the rollout route's findings; "
+                             "add --rollout-route")
+        return o.route, None, ("asked for (--physics off): the learned model's own residual, "
+                               f"each finding contrasted with the reference {o.reference}")
     if o.twin is not None or o.reference is not None:
         if isinstance(o.route, LearnedRoute):
-            raise ValueError("a twin or a reference needs the physical route; drop --physics off")
+            raise ValueError("a twin needs the physical route; drop --physics off")
         route = o.route.physical if isinstance(o.route, AutoRoute) else o.route
         if o.twin is not None:
             robot, whose = o.twin, f"the twin {_twin_words(o.twin)}"
@@ -227,14 +233,15 @@ def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet) -> dict[st
     from .learned import diagnose_learned
     return diagnose_learned(run.train, run.test, start=start, options=route.rollout,
                             library=route.rollout_library, progress=run.say,
-                            scheduler=route.scheduler)
+                            scheduler=route.scheduler,
+                            reference=_reference_moves(run) if run.o.reference else None)
 
 
 def _accepted(rollout: Mapping[str, Any], fs: FeatureSet) -> list[Any]:
     """The rollout route's accepted augmentations that ``fs`` does not carry yet."""
     from ..models.features import augmentation_from_dict
     out, names = [], set(fs.names)
-    for e in rollout.get("effects", []):
+    for e in rollout.get("effects", []) + rollout.get("reference", {}).get("shared", []):
         aug = augmentation_from_dict(e["augmentation"])
         if not set(aug.columns()) & names:
             out.append(aug)

@@ -8,6 +8,8 @@ learned route's 33 state elements, the physical route's 36 output channels).
 - :func:`t_greater`: one-sided one-sample t-test of mean > 0 over the moves, per column;
 - :func:`move_cuts` and :func:`rank_max_p`: each move's bounded cut and a signed-rank max test
   over several hypotheses compared on the same moves (common random sign flips);
+- :func:`contrast_test`: does a candidate cut the error of one dataset's moves more than another's
+  (the learned route's "what changed since the reference?");
 - :func:`decide`: gains, the tests and the decision (significant, material) for one candidate;
   :func:`sse_decision` is the learned route's form of it, :func:`decide_all` the physical
   route's (the rank test over a shortlist).
@@ -15,14 +17,15 @@ learned route's 33 state elements, the physical route's 36 output channels).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
 from scipy import stats
 
 __all__ = ["t_greater", "move_cuts", "rank_max_p", "Decision", "decide", "decide_all",
-           "SSEDecision", "sse_decision", "PathTest", "path_test", "RANK_FLIPS", "N_TESTS"]
+           "SSEDecision", "sse_decision", "PathTest", "path_test", "contrast_test", "RANK_FLIPS",
+           "N_TESTS"]
 
 RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null
 N_TESTS = 3          # with a rank test: pooled t, pooled rank, best channel's t
@@ -168,6 +171,7 @@ class PathTest:
     total_gain: float     # cut of the channel-scaled total
     p: float              # unadjusted one-sided p
     n_better: int         # moves whose scaled path SSE went down
+    log_ratios: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per move tested
 
 
 def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
@@ -180,4 +184,27 @@ def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
     r = np.log(a[ok] / b[ok])
     p = float(stats.wilcoxon(r, alternative="greater").pvalue) if np.any(r != 0) else 1.0
     return PathTest(1.0 - P1.sum(axis=0) / tot, float(1.0 - b.sum() / a.sum()), p,
-                    int(np.sum(r > 0)))
+                    int(np.sum(r > 0)), r)
+
+
+def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
+                  ratios_ref: np.ndarray) -> tuple[float, float, float]:
+    """(p_state, p_path, p): one-sided two-sample tests that a candidate gains more on the data's
+    moves than on a reference's. ``cuts``: each move's held-out state contribution summed over
+    the elements (``SSEDecision.d`` summed over its columns; the mean over moves is the total
+    gain), tested by Welch's t-test; ``ratios``: each move's path log ratio
+    (``PathTest.log_ratios``), tested by the Mann-Whitney U test. ``p`` = 2 min(p_state,
+    p_path), as the learned route combines its two channel sets."""
+    def welch(a: np.ndarray, b: np.ndarray) -> float:
+        if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+            return 0.0 if np.mean(a) > np.mean(b) else 1.0
+        return float(stats.ttest_ind(a, b, equal_var=False, alternative="greater").pvalue)
+
+    def mwu(a: np.ndarray, b: np.ndarray) -> float:
+        if len(a) == 0 or len(b) == 0:
+            return 1.0
+        return float(stats.mannwhitneyu(a, b, alternative="greater").pvalue)
+
+    p_state = welch(np.asarray(cuts, float), np.asarray(cuts_ref, float))
+    p_path = mwu(np.asarray(ratios, float), np.asarray(ratios_ref, float))
+    return p_state, p_path, min(1.0, 2.0 * min(p_state, p_path))

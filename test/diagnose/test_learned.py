@@ -135,21 +135,65 @@ def test_too_few_moves_is_a_clear_error():
 
 
 def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, tmp_path):
-    """``diagnose --physics off --rollout-route`` as a function: the one-step loop (no rounds
-    here), then the rollout route; its push is in ``rollout_route``, its augmentation is the
-    report model's last stage, and report.md says what it found."""
+    """``diagnose --physics off --rollout-route --reference CLEAN`` as a function: the one-step
+    loop (no rounds here), then the rollout route, each finding contrasted with the clean
+    recording; its push is a change, in ``rollout_route``, its augmentation is the report
+    model's last stage, and report.md says what it found."""
     from littledog_mlsim.diagnose import DiagnoseOptions, LearnedRoute, diagnose
     route = LearnedRoute(max_rounds=0, rollout=SMALL, rollout_library=LIBRARY)
     report = diagnose(data["push"], tmp_path / "d", DiagnoseOptions(
-        route=route, method="lr", figures=False, progress=False))
+        route=route, reference=data["clean"], method="lr", figures=False, progress=False))
+    assert "contrasted with the reference" in report["route"]["why"]
     r = report["rollout_route"]
     assert r["significant"] and r["effects"][0]["family"] == "pose (heading)", r["rounds"]
+    c = r["effects"][0]["reference"]
+    assert c["changed"] and c["reference_total_gain"] < r["effects"][0]["total_gain"], c
+    assert r["reference"] == {"n_moves": len(load_moves(data["clean"], "train")), "shared": []}
     assert report["effects"] == [] and len(report["stages"]) == 1 + len(r["effects"])
     last = report["after"]["feature_set"]
     assert last == report["stages"][-1]["feature_set"] != report["before"]["feature_set"]
     assert any(a.get("name") == "heading" or "heading" in str(a) for a in last["augmentations"])
     md = (tmp_path / "d" / "report.md").read_text()
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
+
+
+def test_a_finding_the_reference_shows_as_much_is_no_change(data):
+    """``contrast``: the push's heading columns on every other TrainPool move of the push
+    recording, with the other moves (the same push) as the reference: they gain there too, so
+    it is no change (the robot's own). The changed case, against the clean recording, is the
+    test above."""
+    from littledog_mlsim.diagnose import learned
+    from littledog_mlsim.diagnose.candidates import measured_robot_features
+    train = load_moves(data["push"], "train")
+    fs = measured_robot_features()
+    route = learned._Route(train[0::2], fs, SMALL, lambda s: None)
+    _, ev0 = route.fit(fs)
+    probe = route.probe(fs, ev0, Heading(), 1)
+    assert probe.total_gain > 0, probe.to_dict()
+    c = learned.contrast(route, learned._Route(train[1::2], fs, SMALL, lambda s: None), fs,
+                         probe)
+    assert not c["changed"] and c["p_change"] > 0.01 and c["reference_total_gain"] > 0, c
+
+
+def test_a_shared_finding_is_carried_by_the_model_and_reported_as_no_change():
+    """The report's side of a finding the reference shows as much: the report model carries it
+    (``run._accepted``), the verdict and report.md say it is the robot's own."""
+    from littledog_mlsim.diagnose import learned, run
+    from littledog_mlsim.diagnose.report import _md_rollout_route
+    from littledog_mlsim.diagnose.candidates import measured_robot_features
+    entry = {"label": "heading()", "gain": 2.5, "statement": "a steady force fixed in odom",
+             "augmentation": Heading().to_dict(),
+             "reference": {"reference_total_gain": 2.4, "p_change": 0.6, "changed": False}}
+    r = {"effects": [], "suspected": [], "reference": {"n_moves": 40, "shared": [entry]},
+         "residual": {"unexplained": [], "smallest_p": 1.0}}
+    fs = measured_robot_features()
+    assert [a.label() for a in run._accepted(r, fs)] == ["heading()"]
+    r["verdict"] = learned._verdict(r)
+    assert r["verdict"] == ("in the reference as well (the robot's own, carried by the model; "
+                            "not a change since it): a steady force fixed in odom")
+    md = "\n".join(_md_rollout_route(r))
+    assert ("in the reference as well: `heading()` (gain 2.50 here, 2.40 on the reference; p of "
+            "a change 0.6)") in md
 
 
 def test_probes_on_a_dask_cluster_give_the_local_report(data, clean_report):

@@ -62,6 +62,14 @@ def test_twin_and_reference_take_the_physical_route_and_say_why(tmp_path):
     off = DiagnoseOptions.from_keywords(physics="off", twin="nominal")
     with pytest.raises(ValueError, match="drop --physics off"):
         choose_route(off, imported)
+    # no twin, a reference: the learned route contrasts its rollout route's findings with it
+    off = DiagnoseOptions.from_keywords(physics="off", reference=tmp_path)
+    with pytest.raises(ValueError, match="add --rollout-route"):
+        choose_route(off, imported)
+    ref = DiagnoseOptions(route=LearnedRoute(rollout=object()), reference=tmp_path)
+    route, robot, why = choose_route(ref, {"robot": "measured"})
+    assert isinstance(route, LearnedRoute) and robot is None
+    assert f"contrasted with the reference {tmp_path}" in why
 
 
 def test_cli_refuses_a_bad_twin_or_reference_in_one_line(tmp_path):
@@ -69,12 +77,14 @@ def test_cli_refuses_a_bad_twin_or_reference_in_one_line(tmp_path):
     import sys
     data = tmp_path / "data"
     data.mkdir()
+    (data / "dataset.yaml").write_text("{}\n")
     cli = [sys.executable, "-m", "littledog_mlsim.cli", "diagnose", "--data", str(data),
            "--out", str(tmp_path / "out")]
     for extra, words in ((["--twin", "nosuchrobot"], "--twin: unknown robot 'nosuchrobot'"),
                          (["--twin", str(tmp_path / "t.json")], "--twin: twin file"),
                          (["--reference", str(tmp_path / "nothing")], "no dataset there"),
-                         (["--twin", "nominal", "--physics", "off"], "drop --physics off")):
+                         (["--twin", "nominal", "--physics", "off"], "drop --physics off"),
+                         (["--reference", str(data), "--physics", "off"], "add --rollout-route")):
         r = subprocess.run(cli + extra, capture_output=True, text=True)
         lines = r.stderr.strip().splitlines()
         assert r.returncode != 0 and len(lines) == 1 and words in lines[0], r.stderr

@@ -111,3 +111,20 @@ def test_path_test_is_wilcoxon_on_per_move_log_ratios_of_scaled_sse():
     np.testing.assert_allclose(t.gain, 1.0 - P1.sum(axis=0) / tot, rtol=1e-12)
     assert t.total_gain == pytest.approx(1.0 - b.sum() / a.sum(), rel=1e-12)
     assert path_test(P0, P0).p == 1.0                      # nothing changed: no evidence
+
+
+def test_contrast_test_is_welch_and_mann_whitney_one_sided():
+    from scipy import stats as st
+
+    from littledog_mlsim.diagnose.stats import contrast_test
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(1.0, 1.0, 40), rng.normal(0.0, 1.0, 50)
+    ra, rb = rng.normal(0.5, 1.0, 40), rng.normal(0.0, 1.0, 50)
+    p_state, p_path, p = contrast_test(a, b, ra, rb)
+    assert p_state == pytest.approx(st.ttest_ind(a, b, equal_var=False,
+                                                 alternative="greater").pvalue)
+    assert p_path == pytest.approx(st.mannwhitneyu(ra, rb, alternative="greater").pvalue)
+    assert p == pytest.approx(min(1.0, 2 * min(p_state, p_path))) and p < 1e-3
+    # the same distribution on both sides: no change; the reverse order: p near 1
+    assert contrast_test(a, a, ra, ra)[2] == 1.0
+    assert contrast_test(b, a, rb, ra)[2] > 0.5

@@ -57,7 +57,17 @@ PRIMARY_IF_ZERO = {"body_wrench": "torque_Nm"}
 ANGLES = ("direction_deg", "uphill_direction_deg")
 PARAM_TOLERANCE = 0.25
 CLEAN_RATIO_TARGET = 1.25
-CLI = [sys.executable, "-m", "littledog_mlsim.cli"]
+#: the CLI of the package in the tree this harness lives in (``_env`` puts that tree first on the
+#: path; ``-P``: the working directory is not put before it, as ``-m`` would otherwise do)
+CLI = [sys.executable, "-P", "-m", "littledog_mlsim.cli"]
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + ([env["PYTHONPATH"]]
+                                                       if env.get("PYTHONPATH") else []))
+    return env
 
 
 @dataclass
@@ -78,7 +88,7 @@ def _run(cmd: list[str], log: Path) -> float:
     with open(log, "w") as f:
         f.write(" ".join(cmd) + "\n")
         f.flush()
-        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
+        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, env=_env())
     if r.returncode != 0:
         tail = log.read_text().strip().splitlines()[-1:]
         raise RuntimeError(f"{' '.join(cmd[2:4])} failed ({log}): {tail}")
@@ -273,6 +283,7 @@ def markdown(rows: list[dict[str, Any]], clean: list[dict[str, Any]], summary: d
 #: arm of zoo8's rule) that twin and the reference
 ARMS = {
     "learned": ["--physics", "off", "--rollout-route"],
+    "learned+reference": ["--physics", "off", "--rollout-route", "--reference", "{reference}"],
     "nominal+reference": ["--twin", "nominal", "--reference", "{reference}"],
     "nominal": ["--twin", "nominal"],
     "calibrated": ["--twin", "{twin}"],
@@ -519,7 +530,7 @@ def main(argv: list[str] | None = None) -> int:
            "moves_per_type": a.moves_per_type, "seed": a.seed, "clean_seeds": a.clean_seeds,
            "diagnose_args": extra, "arm": a.arm, "summary": summary, "rows": rows,
            "clean": clean}
-    if a.arm == "learned":
+    if (a.arm or "").startswith("learned"):
         summary.update(learned_summary(truth, first))
     if calibration is not None:
         doc["calibration"] = calibration_score(calibration, robot)
