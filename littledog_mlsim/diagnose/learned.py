@@ -128,6 +128,7 @@ class LearnedOptions:
     alpha: float = 1e-4
     min_gain: float = 0.05
     max_rounds: int = 2
+    max_shared: int = 2      # with a reference: findings it shows as much, besides max_rounds
     tolerance: float = 0.1
     scope_alpha: float = 0.01
     seed: int = 0
@@ -993,7 +994,9 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     spread = start_spread(train_recs)
     position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
     confounded: list[_Probe] = []
-    for k in range(opts.max_rounds):
+    k = -1
+    while len(found) < opts.max_rounds and len(shared) <= opts.max_shared:
+        k += 1
         taken = ({p.aug.family for p, _ in found + shared}
                  | {p.aug.family for p in confounded})
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
@@ -1007,13 +1010,23 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                                        f"p {p.decision.p_value:.2g}" for p in last))
         if not ok:
             break
-        best, scan = _refine(route, fs, ev, max(ok, key=lambda p: p.total_gain), len(lib))
+        first = max(ok, key=lambda p: p.total_gain)
+        if ref_route is not None:      # a change goes first: the robot's own does not lead
+            _, ev_ref = ref_route.fit(fs)
+            pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref) for p in ok}
+            changed = [p for p in ok if pre[p.aug.label()]["changed"]]
+            if not changed and len(shared) == opts.max_shared:
+                break
+            first = max(changed or ok, key=lambda p: p.total_gain)
+            say(f"round {k}: against the reference: " + ", ".join(
+                f"{lab} p(change) {c['p_change']:.2g}" for lab, c in pre.items()))
+        best, scan = _refine(route, fs, ev, first, len(lib))
         if not (best.decision.significant and best.decision.material):
-            best = max(ok, key=lambda p: p.total_gain)
+            best = first
             scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}
                     for e in scan]   # the scope compared was not kept
         if ref_route is not None:
-            c = contrast(route, ref_route, fs, best)
+            c = pre.get(best.aug.label()) or contrast(route, ref_route, fs, best, ev_ref)
             contrasts[best.aug.label()] = c
             say(f"round {k}: {best.aug.label()} gain {best.total_gain:+.2f} here, "
                 f"{c['reference_total_gain']:+.2f} on the reference: p(change) {c['p_change']:.2g}")
@@ -1042,15 +1055,16 @@ def _confounded_why(spread: Mapping[str, Any]) -> str:
             "move's progress, and no plane through the body heights backs an inclined floor")
 
 
-def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe
-             ) -> dict[str, Any]:
+def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
+             ev_ref: Evidence | None = None) -> dict[str, Any]:
     """Does ``probe``'s candidate gain more on the data than on the reference? The candidate
     is added to ``fs`` on the reference's TrainPool too (the same cross-fit and held-out
     rollouts); each move's state cut and path log ratio of the two datasets are compared by
     :func:`.stats.contrast_test`. ``changed``: p_change < alpha; otherwise the reference shows
     it as much: the robot's own, not a change since the reference."""
     from .stats import contrast_test
-    _, ev_ref = ref_route.fit(fs)
+    if ev_ref is None:                 # the reference's evidence without it, at ``fs``
+        _, ev_ref = ref_route.fit(fs)
     on_ref = ref_route.probe(fs, ev_ref, probe.aug, 1)
     p_state, p_path, p = contrast_test(
         _move_gains(probe), _move_gains(on_ref), probe.decision.path.log_ratios,
