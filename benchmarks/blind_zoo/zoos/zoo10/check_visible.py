@@ -18,9 +18,9 @@ roll, pitch, joint angles and rates) and every step of every move:
 An effect is **material** when rms_max >= max(0.20, 3 x the control's) or
 xy_cm >= max(3.0, 3 x the control's). A move **falls** when the body's height drops below
 0.06 m or |roll| or |pitch| exceeds 1.0 rad at any step (checked on the clean robot and the
-control too).
+control too). From the repository root:
 
-    cd /work/main && OPENBLAS_NUM_THREADS=1 .venv/bin/python \
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \
         benchmarks/blind_zoo/zoos/zoo10/check_visible.py [--jobs 2] [--only z01,z02]
 """
 from __future__ import annotations

@@ -3,9 +3,9 @@ calibration miss of a few per cent to a few tens of per cent, in both directions
 
 Deterministic: the factors are drawn from one seeded generator (SEED below). Each factor is
 exp(u), |u| drawn uniformly in [LO, HI] per parameter group with a random sign; the command delay
-(0 on the stock robot) is drawn in milliseconds. Run from anywhere:
+(0 on the stock robot) is drawn in milliseconds. Run from the repository root:
 
-    OPENBLAS_NUM_THREADS=1 /work/main/.venv/bin/python make_gap_robot.py
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo10/make_gap_robot.py
 """
 from __future__ import annotations
 
