@@ -42,7 +42,11 @@ Method
    with the largest significant and material rollout gain is scoped (all joints, a leg, a joint
    type, a side) and its parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
-   move, :func:`_widen`), then added; the next round screens the rest.
+   move, :func:`_widen`), then added; the next round screens the rest. A round whose
+   full-scope screen accepts nothing screens the narrower scopes of every family with a joint
+   scope whose full-scope probe gained at all (:func:`screen_narrower`): an effect on one leg
+   or joint type is diluted at full scope. Alpha is split equally between the two screens,
+   each Bonferroni over every member it could test (:func:`screen_sizes`).
 5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect is
    read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
    odom and multiplied by the robot's mass ("about N newtons toward D deg in odom"); a delay in
@@ -65,7 +69,8 @@ elements), max_gain, outputs, scope, statement (physical sentence), physical (nu
 :func:`_scope_rivals`), scan (the scope/parameter candidates: label, total_gain, p_value,
 stage "scope" or "parameter", ``p_wider`` for a scope wider than the one kept, ``kept_scope``
 on that one)}``; ``rounds``: per round the
-probes ``{label, family, p_value, total_gain, max_gain, significant, material}``;
+probes ``{label, family, p_value, total_gain, max_gain, significant, material}``, and
+``scoped``, the narrower screen's probes in the same form, where the round made one;
 ``evidence``: before/after TrainPool held-out rollout errors per horizon
 (``{horizon_s: {rms_state (33 names), rms_odom_xy_m, rms_body_xy_m, n_rollouts}}``);
 ``test``: TestPool before/after ``{one_step_nmse_mean, one_step_nmse (33), final_xy_error_m,
@@ -103,7 +108,8 @@ from .selection import SearchModel, move_folds
 from .stats import PathTest, path_test, sse_decision
 
 __all__ = ["LearnedOptions", "CrossFitModel", "Evidence", "diagnose_learned", "family_probes",
-           "rollout_evidence", "residual_structure", "physical_statement", "contrast", "SCOPES"]
+           "rollout_evidence", "residual_structure", "physical_statement", "contrast", "SCOPES",
+           "screen_sizes", "screen_narrower"]
 
 log = logging.getLogger(__name__)
 
@@ -131,6 +137,7 @@ class LearnedOptions:
     max_shared: int = 2      # with a reference: findings it shows as much, besides max_rounds
     tolerance: float = 0.1
     scope_alpha: float = 0.01
+    scoped_screen: bool = True   # a round with no full-scope finding screens narrower scopes
     seed: int = 0
 
 
@@ -416,10 +423,22 @@ def family_probes() -> list[Augmentation]:
 
 
 def _scope_members(aug: Augmentation) -> list[Augmentation]:
-    """``aug`` at every narrower joint scope (none for a family without one)."""
+    """``aug`` at every other joint scope, all joints and the narrower ones (none for a family
+    without one)."""
     if "joints" not in aug.params():
         return []
-    return [replace(aug, joints=s) for s in SCOPES]
+    return [replace(aug, joints=s) for s in ("all",) + SCOPES if s != aug.joints]
+
+
+def screen_sizes(lib: Sequence[Augmentation], scoped: bool) -> tuple[int, int]:
+    """The Bonferroni factors of a round's two screens: the full-scope members of ``lib``, and
+    (``scoped``) every narrower scope of its families that have one. With the scoped screen,
+    alpha is split equally between the two (a weighted Bonferroni over every member either
+    could test, so a screen that tests only some of them keeps the level)."""
+    n_scoped = sum(len(SCOPES) for a in lib if "joints" in a.params())
+    if not (scoped and n_scoped):
+        return len(lib), 0
+    return 2 * len(lib), 2 * n_scoped
 
 
 def _param_members(aug: Augmentation) -> list[Augmentation]:
@@ -640,10 +659,25 @@ def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float
         cur = max(passed, key=lambda p: p.total_gain)
 
 
-def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: int
-            ) -> tuple[_Probe, list[dict[str, Any]]]:
-    """Scope, then parameter, of a detected family by the same held-out rollout SSE."""
-    tried = [first] + route.probes(fs, ev0, _scope_members(first.aug), n_candidates)
+def screen_narrower(route: "_Route", fs: FeatureSet, ev0: Evidence, full: Sequence[_Probe],
+                    n_scoped: int) -> list[_Probe]:
+    """The narrower screen of a round: every narrower joint scope of each full-scope probe in
+    ``full`` that gained at all (``total_gain`` > 0), probed at the Bonferroni factor
+    ``n_scoped`` (:func:`screen_sizes`)."""
+    narrow = [m for p in full if p.total_gain > 0 for m in _scope_members(p.aug)
+              if m.joints != "all"]
+    return route.probes(fs, ev0, narrow, n_scoped)
+
+
+def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: int,
+            known: Sequence[_Probe] = ()) -> tuple[_Probe, list[dict[str, Any]]]:
+    """Scope, then parameter, of a detected family by the same held-out rollout SSE. ``known``:
+    probes this round already made at ``fs`` (the screens'), reused instead of made again."""
+    have = {p.aug.label(): p for p in known}
+    members = _scope_members(first.aug)
+    new = route.probes(fs, ev0, [a for a in members if a.label() not in have], n_candidates)
+    made = {p.aug.label(): p for p in new}
+    tried = [first] + [have.get(a.label()) or made[a.label()] for a in members]
     scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
                            route.opts.scope_alpha)
     params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
@@ -995,12 +1029,13 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
     confounded: list[_Probe] = []
     k = -1
+    n_full, n_scoped = screen_sizes(lib, opts.scoped_screen)
     while len(found) < opts.max_rounds and len(shared) <= opts.max_shared:
         k += 1
         taken = ({p.aug.family for p, _ in found + shared}
                  | {p.aug.family for p in confounded})
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
-        last = route.probes(fs, ev, todo, len(lib))
+        last = route.probes(fs, ev, todo, n_full)
         rounds.append({"round": k, "probes": [p.to_dict() for p in last]})
         ok = [p for p in last if p.decision.significant and p.decision.material]
         if position_unsupported:       # position stands for the move's type and progress
@@ -1008,6 +1043,15 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             ok = [p for p in ok if not isinstance(p.aug, PlanarPosition)]
         say(f"round {k}: " + ", ".join(f"{p.aug.label()} gain {p.total_gain:+.2f} "
                                        f"p {p.decision.p_value:.2g}" for p in last))
+        if not ok and n_scoped:        # an effect on a few joints, diluted at full scope
+            scoped = screen_narrower(route, fs, ev, last, n_scoped)
+            rounds[-1]["scoped"] = [p.to_dict() for p in scoped]
+            ok = [p for p in scoped if p.decision.significant and p.decision.material]
+            last = last + scoped
+            if scoped:
+                say(f"round {k}, narrower scopes: " + ", ".join(
+                    f"{p.aug.label()} gain {p.total_gain:+.2f} p {p.decision.p_value:.2g}"
+                    for p in sorted(scoped, key=lambda p: p.decision.p_value)[:4]))
         if not ok:
             break
         first = max(ok, key=lambda p: p.total_gain)
@@ -1020,7 +1064,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             first = max(changed or ok, key=lambda p: p.total_gain)
             say(f"round {k}: against the reference: " + ", ".join(
                 f"{lab} p(change) {c['p_change']:.2g}" for lab, c in pre.items()))
-        best, scan = _refine(route, fs, ev, first, len(lib))
+        best, scan = _refine(route, fs, ev, first, n_full, last)
         if not (best.decision.significant and best.decision.material):
             best = first
             scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}

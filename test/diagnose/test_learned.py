@@ -321,3 +321,49 @@ def test_start_spread_says_when_position_follows_the_move():
         orientation=rpy_to_quat(np.array([0.0, 0.0, np.pi - 1e-3]))[None, :])])
     assert wrapped["heading_sd_rad"] > 0.1
     assert start_spread([])["confounded"]
+
+
+def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their_own_level():
+    """The narrower screen (``screen_narrower``): only families whose full-scope probe gained
+    expand, to every narrower scope (never all joints again), at the scoped Bonferroni factor;
+    the two screens split alpha equally over every member either could test (``screen_sizes``);
+    the refinement reuses the probes a screen already made."""
+    from types import SimpleNamespace
+    from littledog_mlsim.diagnose.learned import (SCOPES, _refine, family_probes,
+                                                  screen_narrower, screen_sizes)
+    from littledog_mlsim.models.feature_library import CommandFilter
+    lib = family_probes()
+    assert screen_sizes(lib, False) == (len(lib), 0)
+    joint_families = [a for a in lib if "joints" in a.params()]
+    assert len(joint_families) == 3       # delay, low-pass, time drift (t * (u - q))
+    assert screen_sizes(lib, True) == (2 * len(lib), 2 * 3 * len(SCOPES))
+    assert screen_sizes([Heading(), ElapsedTime()], True) == (2, 0)   # nothing to narrow
+
+    calls = []
+
+    class Route:
+        opts = LearnedOptions()
+
+        def probes(self, fs, ev0, augs, n):
+            calls.append(([a.label() for a in augs], n))
+            return [SimpleNamespace(aug=a, total_gain=1.0 if a.joints == "back_left" else 0.1,
+                                    decision=SimpleNamespace(state=SimpleNamespace(
+                                        d=np.full((40, 33), 0.0)), p_value=1e-6))
+                    for a in augs]
+
+    full = [SimpleNamespace(aug=CommandLag(lag=2), total_gain=0.3),
+            SimpleNamespace(aug=CommandFilter(time_constant_ms=30.0), total_gain=-0.2),
+            SimpleNamespace(aug=Heading(), total_gain=0.5)]
+    scoped = screen_narrower(Route(), None, None, full, 54)
+    assert calls == [([f"command_lag(lag=2, joints={s})" for s in SCOPES], 54)]
+    assert [p.aug.joints for p in scoped] == list(SCOPES)
+    # the refinement of the back-left delay probes only what the screens did not: parameters
+    calls.clear()
+    first = next(p for p in scoped if p.aug.joints == "back_left")
+    whole = SimpleNamespace(aug=CommandLag(lag=2), total_gain=0.3, decision=first.decision)
+    best, scan = _refine(Route(), None, None, first, 16, [whole] + scoped)
+    assert [c[0] for c in calls] == [[], [f"command_lag(lag={d}, joints=back_left)"
+                                          for d in (1, 3, 4, 5)]]
+    assert best.aug.joints == "back_left"
+    assert [e["label"] for e in scan if e["stage"] == "scope"][:2] == [
+        "command_lag(lag=2, joints=back_left)", "command_lag(lag=2, joints=all)"]
