@@ -138,6 +138,7 @@ class LearnedOptions:
     tolerance: float = 0.1
     scope_alpha: float = 0.01
     scoped_screen: bool = True   # a round with no full-scope finding screens narrower scopes
+    contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     seed: int = 0
 
 
@@ -1057,7 +1058,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         first = max(ok, key=lambda p: p.total_gain)
         if ref_route is not None:      # a change goes first: the robot's own does not lead
             _, ev_ref = ref_route.fit(fs)
-            pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref) for p in ok}
+            pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok))
+                   for p in ok}
             changed = [p for p in ok if pre[p.aug.label()]["changed"]]
             if not changed and len(shared) == opts.max_shared:
                 break
@@ -1070,7 +1072,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}
                     for e in scan]   # the scope compared was not kept
         if ref_route is not None:
-            c = pre.get(best.aug.label()) or contrast(route, ref_route, fs, best, ev_ref)
+            c = pre.get(best.aug.label()) or contrast(route, ref_route, fs, best, ev_ref,
+                                                      len(ok))
             contrasts[best.aug.label()] = c
             say(f"round {k}: {best.aug.label()} gain {best.total_gain:+.2f} here, "
                 f"{c['reference_total_gain']:+.2f} on the reference: p(change) {c['p_change']:.2g}")
@@ -1100,12 +1103,15 @@ def _confounded_why(spread: Mapping[str, Any]) -> str:
 
 
 def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
-             ev_ref: Evidence | None = None) -> dict[str, Any]:
+             ev_ref: Evidence | None = None, n_contrasts: int = 1) -> dict[str, Any]:
     """Does ``probe``'s candidate gain more on the data than on the reference? The candidate
     is added to ``fs`` on the reference's TrainPool too (the same cross-fit and held-out
     rollouts); each move's state cut and path log ratio of the two datasets are compared by
-    :func:`.stats.contrast_test`. ``changed``: p_change < alpha; otherwise the reference shows
-    it as much: the robot's own, not a change since the reference."""
+    :func:`.stats.contrast_test`. ``changed``: p_change x ``n_contrasts`` (the candidates the
+    round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
+    robot's own, not a change since the reference. The candidate itself has already passed
+    the screen at ``alpha``; the contrast asks only whether it is new, one test per candidate
+    the round contrasts."""
     from .stats import contrast_test
     if ev_ref is None:                 # the reference's evidence without it, at ``fs``
         _, ev_ref = ref_route.fit(fs)
@@ -1116,8 +1122,8 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     return {"reference_total_gain": on_ref.total_gain,
             "reference_p_value": float(on_ref.decision.p_value),
             "reference_significant": bool(on_ref.decision.significant),
-            "p_state": p_state, "p_path": p_path, "p_change": p,
-            "changed": bool(p < route.opts.alpha)}
+            "p_state": p_state, "p_path": p_path, "p_change": p, "n_contrasts": n_contrasts,
+            "changed": bool(min(1.0, p * n_contrasts) < route.opts.contrast_alpha)}
 
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
