@@ -505,6 +505,7 @@ def test_physical_one_leg_delay_on_excited_data(recorded):
     assert doc["effects"][0]["physical"] == ph and "suspected" in doc and "physics" in doc
 
 
+@pytest.mark.slow   # the physical route's effect in CI: test_reference.py's knee (and its tether)
 def test_physical_odom_fixed_force(recorded):
     data = _record_small(recorded, "p_wind", 122,
                          "- class: littledog_mlsim.robot.effects:ConstantWind\n"
@@ -530,7 +531,7 @@ def test_physical_odom_fixed_force(recorded):
     assert "IMU" in twin[0]["recording"]
 
 
-@pytest.mark.slow   # the physical route's further effect case; CI keeps the push, delay, friction
+@pytest.mark.slow   # the physical route's further effect case; CI keeps test_reference.py's knee
 def test_physical_heavy_leg_among_leg_and_contact_terms(recorded):
     """The leg class: one leg twice as heavy, searched against the contact-phase terms of every
     leg (stance slip, swing drag) and the joint and body families."""
@@ -898,6 +899,33 @@ def test_physical_clean_data_raises_no_alarm(recorded, seed, excitation):
     report = _diagnose_physical(data, recorded / f"p_clean_{seed}_out")
     assert report["significant"] is False and report["effects"] == []
     assert report["physics"]["rejected"], "the best candidate is reported as rejected"
+
+
+def test_a_rival_family_with_most_of_the_findings_cut_is_named_inseparable():
+    """``advice.inseparable`` (the push case's rival, ``test_physical_odom_fixed_force``, slow):
+    a rival of another family, significant on its own and with at least INSEPARABLE_SHARE of
+    the finding's held-out cut, is named with what would separate them; a weaker or
+    non-significant rival, or another scope of the finding's own family, is not."""
+    from types import SimpleNamespace
+    from littledog_mlsim.diagnose.physical.advice import INSEPARABLE_SHARE, inseparable
+
+    def alt(family, scope, gain, p, **params):
+        return {"family": family, "scope": scope, "held_out_total_gain": gain,
+                "held_out_p": p, "params": params}
+    finding = SimpleNamespace(family="odom_force", scope="body", alternatives=[
+        alt("odom_force", "body", 1.0, 1e-6, force_N=1.5),
+        alt("ground_slope", "body", INSEPARABLE_SHARE + 0.05, 1e-5, slope_deg=0.8),
+        alt("body_wrench", "body", 0.95, 0.2, force_N=1.4),          # not significant
+        alt("servo_gain", "joint:front_left_knee", 0.5, 1e-6, gain_ratio=0.8),   # weaker
+        alt("odom_force", "leg:front_left", 0.99, 1e-6, force_N=1.5)])  # its own family
+    rivals = inseparable(finding, 0.01)
+    assert [(r["family"], r["kind"]) for r in rivals] == [("ground_slope", "inseparable")]
+    assert rivals[0]["params"] == {"slope_deg": 0.8}
+    assert "cannot be told from the accepted odom_force" in rivals[0]["why"]
+    assert "IMU" in rivals[0]["recording"], rivals[0]
+    # no held-out gain of the finding itself: nothing to compare a rival with
+    finding.alternatives[0]["held_out_total_gain"] = 0.0
+    assert inseparable(finding, 0.01) == []
 
 
 def test_physical_torque_axes_and_foot_friction_names():
