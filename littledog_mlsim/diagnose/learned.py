@@ -44,8 +44,8 @@ Method
    members within 10 % of the best; the scope widened while a wider one gains more move by
    move, :func:`_widen`), then added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
-   scope whose full-scope probe gained at all (:func:`screen_narrower`): an effect on one leg
-   or joint type is diluted at full scope. Alpha is split equally between the two screens,
+   scope whose full-scope probe gained with p below ``narrow_p`` (:func:`screen_narrower`): an
+   effect on one leg or joint type is diluted at full scope. Alpha is split equally between the two screens,
    each Bonferroni over every member it could test (:func:`screen_sizes`).
 5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect is
    read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
@@ -138,6 +138,7 @@ class LearnedOptions:
     tolerance: float = 0.1
     scope_alpha: float = 0.01
     scoped_screen: bool = True   # a round with no full-scope finding screens narrower scopes
+    narrow_p: float = 0.1        # ... of the families whose full-scope p is below this
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     seed: int = 0
 
@@ -663,10 +664,11 @@ def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float
 def screen_narrower(route: "_Route", fs: FeatureSet, ev0: Evidence, full: Sequence[_Probe],
                     n_scoped: int) -> list[_Probe]:
     """The narrower screen of a round: every narrower joint scope of each full-scope probe in
-    ``full`` that gained at all (``total_gain`` > 0), probed at the Bonferroni factor
-    ``n_scoped`` (:func:`screen_sizes`)."""
-    narrow = [m for p in full if p.total_gain > 0 for m in _scope_members(p.aug)
-              if m.joints != "all"]
+    ``full`` that gained (``total_gain`` > 0) with a p below ``narrow_p`` (a hint, not a
+    finding; it only saves the probes of families that show nothing), probed at the
+    Bonferroni factor ``n_scoped`` (:func:`screen_sizes`)."""
+    narrow = [m for p in full if p.total_gain > 0 and p.decision.p_value < route.opts.narrow_p
+              for m in _scope_members(p.aug) if m.joints != "all"]
     return route.probes(fs, ev0, narrow, n_scoped)
 
 

@@ -325,7 +325,7 @@ def test_start_spread_says_when_position_follows_the_move():
 
 def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their_own_level():
     """The narrower screen (``screen_narrower``): only families whose full-scope probe gained
-    expand, to every narrower scope (never all joints again), at the scoped Bonferroni factor;
+    with p below ``narrow_p`` expand, to every narrower scope (never all joints again), at the scoped Bonferroni factor;
     the two screens split alpha equally over every member either could test (``screen_sizes``);
     the refinement reuses the probes a screen already made."""
     from types import SimpleNamespace
@@ -351,9 +351,12 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
                                         d=np.full((40, 33), 0.0)), p_value=1e-6))
                     for a in augs]
 
-    full = [SimpleNamespace(aug=CommandLag(lag=2), total_gain=0.3),
-            SimpleNamespace(aug=CommandFilter(time_constant_ms=30.0), total_gain=-0.2),
-            SimpleNamespace(aug=Heading(), total_gain=0.5)]
+    def full_probe(aug, gain, p):
+        return SimpleNamespace(aug=aug, total_gain=gain, decision=SimpleNamespace(p_value=p))
+    full = [full_probe(CommandLag(lag=2), 0.3, 0.002),
+            full_probe(CommandFilter(time_constant_ms=30.0), -0.2, 0.002),    # no gain
+            full_probe(ElapsedTracking(), 0.4, 0.5),                        # no hint
+            full_probe(Heading(), 0.5, 1e-3)]                               # no joints
     scoped = screen_narrower(Route(), None, None, full, 54)
     assert calls == [([f"command_lag(lag=2, joints={s})" for s in SCOPES], 54)]
     assert [p.aug.joints for p in scoped] == list(SCOPES)
