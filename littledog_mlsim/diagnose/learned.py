@@ -39,8 +39,8 @@ Method
    (:func:`family_probes`): command history (delay, low-pass, play), heading (a world-fixed
    force or slope acts in the body frame through sin/cos of yaw), position (terrain over the
    floor), time (elapsed time; a servo stiffness drifting with time), gait phase. The family
-   with the largest significant and material rollout gain is scoped (all joints, a leg, a joint
-   type, a side) and its parameter estimated by the same held-out rollout SSE (parsimony among
+   with the largest significant and material rollout gain (the fewest columns among those
+   within 10 % of it: :func:`_pick`) is scoped (all joints, a leg, a joint type, a side) and its parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
    move, :func:`_widen`), then added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
@@ -1057,7 +1057,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                     for p in sorted(scoped, key=lambda p: p.decision.p_value)[:4]))
         if not ok:
             break
-        first = max(ok, key=lambda p: p.total_gain)
+        first = _pick(ok, opts.tolerance, False)   # parsimony among near-equal families
         if ref_route is not None:      # a change goes first: the robot's own does not lead
             _, ev_ref = ref_route.fit(fs)
             pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok))
@@ -1065,7 +1065,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             changed = [p for p in ok if pre[p.aug.label()]["changed"]]
             if not changed and len(shared) == opts.max_shared:
                 break
-            first = max(changed or ok, key=lambda p: p.total_gain)
+            first = _pick(changed or ok, opts.tolerance, False)
             say(f"round {k}: against the reference: " + ", ".join(
                 f"{lab} p(change) {c['p_change']:.2g}" for lab, c in pre.items()))
         best, scan = _refine(route, fs, ev, first, n_full, last)
