@@ -423,6 +423,7 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
     assert doc["floor_plane"]["r2"] < 0.5                  # a flat floor: no slope to read
 
 
+@pytest.mark.slow   # the one-step loop's further effect case; CI keeps its delay and clean checks
 def test_knee_coulomb_friction_is_found_as_friction(recorded):
     data = _record(recorded, "friction", 105,
                    "- class: littledog_mlsim.robot.effects:JointFriction\n"
@@ -892,8 +893,11 @@ def test_physical_servo_gain_of_one_joint(recorded):
     assert "front-left knee" in ph["statement"].lower()
 
 
+# the physical route's clean case in CI: test_reference.py's clean data of a robot the twin
+# misses (a tether) against its own reference
 @pytest.mark.parametrize("seed, excitation", [
-    (124, 0.0), pytest.param(125, EXCITATION, marks=pytest.mark.slow)])
+    pytest.param(124, 0.0, marks=pytest.mark.slow),
+    pytest.param(125, EXCITATION, marks=pytest.mark.slow)])
 def test_physical_clean_data_raises_no_alarm(recorded, seed, excitation):
     data = _record_small(recorded, f"p_clean_{seed}", seed, excitation=excitation)
     report = _diagnose_physical(data, recorded / f"p_clean_{seed}_out")
