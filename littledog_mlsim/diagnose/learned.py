@@ -38,15 +38,18 @@ Method
 4. **Families whose cause is not among the model's inputs**, probed at full scope first
    (:func:`family_probes`): command history (delay, low-pass, play), heading (a world-fixed
    force or slope acts in the body frame through sin/cos of yaw), position (terrain over the
-   floor), time (elapsed time; a servo stiffness drifting with time), gait phase. The family
-   with the largest significant and material rollout gain (the fewest columns among those
-   within 10 % of it: :func:`_pick`) is scoped (all joints, a leg, a joint type, a side) and its parameter estimated by the same held-out rollout SSE (parsimony among
+   floor), time (elapsed time; a servo stiffness drifting with time), gait phase, a joint's
+   rate while its foot swings (a force or drag on a foot off the ground). The family with
+   the largest significant and material rollout gain (the fewest columns among those within
+   10 % of it: :func:`_pick`) is scoped (all joints, a leg, a joint type, a side) and its
+   parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
    move, :func:`_widen`), then added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
-   scope whose full-scope probe gained with p below ``narrow_p`` (:func:`screen_narrower`): an
-   effect on one leg or joint type is diluted at full scope. Alpha is split equally between the two screens,
-   each Bonferroni over every member it could test (:func:`screen_sizes`).
+   scope whose full-scope probe gained with p below ``narrow_p`` (:func:`screen_narrower`):
+   an effect on one leg or joint type is diluted at full scope. Alpha is split equally
+   between the two screens, each Bonferroni over every member it could test
+   (:func:`screen_sizes`).
 5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect is
    read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
    odom and multiplied by the robot's mass ("about N newtons toward D deg in odom"); a delay in
@@ -103,7 +106,7 @@ from ..data.states import initial_pose
 from ..layout import CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES, S
 from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedTime, FeatureSet,
                                GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
-from ..models.feature_library import JOINT_GROUPS, ElapsedTracking
+from ..models.feature_library import JOINT_GROUPS, ElapsedTracking, SwingRate
 from .selection import SearchModel, move_folds
 from .stats import PathTest, path_test, sse_decision
 
@@ -421,7 +424,7 @@ def family_probes() -> list[Augmentation]:
     """One member per family whose cause is not among the model's inputs, at full scope."""
     return [CommandLag(lag=2), CommandFilter(time_constant_ms=30.0), Play(width=0.03, source="u"),
             Heading(), PlanarPosition(), ElapsedTime(), ElapsedTracking(),
-            GaitPhase(quarter_lag=9)]
+            GaitPhase(quarter_lag=9), SwingRate()]
 
 
 def _scope_members(aug: Augmentation) -> list[Augmentation]:
@@ -753,7 +756,9 @@ def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
     where = _strongest(model.linear_coef(sl), X[:, sl])
     kind = {"pose (position)": "where the robot is on the floor (terrain that varies over it)",
             "elapsed time": "the time since the move started (drift)",
-            "gait phase": "the gait phase (a phase-locked effect)"}.get(aug.family, aug.family)
+            "gait phase": "the gait phase (a phase-locked effect)",
+            "swing": (f"the joint rates of {_scope_words(aug)} while their foot swings (a "
+                      "force or drag on a foot off the ground)")}.get(aug.family, aug.family)
     return (f"the dynamics depend on {kind}; strongest on {', '.join(where)}; the learned "
             f"model alone cannot put this family in physical units",
             {"strongest_on": where})
@@ -1183,7 +1188,7 @@ def _family_recording(aug: Augmentation) -> str:
     if fam in ("command delay", "command filter", "backlash/hysteresis"):
         return "record with command excitation (record --excitation 0.05)"
     key = {"pose (heading)": "heading", "pose (position)": "position", "elapsed time": "time",
-           "gait phase": "phase"}.get(fam, "bias")
+           "gait phase": "phase", "swing": "phase"}.get(fam, "bias")
     return RECORDINGS[key]
 
 

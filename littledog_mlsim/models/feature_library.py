@@ -21,8 +21,8 @@ from .feature_base import Augmentation, FeatureSetError, Window, register_augmen
 __all__ = [
     "CommandLag", "CommandIncrement", "StateLag", "CommandFilter", "TrackingSaturation",
     "JointRateSign", "JointRateMagnitude", "Play", "Heading", "PlanarPosition", "ElapsedTime",
-    "FootHeight", "CommandedLift", "GaitPhase", "ElapsedTracking", "STATE_GROUPS",
-    "JOINT_GROUPS",
+    "FootHeight", "CommandedLift", "GaitPhase", "ElapsedTracking", "SwingRate", "STATE_GROUPS",
+    "JOINT_GROUPS", "SWING_LIFT_M",
 ]
 
 
@@ -460,3 +460,33 @@ class ElapsedTracking(Augmentation):
         idx = list(JOINT_GROUPS[self.joints])
         err = w.u(0)[..., idx] - w.s(0)[..., S.q][..., idx]
         return np.asarray(w.elapsed, dtype=np.float64)[..., None] * err
+
+
+#: the commanded lift [m] at which a swing-rate column counts its joint's rate fully
+SWING_LIFT_M = 0.01
+
+
+@register_augmentation
+@dataclass(frozen=True)
+class SwingRate(Augmentation):
+    """w * dq_j of the selected joints, w = clip(lift / SWING_LIFT_M, 0, 1) of the joint's leg
+    (its commanded lift, :class:`CommandedLift`): the joint's rate while its foot is meant to
+    swing. A force on a swinging foot (a snagging cable, drag) or a joint damping that acts
+    only off the ground is a product of the contact phase and the rate, which the state and
+    command carry only as separate inputs."""
+
+    joints: str = "all"
+    name: ClassVar[str] = "swing_rate"
+    family: ClassVar[str] = "swing"
+
+    def __post_init__(self) -> None:
+        _group(JOINT_GROUPS, self.joints, "swing_rate")
+
+    def columns(self) -> tuple[str, ...]:
+        return tuple(f"swing*dq_{JOINT_NAMES[j]}" for j in JOINT_GROUPS[self.joints])
+
+    def compute(self, w: Window) -> np.ndarray:
+        idx = list(JOINT_GROUPS[self.joints])
+        lift = _forward_kinematics(w.u(0))[..., 2] - _home_feet()[:, 2]     # (..., 4) legs
+        weight = np.clip(lift / SWING_LIFT_M, 0.0, 1.0)[..., [j // 3 for j in idx]]
+        return weight * w.s(0)[..., S.dq][..., idx]

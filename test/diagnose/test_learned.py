@@ -128,6 +128,36 @@ def test_elapsed_tracking_is_time_times_tracking_error_in_batch_and_online():
             h.push(Y[k])
 
 
+def test_swing_rate_is_the_joint_rate_weighted_by_its_legs_commanded_lift():
+    """``SwingRate``: dq_j times its leg's commanded lift over SWING_LIFT_M, clipped to [0, 1],
+    the same in batch and online; it reads as a contact-phase effect of the leg it is scoped
+    to."""
+    from littledog_mlsim.diagnose.families.learned import physical_reading
+    from littledog_mlsim.models.feature_library import (SWING_LIFT_M, CommandedLift,
+                                                        SwingRate)
+    recs = [make_recording(f"F_0{i}", n=60, yaw0=0.3 * i, yaw_rate=0.5, seed=i) for i in range(2)]
+    aug = SwingRate(joints="back_left")
+    fs = FeatureSet((aug, CommandedLift()))
+    X, _, mi = fs.features_responses(recs)
+    lift = X[:, N_FEATURE + 3:N_FEATURE + 7]               # per leg, contract order
+    assert np.any(lift[:, 2] > SWING_LIFT_M) and np.any(lift[:, 2] <= 0.0), "no swing, no stance"
+    dq = X[:, 21:33][:, [6, 7, 8]]                          # the back-left leg's joint rates
+    expect = np.clip(lift[:, [2]] / SWING_LIFT_M, 0.0, 1.0) * dq
+    np.testing.assert_allclose(X[:, N_FEATURE:N_FEATURE + 3], expect, rtol=1e-12, atol=1e-15)
+    for i, r in enumerate(recs):
+        s = states_from_recording(r)[:-1]
+        u = actions_from_recording(r)[1:]
+        h = fs.history(s[0])
+        Y = states_from_recording(r)[1:]
+        rows = X[mi == i]
+        for k in range(s.shape[0]):
+            np.testing.assert_allclose(h.features(u[k])[N_FEATURE:], rows[k, N_FEATURE:],
+                                       rtol=1e-12, atol=1e-15)
+            h.push(Y[k])
+    reading = physical_reading(aug)
+    assert (reading["family"], reading["scope"]) == ("contact_phase", "leg:back_left")
+
+
 def test_too_few_moves_is_a_clear_error():
     recs = [make_recording(f"F_0{i}", n=30, seed=i) for i in range(4)]
     with pytest.raises(ValueError, match="diagnose_learned: needs at least 10 TrainPool moves"):
@@ -335,8 +365,8 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
     lib = family_probes()
     assert screen_sizes(lib, False) == (len(lib), 0)
     joint_families = [a for a in lib if "joints" in a.params()]
-    assert len(joint_families) == 3       # delay, low-pass, time drift (t * (u - q))
-    assert screen_sizes(lib, True) == (2 * len(lib), 2 * 3 * len(SCOPES))
+    assert len(joint_families) == 4       # delay, low-pass, time drift (t * (u - q)), swing
+    assert screen_sizes(lib, True) == (2 * len(lib), 2 * 4 * len(SCOPES))
     assert screen_sizes([Heading(), ElapsedTime()], True) == (2, 0)   # nothing to narrow
 
     calls = []

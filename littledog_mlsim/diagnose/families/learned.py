@@ -190,6 +190,21 @@ class FootContactFeatures(LearnedFamily):
 
 
 @register_learned
+class SwingFeatures(LearnedFamily):
+    """A joint's rate while its foot swings (:class:`~...models.feature_library.SwingRate`):
+    a force or damping on a swinging foot, scoped by the joints whose columns carry it (one
+    leg's three joints read as that leg)."""
+
+    features = (fl.SwingRate,)
+    reads_as = ContactPhase
+    parameter = "magnitude"
+
+    @property
+    def acts_on_joints(self) -> bool:
+        return True
+
+
+@register_learned
 class GaitPhaseFeatures(LearnedFamily):
     features = (fl.GaitPhase,)
     reads_as = ContactPhase
