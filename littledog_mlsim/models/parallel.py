@@ -17,8 +17,16 @@ def _check_reachable(address: str) -> None:
     """Refuse a ``tcp://host:port`` scheduler nobody listens on before a ``distributed.Client``
     is made: a Client whose connection fails keeps its IO-loop thread for the life of the
     process (its constructor raises, so nothing can close it)."""
-    parts = urlsplit(address)
-    if parts.scheme != "tcp" or parts.hostname is None or parts.port is None:
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")  # Dask's default
+    if parts.scheme == "tcp":
+        try:
+            port = parts.port
+        except ValueError:
+            port = None
+        if not parts.hostname or port is None:
+            raise ValueError(f"cannot connect to the Dask scheduler {address}: not an address "
+                             "(tcp://HOST:PORT)")
+    if parts.scheme != "tcp":
         return              # other transports: the Client reports them itself
     try:
         socket.create_connection((parts.hostname, parts.port), DASK_REACH_TIMEOUT_S).close()

@@ -189,6 +189,7 @@ def test_train_cli(tiny_dataset, tmp_path, capsys):
         assert run_cli("--data", tiny_dataset, "--out", out, "--quiet", *bad) == 2
         err = capsys.readouterr().err.strip()
         assert err.startswith("littledog-mlsim train: error:") and "\n" not in err
+    assert "not an address (tcp://HOST:PORT)" in err     # refused before a Client is made
     assert (out / "model.json").read_bytes() == before
 
     assert run_cli("--data", tmp_path / "nope", "--method", "lr", "--out", tmp_path / "m2",
