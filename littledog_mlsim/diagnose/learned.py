@@ -46,9 +46,9 @@ Method
    members within 10 % of the best; the scope widened while a wider one gains more move by
    move, :func:`_widen`), then added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
-   scope whose full-scope probe gained with p below ``narrow_p`` (:func:`screen_narrower`):
-   an effect on one leg or joint type is diluted at full scope. Alpha is split equally
-   between the two screens, each Bonferroni over every member it could test
+   scope whose full-scope probe gained (:func:`screen_narrower`): an effect on one leg or
+   joint type is diluted at full scope. The narrower screen spends a quarter of alpha and the
+   full-scope one the rest, each Bonferroni over every member it could test
    (:func:`screen_sizes`).
 5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect is
    read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
@@ -141,7 +141,8 @@ class LearnedOptions:
     tolerance: float = 0.1
     scope_alpha: float = 0.01
     scoped_screen: bool = True   # a round with no full-scope finding screens narrower scopes
-    narrow_p: float = 0.1        # ... of the families whose full-scope p is below this
+    narrow_p: float = 1.0        # ... of the families that gained with full-scope p <= this
+    scoped_share: float = 0.25   # the share of alpha the narrower screen spends
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     seed: int = 0
 
@@ -435,15 +436,19 @@ def _scope_members(aug: Augmentation) -> list[Augmentation]:
     return [replace(aug, joints=s) for s in ("all",) + SCOPES if s != aug.joints]
 
 
-def screen_sizes(lib: Sequence[Augmentation], scoped: bool) -> tuple[int, int]:
+def screen_sizes(lib: Sequence[Augmentation], scoped: bool, share: float = 0.25
+                 ) -> tuple[float, float]:
     """The Bonferroni factors of a round's two screens: the full-scope members of ``lib``, and
     (``scoped``) every narrower scope of its families that have one. With the scoped screen,
-    alpha is split equally between the two (a weighted Bonferroni over every member either
-    could test, so a screen that tests only some of them keeps the level)."""
+    the narrower one spends ``share`` of alpha and the full-scope one the rest (a weighted
+    Bonferroni over every member either could test, so a screen that tests only some of them
+    keeps the level)."""
     n_scoped = sum(len(SCOPES) for a in lib if "joints" in a.params())
     if not (scoped and n_scoped):
-        return len(lib), 0
-    return 2 * len(lib), 2 * n_scoped
+        return float(len(lib)), 0.0
+    if not 0.0 < share < 1.0:
+        raise ValueError(f"scoped_share must be in (0, 1), got {share!r}")
+    return len(lib) / (1.0 - share), n_scoped / share
 
 
 def _param_members(aug: Augmentation) -> list[Augmentation]:
@@ -667,10 +672,10 @@ def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float
 def screen_narrower(route: "_Route", fs: FeatureSet, ev0: Evidence, full: Sequence[_Probe],
                     n_scoped: int) -> list[_Probe]:
     """The narrower screen of a round: every narrower joint scope of each full-scope probe in
-    ``full`` that gained (``total_gain`` > 0) with a p below ``narrow_p`` (a hint, not a
-    finding; it only saves the probes of families that show nothing), probed at the
+    ``full`` that gained (``total_gain`` > 0) with a p at most ``narrow_p`` (a hint, not a
+    finding; below 1 it saves the probes of families that show little), probed at the
     Bonferroni factor ``n_scoped`` (:func:`screen_sizes`)."""
-    narrow = [m for p in full if p.total_gain > 0 and p.decision.p_value < route.opts.narrow_p
+    narrow = [m for p in full if p.total_gain > 0 and p.decision.p_value <= route.opts.narrow_p
               for m in _scope_members(p.aug) if m.joints != "all"]
     return route.probes(fs, ev0, narrow, n_scoped)
 
@@ -1037,7 +1042,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
     confounded: list[_Probe] = []
     k = -1
-    n_full, n_scoped = screen_sizes(lib, opts.scoped_screen)
+    n_full, n_scoped = screen_sizes(lib, opts.scoped_screen, opts.scoped_share)
     while len(found) < opts.max_rounds and len(shared) <= opts.max_shared:
         k += 1
         taken = ({p.aug.family for p, _ in found + shared}

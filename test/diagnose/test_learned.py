@@ -355,9 +355,10 @@ def test_start_spread_says_when_position_follows_the_move():
 
 def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their_own_level():
     """The narrower screen (``screen_narrower``): only families whose full-scope probe gained
-    with p below ``narrow_p`` expand, to every narrower scope (never all joints again), at the scoped Bonferroni factor;
-    the two screens split alpha equally over every member either could test (``screen_sizes``);
-    the refinement reuses the probes a screen already made."""
+    with p at most ``narrow_p`` expand, to every narrower scope (never all joints again), at the
+    scoped Bonferroni factor; the two screens share alpha (a quarter to the narrower one by
+    default) over every member either could test (``screen_sizes``); the refinement reuses the
+    probes a screen already made."""
     from types import SimpleNamespace
     from littledog_mlsim.diagnose.learned import (SCOPES, _refine, family_probes,
                                                   screen_narrower, screen_sizes)
@@ -366,13 +367,16 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
     assert screen_sizes(lib, False) == (len(lib), 0)
     joint_families = [a for a in lib if "joints" in a.params()]
     assert len(joint_families) == 4       # delay, low-pass, time drift (t * (u - q)), swing
-    assert screen_sizes(lib, True) == (2 * len(lib), 2 * 4 * len(SCOPES))
+    assert screen_sizes(lib, True) == (len(lib) / 0.75, 4 * len(SCOPES) / 0.25)
+    assert screen_sizes(lib, True, 0.5) == (2 * len(lib), 2 * 4 * len(SCOPES))
+    with pytest.raises(ValueError, match="scoped_share must be in"):
+        screen_sizes(lib, True, 1.0)
     assert screen_sizes([Heading(), ElapsedTime()], True) == (2, 0)   # nothing to narrow
 
     calls = []
 
     class Route:
-        opts = LearnedOptions()
+        opts = LearnedOptions(narrow_p=0.1)
 
         def probes(self, fs, ev0, augs, n):
             calls.append(([a.label() for a in augs], n))
@@ -385,7 +389,7 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
         return SimpleNamespace(aug=aug, total_gain=gain, decision=SimpleNamespace(p_value=p))
     full = [full_probe(CommandLag(lag=2), 0.3, 0.002),
             full_probe(CommandFilter(time_constant_ms=30.0), -0.2, 0.002),    # no gain
-            full_probe(ElapsedTracking(), 0.4, 0.5),                        # no hint
+            full_probe(ElapsedTracking(), 0.4, 0.5),              # above narrow_p (0.1)
             full_probe(Heading(), 0.5, 1e-3)]                               # no joints
     scoped = screen_narrower(Route(), None, None, full, 54)
     assert calls == [([f"command_lag(lag=2, joints={s})" for s in SCOPES], 54)]
