@@ -22,7 +22,7 @@ from littledog_mlsim.diagnose import SearchModel, diagnose
 
 TYPES = ["F", "B", "L", "R", "DL", "S"]
 FAMILIES = ["command_delay", "servo_gain", "odom_force", "ground_slope", "body_wrench"]
-PHYS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=3, n_refine=2,
+PHYS = dict(fit_per_type=1, validate_per_type=2, test_per_type=1, screen_moves=3, n_refine=3,
             families=FAMILIES)
 TETHER = ("- class: littledog_mlsim.robot.effects:ConstantWind\n"
           "  params: {force_xy: [0.0, 3.0]}\n")
