@@ -670,7 +670,7 @@ def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float
 
 
 def screen_narrower(route: "_Route", fs: FeatureSet, ev0: Evidence, full: Sequence[_Probe],
-                    n_scoped: int) -> list[_Probe]:
+                    n_scoped: float) -> list[_Probe]:
     """The narrower screen of a round: every narrower joint scope of each full-scope probe in
     ``full`` that gained (``total_gain`` > 0) with a p at most ``narrow_p`` (a hint, not a
     finding; below 1 it saves the probes of families that show little), probed at the
@@ -680,7 +680,7 @@ def screen_narrower(route: "_Route", fs: FeatureSet, ev0: Evidence, full: Sequen
     return route.probes(fs, ev0, narrow, n_scoped)
 
 
-def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: int,
+def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candidates: float,
             known: Sequence[_Probe] = ()) -> tuple[_Probe, list[dict[str, Any]]]:
     """Scope, then parameter, of a detected family by the same held-out rollout SSE. ``known``:
     probes this round already made at ``fs`` (the screens'), reused instead of made again."""

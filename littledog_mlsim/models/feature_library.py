@@ -361,6 +361,11 @@ def _home_feet() -> np.ndarray:
     return _HOME_FEET
 
 
+def _commanded_lift(u: np.ndarray) -> np.ndarray:
+    """(..., 4) how high the commands ``u`` (..., 12) lift each foot above its home position."""
+    return _forward_kinematics(u)[..., 2] - _home_feet()[:, 2]
+
+
 @register_augmentation
 @dataclass(frozen=True)
 class FootHeight(Augmentation):
@@ -397,7 +402,7 @@ class CommandedLift(Augmentation):
         return tuple(f"lift_cmd_{leg}" for leg in LEGS)
 
     def compute(self, w: Window) -> np.ndarray:
-        return _forward_kinematics(w.u(0))[..., 2] - _home_feet()[:, 2]
+        return _commanded_lift(w.u(0))
 
 
 @register_augmentation
@@ -428,7 +433,7 @@ class GaitPhase(Augmentation):
 
     @staticmethod
     def _diag(u: np.ndarray) -> np.ndarray:
-        lift = _forward_kinematics(u)[..., 2] - _home_feet()[:, 2]
+        lift = _commanded_lift(u)
         return lift[..., 0] + lift[..., 3] - lift[..., 1] - lift[..., 2]
 
     def compute(self, w: Window) -> np.ndarray:
@@ -487,6 +492,6 @@ class SwingRate(Augmentation):
 
     def compute(self, w: Window) -> np.ndarray:
         idx = list(JOINT_GROUPS[self.joints])
-        lift = _forward_kinematics(w.u(0))[..., 2] - _home_feet()[:, 2]     # (..., 4) legs
+        lift = _commanded_lift(w.u(0))                                   # (..., 4) legs
         weight = np.clip(lift / SWING_LIFT_M, 0.0, 1.0)[..., [j // 3 for j in idx]]
         return weight * w.s(0)[..., S.dq][..., idx]

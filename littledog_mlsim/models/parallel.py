@@ -18,18 +18,17 @@ def _check_reachable(address: str) -> None:
     is made: a Client whose connection fails keeps its IO-loop thread for the life of the
     process (its constructor raises, so nothing can close it)."""
     parts = urlsplit(address if "://" in address else f"tcp://{address}")  # Dask's default
-    if parts.scheme == "tcp":
-        try:
-            port = parts.port
-        except ValueError:
-            port = None
-        if not parts.hostname or port is None:
-            raise ValueError(f"cannot connect to the Dask scheduler {address}: not an address "
-                             "(tcp://HOST:PORT)")
     if parts.scheme != "tcp":
         return              # other transports: the Client reports them itself
     try:
-        socket.create_connection((parts.hostname, parts.port), DASK_REACH_TIMEOUT_S).close()
+        port = parts.port
+    except ValueError:      # a port that is not a number
+        port = None
+    if not parts.hostname or port is None:
+        raise ValueError(f"cannot connect to the Dask scheduler {address}: not an address "
+                         "(tcp://HOST:PORT)")
+    try:
+        socket.create_connection((parts.hostname, port), DASK_REACH_TIMEOUT_S).close()
     except OSError as e:
         raise ValueError(f"cannot connect to the Dask scheduler {address}: "
                          f"{e.strerror or type(e).__name__}") from e
