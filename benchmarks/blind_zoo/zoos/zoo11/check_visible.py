@@ -8,7 +8,7 @@ every hook and no change) is recorded the same way and must show no difference. 
 every dataset (effects, clean seeds, reference, null control) must keep the body above 0.13 m.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo11/check_visible.py \\
-        --work /tmp/zoo11work
+        --work WORK
 
 ``--pilot N`` instead simulates the first N moves of each type in-process (a quick check
 before recording). Writes check.md / check.json beside this file (or check_pilot.*).
@@ -163,7 +163,7 @@ def markdown(res: dict, mode: str) -> str:
 
 def main() -> int:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--work", default="/tmp/zoo11work")
+    ap.add_argument("--work", required=True, help="the harness's WORK directory")
     ap.add_argument("--pilot", type=int, default=0)
     ap.add_argument("--only", default="")
     a = ap.parse_args()
