@@ -25,3 +25,9 @@ for name in ["z03", "z07", "z13", "clean_s63_e0"]:
     named = [(n["family"], n["scope"], n["params"]) for n in s["named"]]
     print(f"{name}: found {s['found']}, named {named}, param error {s['param_error']}, "
           f"angle error {s['angle_error_deg']}, {rep['seconds']:.0f} s")
+    if name == "z07":              # the delay's narrower scopes: the leg the truth names
+        for rd in rep["rollout_route"]["rounds"]:
+            for p in rd.get("scoped", []):
+                if p["label"].startswith("command_lag"):
+                    print(f"  round {rd['round']} {p['label']}: gain {p['total_gain']:.2f}, "
+                          f"p {p['p_value']:.2g}")
