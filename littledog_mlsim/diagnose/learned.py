@@ -41,7 +41,8 @@ Method
    floor), time (elapsed time; a servo stiffness drifting with time), gait phase, a joint's
    rate while its foot swings (a force or drag on a foot off the ground). The family with
    the largest significant and material rollout gain (the fewest columns among those within
-   10 % of it: :func:`_pick`) is scoped (all joints, a leg, a joint type, a side) and its
+   10 % of it: :func:`_pick`) is scoped (all joints, a leg, a joint type, a side, then one
+   joint of the leg, type or side kept: :func:`_joint_members`) and its
    parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
    move, :func:`_widen`), then added; the next round screens the rest. A round whose
@@ -144,6 +145,7 @@ class LearnedOptions:
     narrow_p: float = 1.0        # ... of the families that gained with full-scope p <= this
     scoped_share: float = 0.25   # the share of alpha the narrower screen spends
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
+    joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
     seed: int = 0
 
 
@@ -436,6 +438,17 @@ def _scope_members(aug: Augmentation) -> list[Augmentation]:
     return [replace(aug, joints=s) for s in ("all",) + SCOPES if s != aug.joints]
 
 
+def _joint_members(aug: Augmentation) -> list[Augmentation]:
+    """``aug`` at each single joint of its joint group, where that is a leg, a joint type or a
+    side (none for all joints, one joint, a family without a joint scope, or one that acts on
+    whole legs: :attr:`.families.learned.LearnedFamily.single_joints`)."""
+    from .families.learned import learned_family
+    j = aug.params().get("joints")
+    if j is None or j == "all" or j not in SCOPES or not learned_family(aug.family).single_joints:
+        return []
+    return [replace(aug, joints=JOINT_NAMES[k]) for k in JOINT_GROUPS[j]]
+
+
 def screen_sizes(lib: Sequence[Augmentation], scoped: bool, share: float = 0.25
                  ) -> tuple[float, float]:
     """The Bonferroni factors of a round's two screens: the full-scope members of ``lib``, and
@@ -691,6 +704,11 @@ def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candi
     tried = [first] + [have.get(a.label()) or made[a.label()] for a in members]
     scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
                            route.opts.scope_alpha)
+    joints = _joint_members(scoped.aug) if route.opts.joint_scopes else []
+    if joints:     # one joint of the leg, type or side kept, if it carries the gain
+        tried += route.probes(fs, ev0, joints, n_candidates)
+        scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
+                               route.opts.scope_alpha)
     params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
     best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
     scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
@@ -754,8 +772,8 @@ def physical_statement(aug: Augmentation, model: CrossFitModel, fs: FeatureSet,
         return (f"{_scope_words(aug)}: set-points pass a lag of about "
                 f"{aug.time_constant_ms:.0f} ms", {"time_constant_ms": aug.time_constant_ms})
     if isinstance(aug, Play):
-        return (f"command reversals matter: play of about {aug.width:.2f} rad in the set-points",
-                {"width_rad": aug.width})
+        return (f"{_scope_words(aug)}: command reversals matter: play of about "
+                f"{aug.width:.2f} rad in the set-points", {"width_rad": aug.width})
     if isinstance(aug, ElapsedTracking):
         return _drift_statement(aug, model, sl, X, elapsed_mean_s)
     where = _strongest(model.linear_coef(sl), X[:, sl])

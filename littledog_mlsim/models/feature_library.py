@@ -231,14 +231,16 @@ class Play(Augmentation):
     """Backlash / hysteresis: the position of each joint inside a play band of ``width``.
 
     The play (backlash) operator y_t = clip(y_{t-1}, x_t - width/2, x_t + width/2) follows the
-    input x (``source``: the measured angle q or the command u) with a dead band, starting
-    centred (y = x at the first sample); the feature (x_t - y_t) / (width/2) in [-1, 1] is +1
-    after moving up, -1 after moving down, and between them while a reversal takes up the play:
-    the direction-reversal history that backlash and hysteresis depend on. Recursive.
+    input x (``source``: the measured angle q or the command u) of each selected joint
+    (``joints``, a joint group) with a dead band, starting centred (y = x at the first sample);
+    the feature (x_t - y_t) / (width/2) in [-1, 1] is +1 after moving up, -1 after moving down,
+    and between them while a reversal takes up the play: the direction-reversal history that
+    backlash and hysteresis depend on. Recursive.
     """
 
     width: float = 0.02
     source: str = "q"
+    joints: str = "all"
     name: ClassVar[str] = "play"
     family: ClassVar[str] = "backlash/hysteresis"
     recursive: ClassVar[bool] = True
@@ -248,12 +250,14 @@ class Play(Augmentation):
             raise FeatureSetError(f"play: width must be > 0, got {self.width!r}")
         if self.source not in ("q", "u"):
             raise FeatureSetError(f"play: source must be q or u, got {self.source!r}")
+        _group(JOINT_GROUPS, self.joints, "play")
 
     def columns(self) -> tuple[str, ...]:
-        return tuple(f"play({self.source}_{j})" for j in JOINT_NAMES)
+        return tuple(f"play({self.source}_{JOINT_NAMES[j]})" for j in JOINT_GROUPS[self.joints])
 
     def _x(self, w: Window) -> np.ndarray:
-        return w.s(0)[..., S.q] if self.source == "q" else w.u(0)
+        x = w.s(0)[..., S.q] if self.source == "q" else w.u(0)
+        return x[..., list(JOINT_GROUPS[self.joints])]
 
     def init_carry(self, w: Window) -> np.ndarray:
         return np.array(self._x(w), dtype=np.float64)

@@ -290,6 +290,80 @@ def test_the_scope_widens_only_where_the_wider_scope_gains_on_most_moves():
     assert _scope_rivals(scan[:1], 0.1, 0.01) == []    # no scope kept (the fallback)
 
 
+def test_a_kept_leg_narrows_to_the_joint_that_carries_the_gain():
+    """The scope stage of ``_refine`` tries the single joints of a kept leg, joint type or side:
+    play on one hip pitch is named at that joint, not at its leg; where the leg's other joints
+    add gain on most moves, the leg stays; a swing-phase feature (a force on the whole foot)
+    never narrows to one joint; ``joint_scopes=False`` turns the stage off."""
+    from types import SimpleNamespace
+    from littledog_mlsim.diagnose.learned import _joint_members, _refine
+    from littledog_mlsim.models.feature_library import Play, SwingRate
+    rng = np.random.default_rng(3)
+    base = 0.1 + 0.02 * rng.random(40)
+
+    def gains(aug, spread):
+        j = aug.joints
+        if j == "front_left_hip_pitch":
+            return 1.0 * base
+        if j == "front_left":
+            return (1.0 + spread) * base + 0.005 * rng.standard_normal(40)
+        return 0.2 * base
+
+    def route(spread, opts=LearnedOptions()):
+        calls = []
+
+        class Route:
+            def probes(self, fs, ev0, augs, n):
+                calls.append([a.label() for a in augs])
+                return [SimpleNamespace(aug=a, total_gain=float(gains(a, spread).sum()),
+                                        decision=SimpleNamespace(p_value=1e-6, state=SimpleNamespace(
+                                            d=np.outer(gains(a, spread), np.full(33, 1 / 33)))))
+                        for a in augs]
+        Route.opts = opts
+        return Route(), calls
+
+    first_aug = Play(width=0.03, source="u", joints="front_left")
+    r, calls = route(0.02)
+    first = r.probes(None, None, [first_aug], 1)[0]
+    best, scan = _refine(r, None, None, first, 16)
+    assert best.aug.joints == "front_left_hip_pitch", scan
+    assert [e["label"] for e in scan if e.get("kept_scope")] == [best.aug.label()]
+    r, calls = route(0.5)                  # the leg's other joints carry half as much again
+    best, _ = _refine(r, None, None, r.probes(None, None, [first_aug], 1)[0], 16)
+    assert best.aug.joints == "front_left"
+    r, calls = route(0.02, LearnedOptions(joint_scopes=False))
+    best, _ = _refine(r, None, None, r.probes(None, None, [first_aug], 1)[0], 16)
+    assert best.aug.joints == "front_left"
+    assert not any("hip_pitch)" in c for cs in calls for c in cs)
+    assert _joint_members(SwingRate(joints="front_left")) == []
+    assert [a.joints for a in _joint_members(Play(joints="knees"))] == [
+        f"{leg}_knee" for leg in ("front_left", "front_right", "back_left", "back_right")]
+    assert _joint_members(Play()) == [] and _joint_members(Heading()) == []
+
+
+def test_play_on_some_joints_is_those_columns_of_play_on_all():
+    """``Play(joints=G)`` gives the columns of ``Play()`` for the joints of G, in batch and
+    online."""
+    from littledog_mlsim.models.feature_library import JOINT_GROUPS, Play
+    recs = [make_recording(f"F_0{i}", n=60, yaw0=0.3 * i, yaw_rate=0.5, seed=i) for i in range(2)]
+    whole, _, mi = FeatureSet((Play(width=0.03, source="u"),)).features_responses(recs)
+    for g in ("knees", "back_left", "front_left_hip_pitch"):
+        cols = list(JOINT_GROUPS[g])
+        fs = FeatureSet((Play(width=0.03, source="u", joints=g),))
+        part, _, _ = fs.features_responses(recs)
+        np.testing.assert_array_equal(part[:, N_FEATURE:], whole[:, N_FEATURE:][:, cols])
+        assert fs.augmentations[0].columns() == tuple(Play(source="u").columns()[j] for j in cols)
+        r = recs[1]
+        s, u = states_from_recording(r)[:-1], actions_from_recording(r)[1:]
+        h, Y = fs.history(s[0]), states_from_recording(r)[1:]
+        for k in range(s.shape[0]):
+            np.testing.assert_allclose(h.features(u[k])[N_FEATURE:], part[mi == 1][k, N_FEATURE:],
+                                       rtol=1e-12, atol=1e-15)
+            h.push(Y[k])
+    with pytest.raises(Exception, match="play: unknown group"):
+        Play(joints="tail")
+
+
 def _walks(slope_deg: float, uphill_deg: float, rng) -> list:
     """Recordings whose body walks straight out from the origin in 11 directions over a floor
     inclined by ``slope_deg`` rising towards ``uphill_deg``, the body bobbing 2 mm."""
@@ -366,9 +440,9 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
     lib = family_probes()
     assert screen_sizes(lib, False) == (len(lib), 0)
     joint_families = [a for a in lib if "joints" in a.params()]
-    assert len(joint_families) == 4       # delay, low-pass, time drift (t * (u - q)), swing
-    assert screen_sizes(lib, True) == (len(lib) / 0.75, 4 * len(SCOPES) / 0.25)
-    assert screen_sizes(lib, True, 0.5) == (2 * len(lib), 2 * 4 * len(SCOPES))
+    assert len(joint_families) == 5   # delay, low-pass, play, time drift (t * (u - q)), swing
+    assert screen_sizes(lib, True) == (len(lib) / 0.75, 5 * len(SCOPES) / 0.25)
+    assert screen_sizes(lib, True, 0.5) == (2 * len(lib), 2 * 5 * len(SCOPES))
     with pytest.raises(ValueError, match="scoped_share must be in"):
         screen_sizes(lib, True, 1.0)
     assert screen_sizes([Heading(), ElapsedTime()], True) == (2, 0)   # nothing to narrow
@@ -399,8 +473,10 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
     first = next(p for p in scoped if p.aug.joints == "back_left")
     whole = SimpleNamespace(aug=CommandLag(lag=2), total_gain=0.3, decision=first.decision)
     best, scan = _refine(Route(), None, None, first, 16, [whole] + scoped)
-    assert [c[0] for c in calls] == [[], [f"command_lag(lag={d}, joints=back_left)"
-                                          for d in (1, 3, 4, 5)]]
+    legs_joints = [f"command_lag(lag=2, joints=back_left_{j})"
+                   for j in ("hip_roll", "hip_pitch", "knee")]
+    assert [c[0] for c in calls] == [[], legs_joints, [f"command_lag(lag={d}, joints=back_left)"
+                                                       for d in (1, 3, 4, 5)]]
     assert best.aug.joints == "back_left"
     assert [e["label"] for e in scan if e["stage"] == "scope"][:2] == [
         "command_lag(lag=2, joints=back_left)", "command_lag(lag=2, joints=all)"]

@@ -143,7 +143,8 @@ class _Play(Family):
     def augmentation(self, scope: str, params: Mapping[str, Any]) -> Any:
         from ...models.features import Play
         w = float(params["width_rad"])
-        return Play(width=round(w, 4), source="u") if w > 1e-4 else None
+        return (Play(width=round(w, 4), source="u", joints=scope_group(scope)) if w > 1e-4
+                else None)
 
 
 @register_family

@@ -43,13 +43,16 @@ class LearnedFamily:
     physical family class it reads as (None: ``other``); ``parameter``: the name of the
     parameter the report states (default: the physical family's primary, ``value`` for
     ``other``); ``scans_delay``: its members are command lags whose delay the replacement scan
-    estimates (``selection.py``, step 5).
+    estimates (``selection.py``, step 5); ``single_joints``: the rollout route narrows a kept
+    leg, joint type or side to one joint where that joint carries the gain (False where the
+    physical family acts on a whole leg).
     """
 
     features: ClassVar[tuple[type[Augmentation], ...]] = ()
     reads_as: ClassVar[type[Family] | None] = None
     parameter: ClassVar[str] = ""
     scans_delay: ClassVar[bool] = False
+    single_joints: ClassVar[bool] = True
 
     @property
     def name(self) -> str:
@@ -159,8 +162,13 @@ class CoulombFeatures(LearnedFamily):
 
 @register_learned
 class PlayFeatures(LearnedFamily):
+    """The command's or angle's position in a play band: backlash of the band's width."""
+
     features = (fl.Play,)
     reads_as = Backlash
+
+    def magnitude(self, aug: Augmentation) -> float | None:
+        return aug.params()["width"]
 
 
 @register_learned
@@ -198,6 +206,7 @@ class SwingFeatures(LearnedFamily):
     features = (fl.SwingRate,)
     reads_as = ContactPhase
     parameter = "magnitude"
+    single_joints = False
 
     @property
     def acts_on_joints(self) -> bool:
