@@ -3,9 +3,10 @@
 Two small pybullet datasets of the same seed (6 and 4 moves per type): one with a steady 1.5 N
 push fixed in odom toward +y (a cause the learned model cannot see: it acts through the
 heading, which the state drops), one clean. At this size the route runs at alpha = 1e-3 (its
-default, 1e-4, is set for 88-move datasets: ``benchmarks/learned_route``). The push must be found as a heading effect pointing along +y in odom
-and must cut the TestPool rollout error; the clean data must raise no alarm, neither a found
-effect nor unexplained residual structure. The evidence's one-step rollouts are checked against
+default, 1e-4, is set for 88-move datasets: ``benchmarks/learned_route``). The push, diagnosed
+with the clean data as its reference, must be found as a heading effect pointing along +y in
+odom, a change since the reference, and must cut the TestPool rollout error; the clean data
+alone must raise no alarm, neither a found effect nor unexplained residual structure. The evidence's one-step rollouts are checked against
 the one-step residuals computed independently, and the time-drift augmentation against t*(u-q)
 computed by hand.
 """
@@ -56,12 +57,18 @@ def _run(path: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def push_report(data):
-    return _run(data["push"])
+def push_diagnosis(data, tmp_path_factory):
+    """``diagnose --physics off --rollout-route --reference CLEAN`` on the push (no one-step
+    rounds): (report, its directory). Its ``rollout_route`` is ``diagnose_learned``'s report."""
+    from littledog_mlsim.diagnose import DiagnoseOptions, LearnedRoute, diagnose
+    out = tmp_path_factory.mktemp("push_diagnosis") / "d"
+    route = LearnedRoute(max_rounds=0, rollout=SMALL, rollout_library=LIBRARY)
+    return diagnose(data["push"], out, DiagnoseOptions(
+        route=route, reference=data["clean"], method="lr", figures=False, progress=False)), out
 
 
-def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_report):
-    report = push_report
+def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagnosis):
+    report = push_diagnosis[0]["rollout_route"]
     assert report["significant"], report["rounds"]
     e = report["effects"][0]
     assert e["family"] == "pose (heading)", e
@@ -164,15 +171,12 @@ def test_too_few_moves_is_a_clear_error():
         diagnose_learned(recs, recs[:1], options=SMALL)
 
 
-def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, tmp_path):
+def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, push_diagnosis):
     """``diagnose --physics off --rollout-route --reference CLEAN`` as a function: the one-step
     loop (no rounds here), then the rollout route, each finding contrasted with the clean
     recording; its push is a change, in ``rollout_route``, its augmentation is the report
     model's last stage, and report.md says what it found."""
-    from littledog_mlsim.diagnose import DiagnoseOptions, LearnedRoute, diagnose
-    route = LearnedRoute(max_rounds=0, rollout=SMALL, rollout_library=LIBRARY)
-    report = diagnose(data["push"], tmp_path / "d", DiagnoseOptions(
-        route=route, reference=data["clean"], method="lr", figures=False, progress=False))
+    report, out = push_diagnosis
     assert "contrasted with the reference" in report["route"]["why"]
     r = report["rollout_route"]
     assert r["significant"] and r["effects"][0]["family"] == "pose (heading)", r["rounds"]
@@ -183,7 +187,7 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, t
     last = report["after"]["feature_set"]
     assert last == report["stages"][-1]["feature_set"] != report["before"]["feature_set"]
     assert any(a.get("name") == "heading" or "heading" in str(a) for a in last["augmentations"])
-    md = (tmp_path / "d" / "report.md").read_text()
+    md = (out / "report.md").read_text()
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
 
 
