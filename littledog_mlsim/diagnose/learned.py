@@ -146,6 +146,7 @@ class LearnedOptions:
     scoped_share: float = 0.25   # the share of alpha the narrower screen spends
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
+    scope_test: bool = False     # a scoped probe's state test also pools its joints' elements
     seed: int = 0
 
 
@@ -534,10 +535,23 @@ class _Decision:
         return list(self.state.outputs) + path
 
 
+def scope_elements(aug: Augmentation) -> list[int] | None:
+    """The state elements (q and dq) of the joints a scoped candidate acts on: the focus of
+    :func:`.stats.decide`'s third test; None for all joints or a family without a joint
+    scope."""
+    j = aug.params().get("joints")
+    if j is None or j == "all":
+        return None
+    idx = list(JOINT_GROUPS[j])
+    return [S.q.start + k for k in idx] + [S.dq.start + k for k in idx]
+
+
 def decide(ev0: Evidence, ev1: Evidence, h: int, n_moves: int, n_candidates: int,
-           alpha: float, min_gain: float) -> _Decision:
-    """The held-out decision on one candidate: ``ev1`` (with it) against ``ev0`` (without)."""
-    st = sse_decision(ev0.sse(h, n_moves), ev1.sse(h, n_moves), n_candidates, alpha, min_gain)
+           alpha: float, min_gain: float, focus: Sequence[int] | None = None) -> _Decision:
+    """The held-out decision on one candidate: ``ev1`` (with it) against ``ev0`` (without);
+    ``focus``: the state elements of its scope (:func:`scope_elements`), tested pooled too."""
+    st = sse_decision(ev0.sse(h, n_moves), ev1.sse(h, n_moves), n_candidates, alpha, min_gain,
+                      focus=focus)
     pa = path_test(_path_sse(ev0, n_moves), _path_sse(ev1, n_moves))
     return _Decision(st, pa, _path_names(ev0.horizons), n_candidates, alpha, min_gain)
 
@@ -590,7 +604,7 @@ class _Route:
               ) -> _Probe:
         _, ev1 = self.fit(fs.with_augmentation(aug))
         dec = decide(ev0, ev1, self.h_dec, self.mv.n, n_candidates, self.opts.alpha,
-                     self.opts.min_gain)
+                     self.opts.min_gain, scope_elements(aug) if self.opts.scope_test else None)
         return _Probe(aug, float(np.sum(dec.state.gain) + dec.path.total_gain), dec)
 
     def probes(self, fs: FeatureSet, ev0: Evidence, augs: Sequence[Augmentation],

@@ -92,7 +92,7 @@ class Decision:
 
 
 def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_gain: float,
-           p_rank: float | None = None) -> Decision:
+           p_rank: float | None = None, focus: Sequence[int] | None = None) -> Decision:
     """Gains, move-grouped tests and the decision from per-move SSEs (M, C) without (S0) and
     with (S1) a candidate.
 
@@ -101,6 +101,10 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     best channel's t-test (x C channels), both x ``n_candidates``. Without a rank test the
     adjusted p is Bonferroni over these two; with ``p_rank`` (a rank test's p, already adjusted
     for the candidates compared, :func:`rank_max_p` of :func:`move_cuts`) over the three.
+    ``focus``: channels the candidate acts on first, named before the data are seen (a joint
+    scope's joint elements); the t-test of the contribution pooled over them is a third test
+    without a rank test (Bonferroni over three). An effect on a few channels is diluted in the
+    pooled test and pays for the channel count in the best channel's.
     ``material`` does not require significance (the routes combine the two as they report)."""
     M, C = S0.shape
     tot0 = S0.sum(axis=0)
@@ -109,7 +113,10 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     d = M * (S0 - S1) / tot0
     p_ch = t_greater(d)
     p_pool = float(t_greater(d.sum(axis=1, keepdims=True))[0])
-    if p_rank is None:
+    if p_rank is None and focus is not None:
+        p_focus = float(t_greater(d[:, list(focus)].sum(axis=1, keepdims=True))[0])
+        p_adj = min(1.0, n_candidates * 3.0 * min(p_pool, C * float(p_ch.min()), p_focus))
+    elif p_rank is None:
         p_adj = min(1.0, n_candidates * 2.0 * min(p_pool, C * float(p_ch.min())))
     else:
         p_adj = min(1.0, N_TESTS * min(p_rank, p_pool * n_candidates,
@@ -142,13 +149,15 @@ class SSEDecision:
 
 
 def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
-                 min_gain: float, names: Sequence[str] | None = None) -> SSEDecision:
+                 min_gain: float, names: Sequence[str] | None = None,
+                 focus: Sequence[int] | None = None) -> SSEDecision:
     """:func:`decide` without a rank test, as the learned route and the physics baseline
-    calibration read it; ``names``: the channels' names (default the 33 state elements)."""
+    calibration read it; ``names``: the channels' names (default the 33 state elements);
+    ``focus``: as for :func:`decide`."""
     if names is None:
         from ..layout import STATE_NAMES
         names = STATE_NAMES
-    r = decide(S0, S1, n_candidates, alpha, min_gain)
+    r = decide(S0, S1, n_candidates, alpha, min_gain, focus=focus)
     nominal = r.p_channel < alpha
     material = bool(r.significant and r.material)
     out_mask = (nominal & (r.gain >= 0.5 * min_gain) if r.significant
