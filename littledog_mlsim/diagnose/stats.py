@@ -102,9 +102,9 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     adjusted p is Bonferroni over these two; with ``p_rank`` (a rank test's p, already adjusted
     for the candidates compared, :func:`rank_max_p` of :func:`move_cuts`) over the three.
     ``focus``: channels the candidate acts on first, named before the data are seen (a joint
-    scope's joint elements); the t-test of the contribution pooled over them is a third test
-    without a rank test (Bonferroni over three). An effect on a few channels is diluted in the
-    pooled test and pays for the channel count in the best channel's.
+    scope's joint elements); without a rank test, :func:`focus_p` on them is a third test
+    (Bonferroni over three). An effect on a few channels is diluted in the pooled test and pays
+    for the channel count in the best channel's.
     ``material`` does not require significance (the routes combine the two as they report)."""
     M, C = S0.shape
     tot0 = S0.sum(axis=0)
@@ -114,7 +114,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     p_ch = t_greater(d)
     p_pool = float(t_greater(d.sum(axis=1, keepdims=True))[0])
     if p_rank is None and focus is not None:
-        p_focus = float(t_greater(d[:, list(focus)].sum(axis=1, keepdims=True))[0])
+        p_focus = focus_p(S0[:, list(focus)], S1[:, list(focus)])
         p_adj = min(1.0, n_candidates * 3.0 * min(p_pool, C * float(p_ch.min()), p_focus))
     elif p_rank is None:
         p_adj = min(1.0, n_candidates * 2.0 * min(p_pool, C * float(p_ch.min())))
@@ -123,6 +123,14 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
                                        float(np.min(p_ch)) * C * n_candidates))
     material = bool(np.any((p_ch < alpha) & (gain >= min_gain)))
     return Decision(gain, d, p_ch, p_pool, p_adj, bool(p_adj < alpha), material)
+
+
+def focus_p(S0: np.ndarray, S1: np.ndarray) -> float:
+    """One-sided p that a candidate cuts the per-move SSE of a few channels (M, k) without
+    (``S0``) and with (``S1``) it: each channel scaled by its total without, summed per move,
+    the per-move log ratio tested > 0 by the Wilcoxon signed-rank test, as :func:`path_test`
+    does (a few moves carry most of the SSE; ranks do not pay for that in power)."""
+    return path_test(S0, S1).p
 
 
 def decide_all(S0: np.ndarray, S1s: Sequence[np.ndarray], alpha: float, min_gain: float
