@@ -146,7 +146,7 @@ class LearnedOptions:
     scoped_share: float = 0.25   # the share of alpha the narrower screen spends
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
-    scope_test: bool = False     # a scoped probe's state test also pools its joints' elements
+    scope_test: bool = True      # a scoped probe's state test also ranks its joints' elements
     seed: int = 0
 
 
