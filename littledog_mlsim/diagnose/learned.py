@@ -30,6 +30,8 @@ Method
    cross-fit and the rollouts are repeated, and the per-move rollout SSE at ``decision_horizon_s``
    with and without it go to :func:`.selection.sse_decision` (one-sided t-tests over moves of
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
+   a probe scoped to some joints adds a rank test of its joints' q and dq cut,
+   :func:`.stats.focus_p`, as a third, ``scope_test``;
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
    (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
