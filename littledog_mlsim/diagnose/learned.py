@@ -1136,9 +1136,17 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      None if ref_route is None else ref_route.mv.n)
     report["start_spread"] = spread
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
-                             "recording": RECORDINGS["position"]} for p in confounded]
+                             "recording": RECORDINGS["position"],
+                             "vocabulary": _suspect_reading(p.aug)} for p in confounded]
     report["verdict"] = _verdict(report)
     return report
+
+
+def _suspect_reading(aug: Augmentation) -> dict[str, Any]:
+    """A suspected family in the vocabulary (``{family, scope, params, statement}``, the
+    parameter where the member states it): report.json's top-level ``suspected`` reads it."""
+    from .families.learned import physical_reading
+    return physical_reading(aug)
 
 
 def _confounded_why(spread: Mapping[str, Any]) -> str:
@@ -1207,7 +1215,7 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     suspected = [{**p.to_dict(), "why": ("significant but below the materiality minimum"
                                          if p.decision.significant else
                                          "material but not significant at alpha"),
-                  "recording": _family_recording(p.aug)}
+                  "recording": _family_recording(p.aug), "vocabulary": _suspect_reading(p.aug)}
                  for p in last if not (p.decision.significant and p.decision.material)
                  and (p.decision.significant or (p.decision.material or
                                                  p.decision.p_value < 10 * opts.alpha))]

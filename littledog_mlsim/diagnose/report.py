@@ -130,7 +130,21 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
                            "(pooled over elements and per element), Bonferroni"},
         **info,
     }
+    doc["suspected"] = _rollout_suspects(info.get("rollout_route"))
     return _clean(doc)
+
+
+def _rollout_suspects(r: Mapping[str, Any] | None) -> list[dict[str, Any]]:
+    """The rollout route's suspected families (``--rollout-route``) in the vocabulary, in the
+    physical route's ``suspected`` form, with the probe's ``label`` and ``p_value``; none
+    without the rollout route."""
+    out = []
+    for s in (r or {}).get("suspected", []):
+        v = s.get("vocabulary") or {"family": "other", "scope": "body", "params": {}}
+        out.append({"family": v["family"], "scope": v["scope"], "params": v["params"],
+                    "why": s["why"], "recording": s["recording"], "label": s["label"],
+                    "p_value": s["p_value"]})
+    return out
 
 
 # ---------------------------------------------------------------------------------------------

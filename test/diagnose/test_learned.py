@@ -187,6 +187,8 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, p
     last = report["after"]["feature_set"]
     assert last == report["stages"][-1]["feature_set"] != report["before"]["feature_set"]
     assert any(a.get("name") == "heading" or "heading" in str(a) for a in last["augmentations"])
+    assert [(s["label"], s["recording"]) for s in report["suspected"]] == [
+        (s["label"], s["recording"]) for s in r["suspected"]]
     md = (out / "report.md").read_text()
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
 
@@ -343,6 +345,25 @@ def test_a_kept_leg_narrows_to_the_joint_that_carries_the_gain():
     assert [a.joints for a in _joint_members(Play(joints="knees"))] == [
         f"{leg}_knee" for leg in ("front_left", "front_right", "back_left", "back_right")]
     assert _joint_members(Play()) == [] and _joint_members(Heading()) == []
+
+
+def test_the_rollout_routes_suspects_are_the_reports_in_the_vocabulary():
+    """report.json's top-level ``suspected`` on the learned route: each rollout-route suspect
+    as the physical route states one (family, scope, params in the vocabulary, why, the
+    recording that would settle it), with its probe's label and p."""
+    from littledog_mlsim.diagnose.learned import _suspect_reading
+    from littledog_mlsim.diagnose.report import _rollout_suspects
+    lag = CommandLag(lag=2, joints="back_left")
+    r = {"suspected": [{"label": lag.label(), "p_value": 3.4e-4,
+                        "why": "material but not significant at alpha",
+                        "recording": "record with command excitation (record --excitation 0.05)",
+                        "vocabulary": _suspect_reading(lag)}]}
+    (s,) = _rollout_suspects(r)
+    assert (s["family"], s["scope"], s["params"]) == ("command_delay", "leg:back_left",
+                                                      {"delay_ms": 20.0})
+    assert s["recording"].endswith("--excitation 0.05)") and s["p_value"] == 3.4e-4
+    assert s["label"] == lag.label() and s["why"].startswith("material")
+    assert _rollout_suspects(None) == [] and _rollout_suspects({"suspected": []}) == []
 
 
 def test_play_on_some_joints_is_those_columns_of_play_on_all():

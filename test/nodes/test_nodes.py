@@ -235,8 +235,10 @@ def rate_over(probe: Probe, seconds: float) -> tuple[float, list]:
     Measured with the simulator's own numbers, so that a test process which lags behind or
     loses a sample (keep-last 10 on a CPU-starved machine) does not bias it: the DDS source
     timestamps (the node's publish times) of the received joint states in the window, and
-    their stamps (one 10 ms step each): rate = steps between the first and last / time
-    between them. Also returns the messages received in the window.
+    their stamps (one 10 ms step each): rate = 1 / the least-squares slope of publish time
+    against step, the schedule the node keeps (one step published late after a CPU stall and
+    caught up moves the first-to-last ratio by the stall over the window; it moves the slope
+    far less). Also returns the messages received in the window.
     """
     t0 = time.time_ns()
     t1 = t0 + int(seconds * 1e9)
@@ -244,8 +246,9 @@ def rate_over(probe: Probe, seconds: float) -> tuple[float, list]:
                what=f"{seconds} s of joint states")
     with probe.cond:
         window = [j for j in probe.js if t0 <= j[0] < t1]
-    steps = (window[-1][1] - window[0][1]) / CONTROL_DT_NS
-    return steps / ((window[-1][0] - window[0][0]) / 1e9), window
+    steps = (np.array([j[1] for j in window]) - window[0][1]) / CONTROL_DT_NS
+    sent_s = (np.array([j[0] for j in window]) - window[0][0]) / 1e9
+    return 1.0 / float(np.polyfit(steps, sent_s, 1)[0]), window
 
 
 def received_fraction(window: list) -> float:
