@@ -83,7 +83,8 @@ probes ``{label, family, p_value, total_gain, max_gain, significant, material}``
 xy_error_at (horizon -> mean m)}`` of the model fitted on the whole TrainPool;
 ``residual``: :func:`residual_structure`'s dict (``groups``, ``verdict``, ``unexplained``,
 ``channels``, ``moves``, ``z_ratio``, ``recording``); ``suspected``: families significant but
-not material, or material but above alpha, each with the recording that would settle it;
+not material, or material but above alpha, each with the recording that would settle it and
+its ``vocabulary`` reading (report.json's top-level ``suspected`` lists them in that form);
 ``verdict``: one sentence; ``options``: the options used; ``seconds``.
 
 With a reference (a recording of the same robot before the change), each accepted effect also
