@@ -1216,7 +1216,8 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     suspected = [{**p.to_dict(), "why": ("significant but below the materiality minimum"
                                          if p.decision.significant else
                                          "material but not significant at alpha"),
-                  "recording": _family_recording(p.aug), "vocabulary": _suspect_reading(p.aug)}
+                  "recording": _family_recording(p.aug, n_reference is not None),
+                  "vocabulary": _suspect_reading(p.aug)}
                  for p in last if not (p.decision.significant and p.decision.material)
                  and (p.decision.significant or (p.decision.material or
                                                  p.decision.p_value < 10 * opts.alpha))]
@@ -1231,13 +1232,21 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     return report
 
 
-def _family_recording(aug: Augmentation) -> str:
+def _family_recording(aug: Augmentation, reference: bool = False) -> str:
+    """The recording that would settle a suspected family; with a ``reference``, a recording
+    with command excitation asks for the reference to be recorded the same way (the contrast
+    compares gains, and an excited recording gains more from a command-history column than an
+    unexcited reference for any robot)."""
     fam = aug.family
     if fam in ("command delay", "command filter", "backlash/hysteresis"):
-        return "record with command excitation (record --excitation 0.05)"
-    key = {"pose (heading)": "heading", "pose (position)": "position", "elapsed time": "time",
-           "gait phase": "phase", "swing": "phase"}.get(fam, "bias")
-    return RECORDINGS[key]
+        text = "record with command excitation (record --excitation 0.05)"
+    else:
+        key = {"pose (heading)": "heading", "pose (position)": "position",
+               "elapsed time": "time", "gait phase": "phase", "swing": "phase"}.get(fam, "bias")
+        text = RECORDINGS[key]
+    if reference and "--excitation" in text:
+        text += ", and the reference the same way"
+    return text
 
 
 def _verdict(report: dict[str, Any]) -> str:

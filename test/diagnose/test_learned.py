@@ -364,6 +364,11 @@ def test_the_rollout_routes_suspects_are_the_reports_in_the_vocabulary():
     assert s["recording"].endswith("--excitation 0.05)") and s["p_value"] == 3.4e-4
     assert s["label"] == lag.label() and s["why"].startswith("material")
     assert _rollout_suspects(None) == [] and _rollout_suspects({"suspected": []}) == []
+    # with a reference, an excited recording asks for an excited reference too
+    from littledog_mlsim.diagnose.learned import _family_recording
+    assert _family_recording(lag) == "record with command excitation (record --excitation 0.05)"
+    assert _family_recording(lag, reference=True).endswith(", and the reference the same way")
+    assert "reference" not in _family_recording(Heading(), reference=True)
 
 
 def test_play_on_some_joints_is_those_columns_of_play_on_all():
