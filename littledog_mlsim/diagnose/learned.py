@@ -1239,14 +1239,11 @@ def _family_recording(aug: Augmentation, reference: bool = False) -> str:
     unexcited reference for any robot)."""
     fam = aug.family
     if fam in ("command delay", "command filter", "backlash/hysteresis"):
-        text = "record with command excitation (record --excitation 0.05)"
-    else:
-        key = {"pose (heading)": "heading", "pose (position)": "position",
-               "elapsed time": "time", "gait phase": "phase", "swing": "phase"}.get(fam, "bias")
-        text = RECORDINGS[key]
-    if reference and "--excitation" in text:
-        text += ", and the reference the same way"
-    return text
+        return ("record with command excitation (record --excitation 0.05)"
+                + (", and the reference the same way" if reference else ""))
+    key = {"pose (heading)": "heading", "pose (position)": "position",
+           "elapsed time": "time", "gait phase": "phase", "swing": "phase"}.get(fam, "bias")
+    return RECORDINGS[key]
 
 
 def _verdict(report: dict[str, Any]) -> str:

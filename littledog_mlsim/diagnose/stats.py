@@ -8,6 +8,8 @@ learned route's 33 state elements, the physical route's 36 output channels).
 - :func:`t_greater`: one-sided one-sample t-test of mean > 0 over the moves, per column;
 - :func:`move_cuts` and :func:`rank_max_p`: each move's bounded cut and a signed-rank max test
   over several hypotheses compared on the same moves (common random sign flips);
+- :func:`path_test` and :func:`focus_p`: the signed-rank test of each move's log SSE ratio over
+  a few channels (the odom path; a scoped candidate's own joints);
 - :func:`contrast_test`: does a candidate cut the error of one dataset's moves more than another's
   (the learned route's "what changed since the reference?");
 - :func:`decide`: gains, the tests and the decision (significant, material) for one candidate;
@@ -24,7 +26,8 @@ import numpy as np
 from scipy import stats
 
 __all__ = ["t_greater", "move_cuts", "rank_max_p", "Decision", "decide", "decide_all",
-           "SSEDecision", "sse_decision", "PathTest", "path_test", "contrast_test", "RANK_FLIPS",
+           "SSEDecision", "sse_decision", "PathTest", "path_test", "focus_p", "contrast_test",
+           "RANK_FLIPS",
            "N_TESTS"]
 
 RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null
@@ -129,7 +132,11 @@ def focus_p(S0: np.ndarray, S1: np.ndarray) -> float:
     """One-sided p that a candidate cuts the per-move SSE of a few channels (M, k) without
     (``S0``) and with (``S1``) it: each channel scaled by its total without, summed per move,
     the per-move log ratio tested > 0 by the Wilcoxon signed-rank test, as :func:`path_test`
-    does (a few moves carry most of the SSE; ranks do not pay for that in power)."""
+    does (a few moves carry most of the SSE; ranks do not pay for that in power). Its null is
+    the path test's: a column that carries nothing leaves each move's ratio symmetric about 1
+    (noise that keeps the median) or below it (a held-out fit only adds variance). It is not
+    the t-tests' null: a candidate that lowers the median move's SSE and raises a few moves'
+    by as much can pass it, and materiality (an element's mean cut) still guards acceptance."""
     return path_test(S0, S1).p
 
 
@@ -150,7 +157,8 @@ class SSEDecision:
     d: np.ndarray             # (M, C) per-move contributions (mean over moves = gain)
     p_element: np.ndarray     # (C,) one-sided t-test p per element (unadjusted)
     p_pooled: float           # unadjusted p of the pooled (all-element) test
-    p_value: float            # Bonferroni over the two tests, the elements and n_candidates
+    p_value: float            # Bonferroni over the tests (two; three with a focus), the
+    #                           elements and n_candidates
     significant: bool
     material: bool
     outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2

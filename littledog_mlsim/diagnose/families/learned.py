@@ -299,9 +299,9 @@ def physical_reading(aug: Augmentation, floor: Mapping[str, Any] | None = None
                      ) -> dict[str, Any]:
     """The vocabulary's family, scope and parameter of a feature the learned loop added
     (report.json's ``effects[i].physical``): the loop measures no physical magnitude, so the
-    parameter is null except a command delay's (lag x 10 ms) and a command filter's, and a
-    position effect's where the recordings' floor is a plane (``floor``, :func:`floor_plane`;
-    :func:`slope_reading`): an inclined floor."""
+    parameter is null except a command delay's (lag x 10 ms), a command filter's, play's width,
+    and a position effect's where the recordings' floor is a plane (``floor``,
+    :func:`floor_plane`; :func:`slope_reading`): an inclined floor."""
     from .scopes import group_scope
     if aug.family == "pose (position)":
         slope = slope_reading(floor)
