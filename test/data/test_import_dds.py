@@ -243,15 +243,22 @@ def test_trainer_node_trains_on_the_bag_and_sim_node_serves_it(recording):
         msg = JointState()
         msg.name = list(JOINT_NAMES)
         msg.position = [float(x) for x in m.train_states[0, 9:21]]
-        end = time.monotonic() + TIMEOUT    # matched on our side may not yet be on theirs:
-        while not any(g.header.stamp.nanosec == 10_000_000 for g in got):   # resend
-            assert time.monotonic() < end, "timed out waiting for the first step of sim_node"
+        # matched on our side may not yet be on theirs: resend until a step comes back. The
+        # step a first command made may have gone out before sim_node's publisher matched our
+        # subscription, so any step counts, not only the first (stamp 10 ms)
+        def stepped(g: JointState) -> bool:
+            return g.header.stamp.sec > 0 or g.header.stamp.nanosec > 0
+
+        end = time.monotonic() + TIMEOUT
+        while not any(stepped(g) for g in got):
+            assert time.monotonic() < end, "timed out waiting for a step of sim_node"
             pub.publish(msg)
             t = time.monotonic()
-            while time.monotonic() - t < 0.5 and not any(
-                    g.header.stamp.nanosec == 10_000_000 for g in got):
+            while time.monotonic() - t < 0.5 and not any(stepped(g) for g in got):
                 time.sleep(0.005)
-        step = next(g for g in got if g.header.stamp.nanosec == 10_000_000)
+        step = next(g for g in got if stepped(g))
+        ns = step.header.stamp.sec * 1_000_000_000 + step.header.stamp.nanosec
+        assert ns % 10_000_000 == 0, ns           # a whole number of 10 ms steps
         assert np.all(np.isfinite(step.position)) and len(step.position) == 12
     finally:
         assert proc.stop() == 0, proc.err.read_text()
