@@ -552,7 +552,7 @@ def scope_elements(aug: Augmentation) -> list[int] | None:
 def decide(ev0: Evidence, ev1: Evidence, h: int, n_moves: int, n_candidates: int,
            alpha: float, min_gain: float, focus: Sequence[int] | None = None) -> _Decision:
     """The held-out decision on one candidate: ``ev1`` (with it) against ``ev0`` (without);
-    ``focus``: the state elements of its scope (:func:`scope_elements`), tested pooled too."""
+    ``focus``: the state elements of its scope (:func:`scope_elements`), rank-tested too."""
     st = sse_decision(ev0.sse(h, n_moves), ev1.sse(h, n_moves), n_candidates, alpha, min_gain,
                       focus=focus)
     pa = path_test(_path_sse(ev0, n_moves), _path_sse(ev1, n_moves))
@@ -1136,18 +1136,12 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      None if ref_route is None else contrasts,
                      None if ref_route is None else ref_route.mv.n)
     report["start_spread"] = spread
+    from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
                              "recording": RECORDINGS["position"],
-                             "vocabulary": _suspect_reading(p.aug)} for p in confounded]
+                             "vocabulary": physical_reading(p.aug)} for p in confounded]
     report["verdict"] = _verdict(report)
     return report
-
-
-def _suspect_reading(aug: Augmentation) -> dict[str, Any]:
-    """A suspected family in the vocabulary (``{family, scope, params, statement}``, the
-    parameter where the member states it): report.json's top-level ``suspected`` reads it."""
-    from .families.learned import physical_reading
-    return physical_reading(aug)
 
 
 def _confounded_why(spread: Mapping[str, Any]) -> str:
@@ -1183,7 +1177,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
             mass_kg, t_start, shared=(), contrasts=None, n_reference=None) -> dict[str, Any]:
-    from .families.learned import floor_plane
+    from .families.learned import floor_plane, physical_reading
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
                   * CONTROL_DT)
@@ -1217,7 +1211,7 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
                                          if p.decision.significant else
                                          "material but not significant at alpha"),
                   "recording": _family_recording(p.aug, n_reference is not None),
-                  "vocabulary": _suspect_reading(p.aug)}
+                  "vocabulary": physical_reading(p.aug)}
                  for p in last if not (p.decision.significant and p.decision.material)
                  and (p.decision.significant or (p.decision.material or
                                                  p.decision.p_value < 10 * opts.alpha))]

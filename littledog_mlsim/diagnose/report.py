@@ -140,7 +140,7 @@ def _rollout_suspects(r: Mapping[str, Any] | None) -> list[dict[str, Any]]:
     without the rollout route."""
     out = []
     for s in (r or {}).get("suspected", []):
-        v = s.get("vocabulary") or {"family": "other", "scope": "body", "params": {}}
+        v = s["vocabulary"]
         out.append({"family": v["family"], "scope": v["scope"], "params": v["params"],
                     "why": s["why"], "recording": s["recording"], "label": s["label"],
                     "p_value": s["p_value"]})

@@ -351,13 +351,13 @@ def test_the_rollout_routes_suspects_are_the_reports_in_the_vocabulary():
     """report.json's top-level ``suspected`` on the learned route: each rollout-route suspect
     as the physical route states one (family, scope, params in the vocabulary, why, the
     recording that would settle it), with its probe's label and p."""
-    from littledog_mlsim.diagnose.learned import _suspect_reading
+    from littledog_mlsim.diagnose.families.learned import physical_reading
     from littledog_mlsim.diagnose.report import _rollout_suspects
     lag = CommandLag(lag=2, joints="back_left")
     r = {"suspected": [{"label": lag.label(), "p_value": 3.4e-4,
                         "why": "material but not significant at alpha",
                         "recording": "record with command excitation (record --excitation 0.05)",
-                        "vocabulary": _suspect_reading(lag)}]}
+                        "vocabulary": physical_reading(lag)}]}
     (s,) = _rollout_suspects(r)
     assert (s["family"], s["scope"], s["params"]) == ("command_delay", "leg:back_left",
                                                       {"delay_ms": 20.0})
