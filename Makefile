@@ -1,5 +1,6 @@
 # littledog_mlsim — one-command set-up and jobs. Every target creates .venv from the pinned
-# requirements first if it is missing (or if the pins changed).
+# requirements first if it is missing (or if the pins changed). Packages are installed without
+# byte-compiling them (--no-compile): Python compiles a module when it is first imported.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -20,7 +21,7 @@ venv: $(STAMP)
 
 $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
+	$(PY) -m pip install --quiet --no-compile -r requirements.txt -c constraints.txt
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	# setup.cfg puts console scripts in lib/littledog_mlsim (where `ros2 run` looks); link them into bin
 	for f in $(VENV)/lib/littledog_mlsim/*; do ln -sf ../lib/littledog_mlsim/$$(basename $$f) $(VENV)/bin/; done

@@ -89,7 +89,8 @@ its ``vocabulary`` reading (report.json's top-level ``suspected`` lists them in 
 
 With a reference (a recording of the same robot before the change), each accepted effect also
 has ``reference`` (:func:`contrast`: ``reference_total_gain``, ``reference_p_value``,
-``reference_significant``, ``p_state``, ``p_path``, ``p_change``, ``changed``), and the report
+``reference_significant``, ``p_state``, ``p_path``, ``p_focus`` for a candidate scoped to some
+joints, ``p_change``, ``changed``), and the report
 has ``reference``: ``{n_moves, shared}``, where ``shared`` lists, in the form of ``effects``,
 what the search accepted but the reference shows as much (not a change; the model carries it,
 and ``significant`` does not count it).
@@ -658,10 +659,11 @@ def _pick(probes: Sequence[_Probe], tolerance: float, prefer_large_lag: bool) ->
     return min(ok, key=lambda p: (len(p.aug.columns()), -p.total_gain))
 
 
-def _move_gains(p: _Probe) -> np.ndarray:
+def _move_gains(p: _Probe, elements: Sequence[int] | None = None) -> np.ndarray:
     """(M,) each move's share of a probe's held-out state gain (its contributions summed over
-    the elements; the mean over moves is the summed gain)."""
-    return np.asarray(p.decision.state.d).sum(axis=1)
+    the elements, or over ``elements`` only; the mean over moves is the summed gain)."""
+    d = np.asarray(p.decision.state.d)
+    return (d if elements is None else d[:, list(elements)]).sum(axis=1)
 
 
 def _wider_p(cur: _Probe, tried: Sequence[_Probe]) -> dict[str, float]:
@@ -1156,23 +1158,31 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     """Does ``probe``'s candidate gain more on the data than on the reference? The candidate
     is added to ``fs`` on the reference's TrainPool too (the same cross-fit and held-out
     rollouts); each move's state cut and path log ratio of the two datasets are compared by
-    :func:`.stats.contrast_test`. ``changed``: p_change x ``n_contrasts`` (the candidates the
+    :func:`.stats.contrast_test`, and, for a candidate scoped to some joints (with
+    ``scope_test``), its cut over their elements too (``p_focus``; a one-joint change is
+    otherwise diluted in the sum over 33 elements). ``changed``: p_change x ``n_contrasts`` (the candidates the
     round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
     robot's own, not a change since the reference. The candidate itself has already passed
     the screen at ``alpha``; the contrast asks only whether it is new, one test per candidate
     the round contrasts."""
-    from .stats import contrast_test
+    from .stats import contrast_focus_p, contrast_test
     if ev_ref is None:                 # the reference's evidence without it, at ``fs``
         _, ev_ref = ref_route.fit(fs)
     on_ref = ref_route.probe(fs, ev_ref, probe.aug, 1)
+    focus = scope_elements(probe.aug) if route.opts.scope_test else None
+    cuts = ((_move_gains(probe, focus), _move_gains(on_ref, focus)) if focus
+            else (None, None))
     p_state, p_path, p = contrast_test(
         _move_gains(probe), _move_gains(on_ref), probe.decision.path.log_ratios,
-        on_ref.decision.path.log_ratios)
-    return {"reference_total_gain": on_ref.total_gain,
-            "reference_p_value": float(on_ref.decision.p_value),
-            "reference_significant": bool(on_ref.decision.significant),
-            "p_state": p_state, "p_path": p_path, "p_change": p, "n_contrasts": n_contrasts,
-            "changed": bool(min(1.0, p * n_contrasts) < route.opts.contrast_alpha)}
+        on_ref.decision.path.log_ratios, *cuts)
+    out = {"reference_total_gain": on_ref.total_gain,
+           "reference_p_value": float(on_ref.decision.p_value),
+           "reference_significant": bool(on_ref.decision.significant),
+           "p_state": p_state, "p_path": p_path, "p_change": p, "n_contrasts": n_contrasts,
+           "changed": bool(min(1.0, p * n_contrasts) < route.opts.contrast_alpha)}
+    if focus:
+        out["p_focus"] = contrast_focus_p(*cuts)
+    return out
 
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,

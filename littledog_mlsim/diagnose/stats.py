@@ -213,23 +213,41 @@ def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
 
 
 def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
-                  ratios_ref: np.ndarray) -> tuple[float, float, float]:
+                  ratios_ref: np.ndarray, focus_cuts: np.ndarray | None = None,
+                  focus_cuts_ref: np.ndarray | None = None) -> tuple[float, float, float]:
     """(p_state, p_path, p): one-sided two-sample tests that a candidate gains more on the data's
     moves than on a reference's. ``cuts``: each move's held-out state contribution summed over
     the elements (``SSEDecision.d`` summed over its columns; the mean over moves is the total
     gain), tested by Welch's t-test; ``ratios``: each move's path log ratio
     (``PathTest.log_ratios``), tested by the Mann-Whitney U test. ``p`` = 2 min(p_state,
-    p_path), as the learned route combines its two channel sets."""
-    def welch(a: np.ndarray, b: np.ndarray) -> float:
-        if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
-            return 0.0 if np.mean(a) > np.mean(b) else 1.0
-        return float(stats.ttest_ind(a, b, equal_var=False, alternative="greater").pvalue)
-
+    p_path), as the learned route combines its two channel sets. ``focus_cuts`` (and
+    ``focus_cuts_ref``): each move's contribution summed over the channels the candidate acts on
+    (a joint scope's elements, named before the data), Welch-tested too; ``p`` is then Bonferroni
+    over the three (3 min), as :func:`decide` adds its focus test. A change on one joint is
+    diluted in the sum over 33 elements as it is in the pooled test. The focus test's p is
+    :func:`contrast_focus_p`."""
     def mwu(a: np.ndarray, b: np.ndarray) -> float:
         if len(a) == 0 or len(b) == 0:
             return 1.0
         return float(stats.mannwhitneyu(a, b, alternative="greater").pvalue)
 
-    p_state = welch(np.asarray(cuts, float), np.asarray(cuts_ref, float))
+    p_state = _welch_greater(np.asarray(cuts, float), np.asarray(cuts_ref, float))
     p_path = mwu(np.asarray(ratios, float), np.asarray(ratios_ref, float))
-    return p_state, p_path, min(1.0, 2.0 * min(p_state, p_path))
+    if focus_cuts is None:
+        return p_state, p_path, min(1.0, 2.0 * min(p_state, p_path))
+    p_focus = contrast_focus_p(focus_cuts, focus_cuts_ref)
+    return p_state, p_path, min(1.0, 3.0 * min(p_state, p_path, p_focus))
+
+
+def contrast_focus_p(focus_cuts: np.ndarray, focus_cuts_ref: np.ndarray) -> float:
+    """:func:`contrast_test`'s focus test: Welch's one-sided t-test that each move's cut summed
+    over the focus channels is larger on the data than on the reference."""
+    return _welch_greater(np.asarray(focus_cuts, float), np.asarray(focus_cuts_ref, float))
+
+
+def _welch_greater(a: np.ndarray, b: np.ndarray) -> float:
+    """Welch's one-sided p that ``a``'s mean exceeds ``b``'s (0 or 1 where neither varies or a
+    side has fewer than two values)."""
+    if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+        return 0.0 if np.mean(a) > np.mean(b) else 1.0
+    return float(stats.ttest_ind(a, b, equal_var=False, alternative="greater").pvalue)

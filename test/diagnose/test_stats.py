@@ -130,6 +130,42 @@ def test_contrast_test_is_welch_and_mann_whitney_one_sided():
     assert contrast_test(b, a, rb, ra)[2] > 0.5
 
 
+def test_a_focus_that_only_moves_the_median_is_never_material():
+    """The focus test's null is the path test's (the median move's ratio), not the t-tests'
+    (the mean cut): a candidate that cuts most moves' focus SSE and raises a few moves' by as
+    much can pass it, and materiality (an element's mean cut with its own p < alpha) keeps it
+    from being accepted."""
+    rng = np.random.default_rng(5)
+    M, C, focus = 40, 33, list(range(15, 18)) + list(range(27, 30))
+    S0 = rng.lognormal(0.0, 0.3, (M, C))
+    S1 = S0 * rng.lognormal(0.0, 0.05, (M, C))
+    S1[:37][:, focus] *= 0.8                 # most moves a little better ...
+    lost = 0.2 * S0[:37][:, focus].sum(axis=0)
+    S1[37:][:, focus] += lost / 3            # ... three worse by as much: no mean cut
+    f = focus_p(S0[:, focus], S1[:, focus])
+    r = sse_decision(S0, S1, 1, 1e-3, 0.05, focus=focus)
+    assert f < 1e-3 and r.significant, (f, r.p_value)
+    assert abs(r.gain[focus]).max() < 0.05 and not r.material, r.gain[focus]
+
+
+def test_a_contrast_with_a_focus_sees_a_change_on_a_few_channels():
+    """``contrast_test`` with focus cuts (a scoped candidate's cut over its joints' elements):
+    a change on those channels that the other elements' scatter hides in the summed cut is seen
+    by the focus test, at Bonferroni over three."""
+    from littledog_mlsim.diagnose.stats import contrast_focus_p, contrast_test
+    rng = np.random.default_rng(4)
+    f, f_ref = rng.normal(0.6, 0.3, 20), rng.normal(0.0, 0.3, 20)     # the scope's elements
+    rest, rest_ref = rng.normal(0.0, 3.0, 20), rng.normal(0.0, 3.0, 20)  # the other 27
+    ra, rb = rng.normal(0.0, 1.0, 20), rng.normal(0.0, 1.0, 20)
+    p_state, p_path, p = contrast_test(f + rest, f_ref + rest_ref, ra, rb)
+    assert p > 0.01, (p_state, p_path)                     # diluted: no change seen
+    _, _, p3 = contrast_test(f + rest, f_ref + rest_ref, ra, rb, f, f_ref)
+    p_focus = contrast_focus_p(f, f_ref)
+    assert p3 == pytest.approx(min(1.0, 3 * min(p_state, p_path, p_focus))) and p3 < 0.01
+    # the same on both sides: the focus sees no change either
+    assert contrast_test(f_ref + rest, f_ref + rest_ref, ra, rb, f_ref, f_ref)[2] > 0.5
+
+
 def test_a_focus_pools_the_channels_a_candidate_acts_on_at_the_level():
     """``focus``: a rank test of the per-move SSE over the channels named before the data (a
     joint scope's elements, ``focus_p``) is a third test, Bonferroni over three. A gain on 6 of 33 channels that the

@@ -346,13 +346,18 @@ class TestTimerMode:
             for _ in range(n_bad):
                 probe.send(positions, names=names)
             st = probe.wait_counter(counter, before + n_bad)
-            rate, window = rate_over(probe, 3.0)
+            # the rate while bad commands arrive: measured in one case (each reason is the
+            # same rejection path after its check); 3 s window: steps caught up after a CPU
+            # stall can add up to ~3 % (see sim docs)
+            rate = rate_over(probe, 3.0)[0] if case == "nan" else None
+            t1 = time.time_ns() + 200_000_000     # and steps published after them
+            probe.wait(lambda: bool(probe.js) and probe.js[-1][0] >= t1,
+                       what="joint states after the bad commands")
         finally:
             streamer.stop()
         assert int(st[counter]) == before + n_bad
         assert proc.alive()
-        # 3 s window: steps caught up after a CPU stall can add up to ~3 % (see sim docs)
-        assert abs(rate - 100.0) <= 4.0, \
+        assert rate is None or abs(rate - 100.0) <= 4.0, \
             f"{rate:.2f} Hz while receiving bad commands; {starvation(probe)}"
         with probe.cond:
             recent = [j for j in probe.js if j[0] >= t0 - 100_000_000]
