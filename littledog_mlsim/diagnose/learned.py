@@ -84,7 +84,11 @@ xy_error_at (horizon -> mean m)}`` of the model fitted on the whole TrainPool;
 ``residual``: :func:`residual_structure`'s dict (``groups``, ``verdict``, ``unexplained``,
 ``channels``, ``moves``, ``z_ratio``, ``recording``); ``suspected``: families significant but
 not material, or material but above alpha, each with the recording that would settle it and
-its ``vocabulary`` reading (report.json's top-level ``suspected`` lists them in that form);
+its ``vocabulary`` reading (report.json's top-level ``suspected`` lists them in that form); one
+that is not significant also has ``settle_moves_per_type`` (:func:`moves_to_settle`: the moves
+per type of the same kinds at which it would be significant with 80 % probability if its
+effect is what the data show; None beyond 8 times the data's), and its ``recording`` names
+that size as a second way to settle it;
 ``verdict``: one sentence; ``options``: the options used; ``seconds``.
 
 With a reference (a recording of the same robot before the change), each accepted effect also
@@ -1217,11 +1221,8 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     after = _test_scores(model, fs, test, mv_test, opts) if found or shared else before
     residual = residual_structure(ev, route.mv, route.fold_of_move, _phase_columns(route.train),
                                   route.h_dec, opts)
-    suspected = [{**p.to_dict(), "why": ("significant but below the materiality minimum"
-                                         if p.decision.significant else
-                                         "material but not significant at alpha"),
-                  "recording": _family_recording(p.aug, n_reference is not None),
-                  "vocabulary": physical_reading(p.aug)}
+    per_type = route.mv.n / max(1, len(set(route.mv.types)))
+    suspected = [_suspect(p, per_type, n_reference is not None)
                  for p in last if not (p.decision.significant and p.decision.material)
                  and (p.decision.significant or (p.decision.material or
                                                  p.decision.p_value < 10 * opts.alpha))]
@@ -1234,6 +1235,65 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
         report["reference"] = {"n_moves": n_reference, "shared": carried}
     report["verdict"] = _verdict(report)
     return report
+
+
+#: the most moves :func:`moves_to_settle` asks for, as a multiple of those the data have
+SETTLE_MAX_FACTOR = 8.0
+#: the probability of significance at the moves :func:`moves_to_settle` asks for
+SETTLE_POWER = 0.8
+
+
+def decision_tests(d: _Decision) -> list[tuple[float, float]]:
+    """The (Bonferroni factor, unadjusted p) of each test behind ``d.p_value``: the state's
+    pooled, best-element and (with a focus) focus tests, and the path test, each times the
+    candidates and the route's two channel sets; ``d.p_value`` is min(1, min of factor x p)."""
+    st, n = d.state, float(d.n_candidates)
+    T = 3.0 if st.p_focus is not None else 2.0
+    out = [(2.0 * n * T, float(st.p_pooled)),
+           (2.0 * n * T * len(st.p_element), float(np.min(st.p_element))),
+           (2.0 * n, float(d.path.p))]
+    if st.p_focus is not None:
+        out.append((2.0 * n * T, float(st.p_focus)))
+    return out
+
+
+def moves_to_settle(d: _Decision, per_type: float, power: float = SETTLE_POWER,
+                    max_factor: float = SETTLE_MAX_FACTOR) -> int | None:
+    """Moves per type (the same kinds as the data's ``per_type``) at which a candidate would be
+    significant at ``alpha`` with probability ``power`` if its effect per move is what the
+    held-out evidence shows: each test's z-score grows with the square root of the moves (a
+    one-sided test of a mean or a rank sum over moves) and keeps its Bonferroni factor f, so test
+    i needs k_i = ((z_(alpha/f_i) + z_power) / z_i)^2 times the moves; the smallest k_i is taken.
+    None where no test has evidence for the candidate (p >= 0.5) or it takes more than
+    ``max_factor`` times the moves: a different recording, not more of the same, would settle
+    it. Significance only: an effect whose cut is below the materiality minimum stays below it.
+    The effect as measured is a noisy estimate, so the probability is nominal."""
+    from scipy.stats import norm
+    z_power = float(norm.isf(1.0 - power))
+    k = [((norm.isf(d.alpha / f) + z_power) / norm.isf(p)) ** 2
+         for f, p in decision_tests(d) if 0.0 < p < 0.5 and d.alpha / f < 0.5]
+    if not k or per_type <= 0 or min(k) > max_factor:
+        return None
+    return int(math.ceil(max(1.0, min(k)) * per_type - 1e-9))
+
+
+def _suspect(p: _Probe, per_type: float, reference: bool) -> dict[str, Any]:
+    """A suspected family's entry: why, the recording that would settle it, its vocabulary
+    reading; where only significance is missing, also ``settle_moves_per_type``
+    (:func:`moves_to_settle`) and the same moves, more of them, as a second way to settle it."""
+    from .families.learned import physical_reading
+    entry = {**p.to_dict(), "why": ("significant but below the materiality minimum"
+                                    if p.decision.significant else
+                                    "material but not significant at alpha"),
+             "recording": _family_recording(p.aug, reference),
+             "vocabulary": physical_reading(p.aug)}
+    if not p.decision.significant:
+        m = moves_to_settle(p.decision, per_type)
+        entry["settle_moves_per_type"] = m
+        if m is not None:
+            entry["recording"] += (f"; or the same kinds of moves, about {m} per type instead "
+                                   f"of {per_type:.3g}")
+    return entry
 
 
 def _family_recording(aug: Augmentation, reference: bool = False) -> str:

@@ -136,14 +136,18 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
 
 def _rollout_suspects(r: Mapping[str, Any] | None) -> list[dict[str, Any]]:
     """The rollout route's suspected families (``--rollout-route``) in the vocabulary, in the
-    physical route's ``suspected`` form, with the probe's ``label`` and ``p_value``; none
-    without the rollout route."""
+    physical route's ``suspected`` form, with the probe's ``label`` and ``p_value`` (and
+    ``settle_moves_per_type`` where the rollout route gives it); none without the rollout
+    route."""
     out = []
     for s in (r or {}).get("suspected", []):
         v = s["vocabulary"]
-        out.append({"family": v["family"], "scope": v["scope"], "params": v["params"],
-                    "why": s["why"], "recording": s["recording"], "label": s["label"],
-                    "p_value": s["p_value"]})
+        entry = {"family": v["family"], "scope": v["scope"], "params": v["params"],
+                 "why": s["why"], "recording": s["recording"], "label": s["label"],
+                 "p_value": s["p_value"]}
+        if "settle_moves_per_type" in s:
+            entry["settle_moves_per_type"] = s["settle_moves_per_type"]
+        out.append(entry)
     return out
 
 

@@ -92,6 +92,7 @@ class Decision:
     p_value: float            # adjusted over the tests, the channels and the candidates
     significant: bool         # p_value < alpha
     material: bool            # some channel cut by >= min_gain with its own p < alpha
+    p_focus: float | None = None   # unadjusted p of the focus test (with ``focus``)
 
 
 def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_gain: float,
@@ -116,6 +117,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     d = M * (S0 - S1) / tot0
     p_ch = t_greater(d)
     p_pool = float(t_greater(d.sum(axis=1, keepdims=True))[0])
+    p_focus = None
     if p_rank is None and focus is not None:
         p_focus = focus_p(S0[:, list(focus)], S1[:, list(focus)])
         p_adj = min(1.0, n_candidates * 3.0 * min(p_pool, C * float(p_ch.min()), p_focus))
@@ -125,7 +127,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
         p_adj = min(1.0, N_TESTS * min(p_rank, p_pool * n_candidates,
                                        float(np.min(p_ch)) * C * n_candidates))
     material = bool(np.any((p_ch < alpha) & (gain >= min_gain)))
-    return Decision(gain, d, p_ch, p_pool, p_adj, bool(p_adj < alpha), material)
+    return Decision(gain, d, p_ch, p_pool, p_adj, bool(p_adj < alpha), material, p_focus)
 
 
 def focus_p(S0: np.ndarray, S1: np.ndarray) -> float:
@@ -162,6 +164,7 @@ class SSEDecision:
     significant: bool
     material: bool
     outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2
+    p_focus: float | None = None   # unadjusted p of the focus test (with ``focus``)
 
 
 def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
@@ -179,7 +182,7 @@ def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float
     out_mask = (nominal & (r.gain >= 0.5 * min_gain) if r.significant
                 else np.zeros(len(r.gain), bool))
     return SSEDecision(r.gain, r.d, r.p_channel, r.p_pooled, r.p_value, r.significant,
-                       material, [names[j] for j in np.flatnonzero(out_mask)])
+                       material, [names[j] for j in np.flatnonzero(out_mask)], r.p_focus)
 
 
 @dataclass

@@ -510,3 +510,44 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
     assert best.aug.joints == "back_left"
     assert [e["label"] for e in scan if e["stage"] == "scope"][:2] == [
         "command_lag(lag=2, joints=back_left)", "command_lag(lag=2, joints=all)"]
+
+
+def _synthetic_decision(rng, M: int, shift: float):
+    """A learned-route decision on M moves: a cut of ``shift`` (log) on 3 of the 33 elements
+    (the scope's focus), path channels that the candidate leaves alone."""
+    from littledog_mlsim.diagnose.learned import _Decision
+    from littledog_mlsim.diagnose.stats import path_test, sse_decision
+    S0 = rng.lognormal(0.0, 0.5, (M, 33))
+    S1 = S0 * rng.lognormal(0.0, 0.3, (M, 33))
+    S1[:, 15:18] *= np.exp(-shift)
+    P0 = rng.lognormal(0.0, 0.5, (M, 8))
+    P1 = P0 * rng.lognormal(0.0, 0.3, (M, 8))
+    return _Decision(sse_decision(S0, S1, 4, 1e-4, 0.05, focus=[15, 16, 17]), path_test(P0, P1),
+                     [f"p{i}" for i in range(8)], 4, 1e-4, 0.05)
+
+
+def test_moves_to_settle_scales_the_evidence_with_the_moves():
+    """A candidate that is material but not significant: ``moves_to_settle`` gives the moves per
+    type at which its tests' z-scores (times the square root of the moves, at their Bonferroni
+    factors) reach alpha with 80 % probability. ``decision_tests`` are the tests behind
+    ``p_value``. Drawn again at the size asked for (10 types), the candidates near alpha are
+    significant more often than not; where the evidence is against it, nothing is asked."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose.learned import _suspect, decision_tests, moves_to_settle
+    rng = np.random.default_rng(1)
+    draws = [_synthetic_decision(rng, 40, 0.15) for _ in range(30)]
+    for d in draws:
+        assert d.p_value == pytest.approx(min(1.0, min(f * p for f, p in decision_tests(d))))
+    near = [(d, moves_to_settle(d, 4.0)) for d in draws if 1e-4 <= d.p_value < 1e-3]
+    assert len(near) >= 5 and all(m is not None and m > 4 for _, m in near), near
+    m = int(np.median([m for _, m in near]))
+    again = [_synthetic_decision(rng, 10 * m, 0.15).significant for _ in range(30)]
+    assert np.mean(again) > 0.5, (m, np.mean(again))
+    nothing = _synthetic_decision(rng, 40, -0.3)          # the candidate makes it worse
+    assert decision_tests(nothing)[0][1] > 0.5 and moves_to_settle(nothing, 4.0) is None
+    probe = SimpleNamespace(aug=CommandLag(lag=2, joints="back_left"), decision=near[0][0],
+                            total_gain=0.2, to_dict=lambda: {"label": "command_lag"})
+    s = _suspect(probe, 4.0, reference=False)
+    assert s["settle_moves_per_type"] == near[0][1]
+    assert s["recording"].endswith(f"about {near[0][1]} per type instead of 4"), s["recording"]
