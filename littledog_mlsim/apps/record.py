@@ -19,7 +19,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -79,8 +79,47 @@ class RecordSummary:
         return self.n_steps * 0.01 / self.cpu_s if self.cpu_s > 0 else float("inf")
 
 
+#: the largest ``start_spread`` [m] that ``record`` takes
+MAX_START_SPREAD_M = 5.0
+
+
+class StartSpread:
+    """A recording protocol, not an effect: at reset, carry the settled standing robot (at rest)
+    by a uniform offset of up to ``half_span_m`` in x and y and turn it by a uniform yaw in
+    [-pi, pi), drawn from ``seed`` alone (the effects' and the sensors' streams are unchanged).
+    Each move then starts from its own place and heading, so that where the robot is on the
+    floor, and which way it faces, no longer follow from the move's type and elapsed time."""
+
+    def __init__(self, half_span_m: float, seed: int) -> None:
+        self.half_span_m = float(half_span_m)
+        self.rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x5E7A]))
+
+    def reset(self, sim: Any) -> None:
+        import pybullet as p
+        c = sim.client
+        pos, orn = p.getBasePositionAndOrientation(sim.robot, physicsClientId=c)
+        dx, dy = self.rng.uniform(-self.half_span_m, self.half_span_m, size=2)
+        yaw = float(self.rng.uniform(-np.pi, np.pi))
+        turn = p.getQuaternionFromEuler([0.0, 0.0, yaw])
+        # turn about the body's own vertical axis through its position, then shift
+        orn_new = p.multiplyTransforms([0, 0, 0], turn, [0, 0, 0], orn)[1]
+        p.resetBasePositionAndOrientation(sim.robot, [pos[0] + dx, pos[1] + dy, pos[2]],
+                                          orn_new, physicsClientId=c)
+        p.resetBaseVelocity(sim.robot, [0, 0, 0], [0, 0, 0], physicsClientId=c)
+
+
+def check_start_spread(start_spread: float) -> float:
+    """``start_spread`` [m] as a float; ValueError (one line) outside [0, MAX_START_SPREAD_M]."""
+    v = float(start_spread)
+    if not np.isfinite(v) or not 0.0 <= v <= MAX_START_SPREAD_M:
+        raise ValueError(f"--start-spread must be between 0 and {MAX_START_SPREAD_M:g} m, got "
+                         f"{start_spread}")
+    return v
+
+
 def _record_one(job: MoveJob, bag_path: str, robot: "RobotConfig", effects_file: str | None,
-                storage: str, excitation: float = 0.0) -> tuple[str, int, float]:
+                storage: str, excitation: float = 0.0, start_spread: float = 0.0
+                ) -> tuple[str, int, float]:
     """Worker: simulate one move and write its bag. Returns (name, n_steps, CPU seconds)."""
     from ..control.moves import closed_loop_policy, open_loop_commands
     from ..data.bags import write_bag
@@ -91,7 +130,9 @@ def _record_one(job: MoveJob, bag_path: str, robot: "RobotConfig", effects_file:
     t0 = time.process_time()
     gait_seed, robot_seed = job.seeds()
     gait_rng = np.random.default_rng(gait_seed)
-    effects = load_effects(effects_file) if effects_file else ()
+    effects = list(load_effects(effects_file)) if effects_file else []
+    if start_spread:           # first: the effects' reset hooks see the robot where it starts
+        effects.insert(0, StartSpread(start_spread, robot_seed))
     if job.kind in CLOSED_LOOP_KINDS:
         policy = closed_loop_policy(job.kind, gait_rng)
 
@@ -166,7 +207,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    effects_file: str | None = None, storage: str = "mcap",
                    jobs: int | None = None, overwrite: bool = False,
                    progress: bool = True, excitation: float = 0.0,
-                   extra: Mapping[str, int] | None = None) -> RecordSummary:
+                   extra: Mapping[str, int] | None = None,
+                   start_spread: float = 0.0) -> RecordSummary:
     """Record ``moves_per_type`` moves of each type into the dataset directory ``out``.
 
     ``extra``: {kind: count} of TrainPool moves of other kinds (``control.moves.MOVE_KINDS``):
@@ -177,6 +219,9 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     ``dataset.yaml`` records it (``robot.twin.robot_source``).
     ``excitation`` [rad]: standard deviation of white noise added to every joint command
     (:func:`~littledog_mlsim.gait.trot.excite_commands`); 0 records the plain trot.
+    ``start_spread`` [m]: each move starts from its own place, up to this far from the origin
+    in x and y, and its own heading (:class:`StartSpread`); 0 starts every move at the origin
+    facing +x. ``dataset.yaml`` records it as ``info.start_spread_m``.
     """
     from ..data.dataset import BagEntry, dataset_entries, write_index
     from ..robot.effects import load_effects
@@ -187,6 +232,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
         raise FileExistsError(f"{out} already exists; pass --overwrite to replace it")
     if not np.isfinite(excitation) or not 0.0 <= excitation <= 0.2:
         raise ValueError(f"--excitation must be between 0 and 0.2 rad, got {excitation}")
+    start_spread = check_start_spread(start_spread)
     if storage not in ("mcap", "sqlite3"):
         raise ValueError(f"--storage must be mcap or sqlite3, got {storage!r}")
     config = robot_config_from(robot)        # fails early on an unknown robot or a bad twin
@@ -199,7 +245,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     t0 = time.perf_counter()
     with atomic_directory(out, replace=overwrite) as tmp:  # swapped in only after success
         results = []
-        args = [(j, str(tmp / j.name), config, effects_file, storage, excitation) for j in plan]
+        args = [(j, str(tmp / j.name), config, effects_file, storage, excitation, start_spread)
+                for j in plan]
         # no tqdm object at all without progress: even a disabled one starts tqdm's monitor
         # thread, which then outlives the call
         bar = (tqdm(total=len(plan), desc=f"record {out.name}", unit="move") if progress
@@ -224,6 +271,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                 "recorded_by": f"littledog_mlsim {__version__}"}
         if excitation:
             info["command_excitation_rad"] = float(excitation)
+        if start_spread:
+            info["start_spread_m"] = start_spread
         if extras:
             info["extra_moves"] = {k: [j.name for j in extras if j.kind == k]
                                    for k in dict.fromkeys(j.kind for j in extras)}

@@ -907,8 +907,10 @@ RECORDINGS: dict[str, str] = {
     "bias": "record more moves of the types with the largest residual (the model is off on "
             "average there): 20 or more per type",
     "position": "record the same move types started from several places on the floor (a grid "
-                "about 1 m apart), so where the robot is and how it moves are not confounded",
-    "heading": "record every move type from at least four start headings 90 deg apart",
+                "about 1 m apart) and headings, so where the robot is and how far into which "
+                "move it is are not confounded (record --start-spread 0.5)",
+    "heading": "record every move type from at least four start headings 90 deg apart (record "
+               "--start-spread 0.5 starts each move at its own heading)",
     "time": "record longer moves (8 s or more), or the same moves at different times since "
             "power-up",
     "phase": "record with command excitation (record --excitation 0.05) and at a second gait "

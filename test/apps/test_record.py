@@ -121,6 +121,8 @@ def test_bad_move_type_is_a_usage_error(capsys):
     (["record", "--out", "X", "--moves-per-type", "0"], "at least 1"),
     (["record", "--out", "X", "--effects", "missing.yaml"], "missing.yaml"),
     (["record", "--out", "X", "--excitation", "0.5"], "--excitation"),
+    (["record", "--out", "X", "--start-spread", "nan"], "--start-spread"),
+    (["record", "--out", "X", "--start-spread", "-1"], "--start-spread"),
     (["info", "--data", "/nonexistent/ds"], "/nonexistent/ds"),
 ])
 def test_bad_input_gives_one_line_and_writes_nothing(tmp_path: Path, argv, fragment, capsys,
@@ -175,6 +177,30 @@ def test_excitation_changes_the_recorded_commands_and_is_noted(tmp_path: Path, d
     assert move_problems(excited) == []               # still a trot that goes forward
     assert read_index(out).info["command_excitation_rad"] == 0.03
     assert "command_excitation_rad" not in read_index(dataset).info
+
+
+def test_start_spread_starts_each_move_at_its_own_place_and_heading(tmp_path: Path,
+                                                                    dataset: Path):
+    """``--start-spread``: the same commands, each move from its own place (within the spread in
+    x and y) and heading; the move still goes where its type says in its own frame, and
+    dataset.yaml notes the spread."""
+    from littledog_mlsim.data.dataset import quat_to_rpy
+    out = tmp_path / "spread"
+    assert main(["record", "--out", str(out), "--moves-per-type", "2", "--types", "F,L",
+                 "--start-spread", "0.5", "--jobs", "1", "--quiet"]) == 0
+    spread = load_moves(out, split="all")
+    plain = {m.name: m for m in load_moves(dataset, split="all")}
+    starts = np.array([m.position[0, :2] for m in spread])
+    yaws = np.array([quat_to_rpy(m.orientation[:1])[0, 2] for m in spread])
+    home = plain["F_00"].position[0, :2]
+    assert np.all(np.abs(starts - home) <= 0.5 + 0.01), starts
+    assert np.ptp(starts[:, 0]) > 0.1 and np.ptp(starts[:, 1]) > 0.1, starts
+    assert np.ptp(np.unwrap(yaws)) > 0.5, yaws
+    for m in spread:
+        np.testing.assert_array_equal(m.cmd, plain[m.name].cmd)
+        assert move_problems(m) == [], m.name       # upright, and goes where its type says
+    assert read_index(out).info["start_spread_m"] == 0.5
+    assert "start_spread_m" not in read_index(dataset).info
 
 
 def test_extra_moves_go_to_the_trainpool_and_leave_the_plain_moves_alone(tmp_path: Path,
