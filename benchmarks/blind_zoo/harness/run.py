@@ -34,7 +34,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import yaml
 
@@ -95,11 +95,11 @@ def _run(cmd: list[str], log: Path) -> float:
     return time.perf_counter() - t0
 
 
-def record(ds: Dataset, moves: int, jobs: int, logs: Path) -> None:
+def record(ds: Dataset, moves: int, jobs: int, logs: Path, extra: Sequence[str] = ()) -> None:
     if (ds.path / "dataset.yaml").is_file():
         return
     cmd = CLI + ["record", "--out", str(ds.path), "--moves-per-type", str(moves), "--seed",
-                 str(ds.seed), "--jobs", str(jobs), "--quiet"]
+                 str(ds.seed), "--jobs", str(jobs), "--quiet", *extra]
     if ds.excitation:
         cmd += ["--excitation", f"{ds.excitation:g}"]
     if ds.effects is not None:
@@ -390,6 +390,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="only record the datasets (they are reused by a later run)")
     ap.add_argument("--no-follow-up", action="store_true",
                     help="do not make the recordings the reports recommend")
+    ap.add_argument("--record-arg", action="append", default=[],
+                    help="an argument added to every `record` (repeat for each, e.g. "
+                         "--record-arg=--start-spread --record-arg=0.5)")
     ap.add_argument("--diagnose-arg", action="append", default=[],
                     help="extra argument for every diagnose run (repeatable)")
     ap.add_argument("--robot", default=None, metavar="TWIN.json",
@@ -433,7 +436,7 @@ def main(argv: list[str] | None = None) -> int:
                  Dataset("reference", work / "reference", a.reference_seed, 0.0, robot=robot))
     for ds in clean_sets + effect_sets + ([reference] if reference else []):
         print(f"record {ds.name}", flush=True)
-        record(ds, a.moves_per_type, 2, logs)
+        record(ds, a.moves_per_type, 2, logs, a.record_arg)
     if a.record_only:
         return 0
     arm_args, calibration = arm_arguments(a.arm, reference, work, logs, a.calibrate_arg)
@@ -477,12 +480,12 @@ def main(argv: list[str] | None = None) -> int:
                                       a.seed, exc, ds.effects)))
     # the loop closed by the report's advice: record what it asks for, diagnose again
     for t, ds in follow:
-        record(ds, a.moves_per_type, 2, logs)
+        record(ds, a.moves_per_type, 2, logs, a.record_arg)
         key = (ds.seed, ds.excitation)
         if key not in clean_by:
             cd = Dataset(f"clean_s{ds.seed}_e{ds.excitation:g}",
                          work / "clean" / f"s{ds.seed}_e{ds.excitation:g}", ds.seed, ds.excitation)
-            record(cd, a.moves_per_type, 2, logs)
+            record(cd, a.moves_per_type, 2, logs, a.record_arg)
             clean_by[key] = cd
             clean_sets.append(cd)
     with ThreadPoolExecutor(max_workers=a.jobs) as pool:
@@ -528,7 +531,8 @@ def main(argv: list[str] | None = None) -> int:
            "wall_seconds": time.time() - t_start, "load_average": os.getloadavg(),
            "code": git_state(),
            "moves_per_type": a.moves_per_type, "seed": a.seed, "clean_seeds": a.clean_seeds,
-           "diagnose_args": extra, "arm": a.arm, "summary": summary, "rows": rows,
+           "diagnose_args": extra, "record_args": a.record_arg, "arm": a.arm,
+           "summary": summary, "rows": rows,
            "clean": clean}
     if (a.arm or "").startswith("learned"):
         summary.update(learned_summary(truth, first))
