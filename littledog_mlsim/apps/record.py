@@ -101,7 +101,8 @@ class StartSpread:
         dx, dy = self.rng.uniform(-self.half_span_m, self.half_span_m, size=2)
         yaw = float(self.rng.uniform(-np.pi, np.pi))
         turn = p.getQuaternionFromEuler([0.0, 0.0, yaw])
-        # turn about the body's own vertical axis through its position, then shift
+        # turn about the world's vertical axis through the body's position (roll and pitch
+        # kept), then shift
         orn_new = p.multiplyTransforms([0, 0, 0], turn, [0, 0, 0], orn)[1]
         p.resetBasePositionAndOrientation(sim.robot, [pos[0] + dx, pos[1] + dy, pos[2]],
                                           orn_new, physicsClientId=c)

@@ -83,12 +83,14 @@ probes ``{label, family, p_value, total_gain, max_gain, significant, material}``
 xy_error_at (horizon -> mean m)}`` of the model fitted on the whole TrainPool;
 ``residual``: :func:`residual_structure`'s dict (``groups``, ``verdict``, ``unexplained``,
 ``channels``, ``moves``, ``z_ratio``, ``recording``); ``suspected``: families significant but
-not material, or material but above alpha, each with the recording that would settle it and
-its ``vocabulary`` reading (report.json's top-level ``suspected`` lists them in that form); one
-that is not significant also has ``settle_moves_per_type`` (:func:`moves_to_settle`: the moves
-per type of the same kinds at which it would be significant with 80 % probability if its
-effect is what the data show; None beyond 8 times the data's), and its ``recording`` names
-that size as a second way to settle it;
+not material, or not significant with p within 10 alpha (on this route material implies
+significant), each with the recording that would settle it and its ``vocabulary`` reading
+(report.json's top-level ``suspected`` lists them in that form); one that is not significant
+also has ``settle_moves_per_type`` (:func:`moves_to_settle`: the TrainPool moves per type of
+the same kinds at which it would be significant with 80 % probability if its effect is what
+the data show; None beyond 8 times the data's, or where nothing it cuts reaches the
+materiality minimum), and its ``recording`` names that size (``record --moves-per-type``) as a
+second way to settle it;
 ``verdict``: one sentence; ``options``: the options used; ``seconds``.
 
 With a reference (a recording of the same robot before the change), each accepted effect also
@@ -112,7 +114,8 @@ from scipy.linalg import cho_factor, cho_solve
 
 from ..data.recording import MoveRecording
 from ..data.states import initial_pose
-from ..layout import CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES, S
+from ..layout import (CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES,
+                      UNKNOWN_MOVE_TYPE, S)
 from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedTime, FeatureSet,
                                GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
 from ..models.feature_library import JOINT_GROUPS, ElapsedTracking, SwingRate
@@ -121,7 +124,8 @@ from .stats import PathTest, path_test, sse_decision
 
 __all__ = ["LearnedOptions", "CrossFitModel", "Evidence", "diagnose_learned", "family_probes",
            "rollout_evidence", "residual_structure", "physical_statement", "contrast", "SCOPES",
-           "screen_sizes", "screen_narrower"]
+           "screen_sizes", "screen_narrower", "decision_tests", "moves_to_settle",
+           "record_moves_per_type", "train_per_type"]
 
 log = logging.getLogger(__name__)
 
@@ -1223,7 +1227,7 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     after = _test_scores(model, fs, test, mv_test, opts) if found or shared else before
     residual = residual_structure(ev, route.mv, route.fold_of_move, _phase_columns(route.train),
                                   route.h_dec, opts)
-    per_type = route.mv.n / max(1, len(set(route.mv.types)))
+    per_type = train_per_type(route.mv)
     suspected = [_suspect(p, per_type, n_reference is not None)
                  for p in last if not (p.decision.significant and p.decision.material)
                  and (p.decision.significant or (p.decision.material or
@@ -1245,56 +1249,81 @@ SETTLE_MAX_FACTOR = 8.0
 SETTLE_POWER = 0.8
 
 
-def decision_tests(d: _Decision) -> list[tuple[float, float]]:
-    """The (Bonferroni factor, unadjusted p) of each test behind ``d.p_value``: the state's
-    pooled, best-element and (with a focus) focus tests, and the path test, each times the
-    candidates and the route's two channel sets; ``d.p_value`` is min(1, min of factor x p)."""
+def decision_tests(d: _Decision) -> list[tuple[str, float, float]]:
+    """The (name, Bonferroni factor, unadjusted p) of each test behind ``d.p_value``: the
+    state's ``pooled``, ``element`` (the best of the C elements) and, with a focus, ``focus``
+    tests, and the ``path`` test, each times the candidates and the route's two channel sets;
+    ``d.p_value`` is min(1, min of factor x p)."""
     st, n = d.state, float(d.n_candidates)
     T = 3.0 if st.p_focus is not None else 2.0
-    out = [(2.0 * n * T, float(st.p_pooled)),
-           (2.0 * n * T * len(st.p_element), float(np.min(st.p_element))),
-           (2.0 * n, float(d.path.p))]
+    out = [("pooled", 2.0 * n * T, float(st.p_pooled)),
+           ("element", 2.0 * n * T * len(st.p_element), float(np.min(st.p_element))),
+           ("path", 2.0 * n, float(d.path.p))]
     if st.p_focus is not None:
-        out.append((2.0 * n * T, float(st.p_focus)))
+        out.append(("focus", 2.0 * n * T, float(st.p_focus)))
     return out
 
 
 def moves_to_settle(d: _Decision, per_type: float, power: float = SETTLE_POWER,
                     max_factor: float = SETTLE_MAX_FACTOR) -> int | None:
-    """Moves per type (the same kinds as the data's ``per_type``) at which a candidate would be
-    significant at ``alpha`` with probability ``power`` if its effect per move is what the
-    held-out evidence shows: each test's z-score grows with the square root of the moves (a
-    one-sided test of a mean or a rank sum over moves) and keeps its Bonferroni factor f, so test
-    i needs k_i = ((z_(alpha/f_i) + z_power) / z_i)^2 times the moves; the smallest k_i is taken.
-    None where no test has evidence for the candidate (p >= 0.5) or it takes more than
-    ``max_factor`` times the moves: a different recording, not more of the same, would settle
-    it. Significance only: an effect whose cut is below the materiality minimum stays below it.
-    The effect as measured is a noisy estimate, so the probability is nominal."""
+    """TrainPool moves per type (the same kinds as the data's ``per_type``) at which a
+    candidate would be significant at ``alpha`` with probability ``power`` if its effect per
+    move is what the held-out evidence shows: a test's z-score grows with the square root of the
+    moves (a one-sided test of a mean or a rank sum over moves) and keeps its Bonferroni factor
+    f, so test i needs k_i = ((z_(alpha/f_i) + z_power) / z_i)^2 times the moves; the smallest
+    k_i of the pooled, focus and path tests is taken (not the best element's: the largest of C
+    z-scores overstates its element's effect). None where no such test has evidence for the
+    candidate (p >= 0.5), where it takes more than ``max_factor`` times the moves (a different
+    recording, not more of the same, would settle it), or where no element and not the path
+    is cut by the materiality minimum (more moves make it significant, not material). The
+    effect as measured is a noisy estimate, so the probability is nominal."""
     from scipy.stats import norm
+    if not (np.any(d.state.gain >= d.min_gain) or d.path.total_gain >= d.min_gain):
+        return None
     z_power = float(norm.isf(1.0 - power))
     k = [((norm.isf(d.alpha / f) + z_power) / norm.isf(p)) ** 2
-         for f, p in decision_tests(d) if 0.0 < p < 0.5 and d.alpha / f < 0.5]
+         for name, f, p in decision_tests(d)
+         if name != "element" and 0.0 < p < 0.5 and d.alpha / f < 0.5]
     if not k or per_type <= 0 or min(k) > max_factor:
         return None
     return int(math.ceil(max(1.0, min(k)) * per_type - 1e-9))
 
 
+def record_moves_per_type(n_train_moves: int) -> int:
+    """The smallest ``record --moves-per-type`` whose TrainPool holds ``n_train_moves`` moves
+    of each type (``data.dataset.n_train``: 7 of 10, 14 of 20)."""
+    from ..data.dataset import n_train
+    n = max(1, int(n_train_moves))
+    while n_train(n) < n_train_moves:
+        n += 1
+    return n
+
+
+def train_per_type(mv: _Moves) -> float:
+    """The median number of TrainPool moves per move type (the plain types; not type U)."""
+    from collections import Counter
+    counts = Counter(t for t in mv.types if t != UNKNOWN_MOVE_TYPE)
+    return float(np.median(list(counts.values()))) if counts else 0.0
+
+
 def _suspect(p: _Probe, per_type: float, reference: bool) -> dict[str, Any]:
     """A suspected family's entry: why, the recording that would settle it, its vocabulary
     reading; where only significance is missing, also ``settle_moves_per_type``
-    (:func:`moves_to_settle`) and the same moves, more of them, as a second way to settle it."""
+    (:func:`moves_to_settle`: TrainPool moves per type) and, as a second way to settle it,
+    the same kinds of moves, more of them (the ``record --moves-per-type`` that gives them)."""
     from .families.learned import physical_reading
     entry = {**p.to_dict(), "why": ("significant but below the materiality minimum"
                                     if p.decision.significant else
-                                    "material but not significant at alpha"),
+                                    "not significant at alpha (p within 10 alpha)"),
              "recording": _family_recording(p.aug, reference),
              "vocabulary": physical_reading(p.aug)}
     if not p.decision.significant:
         m = moves_to_settle(p.decision, per_type)
         entry["settle_moves_per_type"] = m
         if m is not None:
-            entry["recording"] += (f"; or the same kinds of moves, about {m} per type instead "
-                                   f"of {per_type:.3g}")
+            entry["recording"] += (f"; or the same kinds of moves, about {m} TrainPool moves per "
+                                   f"type instead of {per_type:.3g} (record --moves-per-type "
+                                   f"{record_moves_per_type(m)})")
     return entry
 
 

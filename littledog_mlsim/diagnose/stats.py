@@ -27,7 +27,7 @@ from scipy import stats
 
 __all__ = ["t_greater", "move_cuts", "rank_max_p", "Decision", "decide", "decide_all",
            "SSEDecision", "sse_decision", "PathTest", "path_test", "focus_p", "contrast_test",
-           "RANK_FLIPS",
+           "contrast_focus_p", "RANK_FLIPS",
            "N_TESTS"]
 
 RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null

@@ -423,10 +423,16 @@ class GroundSlope:
         p.setGravity(*g.tolist(), physicsClientId=sim.client)
 
 
+#: the floor height under a robot's start below which :class:`GroundTilt` leaves it where it is
+LIFT_MIN_M = 1e-3
+
+
 class GroundTilt:
     """The floor inclined by ``slope_deg``, rising towards ``uphill_direction_deg`` (odom), under a
     level odometry frame (motion capture in the level world): the ground plane is turned about a
-    horizontal axis through ``origin_xy`` (at height 0), where the move starts. Unlike
+    horizontal axis through ``origin_xy`` (at height 0), where the move starts; a robot that
+    starts elsewhere (``record --start-spread``) is lifted by the floor's height under its base
+    (where it exceeds ``LIFT_MIN_M``), still level, as at ``origin_xy``. Unlike
     :class:`GroundSlope` (gravity tilted, odometry level with the ground) the body's attitude and
     height in odom follow the floor."""
 
@@ -444,6 +450,14 @@ class GroundTilt:
         p.resetBasePositionAndOrientation(sim.plane, [float(self.origin_xy[0]),
                                                       float(self.origin_xy[1]), 0.0], quat,
                                           physicsClientId=sim.client)
+        # a robot that starts away from origin_xy (record --start-spread) stands on the floor
+        # where it is: lifted (or lowered) by the floor's height under its base
+        pos, orn = p.getBasePositionAndOrientation(sim.robot, physicsClientId=sim.client)
+        n = np.array(p.getMatrixFromQuaternion(quat)).reshape(3, 3)[:, 2]
+        h = -(n[0] * (pos[0] - self.origin_xy[0]) + n[1] * (pos[1] - self.origin_xy[1])) / n[2]
+        if abs(h) > LIFT_MIN_M:
+            p.resetBasePositionAndOrientation(sim.robot, [pos[0], pos[1], pos[2] + h], orn,
+                                              physicsClientId=sim.client)
 
 
 class FootFriction:

@@ -203,6 +203,31 @@ def test_start_spread_starts_each_move_at_its_own_place_and_heading(tmp_path: Pa
     assert "start_spread_m" not in read_index(dataset).info
 
 
+def test_start_spread_on_a_tilted_floor_stands_on_the_floor_where_it_starts(tmp_path: Path,
+                                                                             dataset: Path):
+    """``--start-spread`` with a floor tilted about the origin (``GroundTilt``): each move
+    starts at its own place as high above the floor under it as the plain move at the origin
+    (it neither starts inside the floor nor drops onto it)."""
+    from littledog_mlsim.robot.effects import GroundTilt
+    tilt = tmp_path / "tilt.yaml"
+    tilt.write_text("- class: littledog_mlsim.robot.effects:GroundTilt\n"
+                    "  params: {slope_deg: 8.0, uphill_direction_deg: 0.0}\n")
+    out = tmp_path / "tilt_spread"
+    record_dataset(out, moves_per_type=3, types=["F"], seed=4, effects_file=str(tilt),
+                   start_spread=0.5, jobs=1, progress=False)
+    plain = [m for m in load_moves(dataset, split="all") if m.name == "F_00"][0]
+    clearance = plain.position[0, 2]
+    xs = []
+    for m in load_moves(out, split="all"):
+        x0, z = m.position[0, 0], m.position[:, 2]
+        floor = x0 * np.tan(np.radians(8.0))              # uphill toward +x, through the origin
+        xs.append(x0)
+        assert abs(z[0] - floor - clearance) < 0.01, (m.name, x0, z[0], floor)
+        assert z[:50].min() - floor > clearance - 0.03, (m.name, z[:50].min(), floor)
+    assert np.ptp(xs) > 0.1, xs
+    assert GroundTilt(8.0).origin_xy.tolist() == [0.0, 0.0]
+
+
 def test_extra_moves_go_to_the_trainpool_and_leave_the_plain_moves_alone(tmp_path: Path,
                                                                         dataset: Path):
     out = tmp_path / "extra"

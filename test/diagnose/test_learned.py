@@ -13,6 +13,7 @@ computed by hand.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -355,14 +356,15 @@ def test_the_rollout_routes_suspects_are_the_reports_in_the_vocabulary():
     from littledog_mlsim.diagnose.report import _rollout_suspects
     lag = CommandLag(lag=2, joints="back_left")
     r = {"suspected": [{"label": lag.label(), "p_value": 3.4e-4,
-                        "why": "material but not significant at alpha",
+                        "why": "not significant at alpha (p within 10 alpha)",
                         "recording": "record with command excitation (record --excitation 0.05)",
-                        "vocabulary": physical_reading(lag)}]}
+                        "vocabulary": physical_reading(lag), "settle_moves_per_type": 12}]}
     (s,) = _rollout_suspects(r)
     assert (s["family"], s["scope"], s["params"]) == ("command_delay", "leg:back_left",
                                                       {"delay_ms": 20.0})
     assert s["recording"].endswith("--excitation 0.05)") and s["p_value"] == 3.4e-4
-    assert s["label"] == lag.label() and s["why"].startswith("material")
+    assert s["label"] == lag.label() and s["why"].startswith("not significant")
+    assert s["settle_moves_per_type"] == 12
     assert _rollout_suspects(None) == [] and _rollout_suspects({"suspected": []}) == []
     # with a reference, an excited recording asks for an excited reference too
     from littledog_mlsim.diagnose.learned import _family_recording
@@ -527,27 +529,39 @@ def _synthetic_decision(rng, M: int, shift: float):
 
 
 def test_moves_to_settle_scales_the_evidence_with_the_moves():
-    """A candidate that is material but not significant: ``moves_to_settle`` gives the moves per
-    type at which its tests' z-scores (times the square root of the moves, at their Bonferroni
-    factors) reach alpha with 80 % probability. ``decision_tests`` are the tests behind
-    ``p_value``. Drawn again at the size asked for (10 types), the candidates near alpha are
-    significant more often than not; where the evidence is against it, nothing is asked."""
+    """A candidate that is not significant: ``moves_to_settle`` gives the TrainPool moves per
+    type at which its pooled, focus or path test's z-score (times the square root of the moves,
+    at its Bonferroni factor) reaches alpha with 80 % probability. ``decision_tests`` are the
+    tests behind ``p_value``. Drawn again at the size asked for (10 types), the candidates near
+    alpha are significant more often than not. Nothing is asked where every test's evidence is
+    against the candidate, or where no element is cut by the materiality minimum (more moves
+    would make it significant, not material); the suspect names the ``record`` size."""
     from types import SimpleNamespace
 
-    from littledog_mlsim.diagnose.learned import _suspect, decision_tests, moves_to_settle
+    from littledog_mlsim.diagnose.learned import (_suspect, decision_tests, moves_to_settle,
+                                                  record_moves_per_type)
     rng = np.random.default_rng(1)
     draws = [_synthetic_decision(rng, 40, 0.15) for _ in range(30)]
     for d in draws:
-        assert d.p_value == pytest.approx(min(1.0, min(f * p for f, p in decision_tests(d))))
+        assert d.p_value == pytest.approx(min(1.0, min(f * p for _, f, p in decision_tests(d))))
     near = [(d, moves_to_settle(d, 4.0)) for d in draws if 1e-4 <= d.p_value < 1e-3]
     assert len(near) >= 5 and all(m is not None and m > 4 for _, m in near), near
     m = int(np.median([m for _, m in near]))
     again = [_synthetic_decision(rng, 10 * m, 0.15).significant for _ in range(30)]
     assert np.mean(again) > 0.5, (m, np.mean(again))
-    nothing = _synthetic_decision(rng, 40, -0.3)          # the candidate makes it worse
-    assert decision_tests(nothing)[0][1] > 0.5 and moves_to_settle(nothing, 4.0) is None
-    probe = SimpleNamespace(aug=CommandLag(lag=2, joints="back_left"), decision=near[0][0],
+    worse = _synthetic_decision(rng, 40, -0.3)
+    worse.path.p = 0.7                                    # the path's evidence against it too
+    assert all(p > 0.5 for name, _, p in decision_tests(worse) if name != "element")
+    assert moves_to_settle(worse, 4.0) is None
+    d = near[0][0]
+    small = replace(d, min_gain=10.0)                     # no element cut by the minimum
+    assert moves_to_settle(small, 4.0) is None
+    assert record_moves_per_type(7) == 10 and record_moves_per_type(14) == 20
+    probe = SimpleNamespace(aug=CommandLag(lag=2, joints="back_left"), decision=d,
                             total_gain=0.2, to_dict=lambda: {"label": "command_lag"})
     s = _suspect(probe, 4.0, reference=False)
     assert s["settle_moves_per_type"] == near[0][1]
-    assert s["recording"].endswith(f"about {near[0][1]} per type instead of 4"), s["recording"]
+    assert s["why"] == "not significant at alpha (p within 10 alpha)"
+    assert s["recording"].endswith(
+        f"about {near[0][1]} TrainPool moves per type instead of 4 (record --moves-per-type "
+        f"{record_moves_per_type(near[0][1])})"), s["recording"]

@@ -96,7 +96,14 @@ def _run(cmd: list[str], log: Path) -> float:
 
 
 def record(ds: Dataset, moves: int, jobs: int, logs: Path, extra: Sequence[str] = ()) -> None:
+    """Record ``ds`` unless it is there; ``extra``: further ``record`` arguments, kept beside
+    the dataset (``NAME.record_args``) so that a dataset recorded with others is never reused."""
+    args_file = ds.path.with_name(ds.path.name + ".record_args")
     if (ds.path / "dataset.yaml").is_file():
+        was = args_file.read_text().split("\n")[:-1] if args_file.is_file() else []
+        if was != list(extra):
+            raise SystemExit(f"{ds.path} was recorded with record arguments {was}, not "
+                             f"{list(extra)}: give another --work")
         return
     cmd = CLI + ["record", "--out", str(ds.path), "--moves-per-type", str(moves), "--seed",
                  str(ds.seed), "--jobs", str(jobs), "--quiet", *extra]
@@ -107,6 +114,7 @@ def record(ds: Dataset, moves: int, jobs: int, logs: Path, extra: Sequence[str] 
     if ds.robot is not None:
         cmd += ["--robot", str(ds.robot)]
     _run(cmd, logs / f"record_{ds.name}.log")
+    args_file.write_text("".join(f"{x}\n" for x in extra))
     if ds.robot is not None:
         forget_robot(ds.path)
 
