@@ -95,8 +95,8 @@ second way to settle it;
 
 With a reference (a recording of the same robot before the change), each accepted effect also
 has ``reference`` (:func:`contrast`: ``reference_total_gain``, ``reference_p_value``,
-``reference_significant``, ``p_state``, ``p_path``, ``p_focus`` for a candidate scoped to some
-joints, ``p_change``, ``changed``), and the report
+``reference_significant``, ``p_state``, ``p_path``, ``p_focus`` and ``focus_choices`` for a
+candidate scoped to some joints, ``p_change``, ``changed``), and the report
 has ``reference``: ``{n_moves, shared}``, where ``shared`` lists, in the form of ``effects``,
 what the search accepted but the reference shows as much (not a change; the model carries it,
 and ``significant`` does not count it).
@@ -1131,8 +1131,9 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}
                     for e in scan]   # the scope compared was not kept
         if ref_route is not None:
-            c = pre.get(best.aug.label()) or contrast(route, ref_route, fs, best, ev_ref,
-                                                      len(ok))
+            c = pre.get(best.aug.label()) or contrast(
+                route, ref_route, fs, best, ev_ref, len(ok),
+                len(SCOPES) + sum(e.get("stage") == "scope" for e in scan))
             contrasts[best.aug.label()] = c
             say(f"round {k}: {best.aug.label()} gain {best.total_gain:+.2f} here, "
                 f"{c['reference_total_gain']:+.2f} on the reference: p(change) {c['p_change']:.2g}")
@@ -1164,13 +1165,16 @@ def _confounded_why(spread: Mapping[str, Any]) -> str:
 
 
 def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
-             ev_ref: Evidence | None = None, n_contrasts: int = 1) -> dict[str, Any]:
+             ev_ref: Evidence | None = None, n_contrasts: int = 1,
+             focus_choices: int = len(SCOPES)) -> dict[str, Any]:
     """Does ``probe``'s candidate gain more on the data than on the reference? The candidate
     is added to ``fs`` on the reference's TrainPool too (the same cross-fit and held-out
     rollouts); each move's state cut and path log ratio of the two datasets are compared by
     :func:`.stats.contrast_test`, and, for a candidate scoped to some joints (with
-    ``scope_test``), its cut over their elements too (``p_focus``; a one-joint change is
-    otherwise diluted in the sum over 33 elements). ``changed``: p_change x ``n_contrasts`` (the candidates the
+    ``scope_test``), its cut over their elements too (``p_focus``, unadjusted; a one-joint
+    change is otherwise diluted in the sum over 33 elements), Bonferroni over the
+    ``focus_choices`` scopes it was chosen among on the data (default the narrower screen's
+    nine). ``changed``: p_change x ``n_contrasts`` (the candidates the
     round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
     robot's own, not a change since the reference. The candidate itself has already passed
     the screen at ``alpha``; the contrast asks only whether it is new, one test per candidate
@@ -1184,7 +1188,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
             else (None, None))
     p_state, p_path, p = contrast_test(
         _move_gains(probe), _move_gains(on_ref), probe.decision.path.log_ratios,
-        on_ref.decision.path.log_ratios, *cuts)
+        on_ref.decision.path.log_ratios, *cuts, focus_choices=focus_choices)
     out = {"reference_total_gain": on_ref.total_gain,
            "reference_p_value": float(on_ref.decision.p_value),
            "reference_significant": bool(on_ref.decision.significant),
@@ -1192,6 +1196,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
            "changed": bool(min(1.0, p * n_contrasts) < route.opts.contrast_alpha)}
     if focus:
         out["p_focus"] = contrast_focus_p(*cuts)
+        out["focus_choices"] = int(focus_choices)
     return out
 
 

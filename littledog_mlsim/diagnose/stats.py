@@ -217,7 +217,8 @@ def path_test(P0: np.ndarray, P1: np.ndarray) -> PathTest:
 
 def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
                   ratios_ref: np.ndarray, focus_cuts: np.ndarray | None = None,
-                  focus_cuts_ref: np.ndarray | None = None) -> tuple[float, float, float]:
+                  focus_cuts_ref: np.ndarray | None = None, focus_choices: int = 1
+                  ) -> tuple[float, float, float]:
     """(p_state, p_path, p): one-sided two-sample tests that a candidate gains more on the data's
     moves than on a reference's. ``cuts``: each move's held-out state contribution summed over
     the elements (``SSEDecision.d`` summed over its columns; the mean over moves is the total
@@ -228,7 +229,10 @@ def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
     (a joint scope's elements, named before the data), Welch-tested too; ``p`` is then Bonferroni
     over the three (3 min), as :func:`decide` adds its focus test. A change on one joint is
     diluted in the sum over 33 elements as it is in the pooled test. The focus test's p is
-    :func:`contrast_focus_p`."""
+    :func:`contrast_focus_p` times ``focus_choices``: the scopes the focus was chosen among on
+    the data (the kept scope's cut is the largest of them there, and not on the reference, so
+    a shared effect would otherwise read as a change several times too often:
+    ``benchmarks/learned_route/focus_contrast_selection.md``)."""
     def mwu(a: np.ndarray, b: np.ndarray) -> float:
         if len(a) == 0 or len(b) == 0:
             return 1.0
@@ -238,7 +242,7 @@ def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
     p_path = mwu(np.asarray(ratios, float), np.asarray(ratios_ref, float))
     if focus_cuts is None:
         return p_state, p_path, min(1.0, 2.0 * min(p_state, p_path))
-    p_focus = contrast_focus_p(focus_cuts, focus_cuts_ref)
+    p_focus = min(1.0, max(1, int(focus_choices)) * contrast_focus_p(focus_cuts, focus_cuts_ref))
     return p_state, p_path, min(1.0, 3.0 * min(p_state, p_path, p_focus))
 
 

@@ -164,6 +164,9 @@ def test_a_contrast_with_a_focus_sees_a_change_on_a_few_channels():
     assert p3 == pytest.approx(min(1.0, 3 * min(p_state, p_path, p_focus))) and p3 < 0.01
     # the same on both sides: the focus sees no change either
     assert contrast_test(f_ref + rest, f_ref + rest_ref, ra, rb, f_ref, f_ref)[2] > 0.5
+    # a focus chosen among 9 scopes on the data: its p times 9
+    _, _, p9 = contrast_test(f + rest, f_ref + rest_ref, ra, rb, f, f_ref, focus_choices=9)
+    assert p9 == pytest.approx(min(1.0, 3 * min(p_state, p_path, min(1.0, 9 * p_focus))))
 
 
 def test_a_focus_pools_the_channels_a_candidate_acts_on_at_the_level():
