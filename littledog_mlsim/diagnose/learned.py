@@ -1279,14 +1279,11 @@ def moves_to_settle(d: _Decision, per_type: float, power: float = SETTLE_POWER,
     k_i of the pooled, focus and path tests is taken (not the best element's: the largest of C
     z-scores overstates its element's effect). None where no such test has evidence for the
     candidate (p >= 0.5), where it takes more than ``max_factor`` times the moves (a different
-    recording, not more of the same, would settle it), or where no element, not the focus and
-    not the path is cut by the materiality minimum (more moves make it significant, not
-    material). The
+    recording, not more of the same, would settle it), or where no element and not the path
+    is cut by the materiality minimum (more moves make it significant, not material). The
     effect as measured is a noisy estimate, so the probability is nominal."""
     from scipy.stats import norm
-    fg = d.state.focus_gain
-    if not (np.any(d.state.gain >= d.min_gain) or d.path.total_gain >= d.min_gain
-            or (fg is not None and fg >= d.min_gain)):
+    if not (np.any(d.state.gain >= d.min_gain) or d.path.total_gain >= d.min_gain):
         return None
     z_power = float(norm.isf(1.0 - power))
     k = [((norm.isf(d.alpha / f) + z_power) / norm.isf(p)) ** 2

@@ -91,10 +91,8 @@ class Decision:
     p_pooled: float           # unadjusted p of the t-test pooled over channels
     p_value: float            # adjusted over the tests, the channels and the candidates
     significant: bool         # p_value < alpha
-    material: bool            # some channel cut by >= min_gain with its own p < alpha, or
-    #                           the focus channels' pooled cut with the focus test's p < alpha
+    material: bool            # some channel cut by >= min_gain with its own p < alpha
     p_focus: float | None = None   # unadjusted p of the focus test (with ``focus``)
-    focus_gain: float | None = None  # the focus channels' pooled cut (PathTest.total_gain form)
 
 
 def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_gain: float,
@@ -110,11 +108,7 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     ``focus``: channels the candidate acts on first, named before the data are seen (a joint
     scope's joint elements); without a rank test, :func:`focus_p` on them is a third test
     (Bonferroni over three). An effect on a few channels is diluted in the pooled test and pays
-    for the channel count in the best channel's. It is material through the focus too: their
-    pooled cut (each channel scaled by its total without, as the path test pools) at least
-    ``min_gain`` with the focus test's own p < alpha, as a channel is material by its own cut
-    and t-test (a few moves carry most of one joint's SSE, which the per-channel t-test pays
-    for in power and the rank test does not).
+    for the channel count in the best channel's.
     ``material`` does not require significance (the routes combine the two as they report)."""
     M, C = S0.shape
     tot0 = S0.sum(axis=0)
@@ -123,20 +117,17 @@ def decide(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float, min_
     d = M * (S0 - S1) / tot0
     p_ch = t_greater(d)
     p_pool = float(t_greater(d.sum(axis=1, keepdims=True))[0])
-    p_focus = focus_gain = None
+    p_focus = None
     if p_rank is None and focus is not None:
-        ft = path_test(S0[:, list(focus)], S1[:, list(focus)])    # = focus_p's test
-        p_focus, focus_gain = ft.p, ft.total_gain
+        p_focus = focus_p(S0[:, list(focus)], S1[:, list(focus)])
         p_adj = min(1.0, n_candidates * 3.0 * min(p_pool, C * float(p_ch.min()), p_focus))
     elif p_rank is None:
         p_adj = min(1.0, n_candidates * 2.0 * min(p_pool, C * float(p_ch.min())))
     else:
         p_adj = min(1.0, N_TESTS * min(p_rank, p_pool * n_candidates,
                                        float(np.min(p_ch)) * C * n_candidates))
-    material = bool(np.any((p_ch < alpha) & (gain >= min_gain))
-                    or (p_focus is not None and p_focus < alpha and focus_gain >= min_gain))
-    return Decision(gain, d, p_ch, p_pool, p_adj, bool(p_adj < alpha), material, p_focus,
-                    focus_gain)
+    material = bool(np.any((p_ch < alpha) & (gain >= min_gain)))
+    return Decision(gain, d, p_ch, p_pool, p_adj, bool(p_adj < alpha), material, p_focus)
 
 
 def focus_p(S0: np.ndarray, S1: np.ndarray) -> float:
@@ -172,10 +163,8 @@ class SSEDecision:
     #                           elements and n_candidates
     significant: bool
     material: bool
-    outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2 (and the
-    #                           focus elements with gain >= min_gain / 2 where the focus is)
+    outputs: list[str]        # elements with p < alpha and gain >= min_gain / 2
     p_focus: float | None = None   # unadjusted p of the focus test (with ``focus``)
-    focus_gain: float | None = None  # the focus elements' pooled cut (with ``focus``)
 
 
 def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float,
@@ -192,14 +181,8 @@ def sse_decision(S0: np.ndarray, S1: np.ndarray, n_candidates: int, alpha: float
     material = bool(r.significant and r.material)
     out_mask = (nominal & (r.gain >= 0.5 * min_gain) if r.significant
                 else np.zeros(len(r.gain), bool))
-    if (r.significant and r.p_focus is not None and r.p_focus < alpha
-            and r.focus_gain >= min_gain):          # material through the focus
-        f = np.zeros(len(r.gain), bool)
-        f[list(focus)] = True
-        out_mask |= f & (r.gain >= 0.5 * min_gain)
     return SSEDecision(r.gain, r.d, r.p_channel, r.p_pooled, r.p_value, r.significant,
-                       material, [names[j] for j in np.flatnonzero(out_mask)], r.p_focus,
-                       r.focus_gain)
+                       material, [names[j] for j in np.flatnonzero(out_mask)], r.p_focus)
 
 
 @dataclass

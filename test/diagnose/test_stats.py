@@ -148,28 +148,6 @@ def test_a_focus_that_only_moves_the_median_is_never_material():
     assert abs(r.gain[focus]).max() < 0.05 and not r.material, r.gain[focus]
 
 
-def test_a_focus_is_material_by_its_pooled_cut_where_no_element_t_test_is():
-    """A 25 % cut on the 6 focus channels, on SSEs so heavy-tailed (a few moves carry most of
-    each channel's) that no channel's own t-test reaches alpha: the focus test's pooled cut
-    and p make it material, and its elements are the outputs; without a focus it is neither
-    significant nor material through a channel."""
-    rng = np.random.default_rng(1)
-    M, C, focus = 30, 33, list(range(15, 18)) + list(range(27, 30))
-    S0 = rng.lognormal(0.0, 2.5, (M, C))
-    S1 = S0 * rng.lognormal(0.0, 0.3, (M, C))
-    S1[:, focus] = S0[:, focus] * rng.lognormal(np.log(0.75), 0.3, (M, 6))
-    r = decide(S0, S1, 1, 1e-3, 0.05, focus=focus)
-    assert r.p_channel.min() > 1e-3, r.p_channel.min()       # no channel on its own
-    assert r.p_focus < 1e-3 and 0.2 < r.focus_gain < 0.3, (r.p_focus, r.focus_gain)
-    assert r.significant and r.material
-    plain = decide(S0, S1, 1, 1e-3, 0.05)
-    assert not plain.material and not plain.significant
-    sd = sse_decision(S0, S1, 1, 1e-3, 0.05, focus=focus)
-    assert sd.material and sd.focus_gain == r.focus_gain
-    from littledog_mlsim.layout import STATE_NAMES
-    assert set(sd.outputs) <= {STATE_NAMES[j] for j in focus} and len(sd.outputs) >= 4
-
-
 def test_a_contrast_with_a_focus_sees_a_change_on_a_few_channels():
     """``contrast_test`` with focus cuts (a scoped candidate's cut over its joints' elements):
     a change on those channels that the other elements' scatter hides in the summed cut is seen
