@@ -1,6 +1,7 @@
 # littledog_mlsim — one-command set-up and jobs. Every target creates .venv from the pinned
-# requirements first if it is missing (or if the pins changed). Packages are installed without
-# byte-compiling them (--no-compile): Python compiles a module when it is first imported.
+# requirements first if it is missing (or if the pins changed). Packages are byte-compiled as
+# pip installs them: where PYTHONDONTWRITEBYTECODE is set, Python never writes what it compiles
+# on import, so every process would compile them again (benchmarks/ci_time/).
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -21,7 +22,7 @@ venv: $(STAMP)
 
 $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --no-compile -r requirements.txt -c constraints.txt
+	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	# setup.cfg puts console scripts in lib/littledog_mlsim (where `ros2 run` looks); link them into bin
 	for f in $(VENV)/lib/littledog_mlsim/*; do ln -sf ../lib/littledog_mlsim/$$(basename $$f) $(VENV)/bin/; done
