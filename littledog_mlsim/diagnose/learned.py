@@ -1202,7 +1202,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
             mass_kg, t_start, shared=(), contrasts=None, n_reference=None) -> dict[str, Any]:
-    from .families.learned import floor_plane, physical_reading
+    from .families.learned import floor_plane
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
                   * CONTROL_DT)
