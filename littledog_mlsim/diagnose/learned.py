@@ -106,7 +106,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -177,16 +177,42 @@ class _Design:
     b: np.ndarray
     lo: np.ndarray      # state bounds a rollout is clipped to (training range +- 25 %)
     hi: np.ndarray
+    # the TrainPool's rows of the paper's 45 (``remember``) and their random features, made
+    # on first use in each process (not pickled: a worker makes its own)
+    _key: np.ndarray | None = field(default=None, repr=False, compare=False)
+    _block: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    def remember(self, X: np.ndarray) -> None:
+        """Keep the random features of these rows (the TrainPool's: every candidate's fit has
+        the same paper's 45 there, only its own columns differ) once made: ``basis`` of rows
+        equal to them copies them instead of making them again, the same numbers."""
+        self._key = np.array(X[:, :N_FEATURE])
+        self._block = None
+
+    def _random(self, X: np.ndarray) -> np.ndarray:
+        Xb = (X[:, :N_FEATURE] - self.x_mean) / self.x_std
+        return math.sqrt(2.0 / self.W.shape[1]) * np.cos(Xb @ self.W + self.b)
 
     def basis(self, X: np.ndarray, mean: np.ndarray, std: np.ndarray) -> np.ndarray:
         """(n, M + F + 1): random features of the 45, every feature linear, a constant."""
         M = self.W.shape[1]
         B = np.empty((X.shape[0], M + X.shape[1] + 1))
-        Xb = (X[:, :N_FEATURE] - self.x_mean) / self.x_std
-        B[:, :M] = math.sqrt(2.0 / M) * np.cos(Xb @ self.W + self.b)
+        key = self._key
+        if (key is not None and X.shape[0] == key.shape[0]
+                and np.array_equal(X[:, :N_FEATURE], key)):
+            if self._block is None:
+                self._block = self._random(X)
+            B[:, :M] = self._block
+        else:
+            B[:, :M] = self._random(X)
         B[:, M:-1] = (X - mean) / std
         B[:, -1] = 1.0
         return B
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_block"] = None
+        return state
 
 
 class CrossFitModel:
@@ -307,7 +333,7 @@ class Evidence:
     ``odom[h]`` (R, 2) residual of the integrated (x_w, y_w), ``body[h]`` (R, 2) the same turned
     into the body frame of the start, ``move[h]`` (R,) move index, ``t0[h]`` (R,) start step.
     ``one_step`` (n, 33) held-out one-step residual and ``one_step_std`` (n, 33) the model's
-    predictive std there (raw units).
+    predictive std there (raw units); both None where not made (a candidate's probe).
     """
 
     horizons: tuple[int, ...]
@@ -316,8 +342,8 @@ class Evidence:
     body: dict[int, np.ndarray]
     move: dict[int, np.ndarray]
     t0: dict[int, np.ndarray]
-    one_step: np.ndarray
-    one_step_std: np.ndarray
+    one_step: np.ndarray | None
+    one_step_std: np.ndarray | None
     one_step_move: np.ndarray
 
     def sse(self, h: int, n_moves: int) -> np.ndarray:
@@ -386,9 +412,12 @@ def _roll(model: CrossFitModel, fold: int, fs: FeatureSet, mv: _Moves, idx: Sequ
 
 def rollout_evidence(model: CrossFitModel, fs: FeatureSet, mv: _Moves,
                      fold_of_move: np.ndarray | None, opts: LearnedOptions,
-                     X: np.ndarray, D: np.ndarray, move_index: np.ndarray) -> Evidence:
+                     X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
+                     one_step: bool = True) -> Evidence:
     """k-step rollouts of every move by the fit that did not see it (``fold_of_move``; None:
-    the fit on all moves, for held-out TestPool moves), and the one-step residuals of X, D."""
+    the fit on all moves, for held-out TestPool moves), and the one-step residuals of X, D
+    (``one_step`` False: not made, ``one_step`` and ``one_step_std`` None; a candidate's
+    decision uses the rollouts only)."""
     folds = np.full(mv.n, -1) if fold_of_move is None else np.asarray(fold_of_move)
     groups: dict[tuple[int, int], list[int]] = {}
     for m in range(mv.n):
@@ -401,10 +430,12 @@ def rollout_evidence(model: CrossFitModel, fs: FeatureSet, mv: _Moves,
         preds += list(p)
     per_move = [_horizon_steps(opts, mv.S[m].shape[0])[0] for m in range(mv.n)]
     hs = sorted({h for v in per_move for h in v})
-    ev = Evidence(tuple(hs), {}, {}, {}, {}, {}, np.empty(0), np.empty(0), move_index)
+    ev = Evidence(tuple(hs), {}, {}, {}, {}, {}, None, None, move_index)
     for h in hs:
         sel = [i for i, (m, t0, H) in enumerate(rows) if H >= h and h in per_move[m]]
         _horizon_residuals(ev, h, [rows[i] for i in sel], [preds[i] for i in sel], mv)
+    if not one_step:
+        return ev
     fr = folds[move_index]
     pred = np.empty_like(D)
     std = np.empty_like(D)
@@ -601,20 +632,22 @@ class _Route:
         D = Y - X[:, :N_STATE]
         ls = _length_scales(X, D, opts)
         self.design = _make_design(X, D, np.vstack(self.mv.S), opts, ls)
+        self.design.remember(X)
         self.h = _horizon_steps(opts, min(s.shape[0] for s in self.mv.S))[0]
         self.h_dec = min(self.h, key=lambda h: abs(h - opts.decision_horizon_s / CONTROL_DT))
 
-    def fit(self, fs: FeatureSet) -> tuple[CrossFitModel, Evidence]:
+    def fit(self, fs: FeatureSet, one_step: bool = True) -> tuple[CrossFitModel, Evidence]:
+        """The cross-fit of ``fs`` and its evidence (``one_step``: :func:`rollout_evidence`)."""
         X, Y, mi = fs.features_responses(self.train)
         D = Y - X[:, :N_STATE]
         model = CrossFitModel(self.design, self.opts.ridge).fit(
             X, D, self.fold_of_move[mi], self.opts.n_folds)
         return model, rollout_evidence(model, fs, self.mv, self.fold_of_move, self.opts, X, D,
-                                       mi)
+                                       mi, one_step)
 
     def probe(self, fs: FeatureSet, ev0: Evidence, aug: Augmentation, n_candidates: int
               ) -> _Probe:
-        _, ev1 = self.fit(fs.with_augmentation(aug))
+        _, ev1 = self.fit(fs.with_augmentation(aug), one_step=False)
         dec = decide(ev0, ev1, self.h_dec, self.mv.n, n_candidates, self.opts.alpha,
                      self.opts.min_gain, scope_elements(aug) if self.opts.scope_test else None)
         return _Probe(aug, float(np.sum(dec.state.gain) + dec.path.total_gain), dec)
@@ -1116,7 +1149,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             break
         first = _pick(ok, opts.tolerance, False)   # parsimony among near-equal families
         if ref_route is not None:      # a change goes first: the robot's own does not lead
-            _, ev_ref = ref_route.fit(fs)
+            _, ev_ref = ref_route.fit(fs, one_step=False)
             pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok))
                    for p in ok}
             changed = [p for p in ok if pre[p.aug.label()]["changed"]]
@@ -1181,7 +1214,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     the round contrasts."""
     from .stats import contrast_focus_p, contrast_test
     if ev_ref is None:                 # the reference's evidence without it, at ``fs``
-        _, ev_ref = ref_route.fit(fs)
+        _, ev_ref = ref_route.fit(fs, one_step=False)
     on_ref = ref_route.probe(fs, ev_ref, probe.aug, 1)
     focus = scope_elements(probe.aug) if route.opts.scope_test else None
     cuts = ((_move_gains(probe, focus), _move_gains(on_ref, focus)) if focus

@@ -212,6 +212,36 @@ def test_a_finding_the_reference_shows_as_much_is_no_change(data):
     assert not c["changed"] and c["p_change"] > 0.01 and c["reference_total_gain"] > 0, c
 
 
+def test_a_candidates_fit_reuses_the_random_features_and_skips_the_one_step_residuals(data):
+    """A candidate's fit copies the TrainPool's random features, made once per process (the
+    same numbers as made again; not pickled to a worker), and leaves out the one-step residuals
+    its decision does not use: its rollout evidence is the same bit for bit."""
+    import pickle
+
+    from littledog_mlsim.diagnose import learned
+    from littledog_mlsim.diagnose.candidates import measured_robot_features
+    train = load_moves(data["clean"], "train")
+    fs = measured_robot_features()
+    route = learned._Route(train, fs, SMALL, lambda s: None)
+    X, _, _ = fs.with_augmentation(Heading()).features_responses(train)
+    mean, std = X.mean(axis=0), X.std(axis=0) + 1.0
+    cached = route.design.basis(X, mean, std)
+    assert route.design._block is not None
+    again = replace(route.design, _key=None).basis(X, mean, std)
+    assert np.array_equal(cached, again)
+    shipped = pickle.loads(pickle.dumps(route.design))
+    assert shipped._block is None and np.array_equal(shipped.basis(X, mean, std), cached)
+    rows = route.design.basis(X[:7], mean, std)           # other rows: made, not copied
+    assert np.array_equal(rows, replace(route.design, _key=None).basis(X[:7], mean, std))
+    full = route.fit(fs.with_augmentation(Heading()))[1]
+    probe = route.fit(fs.with_augmentation(Heading()), one_step=False)[1]
+    assert probe.one_step is None and probe.one_step_std is None
+    assert full.one_step.shape == full.one_step_std.shape == (X.shape[0], 33)
+    for h in full.horizons:
+        for a, b in ((full.err, probe.err), (full.odom, probe.odom), (full.move, probe.move)):
+            assert np.array_equal(a[h], b[h])
+
+
 def test_a_shared_finding_is_carried_by_the_model_and_reported_as_no_change():
     """The report's side of a finding the reference shows as much: the report model carries it
     (``run._accepted``), the verdict and report.md say it is the robot's own."""
