@@ -252,7 +252,8 @@ def diagnose_options(a: argparse.Namespace) -> DiagnoseOptions:
         physics_options["scheduler"] = a.scheduler
     route = route_from_mode(a.physics, PhysicalRoute(physics_options),
                             LearnedRoute(search=search, max_rounds=a.max_rounds,
-                                         rollout=_rollout_options(a), scheduler=a.scheduler))
+                                         rollout=_rollout_options(a), scheduler=a.scheduler,
+                                         jobs=a.jobs))
     twin = None
     if a.twin is not None:
         from .robot.twin import robot_config_from
@@ -655,7 +656,8 @@ def build_parser() -> argparse.ArgumentParser:
                     default=[0.1, 0.5, 1.0, 4.0],
                     help="physics: reported error horizons [s] (default 0.1,0.5,1,4)")
     dg.add_argument("--jobs", type=int, default=2,
-                    help="physics: re-simulation worker processes (default 2)")
+                    help="worker processes: the physical route's re-simulations, the "
+                         "rollout route's probes (--rollout-route) (default 2)")
     dg.add_argument("--scheduler", default=None, metavar="ADDRESS",
                     help="re-simulate (physics) and roll out the rollout route's probes "
                          "(--rollout-route) on the workers of the Dask cluster at ADDRESS "

@@ -626,6 +626,7 @@ class _Route:
         self.train, self.opts, self.say = list(train), opts, say
         self.client = None        # a distributed.Client: probes run on its workers (``remote``)
         self._remote = None       # the future of this route on every worker
+        self.pool = None          # local worker processes: probes run there (``local``)
         self.mv = _moves(self.train)
         self.fold_of_move = move_folds(self.mv.types, opts.n_folds, opts.seed)
         X, Y, mi = start.features_responses(self.train)
@@ -656,6 +657,11 @@ class _Route:
                n_candidates: int) -> list[_Probe]:
         """``probe`` of every candidate, in order: here, or on the Dask workers (``remote``),
         one task per candidate; the same results either way."""
+        if self.pool is not None and augs:
+            light = replace(ev0, one_step=None, one_step_std=None)   # what a probe reads
+            n = len(augs)
+            return list(self.pool.map(_probe_local, [fs] * n, [light] * n, augs,
+                                      [n_candidates] * n))
         if self.client is None or not augs:
             return [self.probe(fs, ev0, a, n_candidates) for a in augs]
         ev = self.client.scatter([ev0], broadcast=True, hash=False)[0]
@@ -674,15 +680,40 @@ class _Route:
             self.close()
             raise
 
+    def local(self, jobs: int) -> None:
+        """Run the probes in ``jobs`` local worker processes (spawned, one BLAS thread each;
+        closed by ``close``): the route goes to each once, the current evidence with each
+        probe. The same results as here when this process runs one BLAS thread too."""
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        self.pool = ProcessPoolExecutor(int(jobs), multiprocessing.get_context("spawn"),
+                                        initializer=_start_worker, initargs=(self,))
+
     def close(self) -> None:
         if self.client is not None:
             self.client.close()
-        self.client, self._remote = None, None
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+        self.client, self._remote, self.pool = None, None, None
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()       # a worker's copy: no client, no progress callback
-        state.update(client=None, _remote=None, say=None)
+        state.update(client=None, _remote=None, say=None, pool=None)
         return state
+
+
+_WORKER: dict[str, Any] = {}      # a local worker process's route (``_Route.local``)
+
+
+def _start_worker(route: _Route) -> None:
+    from threadpoolctl import threadpool_limits
+    threadpool_limits(1)            # one BLAS thread per process, as Dask's workers
+    _WORKER["route"] = route
+
+
+def _probe_local(fs: FeatureSet, ev0: Evidence, aug: Augmentation, n_candidates: int
+                 ) -> _Probe:
+    return _WORKER["route"].probe(fs, ev0, aug, n_candidates)
 
 
 def _probe_remote(route: _Route, fs: FeatureSet, ev0: Evidence, aug: Augmentation,
@@ -1065,14 +1096,17 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
                      mass_kg: float | None = None,
                      progress: Callable[[str], None] | None = None,
                      scheduler: str | None = None,
-                     reference: Sequence[MoveRecording] | None = None) -> dict[str, Any]:
+                     reference: Sequence[MoveRecording] | None = None,
+                     jobs: int = 1) -> dict[str, Any]:
     """The learned route on TrainPool ``train_recs``, scored on TestPool ``test_recs``; returns
     the report dict of the module doc. ``start``: the model's feature set before the search
     (default :func:`.candidates.measured_robot_features`); ``library``: the family probes
     (default :func:`family_probes`); ``mass_kg``: the robot's total mass (default the
     guide's, from :mod:`..robot.config`); ``scheduler``: the address of a Dask scheduler
     whose workers run the probes (each a cross-fit and its held-out rollouts), with the same
-    report (``seconds`` aside) as here. ``reference``: the TrainPool of a recording of the same
+    report (``seconds`` aside) as here; else ``jobs`` > 1 local worker processes run them
+    (:meth:`_Route.local`; this process then runs one BLAS thread, as they do, and the report
+    is the same as with one job at one BLAS thread). ``reference``: the TrainPool of a recording of the same
     robot before the change; an effect is then reported only if it cuts the data's held-out
     rollout error more than the reference's (:func:`contrast`), and one that does not is the
     robot's own: carried by the model, listed under ``reference.shared``."""
@@ -1090,12 +1124,20 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     if scheduler:              # an unreachable scheduler: a ValueError of one line, at once
         from ..models.parallel import connect_client
         client = connect_client(scheduler)
+    if int(jobs) < 1:
+        raise ValueError(f"diagnose_learned: jobs must be >= 1, got {jobs}")
     route = None
     try:
         route = _Route(train_recs, start, opts, say)
         ref_route = None if reference is None else _Route(reference, start, opts, say)
         if client is not None:
             route.remote(client)
+        elif int(jobs) > 1:
+            route.local(int(jobs))
+            from threadpoolctl import threadpool_limits
+            with threadpool_limits(1):
+                return _search(route, train_recs, test_recs, start, lib, opts, mass_kg,
+                               t_start, ref_route)
         return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start,
                        ref_route)
     finally:

@@ -52,7 +52,8 @@ class LearnedRoute:
     default its family probes) and add what it accepts to the report model; None: not. Opt-in: on
     clean data recorded with command excitation it still takes the robot's own command response
     for an effect (``benchmarks/learned_route/README.md``). ``scheduler``: the address of a Dask
-    scheduler whose workers run the rollout search's probes (the same report)."""
+    scheduler whose workers run the rollout search's probes (the same report); else ``jobs``
+    local processes run them (1: this process)."""
 
     search: SearchModel | None = None
     library: Sequence[Any] | None = None
@@ -60,6 +61,7 @@ class LearnedRoute:
     rollout: Any = None
     rollout_library: Sequence[Any] | None = None
     scheduler: str | None = None
+    jobs: int = 1
     name = "learned"
 
 

@@ -233,7 +233,7 @@ def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet) -> dict[st
     from .learned import diagnose_learned
     return diagnose_learned(run.train, run.test, start=start, options=route.rollout,
                             library=route.rollout_library, progress=run.say,
-                            scheduler=route.scheduler,
+                            scheduler=route.scheduler, jobs=route.jobs,
                             reference=_reference_moves(run) if run.o.reference else None)
 
 

@@ -281,6 +281,22 @@ def test_probes_on_a_dask_cluster_give_the_local_report(data, clean_report):
         json.dumps(local, sort_keys=True, default=str)
 
 
+def test_probes_in_local_worker_processes_give_the_one_job_report(data, clean_report):
+    """``jobs`` 2: the probes in two spawned worker processes (the route sent to each once);
+    the report is the one-job one (wall time aside). The suite runs one BLAS thread, as the
+    workers do."""
+    two = diagnose_learned(load_moves(data["clean"], "train"), load_moves(data["clean"], "test"),
+                           options=SMALL, library=LIBRARY, jobs=2)
+    local = dict(clean_report)
+    assert two.pop("seconds") > 0 and local.pop("seconds") > 0
+    assert len(two["rounds"][0]["probes"]) == len(LIBRARY)
+    assert json.dumps(two, sort_keys=True, default=str) == \
+        json.dumps(local, sort_keys=True, default=str)
+    with pytest.raises(ValueError, match="jobs must be >= 1"):
+        diagnose_learned(load_moves(data["clean"], "train"), load_moves(data["clean"], "test"),
+                         options=SMALL, library=LIBRARY, jobs=0)
+
+
 def test_unreachable_scheduler_is_one_line(data):
     with pytest.raises(ValueError, match="cannot connect to the Dask scheduler tcp://127.0.0.1:9"):
         diagnose_learned(load_moves(data["clean"], "train"), load_moves(data["clean"], "test"),
