@@ -705,6 +705,15 @@ class _Route:
 _WORKER: dict[str, Any] = {}      # a local worker process's route (``_Route.local``)
 
 
+def _one_blas_thread(on: bool):
+    """A context of one BLAS thread (``on``), else of the BLAS threads as they are."""
+    if not on:
+        from contextlib import nullcontext
+        return nullcontext()
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(1)
+
+
 def _start_worker(route: _Route) -> None:
     from threadpoolctl import threadpool_limits
     threadpool_limits(1)            # one BLAS thread per process, as Dask's workers
@@ -1105,8 +1114,9 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     guide's, from :mod:`..robot.config`); ``scheduler``: the address of a Dask scheduler
     whose workers run the probes (each a cross-fit and its held-out rollouts), with the same
     report (``seconds`` aside) as here; else ``jobs`` > 1 local worker processes run them
-    (:meth:`_Route.local`; this process then runs one BLAS thread, as they do, and the report
-    is the same as with one job at one BLAS thread). ``reference``: the TrainPool of a recording of the same
+    (:meth:`_Route.local`; the whole search then runs one BLAS thread in this process too, as
+    in the workers, and the report is the same as with one job at one BLAS thread, e.g.
+    ``OPENBLAS_NUM_THREADS=1``). ``reference``: the TrainPool of a recording of the same
     robot before the change; an effect is then reported only if it cuts the data's held-out
     rollout error more than the reference's (:func:`contrast`), and one that does not is the
     robot's own: carried by the model, listed under ``reference.shared``."""
@@ -1120,26 +1130,24 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     t_start = time.perf_counter()
     start = measured_robot_features() if start is None else start
     lib = list(family_probes() if library is None else library)
+    if int(jobs) < 1:
+        raise ValueError(f"diagnose_learned: jobs must be >= 1, got {jobs}")
     client = None
     if scheduler:              # an unreachable scheduler: a ValueError of one line, at once
         from ..models.parallel import connect_client
         client = connect_client(scheduler)
-    if int(jobs) < 1:
-        raise ValueError(f"diagnose_learned: jobs must be >= 1, got {jobs}")
+    local = client is None and int(jobs) > 1
     route = None
     try:
-        route = _Route(train_recs, start, opts, say)
-        ref_route = None if reference is None else _Route(reference, start, opts, say)
-        if client is not None:
-            route.remote(client)
-        elif int(jobs) > 1:
-            route.local(int(jobs))
-            from threadpoolctl import threadpool_limits
-            with threadpool_limits(1):
-                return _search(route, train_recs, test_recs, start, lib, opts, mass_kg,
-                               t_start, ref_route)
-        return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start,
-                       ref_route)
+        with _one_blas_thread(local):    # the whole search, as the workers run it
+            route = _Route(train_recs, start, opts, say)
+            ref_route = None if reference is None else _Route(reference, start, opts, say)
+            if client is not None:
+                route.remote(client)
+            elif local:
+                route.local(int(jobs))
+            return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start,
+                           ref_route)
     finally:
         if route is not None:
             route.close()
