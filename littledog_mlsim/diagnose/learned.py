@@ -30,8 +30,9 @@ Method
    cross-fit and the rollouts are repeated, and the per-move rollout SSE at ``decision_horizon_s``
    with and without it go to :func:`.selection.sse_decision` (one-sided t-tests over moves of
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
-   a probe scoped to some joints adds a rank test of its joints' q and dq cut,
-   :func:`.stats.focus_p`, as a third, ``scope_test``;
+   a probe of a family with a joint scope adds a rank test of its joints' q and dq cut,
+   :func:`.stats.focus_p`, as a third, ``scope_test``; at all joints over every joint's,
+   ``focus_all``;
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
    (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
@@ -47,7 +48,7 @@ Method
    joint of the leg, type or side kept: :func:`_joint_members`) and its
    parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
-   move, :func:`_widen`), then added; the next round screens the rest. A round whose
+   move, in total or on the joints it adds, ``widen_focus``, :func:`_widen`), then added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
    scope whose full-scope probe gained (:func:`screen_narrower`): an effect on one leg or
    joint type is diluted at full scope. The narrower screen spends a quarter of alpha and the
@@ -159,6 +160,8 @@ class LearnedOptions:
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
     scope_test: bool = True      # a scoped probe's state test also ranks its joints' elements
+    focus_all: bool = True       # ... and so does a probe of all joints (every joint's q, dq)
+    widen_focus: bool = True     # widening also tests the added joints' q, dq move by move
     seed: int = 0
 
 
@@ -578,12 +581,12 @@ class _Decision:
         return list(self.state.outputs) + path
 
 
-def scope_elements(aug: Augmentation) -> list[int] | None:
+def scope_elements(aug: Augmentation, all_joints: bool = False) -> list[int] | None:
     """The state elements (q and dq) of the joints a scoped candidate acts on: the focus of
-    :func:`.stats.decide`'s third test; None for all joints or a family without a joint
-    scope."""
+    :func:`.stats.decide`'s third test; None for a family without a joint scope, and for all
+    joints unless ``all_joints`` (``LearnedOptions.focus_all``: then every joint's q and dq)."""
     j = aug.params().get("joints")
-    if j is None or j == "all":
+    if j is None or (j == "all" and not all_joints):
         return None
     idx = list(JOINT_GROUPS[j])
     return [S.q.start + k for k in idx] + [S.dq.start + k for k in idx]
@@ -650,7 +653,8 @@ class _Route:
               ) -> _Probe:
         _, ev1 = self.fit(fs.with_augmentation(aug), one_step=False)
         dec = decide(ev0, ev1, self.h_dec, self.mv.n, n_candidates, self.opts.alpha,
-                     self.opts.min_gain, scope_elements(aug) if self.opts.scope_test else None)
+                     self.opts.min_gain,
+                     scope_elements(aug, self.opts.focus_all) if self.opts.scope_test else None)
         return _Probe(aug, float(np.sum(dec.state.gain) + dec.path.total_gain), dec)
 
     def probes(self, fs: FeatureSet, ev0: Evidence, augs: Sequence[Augmentation],
@@ -747,11 +751,17 @@ def _move_gains(p: _Probe, elements: Sequence[int] | None = None) -> np.ndarray:
     return (d if elements is None else d[:, list(elements)]).sum(axis=1)
 
 
-def _wider_p(cur: _Probe, tried: Sequence[_Probe]) -> dict[str, float]:
+def _wider_p(cur: _Probe, tried: Sequence[_Probe], added: bool = False) -> dict[str, float]:
     """For each tried scope whose joints strictly contain ``cur``'s: the one-sided Wilcoxon
     signed-rank p that it gains more move by move (per move, its held-out state gain minus
-    ``cur``'s), times the number of such scopes (capped at 1)."""
+    ``cur``'s), times the number of such scopes (capped at 1). ``added``
+    (``LearnedOptions.widen_focus``): also the same test on the q and dq of the joints the wider
+    scope adds, where their own columns act and the rest of the state adds only noise; the p
+    is then 2 min of the two."""
     from scipy.stats import wilcoxon
+
+    def greater(diff: np.ndarray) -> float:
+        return float(wilcoxon(diff, alternative="greater").pvalue) if np.any(diff != 0) else 1.0
     if "joints" not in cur.aug.params():
         return {}
     inner = set(JOINT_GROUPS[cur.aug.joints])
@@ -759,23 +769,26 @@ def _wider_p(cur: _Probe, tried: Sequence[_Probe]) -> dict[str, float]:
              and set(JOINT_GROUPS[p.aug.joints]) > inner]
     out = {}
     for p in wider:
-        diff = _move_gains(p) - _move_gains(cur)
-        pv = float(wilcoxon(diff, alternative="greater").pvalue) if np.any(diff != 0) else 1.0
+        pv = greater(_move_gains(p) - _move_gains(cur))
+        if added:
+            extra = sorted(set(JOINT_GROUPS[p.aug.joints]) - inner)
+            el = [S.q.start + k for k in extra] + [S.dq.start + k for k in extra]
+            pv = min(1.0, 2.0 * min(pv, greater(_move_gains(p, el) - _move_gains(cur, el))))
         out[p.aug.label()] = min(1.0, pv * len(wider))
     return out
 
 
-def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float
+def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float, added: bool = False
            ) -> tuple[_Probe, dict[str, float]]:
     """The parsimonious scope, widened while a tried scope whose joints strictly contain it
-    gains more move by move (:func:`_wider_p` below ``alpha``; of those that pass, the one with
-    the larger total gain); and the wider scopes' p against the scope kept. A drift on every
-    joint that matters most in the knees keeps the knees within the parsimony tolerance of all
-    joints; where the hips' share shows on most moves, all joints are taken, and where it does
-    not, the report says the data cannot tell the two apart."""
+    gains more move by move (:func:`_wider_p` below ``alpha``, ``added`` as there; of those
+    that pass, the one with the larger total gain); and the wider scopes' p against the scope
+    kept. A drift on every joint that matters most in the knees keeps the knees within the
+    parsimony tolerance of all joints; where the hips' share shows on most moves, all joints
+    are taken, and where it does not, the report says the data cannot tell the two apart."""
     cur = chosen
     while True:
-        ps = _wider_p(cur, tried)
+        ps = _wider_p(cur, tried, added)
         passed = [p for p in tried if ps.get(p.aug.label(), 1.0) < alpha]
         if not passed:
             return cur, ps
@@ -803,12 +816,12 @@ def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candi
     made = {p.aug.label(): p for p in new}
     tried = [first] + [have.get(a.label()) or made[a.label()] for a in members]
     scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
-                           route.opts.scope_alpha)
+                           route.opts.scope_alpha, route.opts.widen_focus)
     joints = _joint_members(scoped.aug) if route.opts.joint_scopes else []
     if joints:     # one joint of the leg, type or side kept, if it carries the gain
         tried += route.probes(fs, ev0, joints, n_candidates)
         scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
-                               route.opts.scope_alpha)
+                               route.opts.scope_alpha, route.opts.widen_focus)
     params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
     best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
     scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
@@ -1200,7 +1213,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         first = _pick(ok, opts.tolerance, False)   # parsimony among near-equal families
         if ref_route is not None:      # a change goes first: the robot's own does not lead
             _, ev_ref = ref_route.fit(fs, one_step=False)
-            pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok))
+            pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok),
+                                           _focus_choices(p.aug))
                    for p in ok}
             changed = [p for p in ok if pre[p.aug.label()]["changed"]]
             if not changed and len(shared) == opts.max_shared:
@@ -1247,6 +1261,12 @@ def _confounded_why(spread: Mapping[str, Any]) -> str:
             "move's progress, and no plane through the body heights backs an inclined floor")
 
 
+def _focus_choices(aug: Augmentation) -> int:
+    """The scopes a screened probe's focus was chosen among on the data: one at full scope
+    (screened before any scope), the narrower screen's nine otherwise."""
+    return 1 if aug.params().get("joints") == "all" else len(SCOPES)
+
+
 def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
              ev_ref: Evidence | None = None, n_contrasts: int = 1,
              focus_choices: int = len(SCOPES)) -> dict[str, Any]:
@@ -1266,7 +1286,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     if ev_ref is None:                 # the reference's evidence without it, at ``fs``
         _, ev_ref = ref_route.fit(fs, one_step=False)
     on_ref = ref_route.probe(fs, ev_ref, probe.aug, 1)
-    focus = scope_elements(probe.aug) if route.opts.scope_test else None
+    focus = scope_elements(probe.aug, route.opts.focus_all) if route.opts.scope_test else None
     cuts = ((_move_gains(probe, focus), _move_gains(on_ref, focus)) if focus
             else (None, None))
     p_state, p_path, p = contrast_test(

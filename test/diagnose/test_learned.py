@@ -360,6 +360,40 @@ def test_the_scope_widens_only_where_the_wider_scope_gains_on_most_moves():
     assert _scope_rivals(scan[:1], 0.1, 0.01) == []    # no scope kept (the fallback)
 
 
+def test_widen_focus_takes_all_joints_where_the_added_joints_own_error_falls():
+    """``widen_focus``: a drift on every joint kept at the right side by parsimony (the side
+    carries nearly all the total gain, and all joints' extra total gain is noise move by
+    move) is widened to all joints when the left joints' own q and dq error falls on most
+    moves with all joints' columns; without the option, or where the left joints' cut is
+    noise too, the side stays."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose.learned import _widen
+    from littledog_mlsim.layout import S
+    from littledog_mlsim.models.feature_library import JOINT_GROUPS
+    rng = np.random.default_rng(3)
+    M = 60
+    left = [S.q.start + k for k in JOINT_GROUPS["left"]] + [
+        S.dq.start + k for k in JOINT_GROUPS["left"]]
+
+    def probe(joints, d):
+        return SimpleNamespace(aug=ElapsedTracking(joints=joints), total_gain=float(
+            d.sum(axis=1).mean()), decision=SimpleNamespace(state=SimpleNamespace(d=d)))
+    base = np.abs(rng.normal(0.003, 0.001, (M, 33)))
+    right = probe("right", base)
+    sd = np.full(33, 0.03)                # the rest of the state: noise move by move
+    sd[left] = 0.002
+
+    def noisy(shift):
+        d = base + sd * rng.standard_normal((M, 33))
+        d[:, left] += shift
+        return d
+    everywhere = probe("all", noisy(0.002))              # the left joints gain
+    assert _widen(right, [everywhere, right], 0.01)[0] is right
+    assert _widen(right, [everywhere, right], 0.01, added=True)[0] is everywhere
+    assert _widen(right, [probe("all", noisy(0.0)), right], 0.01, added=True)[0] is right
+
+
 def test_a_kept_leg_narrows_to_the_joint_that_carries_the_gain():
     """The scope stage of ``_refine`` tries the single joints of a kept leg, joint type or side:
     play on one hip pitch is named at that joint, not at its leg; where the leg's other joints
@@ -628,3 +662,26 @@ def test_moves_to_settle_scales_the_evidence_with_the_moves():
     assert s["recording"].endswith(
         f"about {near[0][1]} TrainPool moves per type instead of 4 (record --moves-per-type "
         f"{record_moves_per_type(near[0][1])})"), s["recording"]
+
+
+def test_focus_all_ranks_every_joints_elements_for_a_probe_of_all_joints():
+    """``LearnedOptions.focus_all``: a probe of all joints gets the focus test too, over every
+    joint's q and dq (24 elements), so its state test is Bonferroni over three tests, as a
+    scoped probe's; a family without joints never has one. Against a reference, a full-scope
+    probe's focus was chosen among no scopes (``_focus_choices`` 1), a narrower one's among the
+    screen's nine."""
+    from littledog_mlsim.diagnose.learned import SCOPES, _focus_choices, scope_elements
+    from littledog_mlsim.layout import JOINT_NAMES, S, STATE_NAMES
+    lag = CommandLag(lag=2)
+    assert scope_elements(lag) is None
+    every = scope_elements(lag, all_joints=True)
+    assert sorted(STATE_NAMES[i] for i in every) == sorted(
+        [STATE_NAMES[S.q.start + k] for k in range(len(JOINT_NAMES))]
+        + [STATE_NAMES[S.dq.start + k] for k in range(len(JOINT_NAMES))])
+    assert len(every) == 2 * len(JOINT_NAMES)
+    assert scope_elements(replace(lag, joints="back_left"), all_joints=True) == scope_elements(
+        replace(lag, joints="back_left"))
+    assert scope_elements(Heading(), all_joints=True) is None
+    assert _focus_choices(lag) == 1 and _focus_choices(Heading()) == len(SCOPES)
+    assert _focus_choices(replace(lag, joints="knees")) == len(SCOPES)
+    assert LearnedOptions().focus_all and LearnedOptions().widen_focus
