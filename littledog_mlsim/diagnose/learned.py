@@ -97,7 +97,7 @@ second way to settle it;
 With a reference (a recording of the same robot before the change), each accepted effect also
 has ``reference`` (:func:`contrast`: ``reference_total_gain``, ``reference_p_value``,
 ``reference_significant``, ``p_state``, ``p_path``, ``p_focus`` and ``focus_choices`` for a
-candidate scoped to some joints, ``p_change``, ``changed``), and the report
+candidate of a family with a joint scope, ``p_change``, ``changed``), and the report
 has ``reference``: ``{n_moves, shared}``, where ``shared`` lists, in the form of ``effects``,
 what the search accepted but the reference shows as much (not a change; the model carries it,
 and ``significant`` does not count it).
@@ -121,7 +121,7 @@ from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedT
                                GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
 from ..models.feature_library import JOINT_GROUPS, ElapsedTracking, SwingRate
 from .selection import SearchModel, move_folds
-from .stats import PathTest, path_test, sse_decision
+from .stats import PathTest, contrast_combined, path_test, sse_decision
 
 __all__ = ["LearnedOptions", "CrossFitModel", "Evidence", "diagnose_learned", "family_probes",
            "rollout_evidence", "residual_structure", "physical_statement", "contrast", "SCOPES",
@@ -781,15 +781,16 @@ def _wider_p(cur: _Probe, tried: Sequence[_Probe], added: bool = False) -> dict[
 def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float, added: bool = False
            ) -> tuple[_Probe, dict[str, float]]:
     """The parsimonious scope, widened while a tried scope whose joints strictly contain it
-    gains more move by move (:func:`_wider_p` below ``alpha``, ``added`` as there; of those
-    that pass, the one with the larger total gain); and the wider scopes' p against the scope
-    kept. A drift on every joint that matters most in the knees keeps the knees within the
+    gains more move by move (:func:`_wider_p` below ``alpha``, ``added`` as there) and at
+    least as much in total (of those that pass, the one with the larger total gain); and the
+    wider scopes' p against the scope kept. A drift on every joint that matters most in the knees keeps the knees within the
     parsimony tolerance of all joints; where the hips' share shows on most moves, all joints
     are taken, and where it does not, the report says the data cannot tell the two apart."""
     cur = chosen
     while True:
         ps = _wider_p(cur, tried, added)
-        passed = [p for p in tried if ps.get(p.aug.label(), 1.0) < alpha]
+        passed = [p for p in tried if ps.get(p.aug.label(), 1.0) < alpha
+                  and p.total_gain >= cur.total_gain]
         if not passed:
             return cur, ps
         cur = max(passed, key=lambda p: p.total_gain)
@@ -1193,7 +1194,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
         last = route.probes(fs, ev, todo, n_full)
         rounds.append({"round": k, "probes": [p.to_dict() for p in last]})
-        ok = [p for p in last if p.decision.significant and p.decision.material]
+        ok = [p for p in last if _accepted(p)]
         if position_unsupported:       # position stands for the move's type and progress
             confounded += [p for p in ok if isinstance(p.aug, PlanarPosition)]
             ok = [p for p in ok if not isinstance(p.aug, PlanarPosition)]
@@ -1202,7 +1203,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         if not ok and n_scoped:        # an effect on a few joints, diluted at full scope
             scoped = screen_narrower(route, fs, ev, last, n_scoped)
             rounds[-1]["scoped"] = [p.to_dict() for p in scoped]
-            ok = [p for p in scoped if p.decision.significant and p.decision.material]
+            ok = [p for p in scoped if _accepted(p)]
             last = last + scoped
             if scoped:
                 say(f"round {k}, narrower scopes: " + ", ".join(
@@ -1223,14 +1224,15 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             say(f"round {k}: against the reference: " + ", ".join(
                 f"{lab} p(change) {c['p_change']:.2g}" for lab, c in pre.items()))
         best, scan = _refine(route, fs, ev, first, n_full, last)
-        if not (best.decision.significant and best.decision.material):
+        if not _accepted(best):
             best = first
             scan = [{k: v for k, v in e.items() if k not in ("p_wider", "kept_scope")}
                     for e in scan]   # the scope compared was not kept
         if ref_route is not None:
-            c = pre.get(best.aug.label()) or contrast(
-                route, ref_route, fs, best, ev_ref, len(ok),
-                len(SCOPES) + sum(e.get("stage") == "scope" for e in scan))
+            choices = len(SCOPES) + sum(e.get("stage") == "scope" for e in scan)
+            c = pre.get(best.aug.label())
+            c = (contrast(route, ref_route, fs, best, ev_ref, len(ok), choices) if c is None
+                 else _chosen_among(c, choices, route.opts.contrast_alpha))
             contrasts[best.aug.label()] = c
             say(f"round {k}: {best.aug.label()} gain {best.total_gain:+.2f} here, "
                 f"{c['reference_total_gain']:+.2f} on the reference: p(change) {c['p_change']:.2g}")
@@ -1254,6 +1256,31 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     return report
 
 
+def _accepted(p: _Probe) -> bool:
+    """A probe a round may take: significant, material, and cutting the held-out rollout error
+    in total (a rank test can pass on most moves, and one element be cut by the minimum,
+    while the few moves that carry most of the error get worse)."""
+    return bool(p.decision.significant and p.decision.material and p.total_gain > 0)
+
+
+#: a suspect's ``why`` where it is significant and material but raises the total error
+NO_TOTAL_GAIN = ("significant and material, but it raises the total held-out rollout error "
+                 "(total gain <= 0)")
+
+
+def _chosen_among(c: dict[str, Any], focus_choices: int, contrast_alpha: float
+                  ) -> dict[str, Any]:
+    """A screen's contrast ``c`` of the probe the scope stage kept, its focus test now
+    Bonferroni over the ``focus_choices`` scopes it was kept among (never fewer than the
+    screen's own); ``p_change`` and ``changed`` again from the same tests."""
+    if "p_focus" not in c:
+        return c
+    choices = max(int(focus_choices), int(c["focus_choices"]))
+    p = contrast_combined(c["p_state"], c["p_path"], c["p_focus"], choices)
+    return {**c, "p_change": p, "focus_choices": choices,
+            "changed": bool(min(1.0, p * c["n_contrasts"]) < contrast_alpha)}
+
+
 def _confounded_why(spread: Mapping[str, Any]) -> str:
     return (f"significant and material, but every move starts within {spread['xy_sd_m']:.3f} m "
             f"(SD) and {spread['heading_sd_rad']:.2f} rad of the others, so where a move is "
@@ -1273,11 +1300,12 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     """Does ``probe``'s candidate gain more on the data than on the reference? The candidate
     is added to ``fs`` on the reference's TrainPool too (the same cross-fit and held-out
     rollouts); each move's state cut and path log ratio of the two datasets are compared by
-    :func:`.stats.contrast_test`, and, for a candidate scoped to some joints (with
-    ``scope_test``), its cut over their elements too (``p_focus``, unadjusted; a one-joint
-    change is otherwise diluted in the sum over 33 elements), Bonferroni over the
-    ``focus_choices`` scopes it was chosen among on the data (default the narrower screen's
-    nine). ``changed``: p_change x ``n_contrasts`` (the candidates the
+    :func:`.stats.contrast_test`, and, for a candidate of a family with a joint scope (with
+    ``scope_test``; at full scope with ``focus_all``), its cut over its joints' elements too
+    (``p_focus``, unadjusted; a one-joint change is otherwise diluted in the sum over 33
+    elements), Bonferroni over the ``focus_choices`` scopes it was chosen among on the data
+    (default the narrower screen's nine; :func:`_focus_choices` for a screened probe,
+    :func:`_chosen_among` once the scope stage has kept it among more). ``changed``: p_change x ``n_contrasts`` (the candidates the
     round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
     robot's own, not a change since the reference. The candidate itself has already passed
     the screen at ``alpha``; the contrast asks only whether it is new, one test per candidate
@@ -1337,7 +1365,7 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
                                   route.h_dec, opts)
     per_type = train_per_type(route.mv)
     suspected = [_suspect(p, per_type, n_reference is not None)
-                 for p in last if not (p.decision.significant and p.decision.material)
+                 for p in last if not _accepted(p)
                  and (p.decision.significant or (p.decision.material or
                                                  p.decision.p_value < 10 * opts.alpha))]
     report = {"route": "learned", "significant": bool(found), "effects": effects,
@@ -1420,7 +1448,8 @@ def _suspect(p: _Probe, per_type: float, reference: bool) -> dict[str, Any]:
     (:func:`moves_to_settle`: TrainPool moves per type) and, as a second way to settle it,
     the same kinds of moves, more of them (the ``record --moves-per-type`` that gives them)."""
     from .families.learned import physical_reading
-    entry = {**p.to_dict(), "why": ("significant but below the materiality minimum"
+    entry = {**p.to_dict(), "why": (NO_TOTAL_GAIN if p.decision.material else
+                                    "significant but below the materiality minimum"
                                     if p.decision.significant else
                                     "not significant at alpha (p within 10 alpha)"),
              "recording": _family_recording(p.aug, reference),

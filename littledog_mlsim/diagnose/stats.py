@@ -240,10 +240,18 @@ def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
 
     p_state = _welch_greater(np.asarray(cuts, float), np.asarray(cuts_ref, float))
     p_path = mwu(np.asarray(ratios, float), np.asarray(ratios_ref, float))
-    if focus_cuts is None:
-        return p_state, p_path, min(1.0, 2.0 * min(p_state, p_path))
-    p_focus = min(1.0, max(1, int(focus_choices)) * contrast_focus_p(focus_cuts, focus_cuts_ref))
-    return p_state, p_path, min(1.0, 3.0 * min(p_state, p_path, p_focus))
+    p_focus = None if focus_cuts is None else contrast_focus_p(focus_cuts, focus_cuts_ref)
+    return p_state, p_path, contrast_combined(p_state, p_path, p_focus, focus_choices)
+
+
+def contrast_combined(p_state: float, p_path: float, p_focus: float | None = None,
+                      focus_choices: int = 1) -> float:
+    """:func:`contrast_test`'s ``p`` from its tests' unadjusted p: 2 min(p_state, p_path), or
+    with a focus test 3 min(p_state, p_path, ``focus_choices`` x p_focus), capped at 1."""
+    if p_focus is None:
+        return min(1.0, 2.0 * min(p_state, p_path))
+    p_focus = min(1.0, max(1, int(focus_choices)) * float(p_focus))
+    return min(1.0, 3.0 * min(p_state, p_path, p_focus))
 
 
 def contrast_focus_p(focus_cuts: np.ndarray, focus_cuts_ref: np.ndarray) -> float:

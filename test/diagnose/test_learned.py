@@ -392,6 +392,49 @@ def test_widen_focus_takes_all_joints_where_the_added_joints_own_error_falls():
     assert _widen(right, [everywhere, right], 0.01)[0] is right
     assert _widen(right, [everywhere, right], 0.01, added=True)[0] is everywhere
     assert _widen(right, [probe("all", noisy(0.0)), right], 0.01, added=True)[0] is right
+    # a wider scope whose added joints gain but whose total is below the kept one's stays out
+    lower = probe("all", noisy(0.002) - 0.01)
+    assert lower.total_gain < right.total_gain
+    assert _widen(right, [lower, right], 0.01, added=True)[0] is right
+
+
+def test_a_round_takes_only_what_cuts_the_total_and_recounts_a_kept_scopes_focus_choices():
+    """A probe significant and material on some elements that raises the total held-out
+    rollout error is not taken (``_accepted``): it is a suspect that says so. A screen's
+    contrast reused for the scope the stage kept is Bonferroni over the scopes it was kept
+    among (``_chosen_among``), from the same tests (``stats.contrast_combined``, the ``p`` of
+    ``contrast_test``)."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose.learned import (NO_TOTAL_GAIN, _accepted, _chosen_among,
+                                                  _suspect)
+    from littledog_mlsim.diagnose.stats import (contrast_combined, contrast_focus_p,
+                                                contrast_test)
+    rng = np.random.default_rng(5)
+    d = _synthetic_decision(rng, 40, 0.6)
+    assert d.significant and d.material
+    good = SimpleNamespace(aug=CommandLag(lag=2), decision=d, total_gain=0.3,
+                           to_dict=lambda: {"label": "command_lag"})
+    worse = SimpleNamespace(aug=CommandLag(lag=2), decision=d, total_gain=-0.1,
+                            to_dict=lambda: {"label": "command_lag"})
+    assert _accepted(good) and not _accepted(worse)
+    assert _suspect(worse, 7.0, reference=False)["why"] == NO_TOTAL_GAIN
+    a, b, fa, fb = (rng.normal(0.02, 0.05, 40), rng.normal(0.0, 0.05, 40),
+                    rng.normal(0.03, 0.05, 40), rng.normal(0.0, 0.05, 40))
+    ra, rb = rng.normal(0.1, 0.3, 40), rng.normal(0.0, 0.3, 40)
+    for choices in (1, 9, 14):
+        p_state, p_path, p = contrast_test(a, b, ra, rb, fa, fb, focus_choices=choices)
+        assert p == contrast_combined(p_state, p_path, contrast_focus_p(fa, fb), choices)
+    p_state, p_path, p1 = contrast_test(a, b, ra, rb, fa, fb, focus_choices=1)
+    c = {"p_state": p_state, "p_path": p_path, "p_focus": contrast_focus_p(fa, fb),
+         "focus_choices": 1, "p_change": p1, "n_contrasts": 2, "changed": True}
+    again = _chosen_among(c, 12, 0.01)
+    assert again["focus_choices"] == 12
+    assert again["p_change"] == contrast_combined(p_state, p_path, c["p_focus"], 12) >= p1
+    assert again["changed"] == (min(1.0, 2 * again["p_change"]) < 0.01)
+    assert _chosen_among({**c, "focus_choices": 20}, 12, 0.01)["focus_choices"] == 20
+    no_focus = {k: v for k, v in c.items() if k not in ("p_focus", "focus_choices")}
+    assert _chosen_among(no_focus, 12, 0.01) is no_focus
 
 
 def test_a_kept_leg_narrows_to_the_joint_that_carries_the_gain():
