@@ -31,8 +31,8 @@ Method
    with and without it go to :func:`.selection.sse_decision` (one-sided t-tests over moves of
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
    a probe of a family with a joint scope adds a rank test of its joints' q and dq cut,
-   :func:`.stats.focus_p`, as a third, ``scope_test``; at all joints over every joint's,
-   ``focus_all``;
+   :func:`.stats.focus_p`, as a third, ``scope_test``; at all joints over every joint's
+   with ``focus_all`` (off: zoo11 run11);
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
    (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
@@ -48,7 +48,8 @@ Method
    joint of the leg, type or side kept: :func:`_joint_members`) and its
    parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
-   move, in total or on the joints it adds, ``widen_focus``, :func:`_widen`), then added; the next round screens the rest. A round whose
+   move, in total or, with ``widen_focus`` (off), on the joints it adds, :func:`_widen`), then
+   added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
    scope whose full-scope probe gained (:func:`screen_narrower`): an effect on one leg or
    joint type is diluted at full scope. The narrower screen spends a quarter of alpha and the
@@ -160,8 +161,8 @@ class LearnedOptions:
     contrast_alpha: float = 0.01  # with a reference: changed if p x the round's contrasts < it
     joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
     scope_test: bool = True      # a scoped probe's state test also ranks its joints' elements
-    focus_all: bool = True       # ... and so does a probe of all joints (every joint's q, dq)
-    widen_focus: bool = True     # widening also tests the added joints' q, dq move by move
+    focus_all: bool = False      # ... and so does a probe of all joints (every joint's q, dq)
+    widen_focus: bool = False    # widening also tests the added joints' q, dq move by move
     seed: int = 0
 
 
