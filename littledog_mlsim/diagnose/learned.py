@@ -784,9 +784,10 @@ def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float, added: bool = 
     """The parsimonious scope, widened while a tried scope whose joints strictly contain it
     gains more move by move (:func:`_wider_p` below ``alpha``, ``added`` as there) and at
     least as much in total (of those that pass, the one with the larger total gain); and the
-    wider scopes' p against the scope kept. A drift on every joint that matters most in the knees keeps the knees within the
-    parsimony tolerance of all joints; where the hips' share shows on most moves, all joints
-    are taken, and where it does not, the report says the data cannot tell the two apart."""
+    wider scopes' p against the scope kept. A drift on every joint that matters most in the
+    knees keeps the knees within the parsimony tolerance of all joints; where the hips' share
+    shows on most moves, all joints are taken, and where it does not, the report says the data
+    cannot tell the two apart."""
     cur = chosen
     while True:
         ps = _wider_p(cur, tried, added)
@@ -1306,8 +1307,8 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     (``p_focus``, unadjusted; a one-joint change is otherwise diluted in the sum over 33
     elements), Bonferroni over the ``focus_choices`` scopes it was chosen among on the data
     (default the narrower screen's nine; :func:`_focus_choices` for a screened probe,
-    :func:`_chosen_among` once the scope stage has kept it among more). ``changed``: p_change x ``n_contrasts`` (the candidates the
-    round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
+    :func:`_chosen_among` once the scope stage has kept it among more). ``changed``:
+    p_change x ``n_contrasts`` (the candidates the round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
     robot's own, not a change since the reference. The candidate itself has already passed
     the screen at ``alpha``; the contrast asks only whether it is new, one test per candidate
     the round contrasts."""
