@@ -589,7 +589,12 @@ def scope_elements(aug: Augmentation, all_joints: bool = False) -> list[int] | N
     j = aug.params().get("joints")
     if j is None or (j == "all" and not all_joints):
         return None
-    idx = list(JOINT_GROUPS[j])
+    return _joint_elements(JOINT_GROUPS[j])
+
+
+def _joint_elements(joints: Sequence[int]) -> list[int]:
+    """The state elements of these joints (indices into JOINT_NAMES): their q, then their dq."""
+    idx = list(joints)
     return [S.q.start + k for k in idx] + [S.dq.start + k for k in idx]
 
 
@@ -772,8 +777,7 @@ def _wider_p(cur: _Probe, tried: Sequence[_Probe], added: bool = False) -> dict[
     for p in wider:
         pv = greater(_move_gains(p) - _move_gains(cur))
         if added:
-            extra = sorted(set(JOINT_GROUPS[p.aug.joints]) - inner)
-            el = [S.q.start + k for k in extra] + [S.dq.start + k for k in extra]
+            el = _joint_elements(sorted(set(JOINT_GROUPS[p.aug.joints]) - inner))
             pv = min(1.0, 2.0 * min(pv, greater(_move_gains(p, el) - _move_gains(cur, el))))
         out[p.aug.label()] = min(1.0, pv * len(wider))
     return out
