@@ -41,8 +41,12 @@ run: $(STAMP)
 live: $(STAMP)
 	$(PY) -m littledog_mlsim.apps.live_demo
 
+# The suite runs in TEST_WORKERS pytest-xdist worker processes (CI has 2 cores; 0: in this
+# process), a test module at a time per worker (`--dist loadfile`: a module's fixtures and its
+# leak check stay in one process).
+TEST_WORKERS ?= 2
 test: $(STAMP) $(CHROMIUM_STAMP)
-	$(PY) -m pytest -q --durations=15 test
+	$(PY) -m pytest -q --durations=15 -n $(TEST_WORKERS) --dist loadfile test
 
 # Headless Chromium for the view's browser tests (test/viewer/test_viewer_browser.py), from Debian's
 # packages, tried once (root with apt-get only); never fatal: without it those tests skip and say why.

@@ -7,7 +7,8 @@
   it fires even when a thread holds the GIL in C code and SIGALRM's Python handler never runs: it
   writes every thread's stack to ``.pytest-hang.log`` in the rootdir and ends the process.
 - ``.pytest-running`` (rootdir) names the test running now; ``.ci/run`` prints it when the
-  whole suite runs out of time.
+  whole suite runs out of time. Under pytest-xdist (``make test`` runs two workers) each worker
+  has its own files, ``.pytest-running.gw0`` and ``.pytest-hang.gw0.log``.
 - :func:`leaves_no_threads_or_children`: every test module leaves the process as it found it
   (no new thread, no child process), or its last test errors naming what it left.
 - :func:`sigint_as_from_a_terminal`: the run, and every process a test starts, turns SIGINT into
@@ -28,11 +29,14 @@ from pathlib import Path
 
 import pytest
 
+# pytest-xdist's worker name (gw0, gw1, ...) in a worker process, "" in a run without workers:
+# each worker keeps its own two files below
+_WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")
 # the test running now (one line, rewritten at each test's start): `.ci/run` prints it when the
 # whole suite runs out of time
-RUNNING = ".pytest-running"
+RUNNING = ".pytest-running" + (f".{_WORKER}" if _WORKER else "")
 # where the hard guard writes every thread's stack before it ends a stuck run
-HANG_LOG = ".pytest-hang.log"
+HANG_LOG = ".pytest-hang" + (f".{_WORKER}" if _WORKER else "") + ".log"
 # s added to pytest-timeout's bound for the hard guard (faulthandler's watchdog, a C thread that
 # needs no GIL: it fires even when a thread holds the GIL in C code and pytest-timeout cannot)
 HARD_MARGIN_S = float(os.environ.get("LITTLEDOG_HARD_MARGIN_S", "120"))

@@ -6,9 +6,10 @@
 - :class:`Probe`: subscribes to a simulator's topics, records what arrives, sends commands and
   calls its services.
 
-One ROS domain for every module that imports it (``DOMAIN_ID``: ``LITTLEDOG_TEST_DOMAIN_ID``, or
-derived from the pid so that concurrent runs do not meet), localhost discovery; set in the
-environment at import, so the node processes inherit it. Modules run one after the other and
+One ROS domain for every module of a process that imports it (``DOMAIN_ID``:
+``LITTLEDOG_TEST_DOMAIN_ID``, or derived from the pid so that concurrent runs, and the workers
+of one pytest-xdist run, do not meet), localhost discovery; set in the environment at import,
+so the node processes inherit it. Modules run one after the other and
 each leaves no node process behind (test/guards.py), so they can share the domain.
 """
 from __future__ import annotations
@@ -23,8 +24,23 @@ from pathlib import Path
 
 import numpy as np
 
-# LITTLEDOG_TEST_DOMAIN_ID: a fixed domain (e.g. one reserved for this checkout)
-DOMAIN_ID = int(os.environ.get("LITTLEDOG_TEST_DOMAIN_ID") or 1 + os.getpid() % 100)
+
+def _domain_id() -> int:
+    """``LITTLEDOG_TEST_DOMAIN_ID`` (a fixed domain, e.g. one reserved for this checkout), else
+    one from the process's pid. The N workers of one pytest-xdist run (``PYTEST_XDIST_WORKER``
+    gw0 .. gwN-1, ``PYTEST_XDIST_WORKER_COUNT`` N) take N consecutive domains placed by their
+    parent's pid, so two workers of a run never share one."""
+    fixed = os.environ.get("LITTLEDOG_TEST_DOMAIN_ID")
+    if fixed:
+        return int(fixed)
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if not worker:
+        return 1 + os.getpid() % 100
+    n = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
+    return 1 + (os.getppid() % max(1, 100 // n)) * n + int(worker[2:]) % n
+
+
+DOMAIN_ID = _domain_id()
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

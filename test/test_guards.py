@@ -75,8 +75,9 @@ def _inner(tmp_path: Path, source: str, timeout: float = 60,
            preexec=None) -> subprocess.CompletedProcess:
     (tmp_path / "conftest.py").write_text(CONFTEST)
     (tmp_path / "test_inner.py").write_text(source)
-    env = dict(os.environ, PYTHONPATH=str(HERE), LITTLEDOG_HARD_MARGIN_S="2",
-               LITTLEDOG_LEAK_WAIT_S="0.5")
+    # the inner run is no pytest-xdist worker, even when this one is
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST_")}
+    env.update(PYTHONPATH=str(HERE), LITTLEDOG_HARD_MARGIN_S="2", LITTLEDOG_LEAK_WAIT_S="0.5")
     return subprocess.run([sys.executable, "-m", "pytest", "-v", "-p", "no:cacheprovider",
                            "-o", "timeout=0", "test_inner.py"],
                           cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout,
