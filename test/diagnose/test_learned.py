@@ -79,6 +79,8 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagn
     assert after["final_xy_error_m"] < before["final_xy_error_m"], report["test"]
     assert report["verdict"].startswith("found: a steady force fixed in odom toward")
     assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
+    # a reference is given: a probe of all joints gets the focus test (focus_all_with_reference)
+    assert report["options"]["focus_all"] is True
 
 
 @pytest.fixture(scope="module")
@@ -92,6 +94,7 @@ def test_clean_data_raises_no_alarm(clean_report):
     assert report["effects"] == [] and report["residual"]["unexplained"] == []
     assert report["test"]["after"] == report["test"]["before"]
     assert report["verdict"].startswith("nothing significant")
+    assert report["options"]["focus_all"] is False       # no reference: no focus at full scope
 
 
 def test_a_one_step_rollout_is_the_one_step_residual(data):
@@ -727,4 +730,6 @@ def test_focus_all_ranks_every_joints_elements_for_a_probe_of_all_joints():
     assert scope_elements(Heading(), all_joints=True) is None
     assert _focus_choices(lag) == 1 and _focus_choices(Heading()) == len(SCOPES)
     assert _focus_choices(replace(lag, joints="knees")) == len(SCOPES)
-    assert not (LearnedOptions().focus_all or LearnedOptions().widen_focus)   # zoo11 run11
+    # zoo11 run11: off without a reference; run12: on wherever a reference is given
+    assert not (LearnedOptions().focus_all or LearnedOptions().widen_focus)
+    assert LearnedOptions().focus_all_with_reference
