@@ -16,7 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 # the hang guards and the leak check, shared with test/test_guards.py's inner runs
 from guards import (leaves_no_threads_or_children, pytest_runtest_protocol,  # noqa: E402,F401
-                    pytest_sessionfinish, sigint_as_from_a_terminal)
+                    pytest_sessionfinish, pytest_sessionstart, sigint_as_from_a_terminal)
 
 # a suite started as `make test &` from a script has SIGINT ignored, and so would every program
 # the tests stop with SIGINT (guards.py)

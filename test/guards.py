@@ -80,8 +80,20 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
             (root / HANG_LOG).unlink(missing_ok=True)
 
 
-def pytest_sessionfinish(session: pytest.Session) -> None:
-    (session.config.rootpath / RUNNING).unlink(missing_ok=True)
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """The run (the xdist controller, or the one process without workers) removes the
+    ``RUNNING`` files an interrupted run left, so that only this run's are read."""
+    if not _WORKER:
+        for f in session.config.rootpath.glob(".pytest-running*"):
+            f.unlink(missing_ok=True)
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """A finished run removes ``RUNNING``; an interrupted one (``.ci/run``'s time-out sends
+    SIGINT to every process of the run, xdist's workers too) keeps it, naming the test it was
+    in."""
+    if exitstatus != pytest.ExitCode.INTERRUPTED:
+        (session.config.rootpath / RUNNING).unlink(missing_ok=True)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -16,7 +16,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 CONFTEST = "from guards import (leaves_no_threads_or_children, pytest_runtest_protocol,\n" \
-           "                    pytest_sessionfinish, sigint_as_from_a_terminal)  # noqa: F401\n" \
+           "                    pytest_sessionfinish, pytest_sessionstart,\n" \
+           "                    sigint_as_from_a_terminal)  # noqa: F401\n" \
            "sigint_as_from_a_terminal()\n"
 
 STUCK = textwrap.dedent("""
@@ -105,6 +106,17 @@ def test_a_module_that_leaves_a_thread_errors_naming_it(tmp_path):
     assert "ERROR at teardown of test_leaves_a_thread" in r.stdout
     assert "left behind threads ['leaked-by-test']" in r.stdout
     assert not (tmp_path / ".pytest-running").exists()             # a finished run removes it
+
+
+def test_an_interrupted_run_keeps_the_name_of_its_test_and_a_new_run_drops_it(tmp_path):
+    """.ci/run's time-out interrupts the run with SIGINT: the file names the test it was in,
+    and the next run removes what an earlier one left (one file per xdist worker)."""
+    (tmp_path / ".pytest-running.gw7").write_text("test_old.py::test_from_an_earlier_run\n")
+    r = _inner(tmp_path, "def test_interrupted():\n    raise KeyboardInterrupt\n")
+    assert r.returncode == 2, r.stdout                       # pytest's "interrupted"
+    assert (tmp_path / ".pytest-running").read_text().strip() == \
+        "test_inner.py::test_interrupted"
+    assert not (tmp_path / ".pytest-running.gw7").exists()
 
 
 def test_a_suite_started_with_sigint_ignored_still_stops_its_programs_with_it(tmp_path):
