@@ -733,3 +733,23 @@ def test_focus_all_ranks_every_joints_elements_for_a_probe_of_all_joints():
     # zoo11 run11: off without a reference; run12: on wherever a reference is given
     assert not (LearnedOptions().focus_all or LearnedOptions().widen_focus)
     assert LearnedOptions().focus_all_with_reference
+
+
+def test_focus_all_with_reference_turns_it_on_only_where_a_reference_is_given(monkeypatch):
+    """``focus_all_with_reference``: the route runs with ``focus_all`` on wherever a reference
+    is given (the options it checks, and reports, say so), and as asked without one."""
+    from littledog_mlsim.diagnose import learned
+
+    class Seen(Exception):
+        pass
+
+    def check(train, test, opts):
+        raise Seen(opts.focus_all)
+    monkeypatch.setattr(learned, "_check_input", check)
+    cases = [(None, LearnedOptions(), False), ([], LearnedOptions(), True),
+             ([], LearnedOptions(focus_all_with_reference=False), False),
+             (None, LearnedOptions(focus_all=True), True)]
+    for reference, opts, on in cases:
+        with pytest.raises(Seen) as seen:
+            diagnose_learned([], [], options=opts, reference=reference)
+        assert seen.value.args[0] is on, (reference, opts)
