@@ -32,9 +32,8 @@ Method
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
    a probe of a family with a joint scope adds a rank test of its joints' q and dq cut,
    :func:`.stats.focus_p`, as a third, ``scope_test``; a probe of all joints does too, over
-   every joint's q and dq, with ``focus_all``, which is on wherever a reference is given
-   (``focus_all_with_reference``: the reference takes out the robot's own all-joint effects,
-   which the wider test also finds on clean data; zoo11 run11 and run12);
+   every joint's q and dq, with ``focus_all``, or with ``focus_all_with_reference`` wherever a
+   reference is given (both off: zoo11 run11 and run12);
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
    (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
@@ -164,7 +163,7 @@ class LearnedOptions:
     joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
     scope_test: bool = True      # a scoped probe's state test also ranks its joints' elements
     focus_all: bool = False      # ... and so does a probe of all joints (every joint's q, dq)
-    focus_all_with_reference: bool = True   # focus_all is on wherever a reference is given
+    focus_all_with_reference: bool = False  # focus_all on wherever a reference is given
     widen_focus: bool = False    # widening also tests the added joints' q, dq move by move
     seed: int = 0
 

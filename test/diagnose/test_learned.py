@@ -79,8 +79,8 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagn
     assert after["final_xy_error_m"] < before["final_xy_error_m"], report["test"]
     assert report["verdict"].startswith("found: a steady force fixed in odom toward")
     assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
-    # a reference is given: a probe of all joints gets the focus test (focus_all_with_reference)
-    assert report["options"]["focus_all"] is True
+    # focus_all_with_reference is off (zoo11 run12): no focus test at full scope here either
+    assert report["options"]["focus_all"] is False
 
 
 @pytest.fixture(scope="module")
@@ -730,14 +730,15 @@ def test_focus_all_ranks_every_joints_elements_for_a_probe_of_all_joints():
     assert scope_elements(Heading(), all_joints=True) is None
     assert _focus_choices(lag) == 1 and _focus_choices(Heading()) == len(SCOPES)
     assert _focus_choices(replace(lag, joints="knees")) == len(SCOPES)
-    # zoo11 run11: off without a reference; run12: on wherever a reference is given
-    assert not (LearnedOptions().focus_all or LearnedOptions().widen_focus)
-    assert LearnedOptions().focus_all_with_reference
+    # zoo11 run11 (without a reference) and run12 (only with one): off
+    assert not (LearnedOptions().focus_all or LearnedOptions().widen_focus
+                or LearnedOptions().focus_all_with_reference)
 
 
 def test_focus_all_with_reference_turns_it_on_only_where_a_reference_is_given(monkeypatch):
-    """``focus_all_with_reference``: the route runs with ``focus_all`` on wherever a reference
-    is given (the options it checks, and reports, say so), and as asked without one."""
+    """``focus_all_with_reference`` (off by default): the route runs with ``focus_all`` on
+    wherever a reference is given (the options it checks, and reports, say so), and as asked
+    without one."""
     from littledog_mlsim.diagnose import learned
 
     class Seen(Exception):
@@ -746,8 +747,8 @@ def test_focus_all_with_reference_turns_it_on_only_where_a_reference_is_given(mo
     def check(train, test, opts):
         raise Seen(opts.focus_all)
     monkeypatch.setattr(learned, "_check_input", check)
-    cases = [(None, LearnedOptions(), False), ([], LearnedOptions(), True),
-             ([], LearnedOptions(focus_all_with_reference=False), False),
+    with_ref = LearnedOptions(focus_all_with_reference=True)
+    cases = [(None, with_ref, False), ([], with_ref, True), ([], LearnedOptions(), False),
              (None, LearnedOptions(focus_all=True), True)]
     for reference, opts, on in cases:
         with pytest.raises(Seen) as seen:
