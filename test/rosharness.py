@@ -28,16 +28,17 @@ import numpy as np
 def _domain_id() -> int:
     """``LITTLEDOG_TEST_DOMAIN_ID`` (a fixed domain, e.g. one reserved for this checkout), else
     one from the process's pid. The N workers of one pytest-xdist run (``PYTEST_XDIST_WORKER``
-    gw0 .. gwN-1, ``PYTEST_XDIST_WORKER_COUNT`` N) take N consecutive domains placed by their
-    parent's pid, so two workers of a run never share one."""
+    gw0 .. gwN-1, ``PYTEST_XDIST_WORKER_COUNT`` N) take N consecutive domains, from the fixed
+    one or placed by their parent's pid, so two workers of a run never share one."""
     fixed = os.environ.get("LITTLEDOG_TEST_DOMAIN_ID")
-    if fixed:
-        return int(fixed)
     worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    k = int(worker[2:]) if worker else 0
+    if fixed:
+        return int(fixed) + k
     if not worker:
         return 1 + os.getpid() % 100
     n = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
-    return 1 + (os.getppid() % max(1, 100 // n)) * n + int(worker[2:]) % n
+    return 1 + (os.getppid() % max(1, 100 // n)) * n + k % n
 
 
 DOMAIN_ID = _domain_id()
