@@ -15,6 +15,8 @@ Moves run in parallel across processes (one pybullet world per process).
 from __future__ import annotations
 
 import os
+import signal
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -202,6 +204,19 @@ class _NoProgress:
         pass
 
 
+def _end_with_parent(parent: int) -> None:
+    """A recording worker ends when the recording process dies (Linux: SIGTERM on the parent's
+    death, ``prctl(PR_SET_PDEATHSIG)``). A pool's worker otherwise outlives a parent killed
+    outright (SIGKILL, the OOM killer), waiting for work that never comes."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    pr_set_pdeathsig = 1
+    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+    if os.getppid() != parent:     # the parent died before the line above: end now
+        os._exit(1)
+
+
 def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    types: Sequence[str] = MOVE_TYPES, seed: int = 0,
                    robot: str | os.PathLike | "RobotConfig" = "measured",
@@ -257,7 +272,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                 results.append(_record_one(*a))
                 bar.update()
         else:
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
+            with ProcessPoolExecutor(max_workers=jobs, initializer=_end_with_parent,
+                                     initargs=(os.getpid(),)) as pool:
                 futures = [pool.submit(_record_one, *a) for a in args]
                 for f in as_completed(futures):
                     results.append(f.result())

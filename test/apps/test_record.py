@@ -274,3 +274,36 @@ def test_an_extra_kind_given_twice_is_one_line(tmp_path: Path, capsys):
     err = capsys.readouterr().err.strip()
     assert "switch more than once" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_the_workers_end_with_a_killed_recording(tmp_path: Path):
+    """A record killed outright (SIGKILL: a test runner's clean-up, the OOM killer) takes its
+    worker processes with it: none is left waiting on a parent that is gone."""
+    import os
+    import signal
+    import time
+    out = tmp_path / "ds"
+    p = subprocess.Popen([sys.executable, "-m", "littledog_mlsim.cli", "record", "--out", str(out),
+                          "--moves-per-type", "20", "--jobs", "2", "--quiet"],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not any(tmp_path.glob("*/*/*.mcap")):
+            assert p.poll() is None and time.monotonic() < deadline, "no move was recorded"
+            time.sleep(0.05)
+        p.kill()                                  # the parent only
+        p.wait()
+        deadline = time.monotonic() + 20
+        while True:
+            try:
+                os.killpg(p.pid, 0)               # a worker is still in the group
+            except ProcessLookupError:
+                break
+            assert time.monotonic() < deadline, "a recording worker outlived its killed parent"
+            time.sleep(0.05)
+    finally:
+        try:
+            os.killpg(p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
