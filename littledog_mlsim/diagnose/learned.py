@@ -1316,8 +1316,9 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
     elements), Bonferroni over the ``focus_choices`` scopes it was chosen among on the data
     (default the narrower screen's nine; :func:`_focus_choices` for a screened probe,
     :func:`_chosen_among` once the scope stage has kept it among more). ``changed``:
-    p_change x ``n_contrasts`` (the candidates the round contrasts) < ``contrast_alpha``; otherwise the reference shows it as much: the
-    robot's own, not a change since the reference. The candidate itself has already passed
+    p_change x ``n_contrasts`` (the candidates the round contrasts) < ``contrast_alpha``;
+    otherwise the reference shows it as much: the robot's own, not a change since the
+    reference. The candidate itself has already passed
     the screen at ``alpha``; the contrast asks only whether it is new, one test per candidate
     the round contrasts."""
     from .stats import contrast_focus_p, contrast_test
