@@ -163,8 +163,9 @@ class LearnedOptions:
     joint_scopes: bool = True    # a kept leg, joint type or side also tries its single joints
     scope_test: bool = True      # a scoped probe's state test also ranks its joints' elements
     focus_all: bool = False      # ... and so does a probe of all joints (every joint's q, dq)
-    focus_all_with_reference: bool = False  # focus_all on wherever a reference is given
+    focus_all_with_reference: bool = True  # focus_all on wherever a reference is given
     widen_focus: bool = False    # widening also tests the added joints' q, dq move by move
+    widen_focus_with_reference: bool = True  # widen_focus on wherever a reference is given
     seed: int = 0
 
 
@@ -1144,8 +1145,9 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     robot's own: carried by the model, listed under ``reference.shared``."""
     from .candidates import measured_robot_features
     opts = options or LearnedOptions()
-    if reference is not None and opts.focus_all_with_reference and not opts.focus_all:
-        opts = replace(opts, focus_all=True)
+    if reference is not None:
+        opts = replace(opts, focus_all=opts.focus_all or opts.focus_all_with_reference,
+                       widen_focus=opts.widen_focus or opts.widen_focus_with_reference)
     _check_input(train_recs, test_recs, opts)
     if reference is not None and len(reference) < 2 * opts.n_folds:
         raise ValueError(f"diagnose_learned: the reference needs at least {2 * opts.n_folds} "

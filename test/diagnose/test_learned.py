@@ -730,27 +730,32 @@ def test_focus_all_ranks_every_joints_elements_for_a_probe_of_all_joints():
     assert scope_elements(Heading(), all_joints=True) is None
     assert _focus_choices(lag) == 1 and _focus_choices(Heading()) == len(SCOPES)
     assert _focus_choices(replace(lag, joints="knees")) == len(SCOPES)
-    # zoo11 run11 (without a reference) and run12 (only with one): off
-    assert not (LearnedOptions().focus_all or LearnedOptions().widen_focus
-                or LearnedOptions().focus_all_with_reference)
+    # zoo11 run11 (without a reference) and run12 (focus_all only with one): off;
+    # run13: both only with a reference
+    default = LearnedOptions()
+    assert not (default.focus_all or default.widen_focus)
+    assert default.focus_all_with_reference and default.widen_focus_with_reference
 
 
-def test_focus_all_with_reference_turns_it_on_only_where_a_reference_is_given(monkeypatch):
-    """``focus_all_with_reference`` (off by default): the route runs with ``focus_all`` on
-    wherever a reference is given (the options it checks, and reports, say so), and as asked
-    without one."""
+def test_the_with_reference_options_turn_theirs_on_only_where_a_reference_is_given(monkeypatch):
+    """``focus_all_with_reference`` and ``widen_focus_with_reference``: the route runs with
+    ``focus_all`` and ``widen_focus`` on wherever a reference is given (the options it checks,
+    and reports, say so), and as asked without one."""
     from littledog_mlsim.diagnose import learned
 
     class Seen(Exception):
         pass
 
     def check(train, test, opts):
-        raise Seen(opts.focus_all)
+        raise Seen(opts.focus_all, opts.widen_focus)
     monkeypatch.setattr(learned, "_check_input", check)
-    with_ref = LearnedOptions(focus_all_with_reference=True)
-    cases = [(None, with_ref, False), ([], with_ref, True), ([], LearnedOptions(), False),
-             (None, LearnedOptions(focus_all=True), True)]
+    off = dict(focus_all_with_reference=False, widen_focus_with_reference=False)
+    cases = [(None, LearnedOptions(), (False, False)), ([], LearnedOptions(), (True, True)),
+             ([], LearnedOptions(**off), (False, False)),
+             ([], LearnedOptions(widen_focus_with_reference=False), (True, False)),
+             ([], LearnedOptions(focus_all_with_reference=False), (False, True)),
+             (None, LearnedOptions(focus_all=True, widen_focus=True, **off), (True, True))]
     for reference, opts, on in cases:
         with pytest.raises(Seen) as seen:
             diagnose_learned([], [], options=opts, reference=reference)
-        assert seen.value.args[0] is on, (reference, opts)
+        assert seen.value.args == on, (reference, opts)
