@@ -79,8 +79,10 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagn
     assert after["final_xy_error_m"] < before["final_xy_error_m"], report["test"]
     assert report["verdict"].startswith("found: a steady force fixed in odom toward")
     assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
-    # focus_all_with_reference is off (zoo11 run12): no focus test at full scope here either
-    assert report["options"]["focus_all"] is False
+    # with a reference, the options the route ran with are the defaults' *_with_reference
+    default = LearnedOptions()
+    assert report["options"]["focus_all"] is default.focus_all_with_reference
+    assert report["options"]["widen_focus"] is default.widen_focus_with_reference
 
 
 @pytest.fixture(scope="module")
