@@ -32,8 +32,8 @@ Method
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
    a probe of a family with a joint scope adds a rank test of its joints' q and dq cut,
    :func:`.stats.focus_p`, as a third, ``scope_test``; a probe of all joints does too, over
-   every joint's q and dq, with ``focus_all``, or with ``focus_all_with_reference`` wherever a
-   reference is given (both off: zoo11 run11 and run12);
+   every joint's q and dq, with ``focus_all`` (off: zoo11 run11), or wherever a reference is
+   given with ``focus_all_with_reference`` (on: zoo11 run13);
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
    (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
@@ -49,7 +49,8 @@ Method
    joint of the leg, type or side kept: :func:`_joint_members`) and its
    parameter estimated by the same held-out rollout SSE (parsimony among
    members within 10 % of the best; the scope widened while a wider one gains more move by
-   move, in total or, with ``widen_focus`` (off), on the joints it adds, :func:`_widen`), then
+   move, in total or, with ``widen_focus`` (off; on wherever a reference is given with
+   ``widen_focus_with_reference``), on the joints it adds, :func:`_widen`), then
    added; the next round screens the rest. A round whose
    full-scope screen accepts nothing screens the narrower scopes of every family with a joint
    scope whose full-scope probe gained (:func:`screen_narrower`): an effect on one leg or
