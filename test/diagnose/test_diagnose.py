@@ -506,7 +506,7 @@ def test_physical_one_leg_delay_on_excited_data(recorded):
     assert doc["effects"][0]["physical"] == ph and "suspected" in doc and "physics" in doc
 
 
-@pytest.mark.slow   # the physical route's effect in CI: test_reference.py's knee (and its tether)
+@pytest.mark.slow   # make test's physical-route effect: test_reference.py's knee (a shared delay)
 def test_physical_odom_fixed_force(recorded):
     data = _record_small(recorded, "p_wind", 122,
                          "- class: littledog_mlsim.robot.effects:ConstantWind\n"
@@ -679,6 +679,30 @@ def test_mass_com_position_walks_the_valley_of_constant_first_moment():
     assert seen and all(within_reach(p) for p in seen)
     assert within_reach(r.extra["com_offset_m"]) and r.extra["com_offset_m"][0] < -0.11
     assert not within_reach((-0.709, 0.0, 0.253))
+
+
+def test_a_world_fixed_force_is_turned_toward_the_direction_that_fits():
+    """``refine_direction`` (the push's fit; the re-simulated cases are ``slow``:
+    ``test_physical_odom_fixed_force`` and ``test_reference.py``'s tether): a force fitted
+    along 60 deg whose objective is lowest at 3 N along 100 deg is turned by 30 deg, then
+    12 deg, to 102 deg, and its magnitude is refitted along it."""
+    from littledog_mlsim.diagnose.physical import Candidate, refine_direction
+    true = 3.0 * np.array([np.cos(np.radians(100.0)), np.sin(np.radians(100.0))])
+
+    def J(hyp):
+        return float(np.sum((np.array([hyp[2]["fx"], hyp[2]["fy"]]) - true) ** 2)) + 1.0
+
+    start = np.array([np.cos(np.radians(60.0)), np.sin(np.radians(60.0))])
+    c = Candidate("odom_force", "body", 5.0, 3.0, start, fitted=3.0)
+    c = replace(c, J=J(c.hyp()))
+    r = refine_direction(FakeObjective(J), c, [0])
+    angle = np.degrees(np.arctan2(r.direction[1], r.direction[0]))
+    assert angle == pytest.approx(102.0, abs=1e-6)
+    assert r.fitted == pytest.approx(3.0 * np.cos(np.radians(2.0)), rel=0.1) and r.J < c.J
+    # a force already along the best direction is not turned
+    best = Candidate("odom_force", "body", 5.0, 3.0, true / 3.0, fitted=3.0)
+    best = replace(best, J=J(best.hyp()))
+    assert refine_direction(FakeObjective(J), best, [0]) is best
 
 
 def test_signed_family_starts_its_scope_fit_on_the_better_side():
@@ -893,8 +917,8 @@ def test_physical_servo_gain_of_one_joint(recorded):
     assert "front-left knee" in ph["statement"].lower()
 
 
-# the physical route's clean case in CI: test_reference.py's clean data of a robot the twin
-# misses (a tether) against its own reference
+# make test's physical-route check for no alarm: test_reference.py's delay case (the shared
+# delay is no change, and nothing is left once it is absorbed)
 @pytest.mark.parametrize("seed, excitation", [
     pytest.param(124, 0.0, marks=pytest.mark.slow),
     pytest.param(125, EXCITATION, marks=pytest.mark.slow)])

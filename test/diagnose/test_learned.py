@@ -79,10 +79,10 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagn
     assert after["final_xy_error_m"] < before["final_xy_error_m"], report["test"]
     assert report["verdict"].startswith("found: a steady force fixed in odom toward")
     assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
-    # with a reference, the options the route ran with are the defaults' *_with_reference
-    default = LearnedOptions()
-    assert report["options"]["focus_all"] is default.focus_all_with_reference
-    assert report["options"]["widen_focus"] is default.widen_focus_with_reference
+    # with a reference, the options the route ran with are SMALL's, the *_with_reference on
+    assert report["options"]["focus_all"] is (SMALL.focus_all or SMALL.focus_all_with_reference)
+    assert report["options"]["widen_focus"] is (SMALL.widen_focus
+                                                or SMALL.widen_focus_with_reference)
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +96,9 @@ def test_clean_data_raises_no_alarm(clean_report):
     assert report["effects"] == [] and report["residual"]["unexplained"] == []
     assert report["test"]["after"] == report["test"]["before"]
     assert report["verdict"].startswith("nothing significant")
-    assert report["options"]["focus_all"] is False       # no reference: no focus at full scope
+    # no reference: SMALL's own focus_all and widen_focus, whatever the *_with_reference say
+    assert report["options"]["focus_all"] is SMALL.focus_all is False
+    assert report["options"]["widen_focus"] is SMALL.widen_focus is False
 
 
 def test_a_one_step_rollout_is_the_one_step_residual(data):

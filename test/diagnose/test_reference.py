@@ -88,7 +88,8 @@ def test_a_shared_delay_is_absorbed_and_the_soft_knee_is_named(delayed):
                       reference=delayed["reference"],
                       physics_options={**PHYS, "families": JOINT_FAMILIES})
     route = report["route"]
-    assert route["name"] == "physical" and route["reference"] == str(delayed["reference"])
+    assert route["name"] == "physical" and route["robot"] == "measured"
+    assert route["reference"] == str(delayed["reference"]) and "reference" in route["why"]
     ref = report["physics"]["reference"]
     assert ref["n_moves"] == len(ref["moves"]) == 2 * len(TYPES), ref
     delay = [t for t in ref["twin_errors"] if t["family"] == "command_delay"]
