@@ -82,19 +82,22 @@ def test_an_imported_recording_takes_the_learned_route_and_says_why(tmp_path):
     assert (tmp_path / "out" / "report.json").is_file()
 
 
-def test_a_shared_delay_is_absorbed_and_the_soft_knee_is_named(delayed):
-    report = diagnose(delayed["changed"], delayed["root"] / "changed_out", method="lr",
+def _shared_absorbed_and_knee_named(data: dict, twin_family: str, scope: str, param: str,
+                                    truth: float, **physics) -> None:
+    """Diagnose ``data["changed"]`` against ``data["reference"]``: the shared twin error
+    (``twin_family`` at ``scope``, ``param`` near ``truth``) is absorbed, no change; the soft
+    front-left knee is the finding, a change; nothing is left."""
+    report = diagnose(data["changed"], data["root"] / "changed_out", method="lr",
                       figures=False, progress=False, twin="measured",
-                      reference=delayed["reference"],
-                      physics_options={**PHYS, "families": JOINT_FAMILIES})
+                      reference=data["reference"], physics_options={**PHYS, **physics})
     route = report["route"]
     assert route["name"] == "physical" and route["robot"] == "measured"
-    assert route["reference"] == str(delayed["reference"]) and "reference" in route["why"]
+    assert route["reference"] == str(data["reference"]) and "reference" in route["why"]
     ref = report["physics"]["reference"]
     assert ref["n_moves"] == len(ref["moves"]) == 2 * len(TYPES), ref
-    delay = [t for t in ref["twin_errors"] if t["family"] == "command_delay"]
-    assert delay and delay[0]["scope"] == "all" and not delay[0]["changed"], ref["twin_errors"]
-    assert delay[0]["params"]["delay_ms"] == pytest.approx(15.0, rel=0.25), delay
+    shared = [t for t in ref["twin_errors"] if t["family"] == twin_family]
+    assert shared and shared[0]["scope"] == scope and not shared[0]["changed"], ref["twin_errors"]
+    assert shared[0]["params"][param] == pytest.approx(truth, rel=0.25), shared
     assert report["significant"], report["physics"]["rejected"]
     ph = report["effects"][0]["physical"]
     assert (ph["family"], ph["scope"]) == ("servo_gain", "joint:front_left_knee"), ph
@@ -102,28 +105,16 @@ def test_a_shared_delay_is_absorbed_and_the_soft_knee_is_named(delayed):
     check = report["effects"][0]["evidence"]["reference_check"]
     assert check["changed"] and check["data_move_cut"] > 2 * check["reference_move_cut"]
     assert not (ref["unexplained"]["significant"] and ref["unexplained"]["material"]), ref
+
+
+def test_a_shared_delay_is_absorbed_and_the_soft_knee_is_named(delayed):
+    _shared_absorbed_and_knee_named(delayed, "command_delay", "all", "delay_ms", 15.0,
+                                    families=JOINT_FAMILIES)
 
 
 @pytest.mark.slow   # make test runs the case above: a shared delay, two families
 def test_what_the_reference_shares_is_absorbed_and_the_change_is_named(recorded):
-    report = diagnose(recorded["changed"], recorded["root"] / "changed_out", method="lr",
-                      figures=False, progress=False, twin="measured",
-                      reference=recorded["reference"], physics_options=PHYS)
-    route = report["route"]
-    assert route["name"] == "physical" and route["robot"] == "measured"
-    assert route["reference"] == str(recorded["reference"]) and "reference" in route["why"]
-    ref = report["physics"]["reference"]
-    assert ref["n_moves"] == len(ref["moves"]) == 2 * len(TYPES), ref
-    tether = [t for t in ref["twin_errors"] if t["family"] == "odom_force"]
-    assert tether and not tether[0]["changed"], ref["twin_errors"]
-    assert tether[0]["params"]["force_N"] == pytest.approx(3.0, rel=0.25), tether
-    assert report["significant"], report["physics"]["rejected"]
-    ph = report["effects"][0]["physical"]
-    assert (ph["family"], ph["scope"]) == ("servo_gain", "joint:front_left_knee"), ph
-    assert ph["params"]["gain_ratio"] == pytest.approx(0.6, rel=0.25), ph
-    check = report["effects"][0]["evidence"]["reference_check"]
-    assert check["changed"] and check["data_move_cut"] > 2 * check["reference_move_cut"]
-    assert not (ref["unexplained"]["significant"] and ref["unexplained"]["material"]), ref
+    _shared_absorbed_and_knee_named(recorded, "odom_force", "body", "force_N", 3.0)
 
 
 @pytest.mark.slow
