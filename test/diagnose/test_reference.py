@@ -7,10 +7,10 @@ reference recording (``--reference``) that cancels what the twin gets wrong.
   along, in the reference too; the twin (``measured``) knows nothing of it. The data add a
   softer front-left knee (60 % stiffness). The delay is the twin's error that the reference
   shares: it is absorbed (``physics.reference.twin_errors``), and the knee is the finding
-  (here the first round's other fitted hypothesis: a change since the reference, fitted again
-  on the base with the delay, ``driver._changed_alternative``). Two families, the delay and the servo
-  gain: a body family's fit re-simulates 4 s replays, and the tether case below takes about
-  2.4 times as long (``benchmarks/ci_time/reference_case``).
+  (here the first round's other fitted hypothesis: a change since the reference, fitted
+  again on the base with the delay, ``driver._changed_alternative``). Two families, the
+  delay and the servo gain: a body family's fit re-simulates 4 s replays, and the tether
+  case below takes about 2.4 times as long (``benchmarks/ci_time/reference_case``).
 - The same with a tether (a 3 N force fixed in odom) as the shared twin error and the five
   families below, among them the tether's rivals (a slope, a body wrench), is ``-m slow``; so
   is clean data with the tether against the same reference, which raise no alarm.
