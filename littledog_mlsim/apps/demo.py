@@ -112,8 +112,9 @@ def ensure_model(data: Path, model: Path, method: str = DEMO_METHOD,
 # the simulator processes
 
 
-def _parent_death_signal() -> Callable[[], None] | None:
-    """preexec_fn: SIGTERM the child when this process dies (Linux prctl), else None."""
+def parent_death_signal() -> Callable[[], None] | None:
+    """preexec_fn: SIGTERM the child when this process dies (Linux prctl), else None (also
+    a pool's initializer: ``record``'s workers)."""
     if not sys.platform.startswith("linux"):
         return None
     try:
@@ -141,7 +142,7 @@ class Child:
         with open(self.log, "w") as f:
             self.p = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=f,
                                       stderr=subprocess.STDOUT, env=env,
-                                      preexec_fn=_parent_death_signal())
+                                      preexec_fn=parent_death_signal())
         self.pid = self.p.pid
 
     def alive(self) -> bool:

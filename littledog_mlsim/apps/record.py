@@ -15,8 +15,6 @@ Moves run in parallel across processes (one pybullet world per process).
 from __future__ import annotations
 
 import os
-import signal
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -206,13 +204,13 @@ class _NoProgress:
 
 def _end_with_parent(parent: int) -> None:
     """A recording worker ends when the recording process dies (Linux: SIGTERM on the parent's
-    death, ``prctl(PR_SET_PDEATHSIG)``). A pool's worker otherwise outlives a parent killed
-    outright (SIGKILL, the OOM killer), waiting for work that never comes."""
-    if not sys.platform.startswith("linux"):
+    death, :func:`.demo.parent_death_signal`). A pool's worker otherwise outlives a parent
+    killed outright (SIGKILL, the OOM killer), waiting for work that never comes."""
+    from .demo import parent_death_signal
+    set_signal = parent_death_signal()
+    if set_signal is None:
         return
-    import ctypes
-    pr_set_pdeathsig = 1
-    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+    set_signal()
     if os.getppid() != parent:     # the parent died before the line above: end now
         os._exit(1)
 
