@@ -15,7 +15,7 @@ t = time.time(); c0 = time.process_time()
 rep = diagnose(ch, root / "out", method="lr", figures=False, progress=True, twin="measured", reference=ref,
                physics_options={**T.PHYS, "families": FAMS})
 print("diagnose", time.time() - t)
-json.dump(rep, open("/tmp/s45/ref_delay_%s_%d.json" % (sys.argv[1], len(T.TYPES)), "w"), default=str)
+json.dump(rep, open(root / "report.json", "w"), default=str)
 ref = rep["physics"]["reference"]
 print("twin_errors", [(e["family"], e["scope"], e["params"], e["changed"]) for e in ref["twin_errors"]])
 print("effects", [(e["physical"]["family"], e["physical"]["scope"], e["physical"]["params"]) for e in rep["effects"]])
