@@ -2,8 +2,9 @@
 
 alpha-PROJ (:mod:`.kinds`) pulls each predicted state towards its nearest TrainPool state, so
 the learned simulator searches all TrainPool states (33 dimensions) at every step: the search
-has to be exact (the same answer as a naive loop) and fast enough for a 10 ms step. It is pure
-NumPy (SciPy only for the optional k-d tree) and knows nothing about states or projections.
+has to be exact (the same answer as a naive loop) and fast enough for a 10 ms step. It is
+NumPy, with the bounds of up to a few hundred queries compiled by numba (``compiled.py``) and
+SciPy only for the optional k-d tree, and knows nothing about states or projections.
 Timings of the methods: ``benchmarks/projection_nn/``.
 """
 from __future__ import annotations
@@ -55,6 +56,15 @@ class NearestNeighbour:
       sample or more than ``n / 32`` points left as candidates) go to ``"brute"``. On the
       TrainPool about 1/4 of ``"brute"``'s time for alpha-PROJ's 66 queries of a rollout step,
       1/2 for one query (``benchmarks/projection_nn/projection_nn.md``).
+
+      With ``compiled=True`` (the default) up to ``COMPILED_ROWS`` queries are searched one by
+      one in compiled code (``compiled.pca_candidates``), with the same features, boxes and
+      margins, plus one more level: within a chunk the points lie in leaves of ``BLOCK``
+      points cut along the first ``LEAF_DIMS`` features, and a leaf whose feature box cannot
+      hold a point within ``U`` is skipped. The candidates are scored with the naive formula
+      in NumPy, so the answer is the same as the NumPy form's. One query is several times
+      faster that way (``benchmarks/sim_node_20x``): the NumPy form's time for one query is
+      mostly the fixed cost of its calls.
     - ``"brute"``: one GEMM per chunk of points, ``[a, 1] @ [-2 b_j, ||b_j||^2]^T``
       = ``||a - b_j||^2 - ||a||^2`` (the row constant ``||a||^2`` dropped); every point within a
       rounding-error bound of the row minimum is then re-scored with the direct
@@ -69,10 +79,13 @@ class NearestNeighbour:
     """
 
     METHODS: ClassVar[tuple[str, ...]] = ("auto", "pca", "brute", "kdtree")
+    #: ``"pca"`` searches up to this many rows one by one in compiled code (``compiled=True``),
+    #: more in the NumPy form, whose GEMMs share each chunk between the rows
+    COMPILED_ROWS: ClassVar[int] = 256
 
     def __init__(self, points: np.ndarray, method: str = "auto",
                  chunk_elems: int = 1 << 18, far: float = 1e8, n_components: int = 24,
-                 chunk_points: int = 2048) -> None:
+                 chunk_points: int = 2048, compiled: bool = True) -> None:
         if method not in self.METHODS:
             raise ValueError(f"method must be one of {self.METHODS}, got {method!r}")
         P = np.array(points, dtype=np.float64, order="C", copy=True)
@@ -83,6 +96,7 @@ class NearestNeighbour:
         if int(n_components) < 1 or int(chunk_points) < 1:
             raise ValueError("n_components and chunk_points must be positive")
         self.method = method
+        self.compiled = bool(compiled)
         self.chunk_elems = int(chunk_elems)
         self.far = float(far)
         self.n_components = int(n_components)
@@ -136,10 +150,13 @@ class NearestNeighbour:
 
     def prepare(self) -> "NearestNeighbour":
         """Build what the search method needs now (on first use otherwise: ~0.2 s for the
-        TrainPool, to be kept out of a 10 ms step); returns self."""
+        TrainPool, and for the compiled search its machine code, compiled or loaded from
+        numba's cache: to be kept out of a 10 ms step); returns self."""
         method = self._resolve(self.method)
         if method == "pca":
             self.build_index()
+            if self.compiled:
+                self.query(self._P[:1])
         elif method == "kdtree":
             self.build_tree()
         return self
@@ -161,12 +178,22 @@ class NearestNeighbour:
         A = np.asarray(X, dtype=np.float64)
         if A.ndim != 2 or A.shape[1] != self.dim:
             raise ValueError(f"queries must be (m, {self.dim}), got {A.shape}")
-        if not np.all(np.isfinite(A)):
-            raise ValueError("queries hold NaN or inf")
         method = method or self.method
         if method not in self.METHODS:
             raise ValueError(f"method must be one of {self.METHODS}, got {method!r}")
         method = self._resolve(method)
+        if method == "pca" and self.compiled and 0 < A.shape[0] <= self.COMPILED_ROWS:
+            # the compiled bounds check the rows (NaN, inf, far) themselves
+            up = None if upper is None else np.asarray(upper, dtype=np.float64)
+            res = self.build_index().query_compiled(np.ascontiguousarray(A), self._P, up)
+            if np.any(res == _NOT_FINITE):
+                raise ValueError("queries hold NaN or inf")
+            todo = res < 0                               # left to brute force
+            if np.any(todo):
+                res[todo] = self.query(A[todo], method="brute")
+            return res
+        if not np.all(np.isfinite(A)):
+            raise ValueError("queries hold NaN or inf")
         if A.shape[0] == 0:
             return np.empty(0, dtype=np.int64)
         norm = np.sqrt(np.einsum("ij,ij->i", A, A))
@@ -303,6 +330,7 @@ class CandidateGroups:
 _U32 = float(np.finfo(np.float32).eps) / 2      # unit roundoff of float32
 _U64 = float(np.finfo(np.float64).eps) / 2
 _PAD = np.float32(1e38)                         # lower bound of the padding slots of a chunk
+_NOT_FINITE = -2                                # query_compiled: a row holds NaN or inf
 
 
 def _median_split(Z: np.ndarray, idx: np.ndarray, size: int) -> list[np.ndarray]:
@@ -341,6 +369,8 @@ class _PCAIndex:
     SPLIT_DIMS = 2            # chunks are cells of median cuts along this many principal axes
     RESIDUAL_GROUPS = 2
     SAMPLE = 4                # the first upper bound comes from every 4th point of a chunk
+    BLOCK = 32                # leaf size: a chunk's slots come in blocks of BLOCK (padded)
+    LEAF_DIMS = 8             # leaves are cut along the first LEAF_DIMS features
 
     def __init__(self, P: np.ndarray, n_components: int, chunk_points: int,
                  residual_groups: int | None = None) -> None:
@@ -365,8 +395,13 @@ class _PCAIndex:
         self.usable = self.R < 1e15 and self.orth < 1e-6
         chunks = _median_split(Z[:, :min(self.SPLIT_DIMS, d)], np.arange(n), chunk_points)
         chunks.sort(key=lambda ix: int(ix[0]))
+        # within a chunk, leaves of at most BLOCK points by median cuts along the first
+        # LEAF_DIMS features, each leaf in its own block of BLOCK slots (padded): the compiled
+        # search skips a leaf whose feature box is beyond the bound
+        leaves = [_median_split(F[ix, :min(self.LEAF_DIMS, nf)], np.arange(ix.size),
+                                self.BLOCK) for ix in chunks]
         nc = len(chunks)
-        cs = max(ix.size for ix in chunks)
+        cs = self.BLOCK * max(len(lv) for lv in leaves)
         self.n_chunks, self.cs = nc, cs
         self.perm = np.full((nc, cs), -1, dtype=np.int64)      # chunk slot -> point index
         self.aug = np.zeros((nc, nf + 1, cs), dtype=np.float32)  # [-2 f, ||f||^2] per chunk
@@ -374,23 +409,96 @@ class _PCAIndex:
         lo = np.empty((nf, nc))
         hi = np.empty((nf, nc))
         self.rf = np.empty(nc)                                  # max ||f|| in float32
-        for j, ix in enumerate(chunks):
+        for j, (ix, lv) in enumerate(zip(chunks, leaves)):
+            slots = np.concatenate([b * self.BLOCK + np.arange(leaf.size)
+                                    for b, leaf in enumerate(lv)])
+            ix = ix[np.concatenate(lv)]
             f = F[ix]
             f32 = f.astype(np.float32)
-            self.perm[j, :ix.size] = ix
-            self.aug[j, :nf, :ix.size] = -2 * f32.T
-            self.aug[j, nf, :ix.size] = np.einsum("ij,ij->i", f, f)
+            self.perm[j, slots] = ix
+            self.aug[j, :nf, slots] = -2 * f32
+            self.aug[j, nf, slots] = np.einsum("ij,ij->i", f, f)
             lo[:, j] = f.min(axis=0)
             hi[:, j] = f.max(axis=0)
             self.rf[j] = np.sqrt(np.einsum("ij,ij->i", f32, f32, dtype=np.float64).max())
         self.lo, self.hi = lo[:, :, None], hi[:, :, None]      # (features, chunks, 1)
-        # every SAMPLE-th slot of each chunk (points in order along a principal axis)
+        # every SAMPLE-th slot of each chunk (the first slot of every leaf among them)
         self.aug_sample = np.ascontiguousarray(self.aug[:, :, ::self.SAMPLE])
         self.perm_sample = np.ascontiguousarray(self.perm[:, ::self.SAMPLE]).ravel()
         self.cs_sample = self.aug_sample.shape[2]
+        self.n_sample = (self.perm_sample.reshape(nc, -1) >= 0).sum(axis=1)  # real, per chunk
         self.perm = self.perm.ravel()
         self._lock = threading.Lock()
         self._work = np.empty(0, dtype=np.float32)
+        self._cwork: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._flat: tuple | None = None
+
+    def query_compiled(self, A: np.ndarray, P: np.ndarray, upper: np.ndarray | None = None
+                       ) -> np.ndarray:
+        """``query``'s answer, the bounds in one compiled loop per query (``compiled.py``):
+        the same indices (-1: left to brute force; -2: the row holds NaN or inf), with a
+        handful of NumPy calls per query instead of about a hundred."""
+        from .compiled import BLOCK, pca_candidates
+        assert BLOCK == self.BLOCK, "compiled.BLOCK and _PCAIndex.BLOCK differ"
+        m = A.shape[0]
+        out = np.full(m, -1, dtype=np.int64)
+        if not self.usable:
+            return out
+        if self._flat is None:
+            self._flat = self._compiled_arrays(P)
+        bounds, lo, hi, sub_lo, sub_hi, aug_points = self._flat
+        most = max(256, P.shape[0] // 32)
+        mine = self._lock.acquire(blocking=False)
+        try:
+            if mine and self._cwork is not None:
+                cand, work, leaves = self._cwork
+            else:
+                cand = np.empty(most + 1, dtype=np.int64)
+                work = np.empty((self.n_chunks, self.cs), dtype=np.float32)
+                leaves = np.empty((self.n_chunks, self.cs // self.BLOCK), dtype=np.int64)
+                if mine:
+                    self._cwork = (cand, work, leaves)
+            for i in range(m):
+                u = np.inf if upper is None else float(upper[i])
+                n = pca_candidates(A[i], u, P, self.mean, self.V, self.k, bounds, lo, hi,
+                                   sub_lo, sub_hi, self.rf, aug_points, self.aug_sample, self.perm,
+                                   self.perm_sample, self.R, self.orth, most, cand, work,
+                                   leaves)
+                if n < 0:                   # brute force (-1) or not finite (-2)
+                    out[i] = n
+                elif n == 1:                # the nearest point is always a candidate
+                    out[i] = cand[0]
+                elif n > 1:
+                    c = cand[:n]
+                    dd = ((A[i] - P[c]) ** 2).sum(axis=1)
+                    out[i] = c[dd == dd.min()].min()
+        finally:
+            if mine:
+                self._lock.release()
+        return out
+
+    def _compiled_arrays(self, P: np.ndarray) -> tuple:
+        """The compiled search's views: the residual groups as [start, end), the chunks'
+        boxes as (nf, nc), and the feature boxes of blocks of ``BLOCK`` consecutive slots
+        (nc, nf, blocks; +-inf for padding), from the points' features in float64."""
+        nf, nc, cs = self.lo.shape[0], self.n_chunks, self.cs
+        bounds = np.array([[g[0], g[-1] + 1] for g in self.groups], dtype=np.int64)
+        F = self._features((P - self.mean) @ self.V)
+        width = self.BLOCK
+        nb = cs // width
+        sub_lo = np.full((nc, nf, nb), np.inf)
+        sub_hi = np.full((nc, nf, nb), -np.inf)
+        slots = self.perm.reshape(nc, cs)
+        for c in range(nc):
+            for b in range(nb):
+                ix = slots[c, b * width:(b + 1) * width]
+                ix = ix[ix >= 0]
+                if ix.size:
+                    sub_lo[c, :, b] = F[ix].min(axis=0)
+                    sub_hi[c, :, b] = F[ix].max(axis=0)
+        return (bounds.reshape(-1, 2), np.ascontiguousarray(self.lo[:, :, 0]),
+                np.ascontiguousarray(self.hi[:, :, 0]), sub_lo, sub_hi,
+                np.ascontiguousarray(self.aug.transpose(0, 2, 1)))
 
     def _features(self, Z: np.ndarray) -> np.ndarray:
         F = np.empty((Z.shape[0], self.k + len(self.groups)))
@@ -401,14 +509,16 @@ class _PCAIndex:
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        state.pop("_lock", None)
-        state.pop("_work", None)
+        for name in ("_lock", "_work", "_cwork", "_flat"):
+            state.pop(name, None)
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._lock = threading.Lock()
         self._work = np.empty(0, dtype=np.float32)
+        self._cwork = None
+        self._flat = None
 
     def _err_z(self, zn: np.ndarray) -> np.ndarray:
         """Bound on |error| of the computed ``||f(z_x) - f(z_p)||`` and ``||z_x - z_p||`` from
@@ -506,7 +616,7 @@ class _PCAIndex:
         # dimensions, or queries far from them) go to brute force right away
         t1 = self._threshold(U, qq, ez, fn32, j1, q1)
         brute = np.zeros(m, dtype=bool)
-        brute[q1] = np.count_nonzero(G1 <= t1[:, None], axis=1) > 0.75 * self.cs_sample
+        brute[q1] = np.count_nonzero(G1 <= t1[:, None], axis=1) > 0.75 * self.n_sample[j1]
         # 3. every chunk whose box bound does not exceed U (float64 box from features within
         #    ez of the exact ones; the home chunk always): lower bounds of all its points;
         #    the smallest of each (chunk, query) pair, scored exactly, may lower U

@@ -38,8 +38,9 @@ def test_nearest_neighbour_equals_a_naive_loop():
     np.testing.assert_array_equal(((Q - P[ik]) ** 2).sum(1), ((Q - P[ref]) ** 2).sum(1))
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "numpy"])
 @pytest.mark.parametrize("kind", ["clustered", "gaussian", "grid", "flat"])
-def test_pca_nearest_neighbour_equals_a_naive_loop(kind):
+def test_pca_nearest_neighbour_equals_a_naive_loop(kind, compiled):
     rng = np.random.default_rng(21)
     n, d = 4000, N_STATE
     if kind == "clustered":
@@ -61,7 +62,7 @@ def test_pca_nearest_neighbour_equals_a_naive_loop(kind):
                      30.0 * rng.standard_normal((3, d)), 3e3 * rng.standard_normal((2, d)),
                      1e12 * rng.standard_normal((2, d))])          # far, very far, beyond `far`
     ref = naive_nearest(P, Q)
-    nn = NearestNeighbour(P, method="pca", chunk_points=128)
+    nn = NearestNeighbour(P, method="pca", chunk_points=128, compiled=compiled)
     assert nn.build_index().n_chunks >= 32
     np.testing.assert_array_equal(nn.query(Q), ref)
     singles = np.concatenate([nn.query(Q[i:i + 1]) for i in range(0, 190, 7)])
@@ -71,10 +72,13 @@ def test_pca_nearest_neighbour_equals_a_naive_loop(kind):
     if kind != "gaussian":
         # the bounds alone answer every query near the data: no fall-back to brute force (which
         # would also hide a point wrongly ruled out)
-        np.testing.assert_array_equal(nn.build_index().query(Q[:183], P), ref[:183])
+        index = nn.build_index()
+        search = index.query_compiled if compiled else index.query
+        np.testing.assert_array_equal(search(Q[:183], P), ref[:183])
 
 
-def test_pca_nearest_neighbour_near_ties_and_blocks():
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "numpy"])
+def test_pca_nearest_neighbour_near_ties_and_blocks(compiled):
     rng = np.random.default_rng(23)
     d = N_STATE
     P = clustered_points(3000, seed=24)
@@ -86,8 +90,9 @@ def test_pca_nearest_neighbour_near_ties_and_blocks():
         P[2900 - 2 * k] = c + v2 / np.linalg.norm(v2)
     Q = np.vstack([centres, P[rng.choice(3000, 500)] + 0.5 * rng.standard_normal((500, d))])
     ref = naive_nearest(P, Q)
-    nn = NearestNeighbour(P, method="pca", chunk_points=100)
+    nn = NearestNeighbour(P, method="pca", chunk_points=100, compiled=compiled)
     np.testing.assert_array_equal(nn.query(Q), ref)          # 540 rows: several query blocks
+    np.testing.assert_array_equal(nn.query(Q[:200]), ref[:200])
     np.testing.assert_array_equal(nn.query(Q, method="brute"), ref)
     np.testing.assert_array_equal(nn.query(Q[:1]), ref[:1])
     assert nn.query(Q[:0]).shape == (0,)
@@ -120,6 +125,13 @@ def test_nearest_neighbour_auto_method_pickle_and_threads():
     for res in results:
         for r in res:
             np.testing.assert_array_equal(r, ref)
+    bad = Q[:2].copy()
+    bad[1, 3] = np.nan
+    for compiled in (True, False):                  # one row and several, either form
+        nn.compiled = compiled
+        for rows in (bad[1:], bad):
+            with pytest.raises(ValueError, match="NaN or inf"):
+                nn.query(rows)
     with pytest.raises(ValueError, match="method"):
         NearestNeighbour(P, method="ball")
     with pytest.raises(ValueError, match="method"):
