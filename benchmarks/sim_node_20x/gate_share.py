@@ -9,8 +9,8 @@ skipping commands as a node at ``--node-hz`` does under a ``--cmd-hz`` stream (s
 command ``floor(k * cmd_hz / node_hz)``), and reports the CPU per step, the share of steps
 inside the gate and the exact searches per step. The exact searches of the second run are kept
 and timed again with each search method of ``NearestNeighbour`` (``"pca"``, the default here,
-and SciPy's ``"kdtree"``), alternately ``--repeats`` times; the medians and whether both return
-the same indices.
+in compiled code and in its NumPy form, and SciPy's ``"kdtree"``), alternately ``--repeats``
+times; the medians and whether all return the same indices.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/sim_node_20x/gate_share.py \\
         --model MODEL --data DATA --out benchmarks/sim_node_20x/quiet/gate_share.json
@@ -78,18 +78,24 @@ def main(argv=None) -> int:
                      "exact_searches_per_step": calls[0] / a.steps, "load": load})
     projection.nn.query = query
     projection.nn.build_tree()
-    times: dict = {"pca": [], "kdtree": []}
+    compiled = projection.nn.compiled
+    # (label, method, compiled): the pca search in compiled code and in NumPy, SciPy's k-d tree
+    variants = (("pca", "pca", True), ("pca_numpy", "pca", False), ("kdtree", "kdtree", True))
+    times: dict = {label: [] for label, _, _ in variants}
     answers: dict = {}
     for _ in range(a.repeats):
-        for method in times:
+        for label, method, comp in variants:
+            projection.nn.compiled = comp
             t0 = time.thread_time_ns()
-            answers[method] = [query(X, method, up if method == "pca" else None)
-                               for X, up in kept]
-            times[method].append((time.thread_time_ns() - t0) / 1e3 / len(kept))
+            answers[label] = [query(X, method, up if method == "pca" else None)
+                              for X, up in kept]
+            times[label].append((time.thread_time_ns() - t0) / 1e3 / len(kept))
+    projection.nn.compiled = compiled
     search = {"queries": len(kept), "load": uptime(),
               "us_per_query_median": {m: float(np.median(v)) for m, v in times.items()},
-              "same_indices": all(np.array_equal(x, y) for x, y in
-                                  zip(answers["pca"], answers["kdtree"]))}
+              "same_indices": all(all(np.array_equal(x, y) for x, y in
+                                      zip(answers["pca"], answers[other]))
+                                  for other in ("pca_numpy", "kdtree"))}
     doc["radius"] = radius
     doc["rows"] = rows
     doc["search_methods"] = search
@@ -100,8 +106,9 @@ def main(argv=None) -> int:
               f"`{r['load']}` |" for r in rows]
     med = search["us_per_query_median"]
     lines += ["", f"The second run's {search['queries']} exact searches, timed again (median of "
-              f"{a.repeats}, CPU per query): pca {med['pca']:.0f} us, kdtree {med['kdtree']:.0f} us; "
-              f"same indices: {search['same_indices']}. Load `{search['load']}`."]
+              f"{a.repeats}, CPU per query): pca (compiled, the default) {med['pca']:.0f} us, pca "
+              f"in NumPy {med['pca_numpy']:.0f} us, kdtree {med['kdtree']:.0f} us; same indices: "
+              f"{search['same_indices']}. Load `{search['load']}`."]
     lines = [command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; gate radius "
              f"{radius:.4f}", ""] + lines
     write_results(a.out, doc, lines)

@@ -80,6 +80,8 @@ def build_backend(model_path: str, radius: float | None, std_dtype: str = "float
 
 
 def profile_main(a) -> dict:
+    if os.environ.get("PROFILE_CODE_ROOT"):       # --before: that tree's package, not ours
+        sys.path.insert(0, os.environ["PROFILE_CODE_ROOT"])
     import littledog_mlsim
     import littledog_mlsim.models.lgpr as lgpr_mod
     from littledog_mlsim.data.dataset import load_moves
@@ -151,7 +153,7 @@ def profile_main(a) -> dict:
 
 
 def run_profile(a, code_root: str | None, std_dtype: str = "float64") -> dict:
-    env = dict(os.environ, PYTHONPATH=code_root or str(ROOT))
+    env = dict(os.environ, PYTHONPATH=code_root or str(ROOT), PROFILE_CODE_ROOT=code_root or "")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "p.json"
         cmd = [sys.executable, __file__, "--profile-child", str(out), "--model", a.model,
