@@ -7,11 +7,14 @@ compiled loop per query and returns the points the bounds cannot rule out; the c
 them with the naive formula in NumPy, as the NumPy form does, so the answer is the naive
 loop's, bit for bit.
 
-The bounds are those of ``_PCAIndex`` (its docstring gives the margins) with two changes, both
+The bounds are those of ``_PCAIndex`` (its docstring gives the margins) with these changes, all
 on the safe side:
 
-- the lower bounds ``||f_p||^2 - 2 f_x . f_p`` are summed in float64 from the same float32
-  operands (the float32 GEMM's margin covers them);
+- the lower bounds ``||f_p||^2 - 2 f_x . f_p`` are summed point by point in float32, in any
+  order and with fused multiply-adds (the float32 GEMM's margin covers any order), and
+  compared with the float64 threshold (the NumPy form rounds it up to float32);
+- inside each chunk the points lie in leaves of ``BLOCK`` slots, and a leaf whose feature box
+  cannot hold a point within the bound is skipped, by the chunk's own test;
 - the chunks are visited in order of their box bound, and each chunk's best point, when its
   bound is under the threshold, is scored at once, so that the bound ``U`` tightens before the
   next chunk is considered; a point scored here (a compiled sum, not NumPy's) counts at
@@ -73,11 +76,12 @@ def pca_candidates(x, upper, P, mean, V, k, group_bounds, lo, hi, sub_lo, sub_hi
     ``upper``: a known point's NumPy naive squared distance (``inf`` if none). The index
     arrays are ``_PCAIndex``'s: ``V`` its axes, ``k`` leading coordinates and the residual
     groups ``group_bounds`` (G, 2) as features, ``lo``/``hi`` (nf, nc) the chunks' feature
-    boxes, ``sub_lo``/``sub_hi`` (nc, blocks, nf) those of blocks of consecutive slots (a
-    block whose box cannot hold a point within the bound is skipped), ``rf`` (nc,) their largest float32 feature norms, ``aug`` (nc, nf + 1, cs) and
-    ``aug_sample`` the float32 ``[-2 f_p, ||f_p||^2]``, ``perm``/``perm_sample`` slot ->
-    point. ``out`` (>= max_candidates + 1,) int64 receives the candidates; ``work`` (nc, cs)
-    float64 is scratch.
+    boxes, ``sub_lo``/``sub_hi`` (nc, nf, leaves) those of the chunks' leaves (a leaf whose
+    box cannot hold a point within the bound is skipped), ``rf`` (nc,) their largest
+    float32 feature norms, ``aug_points`` (nc, cs, nf + 1) point by point and ``aug_sample``
+    (nc, nf + 1, cs / SAMPLE) the float32 ``[-2 f_p, ||f_p||^2]``, ``perm``/``perm_sample``
+    slot -> point. ``out`` (>= max_candidates + 1,) int64 receives the candidates; ``work`` (nc, cs)
+    float32 and ``leaves`` (nc, cs // BLOCK) int64 are scratch.
     """
     d = x.shape[0]
     nc = lo.shape[1]

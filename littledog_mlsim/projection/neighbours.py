@@ -183,11 +183,16 @@ class NearestNeighbour:
             raise ValueError(f"method must be one of {self.METHODS}, got {method!r}")
         method = self._resolve(method)
         if method == "pca" and self.compiled and 0 < A.shape[0] <= self.COMPILED_ROWS:
-            # the compiled bounds check the rows (NaN, inf, far) themselves
+            # the compiled bounds check the rows for NaN and inf themselves; a writeable
+            # C-order copy where needed (a read-only array would compile another version)
+            if not (A.flags.c_contiguous and A.flags.writeable):
+                A = np.array(A, order="C")
             up = None if upper is None else np.asarray(upper, dtype=np.float64)
-            res = self.build_index().query_compiled(np.ascontiguousarray(A), self._P, up)
+            res = self.build_index().query_compiled(A, self._P, up)
             if np.any(res == _NOT_FINITE):
                 raise ValueError("queries hold NaN or inf")
+            # rows beyond `far` go to brute force at norm `far`, as in the NumPy form
+            res[np.sqrt(np.einsum("ij,ij->i", A, A)) > self.far] = -1
             todo = res < 0                               # left to brute force
             if np.any(todo):
                 res[todo] = self.query(A[todo], method="brute")

@@ -136,3 +136,28 @@ def test_nearest_neighbour_auto_method_pickle_and_threads():
         NearestNeighbour(P, method="ball")
     with pytest.raises(ValueError, match="method"):
         nn.query(Q, method="ball")
+
+
+def test_compiled_search_far_read_only_and_batch_size_agree_with_the_numpy_form():
+    rng = np.random.default_rng(29)
+    # data whose radius exceeds far / 64: rows beyond `far` must be searched as the NumPy
+    # form searches them (at norm `far`, brute force), whatever the batch size
+    P = rng.standard_normal((3000, 12)) * np.r_[[3e7] * 4, [1e5] * 8]
+    Q = rng.standard_normal((12, 12)) * 1e8
+    fast = NearestNeighbour(P, method="pca", chunk_points=100)
+    slow = NearestNeighbour(P, method="pca", chunk_points=100, compiled=False)
+    np.testing.assert_array_equal(fast.query(Q), slow.query(Q))
+    # a read-only, non-contiguous batch across COMPILED_ROWS, and inf rows
+    P = clustered_points(4000, seed=30)
+    nn = NearestNeighbour(P, method="pca", chunk_points=128)
+    n = NearestNeighbour.COMPILED_ROWS
+    Q = np.asfortranarray(P[rng.choice(4000, n + 1)] + 0.5 * rng.standard_normal((n + 1, N_STATE)))
+    Q.flags.writeable = False
+    ref = naive_nearest(P, Q)
+    np.testing.assert_array_equal(nn.query(Q), ref)                 # the NumPy form
+    np.testing.assert_array_equal(nn.query(Q[:n]), ref[:n])         # compiled, one by one
+    np.testing.assert_array_equal(nn.query(Q[:1]), ref[:1])
+    bad = np.array(Q[:3])
+    bad[2, 0] = -np.inf
+    with pytest.raises(ValueError, match="NaN or inf"):
+        nn.query(bad)
