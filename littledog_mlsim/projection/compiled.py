@@ -31,10 +31,10 @@ import math
 import numpy as np
 from numba import njit
 
+from .neighbours import _U32, _U64  # noqa: E402  (the NumPy form's unit roundoffs)
+
 #: slots per leaf: ``_PCAIndex.BLOCK`` (a compile-time constant here)
 BLOCK = 32
-_U32 = float(np.finfo(np.float32).eps) / 2
-_U64 = float(np.finfo(np.float64).eps) / 2
 
 
 @njit(cache=True, nogil=True)

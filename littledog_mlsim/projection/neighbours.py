@@ -443,15 +443,13 @@ class _PCAIndex:
         """``query``'s answer, the bounds in one compiled loop per query (``compiled.py``):
         the same indices (-1: left to brute force; -2: the row holds NaN or inf), with a
         handful of NumPy calls per query instead of about a hundred."""
-        from .compiled import BLOCK, pca_candidates
-        assert BLOCK == self.BLOCK, "compiled.BLOCK and _PCAIndex.BLOCK differ"
         m = A.shape[0]
         out = np.full(m, -1, dtype=np.int64)
         if not self.usable:
             return out
         if self._flat is None:
             self._flat = self._compiled_arrays(P)
-        bounds, lo, hi, sub_lo, sub_hi, aug_points = self._flat
+        pca_candidates, bounds, lo, hi, sub_lo, sub_hi, aug_points = self._flat
         most = max(256, P.shape[0] // 32)
         mine = self._lock.acquire(blocking=False)
         try:
@@ -485,7 +483,11 @@ class _PCAIndex:
     def _compiled_arrays(self, P: np.ndarray) -> tuple:
         """The compiled search's views: the residual groups as [start, end), the chunks'
         boxes as (nf, nc), and the feature boxes of blocks of ``BLOCK`` consecutive slots
-        (nc, nf, blocks; +-inf for padding), from the points' features in float64."""
+        (nc, nf, blocks; +-inf for padding), from the points' features in float64; first
+        the compiled kernel itself (numba is imported here, on first use)."""
+        from .compiled import BLOCK, pca_candidates
+        if BLOCK != self.BLOCK:
+            raise RuntimeError("compiled.BLOCK and _PCAIndex.BLOCK differ")
         nf, nc, cs = self.lo.shape[0], self.n_chunks, self.cs
         bounds = np.array([[g[0], g[-1] + 1] for g in self.groups], dtype=np.int64)
         F = self._features((P - self.mean) @ self.V)
@@ -501,7 +503,7 @@ class _PCAIndex:
                 if ix.size:
                     sub_lo[c, :, b] = F[ix].min(axis=0)
                     sub_hi[c, :, b] = F[ix].max(axis=0)
-        return (bounds.reshape(-1, 2), np.ascontiguousarray(self.lo[:, :, 0]),
+        return (pca_candidates, bounds.reshape(-1, 2), np.ascontiguousarray(self.lo[:, :, 0]),
                 np.ascontiguousarray(self.hi[:, :, 0]), sub_lo, sub_hi,
                 np.ascontiguousarray(self.aug.transpose(0, 2, 1)))
 
