@@ -48,6 +48,8 @@ def _sq_dist(x, P, i):
 
 @njit(cache=True, nogil=True)
 def _threshold(U, qq, ez, fn32, rfc, orth, d, nf):
+    """``_PCAIndex._threshold`` for one (chunk, query) pair, in float64 (numba cannot call
+    the NumPy form; keep the two formulas the same)."""
     Uz = (math.sqrt(U * ((1.0 + orth) * (1.0 + (d + 4) * _U64))) + 2.0 * ez) ** 2
     base = Uz - qq * (1.0 - 4.0 * (nf + 2) * _U64) + 16.0 * _U64 * (Uz + qq)
     return base + 2.0 * (nf + 4) * _U32 * (fn32 + rfc) ** 2
