@@ -9,8 +9,8 @@ explains the most held-out residual variance.
 ==========================  =============================================  ===================
 family                      candidates (parameters)                        physical picture
 ==========================  =============================================  ===================
-command delay               u_{t-d}, d = 1..6 (all joints)                 servo acts on an
-                                                                           old command
+command delay               u_{t-d}, d = 1..6 (all joints; each side;      servo acts on an
+                            each leg)                                      old command
 command increment           u_{t-k} - u_{t-k-1}, k = 0..3                  rate-dependent servo
 lagged state                s_{t-k} of body / body deltas / q / dq /       missing dynamics
                             joints / all, k = 1..3                         order, filters, noise
@@ -39,6 +39,8 @@ measured robot itself leaves in the paper's 45-feature model (see its docstring 
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 from ..models.features import (
     Augmentation, CommandIncrement, CommandLag, CommandedLift, ElapsedTime, FeatureSet, FootHeight,
     GaitPhase, Heading, JointRateMagnitude, JointRateSign, PlanarPosition, Play, StateLag,
@@ -48,10 +50,18 @@ from ..models.features import (
 __all__ = ["default_library", "measured_robot_features", "paper_features", "BASELINES"]
 
 
-def default_library(max_command_lag: int = 6, max_state_lag: int = 3) -> list[Augmentation]:
-    """The candidate effects, in a fixed order (families as in the module table)."""
+DELAY_SCOPES = ("left", "right", "front_left", "front_right", "back_left", "back_right")
+
+
+def default_library(max_command_lag: int = 6, max_state_lag: int = 3,
+                    delay_scopes: Sequence[str] = DELAY_SCOPES) -> list[Augmentation]:
+    """The candidate effects, in a fixed order (families as in the module table). A command
+    delay is screened on every joint and on each group of ``delay_scopes`` (a side's or a
+    leg's servos on a slower bus), each at every lag."""
     lib: list[Augmentation] = []
     lib += [CommandLag(lag=d) for d in range(1, max_command_lag + 1)]
+    lib += [CommandLag(lag=d, joints=j) for j in delay_scopes
+            for d in range(1, max_command_lag + 1)]
     lib += [CommandIncrement(lag=k) for k in range(0, 4)]
     for k in range(1, max_state_lag + 1):
         lib += [StateLag(lag=k, group=g) for g in ("body", "body_deltas", "q", "dq", "joints",

@@ -65,6 +65,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from ..data.recording import MoveRecording
 from ..layout import MOVE_TYPES, N_FEATURE, N_STATE, STATE_NAMES
+from ..models.feature_library import JOINT_GROUPS
 from ..models.features import Augmentation, CommandLag, FeatureSet
 from .families.learned import DELAY_TOLERANCE, learned_family
 from .stats import SSEDecision, sse_decision  # re-exported (physics.py imports them here)
@@ -412,15 +413,18 @@ def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
         picked = estimate_member(family, members)
         if not learned_family(family).scans_delay:
             break
-        lags = sorted({s.augmentation.lag for s in members
-                       if s.augmentation.name == "command_lag"})
-        delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags)
+        # the scan replaces the commands of the joints the picked lag is scoped to
+        joints = picked.augmentation.joints if picked.augmentation.name == "command_lag" \
+            else "all"
+        by_lag = {s.augmentation.lag: s for s in members
+                  if s.augmentation.name == "command_lag" and s.augmentation.joints == joints}
+        lags = sorted(by_lag)
+        delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags, joints)
         d_hat = delay_from_scan(delay_profile)
-        say("delay scan (u_t replaced by u_t-d): " + ", ".join(
+        where = "" if joints == "all" else f" of the {joints} joints"
+        say(f"delay scan (u_t{where} replaced by u_t-d): " + ", ".join(
             f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
             + f" -> delay {d_hat}")
-        by_lag = {s.augmentation.lag: s for s in members
-                  if s.augmentation.name == "command_lag"}
         if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
             picked = by_lag[d_hat]
             ccf = _command_ccf(m.residual_, X, move_index, picked)
@@ -440,8 +444,9 @@ def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
 
 def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
                move_types: Sequence[str], columns: dict[str, np.ndarray],
-               lags: Sequence[int]) -> list[dict[str, Any]]:
-    """The command-delay estimate: refit the search model with u_t replaced by u_{t-d}.
+               lags: Sequence[int], joints: str = "all") -> list[dict[str, Any]]:
+    """The command-delay estimate: refit the search model with u_t replaced by u_{t-d} (of the
+    ``joints`` group only; the other joints keep u_t).
 
     A delay of d steps means the servo acts on u_{t-d}; the search model that is given that
     command instead of u_t (in its nonlinear map as well as linearly) fits the held-out data
@@ -454,7 +459,8 @@ def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.
     tot0 = np.where(tot0 > 0, tot0, 1.0)
     for d in lags:
         Xd = np.array(X, copy=True)
-        Xd[:, N_STATE:N_FEATURE] = columns[CommandLag(lag=d).label()]
+        Xd[:, [N_STATE + j for j in JOINT_GROUPS[joints]]] = \
+            columns[CommandLag(lag=d, joints=joints).label()]
         md = _fresh(model).fit(Xd, D, move_index, move_types, model.length_scales_)
         gain = 1.0 - md.sse_.sum(axis=0) / tot0
         out.append({"delay": int(d), "total_gain": float(gain.sum()),

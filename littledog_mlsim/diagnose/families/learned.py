@@ -92,6 +92,41 @@ class LearnedFamily:
         return min(ok, key=lambda s: (len(s.augmentation.columns()), -s.total_gain))
 
 
+DELAY_SCOPE_ALPHA = 0.01
+
+
+def delay_scope(lags: Sequence["CandidateScore"], alpha: float = DELAY_SCOPE_ALPHA) -> str:
+    """The joints a command delay is scoped to: where the gain of the command-lag members
+    ``lags`` lands. In a trot the legs' set-points are nearly linear in one another (a diagonal
+    pair moves together), so any side's or leg's u_(t-k) also carries a delayed side's old
+    command, and the members' total gains cannot tell the scope; the joints whose own q and dq
+    the lags improve can. Of the best all-joint member's per-element gains, each scope of
+    ``DELAY_SCOPES``' q and dq elements against every other joint's, one-sided Mann-Whitney,
+    times the number of scopes; the scope with the smallest p below ``alpha``, else all joints
+    (measured on a 30 ms left-side delay, ``benchmarks/blind_zoo``, zoo12 run2)."""
+    from scipy.stats import mannwhitneyu
+    from ...layout import STATE_NAMES
+    from ...models.feature_library import JOINT_GROUPS, JOINT_NAMES
+    from ..candidates import DELAY_SCOPES
+    full = [s for s in lags if s.augmentation.joints == "all"]
+    if not full or len(full) == len(lags):     # no narrower scope was screened
+        return "all"
+    gain = np.asarray(max(full, key=lambda s: s.total_gain).gain, dtype=float)
+
+    def elements(joints: Sequence[int]) -> list[int]:
+        return [STATE_NAMES.index(f"{k}_{JOINT_NAMES[j]}") for j in joints for k in ("q", "dq")]
+    scopes = [j for j in DELAY_SCOPES if j in JOINT_GROUPS]
+    best, best_p = "all", alpha
+    for scope in scopes:
+        inside = set(JOINT_GROUPS[scope])
+        rest = [j for j in range(len(JOINT_NAMES)) if j not in inside]
+        p = float(mannwhitneyu(gain[elements(sorted(inside))], gain[elements(rest)],
+                               alternative="greater").pvalue) * len(scopes)
+        if p < best_p:
+            best, best_p = scope, p
+    return best
+
+
 LEARNED_FAMILIES: dict[str, LearnedFamily] = {}
 
 
@@ -138,7 +173,10 @@ class CommandDelayFeatures(LearnedFamily):
         if lags:
             best = max(s.total_gain for s in lags)
             if best > 0:
-                ok = [s for s in lags if s.total_gain >= (1.0 - tolerance) * best]
+                scope = delay_scope(lags)
+                within = [s for s in lags if s.augmentation.joints == scope] or lags
+                top = max(s.total_gain for s in within)
+                ok = [s for s in within if s.total_gain >= (1.0 - tolerance) * top]
                 return max(ok, key=lambda s: s.augmentation.lag)
         return super().estimate_member(scores, tolerance)
 
