@@ -312,9 +312,30 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
     L += _md_before_after(doc, figs)
     L += _md_rounds(doc)
     L += _md_rollout_route(doc.get("rollout_route"))
+    L += _md_timing(doc.get("timing"))
     add(f"Final model: `{doc.get('model')}`. Schema of report.json: "
         f"`littledog_mlsim/diagnose/report.py`.")
     return "\n".join(L) + "\n"
+
+
+def _md_timing(t: Mapping[str, Any] | None) -> list[str]:
+    """The sensor-timing check's section (:mod:`.timing`), either route."""
+    if not t:
+        return []
+    L = ["## Sensor timing (joint states against the pose)\n"]
+    if "error" in t:
+        return L + [f"Not checked: {t['error']}\n"]
+    ref = (f"; the reference {t['reference_median_ms']:+.1f} ms over "
+           f"{t['reference_n_moves']} moves" if "reference_median_ms" in t else "")
+    L.append(f"The joint angles fit the feet's height on the floor best read "
+             f"{t['median_ms']:+.1f} ms from the pose (median over {t['n_moves']} moves, "
+             f"quartiles {t['iqr_ms'][0]:+.1f} to {t['iqr_ms'][1]:+.1f}){ref}. Shift "
+             f"{t['shift_ms']:+.1f} ms, p = {t['p_value']:.2g} ({t['test']}).\n")
+    if t.get("significant"):
+        L.append(f"**Found:** {t['statement']}. What to do: {t['recording']}.\n")
+    else:
+        L.append(f"No shift of at least {t['min_shift_ms']:g} ms at p < {t['alpha']:g}.\n")
+    return L
 
 
 def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
@@ -651,6 +672,7 @@ def _physical_markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
                 f"{r['material']}).\n")
     for f in figs.get("summary", []):
         add(f"![{f}]({f})\n")
+    L += _md_timing(doc.get("timing"))
     add(f"Final model: `{doc.get('model')}`. Schema of report.json: docs/diagnosis.md.")
     return "\n".join(L) + "\n"
 

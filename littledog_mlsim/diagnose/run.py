@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -96,6 +96,8 @@ class _Run:
     o: DiagnoseOptions
     say: Callable[[str], None]
     t_start: float
+    loaded_once: dict[str, Any] = field(default_factory=dict)   # e.g. the reference's moves
+
 
 
 def diagnose(data: str | os.PathLike, out: str | os.PathLike,
@@ -255,7 +257,7 @@ def _report_keywords(run: _Run, last_model: Any) -> dict[str, Any]:
     model_path = None
     if run.o.save_model and last_model is not None:   # None if the last stage's fit failed
         model_path = last_model.save(run.out / "model")
-    return dict(data=os.fspath(run.data), dataset_info=run.index.info,
+    return dict(data=os.fspath(run.data), dataset_info=run.index.info, timing=_timing(run),
                 baseline=run.baseline_desc, method=run.method, options=run.model_options,
                 model_path=None if model_path is None else os.fspath(model_path),
                 n_train=len(run.train), n_test=len(run.test), figures=run.o.figures,
@@ -311,6 +313,8 @@ def _reference_moves(run: _Run) -> list[MoveRecording]:
     another control step, or without moves, is refused in one line naming it."""
     if run.o.reference is None:
         return []
+    if "reference_moves" in run.loaded_once:
+        return run.loaded_once["reference_moves"]
     ref = read_index(run.o.reference)
     for key in ("control_dt_ns",):
         a, b = ref.info.get(key), run.index.info.get(key)
@@ -320,7 +324,23 @@ def _reference_moves(run: _Run) -> list[MoveRecording]:
     if not moves:
         raise ValueError(f"reference {run.o.reference}: no TrainPool moves")
     run.say(f"reference: {len(moves)} TrainPool moves from {run.o.reference}")
+    run.loaded_once["reference_moves"] = moves
     return moves
+
+
+def _timing(run: _Run) -> dict[str, Any]:
+    """The sensor-timing check (:mod:`.timing`) of the TrainPool, against the reference's where
+    given; a recording it cannot read (a move too short) gives an ``error`` entry instead."""
+    from .timing import TIMING_ALPHA, sensor_timing
+    try:
+        t = sensor_timing(run.train, _reference_moves(run) or None, alpha=TIMING_ALPHA)
+    except ValueError as exc:
+        run.say(f"timing: not checked: {exc}")
+        return {"error": str(exc), "significant": False}
+    run.say("timing: " + (t["statement"] if t["significant"] else
+                          f"the joint states and the pose agree (shift {t['shift_ms']:+.1f} ms, "
+                          f"p = {t['p_value']:.2g})"))
+    return t
 
 
 def _stages(run: _Run, feature_sets: Sequence[FeatureSet]) -> tuple[list[dict[str, Any]], Any]:

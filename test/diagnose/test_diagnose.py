@@ -410,7 +410,7 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
     pid = PhysIdResult([finding], [finding], [], "measured", 6, 12, 100, 1.0, 0.01, 0.05, 200,
                        (0.1, 1.0), {})
     info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
-                                "n_train_moves", "n_test_moves", "model", "seconds")}
+                                "n_train_moves", "n_test_moves", "model", "seconds", "timing")}
     info["route"] = {"name": "physical", "why": "given", "robot": "measured", "twin": None,
                      "reference": "/data/ref"}
     pid.reference = {"n_moves": 2, "moves": ["F_00", "B_00"], "twin_errors": [],
@@ -421,6 +421,8 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
     assert undocumented_report_keys(physical) == []
     assert set(physical) == (set(doc) - {"floor_plane"}) | {"physics"}   # floor: learned only
     assert doc["floor_plane"]["r2"] < 0.5                  # a flat floor: no slope to read
+    # a command delay moves the joints and the body together: no sensor-timing finding
+    assert doc["timing"]["significant"] is False and abs(doc["timing"]["shift_ms"]) < 5.0
 
 
 @pytest.mark.slow   # the one-step loop's further effect case; CI keeps its delay and clean checks

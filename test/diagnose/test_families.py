@@ -266,3 +266,73 @@ def test_a_delay_member_is_the_largest_lag_near_the_best_other_members_the_fewes
              _Score(fl.JointRateSign(joints="knees"), 0.46),
              _Score(fl.JointRateSign(joints="front_left_knee"), 0.30)]
     assert estimate_member("Coulomb friction", rates).augmentation.joints == "knees"
+
+
+def _lag_score(lag: int, joints: str, total: float, landing: dict[str, float] | None = None,
+               seed: int = 0):
+    """A command-lag member with a per-element gain: 0.01 (+- noise) on every element, and
+    ``landing``'s value on the q and dq of each joint group named there."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.layout import STATE_NAMES
+    from littledog_mlsim.models import feature_library as fl
+    rng = np.random.default_rng(seed)
+    gain = 0.01 + 0.002 * rng.standard_normal(len(STATE_NAMES))
+    for group, g in (landing or {}).items():
+        for j in fl.JOINT_GROUPS[group]:
+            for k in ("q", "dq"):
+                gain[STATE_NAMES.index(f"{k}_{fl.JOINT_NAMES[j]}")] = g + 0.002 * rng.random()
+    return SimpleNamespace(augmentation=fl.CommandLag(lag=lag, joints=joints), total_gain=total,
+                           gain=gain)
+
+
+def test_a_delay_is_scoped_where_its_gain_lands():
+    """The lags of one side or leg carry a delayed side's old command too (a trot's legs move
+    together), so the scope is read off where the best all-joint lag's gain lands: on one
+    side's q and dq, that side; on one leg's, that leg; spread over every joint, all joints.
+    The member is then the largest lag near the best within that scope."""
+    from littledog_mlsim.diagnose.families.learned import delay_scope
+    from littledog_mlsim.diagnose.selection import estimate_member
+    left = {"left": 0.1}
+    lags = [_lag_score(3, "all", 0.82, left), _lag_score(1, "all", 0.58, left, 1),
+            _lag_score(3, "left", 0.68), _lag_score(2, "left", 0.56),
+            _lag_score(4, "left", 0.60), _lag_score(3, "right", 0.50)]
+    assert delay_scope(lags) == "left"
+    member = estimate_member("command delay", lags)
+    assert (member.augmentation.joints, member.augmentation.lag) == ("left", 3)
+    leg = [_lag_score(2, "all", 0.4, {"back_left": 0.06}), _lag_score(2, "back_left", 0.3)]
+    assert delay_scope(leg) == "back_left"
+    spread = [_lag_score(2, "all", 0.9, {"all": 0.08}), _lag_score(2, "left", 0.5)]
+    assert delay_scope(spread) == "all"
+    assert estimate_member("command delay", spread).augmentation.joints == "all"
+    # only all-joint lags screened: all joints, with no gains needed
+    assert delay_scope([_lag_score(1, "all", 0.5)]) == "all"
+
+
+def test_a_scoped_delay_scan_replaces_only_that_scopes_commands(monkeypatch):
+    """``delay_scan(joints=...)`` gives the search model u_(t-d) of the scope's joints and
+    keeps u_t of the others."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose import selection
+    from littledog_mlsim.layout import N_FEATURE, N_STATE
+    from littledog_mlsim.models import feature_library as fl
+    seen = []
+
+    class _Fit:
+        def fit(self, X, D, move_index, move_types, length_scales):
+            seen.append(np.array(X))
+            return SimpleNamespace(sse_=np.ones((1, N_STATE)))
+    monkeypatch.setattr(selection, "_fresh", lambda model: _Fit())
+    n = 5
+    X = np.zeros((n, N_FEATURE))
+    left = fl.JOINT_GROUPS["left"]
+    columns = {fl.CommandLag(lag=2, joints="left").label(): np.full((n, len(left)), 7.0)}
+    model = SimpleNamespace(sse_=np.ones((1, N_STATE)), length_scales_=None)
+    profile = selection.delay_scan(model, X, np.zeros((n, N_STATE)), np.zeros(n, int), ["F"],
+                                   columns, [2], "left")
+    assert [r["delay"] for r in profile] == [0, 2]
+    U = seen[0][:, N_STATE:N_FEATURE]
+    assert np.all(U[:, list(left)] == 7.0)
+    assert np.all(np.delete(U, list(left), axis=1) == 0.0)
+    assert np.all(seen[0][:, :N_STATE] == 0.0)

@@ -405,6 +405,22 @@ def test_widen_focus_takes_all_joints_where_the_added_joints_own_error_falls():
     assert _widen(right, [lower, right], 0.01, added=True)[0] is right
 
 
+def test_a_wider_scope_within_the_tolerance_widens_on_the_move_by_move_test():
+    """``widen_within_tolerance``: a drift on every joint whose right side alone gains a little
+    more in total (within parsimony's tolerance) is widened to all joints where all joints gain
+    more on most moves; without the tolerance it stays at the side, and a wider scope whose
+    total is beyond the tolerance stays out either way."""
+    from littledog_mlsim.diagnose.learned import _widen
+    rng = np.random.default_rng(5)
+    side_gain = 0.30 + 0.05 * rng.random(60)
+    right = _probe("right", side_gain, 21.66)
+    everywhere = _probe("all", side_gain + 0.01 + 0.002 * rng.standard_normal(60), 21.34)
+    assert _widen(right, [everywhere, right], 0.01)[0] is right
+    assert _widen(right, [everywhere, right], 0.01, tolerance=0.1)[0] is everywhere
+    far = _probe("all", side_gain + 0.01 + 0.002 * rng.standard_normal(60), 15.0)
+    assert _widen(right, [far, right], 0.01, tolerance=0.1)[0] is right
+
+
 def test_a_round_takes_only_what_cuts_the_total_and_recounts_a_kept_scopes_focus_choices():
     """A probe significant and material on some elements that raises the total held-out
     rollout error is not taken (``_accepted``): it is a suspect that says so. A screen's

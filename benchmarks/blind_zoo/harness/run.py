@@ -177,20 +177,24 @@ def _angle_err(a: float, b: float) -> float:
 
 def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     """Every effect the report names in the vocabulary: the physical route's
-    ``effects[*].physical``, and the learned route's ``vocabulary`` blocks (one-step loop and
-    rollout route)."""
+    ``effects[*].physical``, the learned route's ``vocabulary`` blocks (one-step loop and
+    rollout route), and the sensor-timing check's where it found a shift (either route)."""
     out = []
     for e in report.get("effects", []):
         p = e.get("physical") or {}
         out.append(p if "family" in p else (e.get("vocabulary") or {}))
     for e in (report.get("rollout_route") or {}).get("effects", []):
         out.append(e.get("vocabulary") or {})
+    timing = report.get("timing") or {}
+    if timing.get("significant"):
+        out.append(timing.get("vocabulary") or {})
     return [p for p in out if p]
 
 
 def significant(report: dict[str, Any]) -> bool:
     return bool(report.get("significant")
-                or (report.get("rollout_route") or {}).get("significant"))
+                or (report.get("rollout_route") or {}).get("significant")
+                or (report.get("timing") or {}).get("significant"))
 
 
 def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
