@@ -99,7 +99,6 @@ class _Run:
     loaded_once: dict[str, Any] = field(default_factory=dict)   # e.g. the reference's moves
 
 
-
 def diagnose(data: str | os.PathLike, out: str | os.PathLike,
              diagnose_options: DiagnoseOptions | None = None, /, **keywords: Any
              ) -> dict[str, Any]:
@@ -332,8 +331,9 @@ def _timing(run: _Run) -> dict[str, Any]:
     """The sensor-timing check (:mod:`.timing`) of the TrainPool, against the reference's where
     given; a recording it cannot read (a move too short) gives an ``error`` entry instead."""
     from .timing import TIMING_ALPHA, sensor_timing
+    reference = _reference_moves(run) or None    # a bad reference is refused, not skipped
     try:
-        t = sensor_timing(run.train, _reference_moves(run) or None, alpha=TIMING_ALPHA)
+        t = sensor_timing(run.train, reference, alpha=TIMING_ALPHA)
     except ValueError as exc:
         run.say(f"timing: not checked: {exc}")
         return {"error": str(exc), "significant": False}
