@@ -34,8 +34,10 @@ Method (and why)
    ``outputs`` are the elements with p < alpha and gain >= ``min_gain / 2``.
 5. **Forward selection.** The family of the significant and material candidate with the largest
    total held-out gain (summed over the 33 elements) is detected; its parameters are estimated
-   within the family: the delay in steps by refitting the search model with u_t *replaced* by
-   u_{t-d} for every d on the grid and taking the d after which the fit falls off
+   within the family: the delay's scope where its gain lands (each side's and leg's joints
+   against the others, :func:`.families.learned.delay_scope`), then the delay in steps by
+   refitting the search model with u_t of that scope's joints *replaced* by u_{t-d} for every
+   d on the grid and taking the d after which the fit falls off
    (:func:`delay_scan`, :func:`delay_from_scan`; as an added column every lag up to the delay
    helps about equally, so the augmentation profile cannot tell d apart), other families by
    parsimony among the near-best members (:func:`estimate_member`). The scan is also a
@@ -413,31 +415,37 @@ def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
         picked = estimate_member(family, members)
         if not learned_family(family).scans_delay:
             break
-        # the scan replaces the commands of the joints the picked lag is scoped to
-        joints = picked.augmentation.joints if picked.augmentation.name == "command_lag" \
+        # the scan replaces the commands of the joints the picked lag is scoped to; a scope
+        # whose own lag at the scan's delay does not pass is tried again at all joints
+        scoped = picked.augmentation.joints if picked.augmentation.name == "command_lag" \
             else "all"
-        by_lag = {s.augmentation.lag: s for s in members
-                  if s.augmentation.name == "command_lag" and s.augmentation.joints == joints}
-        lags = sorted(by_lag)
-        delay_profile = delay_scan(m, X, D, move_index, move_types, columns, lags, joints)
-        d_hat = delay_from_scan(delay_profile)
-        where = "" if joints == "all" else f" of the {joints} joints"
-        say(f"delay scan (u_t{where} replaced by u_t-d): " + ", ".join(
-            f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
-            + f" -> delay {d_hat}")
-        if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
-            picked = by_lag[d_hat]
-            ccf = _command_ccf(m.residual_, X, move_index, picked)
+        accepted = False
+        for joints in dict.fromkeys((scoped, "all")):
+            by_lag = {s.augmentation.lag: s for s in members if s.augmentation.name ==
+                      "command_lag" and s.augmentation.joints == joints}
+            delay_profile = delay_scan(m, X, D, move_index, move_types, columns,
+                                       sorted(by_lag), joints)
+            d_hat = delay_from_scan(delay_profile)
+            where = "" if joints == "all" else f" of the {joints} joints"
+            say(f"delay scan (u_t{where} replaced by u_t-d): " + ", ".join(
+                f"d={r['delay']}: {r['total_gain']:+.3f}" for r in delay_profile)
+                + f" -> delay {d_hat}")
+            if d_hat in by_lag and any(s is by_lag[d_hat] for s in ok):
+                picked = by_lag[d_hat]
+                ccf = _command_ccf(m.residual_, X, move_index, picked)
+                accepted = True
+                break
+            # the replacement scan sees no delay, or a delay whose own column is not
+            # significant and material (e.g. already in the model): not a delay here
+            scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
+            why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
+                   f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}){where} column is "
+                   "not significant and material by itself")
+            notes.append("command-delay candidates were significant and material, but the "
+                         f"delay scan{where} {why}: not accepted; scan " + scan)
+            say(notes[-1])
+        if accepted:
             break
-        # the replacement scan sees no delay, or a delay whose own column is not significant
-        # and material (e.g. already in the model): the command columns' gain is not a delay
-        scan = ", ".join(f"d={r['delay']}: {r['total_gain']:+.2f}" for r in delay_profile)
-        why = ("puts the fall-off at d = 0 (no delay)" if d_hat not in by_lag else
-               f"puts the fall-off at d = {d_hat}, whose u_(t-{d_hat}) column is not "
-               "significant and material by itself")
-        notes.append("command-delay candidates were significant and material, but the "
-                     f"delay scan {why}: not accepted; scan " + scan)
-        say(notes[-1])
         picked, delay_profile = None, None
     return picked, delay_profile, ccf, notes
 

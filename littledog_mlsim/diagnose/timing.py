@@ -21,7 +21,8 @@ Method
    height, the pose taken at ``t`` and the joint angles at ``t + j``, about a plane in the
    body's (x, y) position (so that an inclined floor is not read as a timing error).
 2. The move's lead: the minimum's position, to a fraction of a step by a parabola through the
-   smallest value and its two neighbours, in ms (``dt`` per step).
+   smallest value and its two neighbours, in ms (a step: the median of the move's stamp
+   differences).
 3. The shift: without a reference, the median lead (zero where both streams stamp one instant);
    with a reference recording, the median lead minus the reference's. Its test:
    Wilcoxon signed-rank against zero, or Mann-Whitney against the reference's leads, both
@@ -29,7 +30,9 @@ Method
 4. A timing finding: p below ``alpha`` and the shift at least :data:`MIN_SHIFT_MS` (half a
    control step) in size. A positive shift means the joint states lag the pose, a negative one
    that the pose lags the joint states. (Without a reference, the two-sided Wilcoxon test
-   cannot go below 1e-4 with fewer than 16 moves.)
+   cannot go below 1e-4 with fewer than 15 moves.) Moves too short for the leads tried, or
+   whose profile is flat (a robot standing still: no minimum to read), are skipped and
+   counted.
 
 On zoo12 (``benchmarks/blind_zoo/zoos/zoo12/runs/run3_timing``), the clean seeds' and the
 reference's median leads are -1.6 to -1.8 ms (the simulator's own, the same on every clean
@@ -38,8 +41,9 @@ reference), and a 30 ms command delay on one side -2.9 ms.
 
 Report (:func:`sensor_timing`'s dict, report.json's ``timing``)
 ----------------------------------------------------------------
-``n_moves``, ``median_ms``, ``iqr_ms`` ([25th, 75th] percentile of the moves' leads), with a
-reference ``reference_median_ms`` and ``reference_n_moves``; ``shift_ms``, ``p_value``,
+``n_moves`` (read), ``n_skipped`` (``{short, flat}``), ``median_ms``, ``iqr_ms`` ([25th,
+75th] percentile of the moves' leads), with a reference ``reference_median_ms``,
+``reference_n_moves`` and ``reference_n_skipped``; ``shift_ms``, ``p_value``,
 ``test``, ``alpha``, ``min_shift_ms``, ``significant``; where significant also ``stream``
 ("joint_states" or "pose"), ``statement`` and ``vocabulary`` (``{family: "other", scope: "all"
 for the joint states or "body" for the pose, params: {latency_ms, stream}, statement}``, the
@@ -64,7 +68,9 @@ LEADS = tuple(range(-5, 6))
 MIN_SHIFT_MS = 5.0
 #: the test's level (the learned route's, ``LearnedOptions.alpha``)
 TIMING_ALPHA = 1e-4
-_STEP_S = 0.01
+#: a move whose profile varies less than this over the leads [m] has no minimum to read (a
+#: robot standing still); a clean walking move's varies by about 1 mm
+MIN_PROFILE_RANGE_M = 1e-5
 
 
 def lead_profile(move: MoveRecording, leads: Sequence[int] = LEADS) -> np.ndarray:
@@ -88,10 +94,15 @@ def lead_profile(move: MoveRecording, leads: Sequence[int] = LEADS) -> np.ndarra
     return np.asarray(out)
 
 
-def move_lead(move: MoveRecording, leads: Sequence[int] = LEADS, dt: float = _STEP_S) -> float:
+def move_lead(move: MoveRecording, leads: Sequence[int] = LEADS) -> float:
     """The lead [ms] of the joint angles over the pose that makes the feet's height steadiest
-    (a parabola through the smallest and its neighbours; at an end of ``leads``, that end)."""
+    (a parabola through the smallest and its neighbours; at an end of ``leads``, that end);
+    NaN where the profile is flat (:data:`MIN_PROFILE_RANGE_M`). The step is the median of the
+    move's stamp differences."""
     p = lead_profile(move, leads)
+    if p.max() - p.min() < MIN_PROFILE_RANGE_M:
+        return float("nan")
+    dt = float(np.median(np.diff(move.stamps_ns))) * 1e-9
     i = int(np.argmin(p))
     x = float(leads[i])
     if 0 < i < len(p) - 1:
@@ -102,22 +113,40 @@ def move_lead(move: MoveRecording, leads: Sequence[int] = LEADS, dt: float = _ST
     return x * dt * 1e3
 
 
+def _leads(moves: Sequence[MoveRecording], what: str) -> tuple[np.ndarray, dict[str, int]]:
+    """The leads [ms] of the moves that can be read, and how many were skipped: too short
+    for the leads tried, or a flat profile (no minimum to read)."""
+    span = 2 * max(abs(v) for v in LEADS) + 3
+    short = [m for m in moves if m.q.shape[0] < span]
+    leads = np.array([move_lead(m) for m in moves if m.q.shape[0] >= span])
+    flat = int(np.isnan(leads).sum())
+    leads = leads[~np.isnan(leads)]
+    if len(leads) == 0:
+        raise ValueError(f"sensor timing: no move of the {what} can be read ({len(short)} "
+                         f"shorter than {span} samples, {flat} with a flat profile, e.g. "
+                         "standing still)")
+    return leads, {"short": len(short), "flat": flat}
+
+
 def sensor_timing(moves: Sequence[MoveRecording],
                   reference: Sequence[MoveRecording] | None = None, *,
-                  alpha: float = TIMING_ALPHA, min_shift_ms: float = MIN_SHIFT_MS) -> dict[str, Any]:
+                  alpha: float = TIMING_ALPHA, min_shift_ms: float = MIN_SHIFT_MS
+                  ) -> dict[str, Any]:
     """The timing check of the joint states against the pose (module doc) on ``moves``, against
     the ``reference`` recording's moves where given."""
     from scipy.stats import mannwhitneyu, wilcoxon
     if not moves:
         raise ValueError("sensor timing: no moves")
-    leads = np.array([move_lead(m) for m in moves])
+    leads, skipped = _leads(moves, "data")
     out: dict[str, Any] = {
-        "n_moves": int(len(leads)), "median_ms": float(np.median(leads)),
+        "n_moves": int(len(leads)), "n_skipped": skipped,
+        "median_ms": float(np.median(leads)),
         "iqr_ms": [float(v) for v in np.percentile(leads, [25, 75])],
         "alpha": float(alpha), "min_shift_ms": float(min_shift_ms)}
     if reference:
-        ref = np.array([move_lead(m) for m in reference])
+        ref, ref_skipped = _leads(reference, "reference")
         out["reference_n_moves"] = int(len(ref))
+        out["reference_n_skipped"] = ref_skipped
         out["reference_median_ms"] = float(np.median(ref))
         shift = float(np.median(leads) - np.median(ref))
         p = float(mannwhitneyu(leads, ref, alternative="two-sided").pvalue)
@@ -132,13 +161,15 @@ def sensor_timing(moves: Sequence[MoveRecording],
     if out["significant"]:
         late = "joint_states" if shift > 0 else "pose"
         ms = abs(shift)
+        edge = max(abs(v) for v in LEADS) * 10.0 - 1.0   # near the leads' end (10 ms steps)
+        about = "at least" if abs(out["median_ms"]) >= edge else "about"
         since = " more than in the reference" if reference else ""
         if late == "joint_states":
-            what = (f"the joint states lag the pose by about {ms:.0f} ms{since} (a joint-state "
+            what = (f"the joint states lag the pose by {about} {ms:.0f} ms{since} (a joint-state "
                     "message published late, or the pose stamped early); a one-step model "
                     "reads it as a command delay on every joint")
         else:
-            what = (f"the pose lags the joint states by about {ms:.0f} ms{since} (a pose "
+            what = (f"the pose lags the joint states by {about} {ms:.0f} ms{since} (a pose "
                     "message published late, as from a motion-capture pipeline, or the joint "
                     "states stamped early)")
         out["stream"] = late

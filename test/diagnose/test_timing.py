@@ -81,5 +81,23 @@ def test_bad_input_is_refused_in_one_line():
     short = MoveRecording(m.name, m.move_type, m.stamps_ns[:5], m.cmd[:4], m.q[:5], m.dq[:5],
                           m.position[:5], m.orientation[:5], m.linear_velocity[:5],
                           m.angular_velocity[:5])
-    with pytest.raises(ValueError, match="F_00: too short"):
+    with pytest.raises(ValueError, match="no move of the data can be read .1 shorter"):
         sensor_timing([short])
+    # a short move among readable ones is skipped and counted
+    t = sensor_timing([short] + [_move(s) for s in range(20)])
+    assert t["n_moves"] == 20 and t["n_skipped"] == {"short": 1, "flat": 0}
+
+
+def test_a_robot_standing_still_has_no_lead_to_read():
+    """Constant joint angles and pose: every lead fits equally well, so no move is read and
+    nothing is claimed (not an arbitrary lead on every move)."""
+    m = _move(0)
+    still = MoveRecording(m.name, m.move_type, m.stamps_ns, m.cmd,
+                          np.tile(HOME_POSE, (N, 1)), np.zeros((N, 12)),
+                          np.tile([0.0, 0.0, 0.14], (N, 1)), m.orientation,
+                          m.linear_velocity, m.angular_velocity)
+    assert np.isnan(move_lead(still))
+    with pytest.raises(ValueError, match="20 with a flat profile"):
+        sensor_timing([still] * 20)
+    t = sensor_timing([still] * 3 + [_move(s) for s in range(20)])
+    assert t["n_skipped"] == {"short": 0, "flat": 3} and not t["significant"]

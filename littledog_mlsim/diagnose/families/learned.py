@@ -100,14 +100,14 @@ def delay_scope(lags: Sequence["CandidateScore"], alpha: float = DELAY_SCOPE_ALP
     ``lags`` lands. In a trot the legs' set-points are nearly linear in one another (a diagonal
     pair moves together), so any side's or leg's u_(t-k) also carries a delayed side's old
     command, and the members' total gains cannot tell the scope; the joints whose own q and dq
-    the lags improve can. Of the best all-joint member's per-element gains, each scope of
-    ``DELAY_SCOPES``' q and dq elements against every other joint's, one-sided Mann-Whitney,
-    times the number of scopes; the scope with the smallest p below ``alpha``, else all joints
-    (measured on a 30 ms left-side delay, ``benchmarks/blind_zoo``, zoo12 run2)."""
+    the lags improve can. Of the best all-joint member's per-element gains, each narrower scope
+    screened (``candidates.DELAY_SCOPES`` by default): its q and dq elements against every
+    other joint's, one-sided Mann-Whitney, times the number of those scopes; the scope with
+    the smallest p below ``alpha``, else all joints (measured on a 30 ms left-side delay,
+    ``benchmarks/blind_zoo``, zoo12 run2)."""
     from scipy.stats import mannwhitneyu
     from ...layout import STATE_NAMES
     from ...models.feature_library import JOINT_GROUPS, JOINT_NAMES
-    from ..candidates import DELAY_SCOPES
     full = [s for s in lags if s.augmentation.joints == "all"]
     if not full or len(full) == len(lags):     # no narrower scope was screened
         return "all"
@@ -115,7 +115,7 @@ def delay_scope(lags: Sequence["CandidateScore"], alpha: float = DELAY_SCOPE_ALP
 
     def elements(joints: Sequence[int]) -> list[int]:
         return [STATE_NAMES.index(f"{k}_{JOINT_NAMES[j]}") for j in joints for k in ("q", "dq")]
-    scopes = [j for j in DELAY_SCOPES if j in JOINT_GROUPS]
+    scopes = sorted({s.augmentation.joints for s in lags} - {"all"})   # those screened
     best, best_p = "all", alpha
     for scope in scopes:
         inside = set(JOINT_GROUPS[scope])
@@ -168,13 +168,17 @@ class CommandDelayFeatures(LearnedFamily):
         held-out gain of u_{t-k} is about flat up to the delay and drops after it. The estimate
         is the largest k whose total gain is within ``tolerance`` of the best lag's (the knee of
         the profile), not the argmax, which is a coin toss between 1 and d; without a lag with
-        a positive gain, parsimony as for any family."""
+        a positive gain, parsimony as for any family. The lags compared are those of the scope
+        :func:`delay_scope` reads off where the gain lands (all of them where that scope has
+        no lag with a positive gain)."""
         lags = [s for s in scores if isinstance(s.augmentation, fl.CommandLag)]
         if lags:
             best = max(s.total_gain for s in lags)
             if best > 0:
                 scope = delay_scope(lags)
-                within = [s for s in lags if s.augmentation.joints == scope] or lags
+                within = [s for s in lags if s.augmentation.joints == scope]
+                if not within or max(s.total_gain for s in within) <= 0:
+                    within = lags
                 top = max(s.total_gain for s in within)
                 ok = [s for s in within if s.total_gain >= (1.0 - tolerance) * top]
                 return max(ok, key=lambda s: s.augmentation.lag)
