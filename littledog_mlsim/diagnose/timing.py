@@ -79,13 +79,14 @@ def lead_profile(move: MoveRecording, leads: Sequence[int] = LEADS) -> np.ndarra
     angles at t + lead."""
     n = move.q.shape[0]
     R = quat_to_matrix(move.orientation)
+    feet_all = forward_kinematics(move.q)                              # (n, 4, 3) body frame
     out = []
     for j in leads:
         t = np.arange(max(0, -j), min(n, n - j))
         if len(t) < 3:
             raise ValueError(f"{move.name}: too short ({n} samples) for a lead of {j} steps")
-        feet = forward_kinematics(move.q[t + j])                       # (T, 4, 3) body frame
-        height = move.position[t, 2][:, None] + np.einsum("tj,tfj->tf", R[t, 2], feet)
+        height = move.position[t, 2][:, None] + np.einsum("tj,tfj->tf", R[t, 2],
+                                                          feet_all[t + j])
         low = np.sort(height, axis=1)[:, :2].mean(axis=1)
         # about a plane in the body's (x, y): an inclined floor is not a timing error
         A = np.column_stack([np.ones(len(t)), move.position[t, :2]])

@@ -106,22 +106,21 @@ def delay_scope(lags: Sequence["CandidateScore"], alpha: float = DELAY_SCOPE_ALP
     the smallest p below ``alpha``, else all joints (measured on a 30 ms left-side delay,
     ``benchmarks/blind_zoo``, zoo12 run2)."""
     from scipy.stats import mannwhitneyu
-    from ...layout import STATE_NAMES
+
     from ...models.feature_library import JOINT_GROUPS, JOINT_NAMES
+    from ..learned import _joint_elements
     full = [s for s in lags if s.augmentation.joints == "all"]
     if not full or len(full) == len(lags):     # no narrower scope was screened
         return "all"
     gain = np.asarray(max(full, key=lambda s: s.total_gain).gain, dtype=float)
-
-    def elements(joints: Sequence[int]) -> list[int]:
-        return [STATE_NAMES.index(f"{k}_{JOINT_NAMES[j]}") for j in joints for k in ("q", "dq")]
     scopes = sorted({s.augmentation.joints for s in lags} - {"all"})   # those screened
     best, best_p = "all", alpha
     for scope in scopes:
         inside = set(JOINT_GROUPS[scope])
         rest = [j for j in range(len(JOINT_NAMES)) if j not in inside]
-        p = float(mannwhitneyu(gain[elements(sorted(inside))], gain[elements(rest)],
-                               alternative="greater").pvalue) * len(scopes)
+        p = float(mannwhitneyu(gain[_joint_elements(sorted(inside))],
+                               gain[_joint_elements(rest)], alternative="greater").pvalue
+                  ) * len(scopes)
         if p < best_p:
             best, best_p = scope, p
     return best
