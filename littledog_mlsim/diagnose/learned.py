@@ -168,6 +168,8 @@ class LearnedOptions:
     widen_focus: bool = False    # widening also tests the added joints' q, dq move by move
     widen_focus_with_reference: bool = True  # widen_focus on wherever a reference is given
     widen_within_tolerance: bool = True  # a wider scope's total need only be within tolerance
+    push_robot: str | None = "nominal"  # with a reference: whose push response sizes a push
+    push_moves_per_type: int = 2  # ... walking this many of the reference's moves per type
     seed: int = 0
 
 
@@ -941,25 +943,68 @@ def _strongest(coef: np.ndarray, Z: np.ndarray, n: int = 3) -> list[str]:
 
 
 def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str, Any]]:
-    """A world-fixed force from the sin/cos(yaw) columns' effect on dx_b, dy_b per step.
+    """A world-fixed push's direction from the sin/cos(yaw) columns' effect on dx_b, dy_b per
+    step, and the one-step free-body figure.
 
     The change of the per-step body displacement is a_b dt^2; a_b(yaw) from the fitted
     coefficients, turned into odom and averaged over the heading, is the constant
-    acceleration a world-fixed force gives (the part that turns with the body is reported as
-    ``inconsistency``)."""
+    acceleration a world-fixed force would give a free body (the part that turns with the body
+    is reported as ``inconsistency``). A robot on its feet is no free body: they hold most of
+    the push, so the mass times this acceleration is no force (``one_step_free_body_N``; on
+    the gap zoos it was 9 to 23 times the push, ``benchmarks/learned_route/push_reading``).
+    The force in newtons comes from the drift against a reference (:func:`_push_in_newtons`);
+    without one ``force_N`` is None."""
     (sx, sy), (cx, cy) = coef[0, 1:3], coef[1, 1:3]
     dt2 = CONTROL_DT ** 2
     ax, ay = 0.5 * (cx - sy) / dt2, 0.5 * (sx + cy) / dt2
     rest = 0.5 * math.hypot(cx + sy, sx - cy) / dt2
-    F = mass_kg * math.hypot(ax, ay)
     deg = math.degrees(math.atan2(ay, ax)) % 360.0
-    slope = math.degrees(math.asin(min(1.0, F / (mass_kg * 9.81))))
-    axis = _axis_words(deg)
-    return (f"a steady force fixed in odom toward {deg:.0f} deg ({axis}), free-body "
-            f"equivalent about {F:.1f} N (or a slope of about {slope:.1f} deg)",
-            {"force_N": F, "direction_deg": deg, "force_xy_N": [mass_kg * ax, mass_kg * ay],
-             "inconsistency_N": mass_kg * rest, "equivalent_slope_deg": slope,
-             "mass_kg": mass_kg})
+    return (f"a steady force fixed in odom toward {deg:.0f} deg ({_axis_words(deg)}); its size "
+            f"in newtons needs a reference recording of the robot without it (the drift "
+            f"against it)",
+            {"force_N": None, "direction_deg": deg, "one_step_free_body_N": mass_kg *
+             math.hypot(ax, ay), "one_step_direction_deg": deg,
+             "inconsistency_N": mass_kg * rest, "mass_kg": mass_kg})
+
+
+def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
+                     reference: Sequence[MoveRecording] | None, opts: LearnedOptions,
+                     say: Callable[[str], None]) -> tuple[str, dict[str, Any]]:
+    """A heading effect's push in newtons (:mod:`.push`): the TrainPool's drift against the
+    reference's, over the push response of the physics robot ``opts.push_robot`` walking the
+    reference's commands. Without a reference, a push robot, pybullet, or a drift, the
+    statement says which was missing and ``force_N`` stays None."""
+    from .push import PybulletPushes, describe, drift_against_reference, push_mobility, \
+        push_reading
+    deg = numbers["direction_deg"]
+    head = f"a steady force fixed in odom toward {deg:.0f} deg ({_axis_words(deg)})"
+    if reference is None or not opts.push_robot:
+        why = ("a reference recording of the robot without it (the drift against it)"
+               if reference is None else "a robot's push response (push_robot is off)")
+        return f"{head}; its size in newtons needs {why}", numbers
+    drift = drift_against_reference(train, reference)
+    if drift is None:
+        return (f"{head}; too few moves of the reference's types to measure the drift against "
+                f"it, so no size in newtons", numbers)
+    out = {**numbers, "drift": drift.to_dict()}
+    try:
+        sim = PybulletPushes(opts.push_robot)
+        t0 = time.perf_counter()
+        M, n = push_mobility(reference, sim, per_type=opts.push_moves_per_type)
+    except ImportError as exc:
+        speed = 100 * drift.to_dict()["speed_mps"]
+        return (f"{head}; the drift against the reference is {speed:.1f} cm/s, but no physics "
+                f"robot to size the push with ({exc})", out)
+    say(f"push: '{opts.push_robot}' walked {n} of the reference's moves three times in "
+        f"{time.perf_counter() - t0:.0f} s")
+    reading = push_reading(drift, M)
+    if reading is None:
+        return (f"{head}; the '{opts.push_robot}' robot does not drift under a push, so no size "
+                f"in newtons", out)
+    out.update({k: reading[k] for k in ("force_N", "direction_deg", "force_xy_N")},
+               push={**reading, "robot": opts.push_robot, "mobility_moves": n})
+    return (describe(reading, drift, opts.push_robot) + f"; the fitted heading effect "
+            f"points toward {deg:.0f} deg", out)
 
 
 def _with_drift(text: str, numbers: dict[str, Any], ev0: Evidence, h: int
@@ -1007,6 +1052,25 @@ def _drift_statement(aug: ElapsedTracking, model: CrossFitModel, sl: slice, X: n
     return (f"{_scope_words(aug)}: the servos' stiffness changes by about {100 * r:+.0f} % of "
             f"its starting value per second of the move (reading not yet validated)",
             {"rate_per_s": r, "mean_time_s": t_bar})
+
+
+def _drift_against_reference(aug: ElapsedTracking, numbers: dict[str, Any], mv: "_Moves",
+                             reference: Sequence[MoveRecording]) -> tuple[str, dict[str, Any]]:
+    """A stiffness drift's rate measured straight from the recordings against the reference
+    (:mod:`.servo_drift`: each joint's stiffness regressed per time bin, its relative slope,
+    minus the reference's), replacing the model-coefficient reading, which is kept as
+    ``model_rate_per_s`` (it read about half the true rate on the gap zoos:
+    ``benchmarks/learned_route/drift_reading``)."""
+    from .servo_drift import rate_against_reference
+    joints = [JOINT_NAMES.index(c.split("_", 1)[1]) for c in aug.columns()]
+    got = rate_against_reference(mv, _moves(reference), joints)
+    r = got["rate_per_s"]
+    out = {**numbers, "model_rate_per_s": numbers.get("rate_per_s"), "rate_per_s": r,
+           "stiffness_drift": got}
+    return (f"{_scope_words(aug)}: the servos' stiffness changes by about {100 * r:+.1f} % of "
+            f"its starting value per second of the move, against the reference (measured: "
+            f"each joint's stiffness per time bin, {100 * got['data_rate_per_s']:+.1f} %/s here "
+            f"and {100 * got['reference_rate_per_s']:+.1f} %/s in the reference)", out)
 
 
 # ------------------------------------------------------------------------------ what is left
@@ -1267,7 +1331,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      rounds, [p for p in last if all(p is not c for c in confounded)], opts,
                      mass_kg or _default_mass(), t_start, shared,
                      None if ref_route is None else contrasts,
-                     None if ref_route is None else ref_route.mv.n)
+                     None if ref_route is None else ref_route.mv.n,
+                     None if ref_route is None else ref_route.train)
     report["start_spread"] = spread
     from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
@@ -1354,7 +1419,8 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
 
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
-            mass_kg, t_start, shared=(), contrasts=None, n_reference=None) -> dict[str, Any]:
+            mass_kg, t_start, shared=(), contrasts=None, n_reference=None,
+            reference=None) -> dict[str, Any]:
     from .families.learned import floor_plane
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
@@ -1364,7 +1430,10 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     for (p, scan), into in [(f, effects) for f in found] + [(f, carried) for f in shared]:
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar, floor)
         if isinstance(p.aug, Heading):
+            text, numbers = _push_in_newtons(numbers, route.train, reference, opts, route.say)
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
+        if isinstance(p.aug, ElapsedTracking) and reference is not None:
+            text, numbers = _drift_against_reference(p.aug, numbers, route.mv, reference)
         rivals = _scope_rivals(scan, opts.tolerance, opts.scope_alpha)
         if rivals:
             numbers = {**numbers, "scope_cannot_tell": rivals}

@@ -28,7 +28,8 @@ from littledog_mlsim.models.feature_library import ElapsedTracking
 from littledog_mlsim.models.features import CommandLag, ElapsedTime, FeatureSet, Heading
 
 SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30, max_rounds=1,
-                       horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3)
+                       horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3,
+                       push_moves_per_type=1)
 LIBRARY = [CommandLag(lag=2), Heading(), ElapsedTime()]
 
 
@@ -77,8 +78,16 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagn
     assert abs((direction - 90.0 + 180.0) % 360.0 - 180.0) <= 30.0, e["physical"]
     before, after = report["test"]["before"], report["test"]["after"]
     assert after["final_xy_error_m"] < before["final_xy_error_m"], report["test"]
-    assert report["verdict"].startswith("found: a steady force fixed in odom toward")
+    assert report["verdict"].startswith("found: a steady force fixed in odom of about")
     assert e["physical"]["drift_along_force_mps"] > 0, e["physical"]
+    # sized by the drift against the reference over the nominal robot's push response, which
+    # is not this robot's (along y it drifts 2.7 times less per newton): a factor of 3
+    phys = e["physical"]
+    assert phys["drift"]["p_value"] < 1e-3 and phys["push"]["robot"] == "nominal", phys
+    assert 0.5 <= phys["force_N"] <= 4.5, phys
+    lo, hi = phys["push"]["force_interval_N"]
+    assert lo <= phys["force_N"] <= hi, phys
+    assert phys["one_step_free_body_N"] > 0 and "N toward" in e["statement"]
     # with a reference, the options the route ran with are SMALL's, the *_with_reference on
     assert report["options"]["focus_all"] is (SMALL.focus_all or SMALL.focus_all_with_reference)
     assert report["options"]["widen_focus"] is (SMALL.widen_focus
@@ -88,6 +97,16 @@ def test_world_fixed_push_is_found_along_y_and_cuts_the_rollout_error(push_diagn
 @pytest.fixture(scope="module")
 def clean_report(data):
     return _run(data["clean"])
+
+
+def test_without_a_reference_a_push_has_a_direction_and_no_size():
+    from littledog_mlsim.diagnose import learned
+    numbers = {"force_N": None, "direction_deg": 91.0}
+    text, out = learned._push_in_newtons(numbers, [], None, SMALL, print)
+    assert out["force_N"] is None and "needs a reference recording" in text
+    text, out = learned._push_in_newtons(numbers, [], [], replace(SMALL, push_robot=None),
+                                         print)
+    assert out["force_N"] is None and "push_robot is off" in text
 
 
 def test_clean_data_raises_no_alarm(clean_report):

@@ -1,0 +1,104 @@
+"""The push in newtons without a twin: drift against a reference, over a robot's push response."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from littledog_mlsim.diagnose.push import (MIN_MOVES, drift_against_reference, push_mobility,
+                                           push_reading)
+from littledog_mlsim.rotations import rpy_to_quat
+
+STEPS = 400
+#: each type's walk in its start frame [m/s]: opposite types walk opposite ways
+WALKS = {"F": (0.05, 0.0), "B": (-0.05, 0.0), "L": (0.0, 0.04), "R": (0.0, -0.04)}
+
+
+@dataclass
+class _Rec:
+    name: str
+    move_type: str
+    position: np.ndarray
+    orientation: np.ndarray
+    cmd: np.ndarray
+
+
+def _move(kind: str, i: int, yaw0: float, drift_odom=(0.0, 0.0), gait_scale: float = 1.0,
+          noise: float = 0.002, rng=None) -> _Rec:
+    """A straight move of ``kind`` from heading ``yaw0``: its walk turned into odom (scaled by
+    ``gait_scale``, a change in the start frame) plus a drift fixed in odom, with scatter."""
+    rng = rng or np.random.default_rng(i)
+    c, s = math.cos(yaw0), math.sin(yaw0)
+    w = np.array(WALKS[kind]) * gait_scale
+    v = np.array([c * w[0] - s * w[1], s * w[0] + c * w[1]]) + np.array(drift_odom)
+    v = v + rng.normal(0.0, noise, 2)
+    t = np.arange(STEPS + 1)[:, None] * 0.01
+    pos = np.hstack([t * v, np.full((STEPS + 1, 1), 0.2)])
+    quat = np.tile(rpy_to_quat(np.array([0.0, 0.0, yaw0])), (STEPS + 1, 1))
+    return _Rec(f"{kind}_{i:02d}", kind, pos, quat, np.zeros((STEPS, 12)))
+
+
+def _set(n_per_type: int, seed: int, yaws=(0.0,), **kw) -> list[_Rec]:
+    rng = np.random.default_rng(seed)
+    return [_move(k, i, yaws[i % len(yaws)], rng=rng, **kw)
+            for k in WALKS for i in range(n_per_type)]
+
+
+@pytest.mark.parametrize("yaws", [(0.0,), (0.0, 1.2, -2.5)])
+def test_drift_against_the_reference_is_the_odom_fixed_part(yaws):
+    ref = _set(6, 1, yaws)
+    data = _set(6, 2, yaws, drift_odom=(-0.012, 0.008))
+    d = drift_against_reference(data, ref)
+    assert d is not None and d.n_moves == 24 and d.n_skipped == 0
+    np.testing.assert_allclose(d.velocity_xy, [-0.012, 0.008], atol=0.0025)
+    assert np.all(np.sqrt(np.diag(d.cov)) < 0.002)
+
+
+def test_a_change_in_the_start_frame_cancels_between_opposite_types():
+    """A slower gait (every type 20 % shorter) is no drift in odom."""
+    d = drift_against_reference(_set(6, 2, gait_scale=0.8), _set(6, 1))
+    np.testing.assert_allclose(d.velocity_xy, [0.0, 0.0], atol=0.0025)
+
+
+def test_no_drift_without_enough_moves_of_the_reference_types():
+    ref = [r for r in _set(6, 1) if r.move_type in ("F", "B")]
+    data = _set(1, 2)                          # 4 moves, of which 2 have a reference type
+    assert drift_against_reference(data, ref) is None
+    assert drift_against_reference(_set(MIN_MOVES, 2), ref).n_skipped == 2 * MIN_MOVES
+
+
+class _FakeRobot:
+    """Drifts M f per second under a push f, on top of a walk of its own."""
+
+    def __init__(self, M):
+        self.M = np.asarray(M, dtype=float)
+        self.calls = 0
+
+    def displacement(self, rec, force_xy):
+        self.calls += 1
+        walk = np.array([0.1, -0.03])
+        f = np.zeros(2) if force_xy is None else np.asarray(force_xy, float)
+        return walk + self.M @ f * STEPS * 0.01
+
+
+def test_push_mobility_and_the_force_it_reads():
+    M = [[0.025, 0.002], [0.001, 0.012]]
+    robot = _FakeRobot(M)
+    recs = _set(3, 0)
+    got, n = push_mobility(recs, robot, per_type=2)
+    assert n == 8 and robot.calls == 24
+    np.testing.assert_allclose(got, M, rtol=1e-9)
+    F_true = np.array([-0.6, -1.1])
+    d = drift_against_reference(_set(6, 2, drift_odom=tuple(np.array(M) @ F_true)), _set(6, 1))
+    r = push_reading(d, got)
+    assert r["force_N"] == pytest.approx(float(np.hypot(*F_true)), rel=0.25)
+    assert r["force_interval_N"][0] < r["force_N"] < r["force_interval_N"][1]
+    assert r["direction_deg"] == pytest.approx(math.degrees(math.atan2(-1.1, -0.6)) % 360, abs=15)
+
+
+def test_no_reading_from_a_robot_that_does_not_drift():
+    d = drift_against_reference(_set(6, 2, drift_odom=(0.01, 0.0)), _set(6, 1))
+    assert push_reading(d, np.zeros((2, 2))) is None
+    assert push_reading(d, [[0.02, 0.0], [0.0, 1e-9]]) is None
