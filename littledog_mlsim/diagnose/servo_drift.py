@@ -8,11 +8,13 @@ joint's rate is regressed on its tracking error u - q, with its rate and angle a
 coefficient is the stiffness over the joint's inertia, in that bin. Its relative slope over the
 move's time, k(t) = k0 (1 + r t), is the rate r.
 
-A gait's own moves are not stationary either (the first steps start from standing), so a clean
-recording has a rate too (-0.03 to -0.16 per second per joint on a gap robot). With a reference
-of the same robot, :func:`rate_against_reference` divides each joint's stiffness by the
-reference's, bin by bin, and the median over the effect's joints of that ratio's relative slope
-is the drift since the reference (decision 025).
+A gait's own moves are not stationary either (the first steps start from standing), and the
+regression reads that as a stiffness trend: a clean recording has a rate too (the median over
+joints -0.015 to -0.080 per second on the gap zoos' references). With a reference of the same
+robot, :func:`rate_against_reference` subtracts the reference's rate joint by joint, and the
+median over the effect's joints is the drift since the reference (decision 025; dividing the
+stiffness by the reference's bin by bin instead read further from the truth on all five gap
+zoos' battery sags: ``benchmarks/learned_route/drift_reading/first_run.md``).
 """
 from __future__ import annotations
 
@@ -79,23 +81,14 @@ def joint_rates(moves: Any, bins: int = TIME_BINS) -> np.ndarray:
 def rate_against_reference(moves: Any, reference: Any, joints: Sequence[int] | None = None
                            ) -> dict[str, Any]:
     """The drift of the servos' stiffness since the reference: {rate_per_s (the median over
-    ``joints``, default all, of each joint's rate: the relative slope of its stiffness over the
-    reference's, bin by bin, so that a trend of the gait's own, which scales both, cancels),
-    joint_rates (per joint name), difference_rate_per_s (the median of each joint's own rate
-    minus the reference's: right where the gait's trend adds to the reading instead of scaling
-    it), data_rate_per_s and reference_rate_per_s (the medians of each one's own rate)}."""
+    ``joints``, default all, of each joint's own rate minus the reference's), joint_rates (per
+    joint name, that difference), data_rate_per_s and reference_rate_per_s (the medians of
+    each one's own rate)}."""
     idx = list(range(len(JOINT_NAMES))) if joints is None else list(joints)
-    tc, K = stiffness_by_time(moves)
-    _, K0 = stiffness_by_time(reference)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(np.abs(K0) > 1e-12, K / K0, np.nan)
-    rel = np.array([_relative_slope(tc, ratio[:, j]) for j in idx])
-    ok = np.isfinite(rel)
-    own = [_relative_slope(tc, K[:, j]) for j in idx]
-    ref = [_relative_slope(tc, K0[:, j]) for j in idx]
-    diff = np.array(own) - np.array(ref)
-    return {"rate_per_s": float(np.median(rel[ok])) if ok.any() else float("nan"),
-            "joint_rates": {JOINT_NAMES[j]: float(d) for j, d in zip(idx, rel)},
-            "difference_rate_per_s": float(np.nanmedian(diff)),
+    own, ref = joint_rates(moves)[idx], joint_rates(reference)[idx]
+    diff = own - ref
+    ok = np.isfinite(diff)
+    return {"rate_per_s": float(np.median(diff[ok])) if ok.any() else float("nan"),
+            "joint_rates": {JOINT_NAMES[j]: float(d) for j, d in zip(idx, diff)},
             "data_rate_per_s": float(np.nanmedian(own)),
             "reference_rate_per_s": float(np.nanmedian(ref))}

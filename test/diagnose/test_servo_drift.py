@@ -22,14 +22,15 @@ class _Arrays:
 
 
 def _servo_moves(rate: float, gait_rate: float, n_moves: int = 12, seed: int = 0) -> _Arrays:
-    """Moves of a PD servo whose stiffness is k0 (1 + rate t) (1 + gait_rate t): ``gait_rate``
-    stands for a gait that is not stationary either, shared with the reference."""
+    """Moves of a PD servo whose stiffness reads k0 (1 + rate t + gait_rate t): ``gait_rate``
+    stands for a gait that is not stationary either, which the regression reads as a trend of
+    its own, shared with the reference."""
     rng = np.random.default_rng(seed)
     k0, c = 4.0, 0.3
     out = _Arrays([], [], [])
     for _ in range(n_moves):
         t = np.arange(STEPS) * 0.01
-        k = k0 * (1 + rate * t) * (1 + gait_rate * t)
+        k = k0 * (1 + rate * t + gait_rate * t)
         St = np.zeros((STEPS, N_STATE))
         St[:, S.q] = rng.normal(0.0, 0.3, (STEPS, 12))
         St[:, S.dq] = rng.normal(0.0, 1.0, (STEPS, 12))

@@ -59,15 +59,11 @@ def main() -> int:
         secs = time.perf_counter() - t0
         tr = truth(zoo, effect) if effect else {"rate_per_s": 0.0}
         err = None if not tr["rate_per_s"] else abs(got["rate_per_s"] / tr["rate_per_s"] - 1)
-        err_d = (None if not tr["rate_per_s"]
-                 else abs(got["difference_rate_per_s"] / tr["rate_per_s"] - 1))
         rows.append({"zoo": zoo, "effect": effect or "clean", "seed": seed,
                      "reference_seed": ref_seed, "truth": tr, "reading": got,
                      "no_reference_rate_per_s": raw, "param_error": err,
-                     "difference_param_error": err_d,
                      "seconds": secs})
-        print(f"{zoo} {effect or 'clean'}: {got['rate_per_s']:+.3f}/s (difference "
-              f"{got['difference_rate_per_s']:+.3f}; data {raw:+.3f}, "
+        print(f"{zoo} {effect or 'clean'}: {got['rate_per_s']:+.3f}/s (data {raw:+.3f}, "
               f"reference {got['reference_rate_per_s']:+.3f}); truth {tr['rate_per_s']:+g}; "
               f"{secs:.1f} s", flush=True)
     out = Path(a.out)
@@ -81,9 +77,9 @@ def main() -> int:
              f"Command: `{meta['command']}`", "",
              f"Code: {meta['commit']}; {meta['date_utc']} UTC; "
              f"load after {meta['load_after']:.1f}.",
-             "", "| zoo | effect | truth [1/s] | read: ratio to the reference [1/s] | error | "
-             "difference from the reference [1/s] | error | the data alone [1/s] | the reference "
-             "alone [1/s] |", "|---|---|---|---|---|---|---|---|---|"]
+             "", "| zoo | effect | truth [1/s] | read against the reference [1/s] | error | "
+             "the data alone [1/s] | the reference alone [1/s] |",
+             "|---|---|---|---|---|---|---|"]
     for r in rows:
         g = r["reading"]
         def pct(e):
@@ -91,7 +87,6 @@ def main() -> int:
         lines.append(
             f"| {r['zoo']} | {r['effect']} | {r['truth']['rate_per_s']:+g} | "
             f"{g['rate_per_s']:+.3f} | {pct(r['param_error'])} | "
-            f"{g['difference_rate_per_s']:+.3f} | {pct(r['difference_param_error'])} | "
             f"{r['no_reference_rate_per_s']:+.3f} | {g['reference_rate_per_s']:+.3f} |")
     out.with_suffix(".md").write_text("\n".join(lines) + "\n")
     return 0
