@@ -57,11 +57,13 @@ Method
    joint type is diluted at full scope. The narrower screen spends a quarter of alpha and the
    full-scope one the rest, each Bonferroni over every member it could test
    (:func:`screen_sizes`).
-5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect is
-   read off the fitted sin/cos columns' effect on the predicted body acceleration, turned into
-   odom and multiplied by the robot's mass ("about N newtons toward D deg in odom"); a delay in
-   ms; a low-pass time constant; a stiffness drift in % per second (the t*(u-q) coefficient over
-   the model's own d(ddq)/du). A position effect is an inclined floor where a plane through
+5. **Physical names** where the family allows (:func:`physical_statement`): a heading effect's
+   direction is read off the fitted sin/cos columns' effect on the predicted body acceleration,
+   turned into odom, and with a reference its size in newtons from the drift against the
+   reference over the ``nominal`` robot's push response (:mod:`.push`, decision 025; without
+   one it has no size); a delay in ms; a low-pass time constant; a stiffness drift in % per
+   second (the t*(u-q) coefficient over the model's own d(ddq)/du, or with a reference each
+   joint's stiffness per time bin against the reference's, :mod:`.servo_drift`). A position effect is an inclined floor where a plane through
    the TrainPool's body heights explains them (:func:`.families.learned.slope_reading`), else
    it is named by where it acts; a phase effect by when it acts.
 6. **Residual structure** (:func:`residual_structure`): after the last accepted effect, the
@@ -962,9 +964,11 @@ def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str,
     return (f"a steady force fixed in odom toward {deg:.0f} deg ({_axis_words(deg)}); its size "
             f"in newtons needs a reference recording of the robot without it (the drift "
             f"against it)",
-            {"force_N": None, "direction_deg": deg, "one_step_free_body_N": mass_kg *
-             math.hypot(ax, ay), "one_step_direction_deg": deg,
-             "inconsistency_N": mass_kg * rest, "mass_kg": mass_kg})
+            {"force_N": None, "direction_deg": deg, "force_xy_N": None,
+             "equivalent_slope_deg": None,
+             "one_step_free_body_N": mass_kg * math.hypot(ax, ay),
+             "one_step_direction_deg": deg, "inconsistency_N": mass_kg * rest,
+             "mass_kg": mass_kg})
 
 
 def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
@@ -1001,7 +1005,9 @@ def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
     if reading is None:
         return (f"{head}; the '{opts.push_robot}' robot does not drift under a push, so no size "
                 f"in newtons", out)
+    weight = numbers["mass_kg"] * 9.81
     out.update({k: reading[k] for k in ("force_N", "direction_deg", "force_xy_N")},
+               equivalent_slope_deg=math.degrees(math.asin(min(1.0, reading["force_N"] / weight))),
                push={**reading, "robot": opts.push_robot, "mobility_moves": n})
     return (describe(reading, drift, opts.push_robot) + f"; the fitted heading effect "
             f"points toward {deg:.0f} deg", out)

@@ -198,4 +198,6 @@ def describe(reading: Mapping[str, Any], drift: Drift, robot_name: str) -> str:
             f"'{robot_name}' robot walking the same commands drifts "
             f"{100 * reading['mobility_mps_per_N'][0][0]:.1f} cm/s per newton along x and "
             f"{100 * reading['mobility_mps_per_N'][1][1]:.1f} along y; this robot's own response "
-            f"to a push is not measured, so the size is as good as the '{robot_name}' robot's")
+            f"to a push is not measured, so the size is as good as the '{robot_name}' robot's"
+            + (f"; the drift itself is not significant (p = {d['p_value']:.2g}): these "
+               f"recordings do not size the push" if d["p_value"] > 0.05 else ""))

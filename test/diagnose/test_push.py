@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from littledog_mlsim.diagnose.push import (MIN_MOVES, drift_against_reference, push_mobility,
-                                           push_reading)
+from littledog_mlsim.diagnose.push import (MIN_MOVES, describe, drift_against_reference,
+                                           push_mobility, push_reading)
 from littledog_mlsim.rotations import rpy_to_quat
 
 STEPS = 400
@@ -96,6 +96,12 @@ def test_push_mobility_and_the_force_it_reads():
     assert r["force_N"] == pytest.approx(float(np.hypot(*F_true)), rel=0.25)
     assert r["force_interval_N"][0] < r["force_N"] < r["force_interval_N"][1]
     assert r["direction_deg"] == pytest.approx(math.degrees(math.atan2(-1.1, -0.6)) % 360, abs=15)
+    assert d.p_value < 1e-6 and "not significant" not in describe(r, d, "fake")
+    none = drift_against_reference(_set(6, 2), _set(6, 1))
+    assert none.p_value > 0.001
+    text = describe(push_reading(none, got), none, "fake")
+    assert text.startswith("a steady force fixed in odom of about")
+    assert ("not significant" in text) == (none.p_value > 0.05)
 
 
 def test_no_reading_from_a_robot_that_does_not_drift():
