@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -28,10 +26,9 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks" / "learned_route" / "push_reading"))
 
-from push_reading import record, truth  # noqa: E402
+from push_reading import recorded, run_meta, truth  # noqa: E402
 
 from littledog_mlsim.diagnose.learned import _moves  # noqa: E402
-from littledog_mlsim.diagnose.run import load_moves  # noqa: E402
 from littledog_mlsim.diagnose.servo_drift import joint_rates, rate_against_reference  # noqa: E402
 
 #: (zoo, effect id or None for a clean seed, seed, reference seed)
@@ -48,11 +45,7 @@ def main() -> int:
     work = Path(a.work)
     rows = []
     for zoo, effect, seed, ref_seed in CASES:
-        data = work / f"{zoo}_{effect or 'clean'}_s{seed}"
-        ref = work / f"{zoo}_reference_s{ref_seed}"
-        record(data, zoo, seed, effect)
-        record(ref, zoo, ref_seed, None)
-        mv, mv_ref = _moves(load_moves(data, "train")), _moves(load_moves(ref, "train"))
+        mv, mv_ref = (_moves(r) for r in recorded(work, zoo, effect, seed, ref_seed))
         t0 = time.perf_counter()
         got = rate_against_reference(mv, mv_ref)
         raw = float(np.nanmedian(joint_rates(mv)))
@@ -67,11 +60,7 @@ def main() -> int:
               f"reference {got['reference_rate_per_s']:+.3f}); truth {tr['rate_per_s']:+g}; "
               f"{secs:.1f} s", flush=True)
     out = Path(a.out)
-    meta = {"command": " ".join(["OPENBLAS_NUM_THREADS=1", ".venv/bin/python"] + sys.argv),
-            "load_after": os.getloadavg()[0],
-            "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
-            "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
-                                     capture_output=True, text=True).stdout.strip()}
+    meta = run_meta()
     out.with_suffix(".json").write_text(json.dumps({"meta": meta, "cases": rows}, indent=1))
     lines = ["# The servos' stiffness drift against a reference", "",
              f"Command: `{meta['command']}`", "",

@@ -48,6 +48,25 @@ def record(out: Path, zoo: str, seed: int, effect: str | None) -> None:
     subprocess.run(cmd, check=True, cwd=ROOT)
 
 
+def recorded(work: Path, zoo: str, effect: str | None, seed: int, ref_seed: int
+             ) -> tuple[list, list]:
+    """(the case's TrainPool, the reference's TrainPool), recording either if WORK lacks it."""
+    data = work / f"{zoo}_{effect or 'clean'}_s{seed}"
+    ref = work / f"{zoo}_reference_s{ref_seed}"
+    record(data, zoo, seed, effect)
+    record(ref, zoo, ref_seed, None)
+    return load_moves(data, "train"), load_moves(ref, "train")
+
+
+def run_meta(**extra) -> dict:
+    """The command, the date, the load and the commit of this run."""
+    return {"command": " ".join(["OPENBLAS_NUM_THREADS=1", ".venv/bin/python"] + sys.argv),
+            **extra, "load_after": os.getloadavg()[0],
+            "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
+            "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
+                                     capture_output=True, text=True).stdout.strip()}
+
+
 def truth(zoo: str, effect: str | None) -> dict:
     if effect is None:
         return {"force_N": 0.0, "direction_deg": None}
@@ -71,11 +90,7 @@ def main() -> int:
     sims: dict[str, PybulletPushes] = {}
     rows = []
     for zoo, effect, seed, ref_seed in CASES:
-        data = work / f"{zoo}_{effect or 'clean'}_s{seed}"
-        ref = work / f"{zoo}_reference_s{ref_seed}"
-        record(data, zoo, seed, effect)
-        record(ref, zoo, ref_seed, None)
-        recs, ref_recs = load_moves(data, "train"), load_moves(ref, "train")
+        recs, ref_recs = recorded(work, zoo, effect, seed, ref_seed)
         t0 = time.perf_counter()
         drift = drift_against_reference(recs, ref_recs)
         robot = str(ZOOS / zoo / "gap_robot.json") if a.robot == "gap" else a.robot
@@ -93,11 +108,7 @@ def main() -> int:
               f"[{reading['force_interval_N'][0]:.2f}, {reading['force_interval_N'][1]:.2f}] "
               f"@ {reading['direction_deg']:.0f} deg; truth {tr}; {secs:.0f} s", flush=True)
     out = Path(a.out)
-    meta = {"command": " ".join(["OPENBLAS_NUM_THREADS=1", ".venv/bin/python"] + sys.argv),
-            "robot": a.robot, "load_after": os.getloadavg()[0],
-            "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
-            "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
-                                     capture_output=True, text=True).stdout.strip()}
+    meta = run_meta(robot=a.robot)
     out.with_suffix(".json").write_text(json.dumps({"meta": meta, "cases": rows}, indent=1))
     lines = [f"# The push in newtons against a reference, robot response from `{a.robot}`", "",
              f"Command: `{meta['command']}`", "",
