@@ -63,9 +63,10 @@ Method
    reference over the ``nominal`` robot's push response (:mod:`.push`, decision 025; without
    one it has no size); a delay in ms; a low-pass time constant; a stiffness drift in % per
    second (the t*(u-q) coefficient over the model's own d(ddq)/du, or with a reference each
-   joint's stiffness per time bin against the reference's, :mod:`.servo_drift`). A position effect is an inclined floor where a plane through
-   the TrainPool's body heights explains them (:func:`.families.learned.slope_reading`), else
-   it is named by where it acts; a phase effect by when it acts.
+   joint's stiffness per time bin against the reference's, :mod:`.servo_drift`). A position
+   effect is an inclined floor where a plane through the TrainPool's body heights explains
+   them (:func:`.families.learned.slope_reading`), else it is named by where it acts; a phase
+   effect by when it acts.
 6. **Residual structure** (:func:`residual_structure`): after the last accepted effect, the
    rollout residual is regressed (cross-fitted by move) on position, heading, time in the move
    and gait phase; its size is compared with the model's one-step predictive std. A material
