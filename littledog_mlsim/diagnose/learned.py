@@ -1064,14 +1064,14 @@ def _drift_statement(aug: ElapsedTracking, model: CrossFitModel, sl: slice, X: n
 
 
 def _drift_against_reference(aug: ElapsedTracking, numbers: dict[str, Any], mv: "_Moves",
-                             reference: Sequence[MoveRecording]) -> tuple[str, dict[str, Any]]:
+                             reference: "_Moves") -> tuple[str, dict[str, Any]]:
     """A stiffness drift's rate measured straight from the recordings against the reference
     (:mod:`.servo_drift`: each joint's stiffness regressed per time bin, its relative slope,
     minus the reference's), replacing the model-coefficient reading, which is kept as
     ``model_rate_per_s`` (``benchmarks/learned_route/drift_reading``)."""
     from .servo_drift import rate_against_reference
     joints = [JOINT_NAMES.index(c.split("_", 1)[1]) for c in aug.columns()]
-    got = rate_against_reference(mv, _moves(reference), joints)
+    got = rate_against_reference(mv, reference, joints)
     r = got["rate_per_s"]
     out = {**numbers, "model_rate_per_s": numbers.get("rate_per_s"), "rate_per_s": r,
            "stiffness_drift": got}
@@ -1339,8 +1339,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      rounds, [p for p in last if all(p is not c for c in confounded)], opts,
                      mass_kg or _default_mass(), t_start, shared,
                      None if ref_route is None else contrasts,
-                     None if ref_route is None else ref_route.mv.n,
-                     None if ref_route is None else ref_route.train)
+                     None if ref_route is None else ref_route.mv.n, ref_route)
     report["start_spread"] = spread
     from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
@@ -1428,7 +1427,7 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
             mass_kg, t_start, shared=(), contrasts=None, n_reference=None,
-            reference=None) -> dict[str, Any]:
+            ref_route=None) -> dict[str, Any]:
     from .families.learned import floor_plane
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
@@ -1438,10 +1437,12 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
     for (p, scan), into in [(f, effects) for f in found] + [(f, carried) for f in shared]:
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar, floor)
         if isinstance(p.aug, Heading):
-            text, numbers = _push_in_newtons(numbers, route.train, reference, opts, route.say)
+            text, numbers = _push_in_newtons(numbers, route.train,
+                                             None if ref_route is None else ref_route.train,
+                                             opts, route.say)
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
-        if isinstance(p.aug, ElapsedTracking) and reference is not None:
-            text, numbers = _drift_against_reference(p.aug, numbers, route.mv, reference)
+        if isinstance(p.aug, ElapsedTracking) and ref_route is not None:
+            text, numbers = _drift_against_reference(p.aug, numbers, route.mv, ref_route.mv)
         rivals = _scope_rivals(scan, opts.tolerance, opts.scope_alpha)
         if rivals:
             numbers = {**numbers, "scope_cannot_tell": rivals}

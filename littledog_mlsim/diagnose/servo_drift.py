@@ -10,7 +10,7 @@ move's time, k(t) = k0 (1 + r t), is the rate r.
 
 A gait's own moves are not stationary either (the first steps start from standing), and the
 regression reads that as a stiffness trend: a clean recording has a rate too (the median over
-joints -0.015 to -0.080 per second on the gap zoos' references). With a reference of the same
+joints -0.080 to +0.009 per second on the gap zoos' references). With a reference of the same
 robot, :func:`rate_against_reference` subtracts the reference's rate joint by joint, and the
 median over the effect's joints is the drift since the reference (decision 025; dividing the
 stiffness by the reference's bin by bin instead read further from the truth on all five gap
