@@ -2,7 +2,7 @@
 the same seed, by far more than clean datasets of other seeds differ from it? And does any move
 fall?  Writes check.md and check.json beside this file.
 
-Usage: .venv/bin/python benchmarks/blind_zoo/zoos/zoo13/check_visible.py WORK (e.g. /tmp/s47/z13)
+Usage: .venv/bin/python benchmarks/blind_zoo/zoos/zoo13/check_visible.py WORK (the harness's --work directory)
 
 Per dataset (TrainPool moves, split "train") a feature vector is computed:
   - per joint: mean and RMS of the tracking error q[k+1] - cmd[k]       (24)
@@ -121,4 +121,6 @@ def main(work: Path) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(Path(sys.argv[1] if len(sys.argv) > 1 else "/tmp/s47/z13")))
+    if len(sys.argv) != 2:
+        raise SystemExit(__doc__)
+    raise SystemExit(main(Path(sys.argv[1])))
