@@ -1341,12 +1341,32 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      None if ref_route is None else contrasts,
                      None if ref_route is None else ref_route.mv.n, ref_route)
     report["start_spread"] = spread
+    if ref_route is not None:          # what the library left unexplained (decision 026)
+        report["unexplained_change"] = _unexplained_change(route, ref_route, fs, ev)
+        if report["unexplained_change"]["significant"]:
+            report["significant"] = True
+            say("unexplained change: " + report["unexplained_change"]["statement"])
     from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
                              "recording": RECORDINGS["position"],
                              "vocabulary": physical_reading(p.aug)} for p in confounded]
     report["verdict"] = _verdict(report)
     return report
+
+
+def _unexplained_change(route: _Route, ref_route: _Route, fs: FeatureSet, ev: Evidence
+                        ) -> dict[str, Any]:
+    """:func:`.excess.unexplained_change` of the route's final feature set: the data's
+    held-out rollout residual at the decision horizon against the reference's, both rolled out
+    with ``fs`` (the reference fitted again with it)."""
+    from .excess import unexplained_change
+    _, ev_ref = ref_route.fit(fs, one_step=False)
+    h = route.h_dec
+    if h not in ev_ref.err:            # the reference's moves are shorter than the horizon
+        h = max(k for k in ev_ref.err if k in ev.err)
+    return unexplained_change(ev.err[h], ev.move[h], ev.t0[h], route.mv.types,
+                              ev_ref.err[h], ev_ref.move[h], ev_ref.t0[h], ref_route.mv.types,
+                              h * CONTROL_DT, route.opts.alpha)
 
 
 def _accepted(p: _Probe) -> bool:
@@ -1589,6 +1609,9 @@ def _verdict(report: dict[str, Any]) -> str:
     if carried:
         parts.append("in the reference as well (the robot's own, carried by the model; not a "
                      "change since it): " + "; ".join(e["statement"] for e in carried))
+    change = report.get("unexplained_change") or {}
+    if change.get("significant"):
+        parts.append(change["statement"] + "; " + change["recording"])
     if report["suspected"]:
         parts.append("the data cannot tell: " + ", ".join(
             f"{s['label']} ({s['why']})" for s in report["suspected"]))

@@ -178,13 +178,18 @@ def _angle_err(a: float, b: float) -> float:
 def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     """Every effect the report names in the vocabulary: the physical route's
     ``effects[*].physical``, the learned route's ``vocabulary`` blocks (one-step loop and
-    rollout route), and the sensor-timing check's where it found a shift (either route)."""
+    rollout route), the rollout route's unexplained change since the reference where it is
+    significant (family ``other``), and the sensor-timing check's where it found a shift
+    (either route)."""
     out = []
     for e in report.get("effects", []):
         p = e.get("physical") or {}
         out.append(p if "family" in p else (e.get("vocabulary") or {}))
     for e in (report.get("rollout_route") or {}).get("effects", []):
         out.append(e.get("vocabulary") or {})
+    change = (report.get("rollout_route") or {}).get("unexplained_change") or {}
+    if change.get("significant"):
+        out.append(change.get("vocabulary") or {})
     timing = report.get("timing") or {}
     if timing.get("significant"):
         out.append(timing.get("vocabulary") or {})
