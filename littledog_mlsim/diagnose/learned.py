@@ -75,7 +75,8 @@ Method
 
 Report (:func:`diagnose_learned`'s dict)
 ---------------------------------------
-``route``: "learned"; ``significant``: bool (an effect was accepted); ``effects``: list of
+``route``: "learned"; ``significant``: bool (an effect was accepted, or with a reference an
+unexplained change); ``effects``: list of
 ``{family, label, augmentation (to_dict), p_value, gain (1 s rollout SSE cut, total over
 elements), max_gain, outputs, scope, statement (physical sentence), physical (numbers; with
 ``scope_cannot_tell`` where a wider scope within the tolerance does not gain more move by move,
@@ -106,7 +107,10 @@ has ``reference`` (:func:`contrast`: ``reference_total_gain``, ``reference_p_val
 candidate of a family with a joint scope, ``p_change``, ``changed``), and the report
 has ``reference``: ``{n_moves, shared}``, where ``shared`` lists, in the form of ``effects``,
 what the search accepted but the reference shows as much (not a change; the model carries it,
-and ``significant`` does not count it).
+and ``significant`` does not count it), and ``unexplained_change``
+(:func:`.excess.unexplained_change` at the final feature set, decision 026): the data's held-out
+rollout error against the reference's; where it is material and significant, ``significant`` is
+true and its ``vocabulary`` names family ``other`` at the scope where the excess concentrates.
 """
 from __future__ import annotations
 

@@ -356,6 +356,10 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
     res = r.get("residual") or {}
     if res.get("verdict"):
         L.append(f"\nResidual: {res['verdict']}")
+    change = r.get("unexplained_change")
+    if change:
+        L.append(f"\nAgainst the reference: {change['statement']}"
+                 + (f"; {change['recording']}" if change["significant"] else ""))
     return L + [""]
 
 

@@ -221,8 +221,11 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     if rollout is not None:
         keywords["rollout_route"] = rollout
     report = write_report(run.out, sel, stages, **keywords)
+    change = (rollout or {}).get("unexplained_change") or {}
     found = ", ".join([e["label"] for e in report["effects"]]
-                      + [e["label"] for e in (rollout or {}).get("effects", [])])
+                      + [e["label"] for e in (rollout or {}).get("effects", [])]
+                      + ([f"an unexplained change at {change['scope']}"]
+                         if change.get("significant") else []))
     run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
             f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report

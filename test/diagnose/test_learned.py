@@ -216,8 +216,12 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, p
     assert any(a.get("name") == "heading" or "heading" in str(a) for a in last["augmentations"])
     assert [(s["label"], s["recording"]) for s in report["suspected"]] == [
         (s["label"], s["recording"]) for s in r["suspected"]]
+    # the push explains the change: no excess over the reference is left (decision 026)
+    u = r["unexplained_change"]
+    assert not u["significant"] and u["ratio"] < 1.5 and u["n_reference_moves"] > 0, u
     md = (out / "report.md").read_text()
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
+    assert "Against the reference: an unexplained change since the reference" in md
 
 
 def test_a_finding_the_reference_shows_as_much_is_no_change(data):
