@@ -287,6 +287,13 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
     from .diagnose import diagnose
 
     r = diagnose(a.data, a.out, diagnose_options(a))
+    print_diagnosis(r, Path(a.out))
+    return 0
+
+
+def print_diagnosis(r: dict, out: Path) -> None:
+    """The lines ``diagnose`` prints of its report: the effects, the suspects, the rollout
+    route's verdict where it ran, and the one-step nMSE."""
     for e in r.get("effects", []):
         if "physical" in e:
             print(f"effect {e['round']}: {e['physical']['family']} on {e['physical']['scope']} "
@@ -303,13 +310,14 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
             print(f"effect {e['round']}: {e['family']} {e['label']} (p = {e['p_value']:.2g}) on "
                   f"{', '.join(e['outputs'][:6])}{' ...' if len(e['outputs']) > 6 else ''}; "
                   f"TestPool nMSE of those {100 * sum(cut) / max(len(cut), 1):.1f} % lower")
-    else:
+    elif not (r.get("rollout_route") or {}).get("significant"):
         print("nothing significant: no candidate effect explains the residual")
+    if r.get("rollout_route"):
+        print(f"rollout route: {r['rollout_route'].get('verdict', '')}")
     b, f = r["before"]["nmse_mean"], r["after"]["nmse_mean"]
     nm = "n/a" if b is None or f is None else f"{b:.4f} -> {f:.4f}"
-    print(f"one-step nMSE mean {nm}; wrote {Path(a.out) / 'report.md'}, report.json"
+    print(f"one-step nMSE mean {nm}; wrote {out / 'report.md'}, report.json"
           f"{', model' if r.get('model') else ''}")
-    return 0
 
 
 def cmd_calibrate(a: argparse.Namespace) -> int:

@@ -89,3 +89,21 @@ def test_cli_refuses_a_bad_twin_or_reference_in_one_line(tmp_path):
         lines = r.stderr.strip().splitlines()
         assert r.returncode != 0 and len(lines) == 1 and words in lines[0], r.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
+    """A finding of the rollout route alone (here an unexplained change) is not printed as
+    "nothing significant"; without a rollout route that line stays."""
+    from littledog_mlsim.cli import print_diagnosis
+    base = {"effects": [], "suspected": [], "before": {"nmse_mean": 0.07},
+            "after": {"nmse_mean": 0.07}}
+    verdict = "an unexplained change since the reference: ..."
+    print_diagnosis({**base, "rollout_route": {"significant": True, "verdict": verdict}},
+                    tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"rollout route: {verdict}" and "nothing significant" not in out[0]
+    assert out[1].startswith("one-step nMSE mean 0.0700 -> 0.0700; wrote")
+    print_diagnosis(base, tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "nothing significant: no candidate effect explains the residual"
+    assert len(out) == 2
