@@ -32,8 +32,9 @@ from scipy import stats
 
 from ..layout import CONTROL_DT, StateLayout
 from .families.scopes import joint_scopes, scope_joints, scope_words
+from .learned import _joint_elements
 
-__all__ = ["MIN_RATIO", "CONCENTRATION", "CONCENTRATION_TOLERANCE", "move_mse", "scope_elements",
+__all__ = ["MIN_RATIO", "CONCENTRATION", "CONCENTRATION_TOLERANCE", "move_mse", "elements_of",
            "unexplained_change"]
 
 S = StateLayout()
@@ -64,12 +65,10 @@ def move_mse(err: np.ndarray, move: np.ndarray, n_moves: int) -> np.ndarray:
     return out / np.maximum(count, 1)[:, None]
 
 
-def scope_elements(scope: str) -> np.ndarray:
-    """State elements of a scope: the body's nine, or a joint scope's angles and rates."""
-    if scope == "body":
-        return BODY
-    j = scope_joints(scope)
-    return np.concatenate([S.q.start + j, S.dq.start + j])
+def elements_of(scope: str) -> np.ndarray:
+    """State elements of a vocabulary scope: the body's nine, or a joint scope's angles and
+    rates."""
+    return BODY if scope == "body" else np.array(_joint_elements(scope_joints(scope)))
 
 
 def _ratio(A: np.ndarray, B: np.ndarray, cols: np.ndarray) -> float:
@@ -79,11 +78,11 @@ def _ratio(A: np.ndarray, B: np.ndarray, cols: np.ndarray) -> float:
 
 def _where(A: np.ndarray, B: np.ndarray) -> tuple[str, dict[str, float], float]:
     """(scope, ratio per scope, concentration of the kept scope) of normalized MSEs A, B."""
-    joints = scope_elements("all")
-    ratios = {s: _ratio(A, B, scope_elements(s)) for s in ["body"] + joint_scopes()}
+    joints = elements_of("all")
+    ratios = {s: _ratio(A, B, elements_of(s)) for s in ["body"] + joint_scopes()}
     conc: dict[str, float] = {"body": ratios["body"] / ratios["all"]}
     for s in joint_scopes()[1:]:
-        rest = np.setdiff1d(joints, scope_elements(s))
+        rest = np.setdiff1d(joints, elements_of(s))
         conc[s] = ratios[s] / _ratio(A, B, rest)
     best = max(conc.values())
     if best >= CONCENTRATION:

@@ -1283,6 +1283,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
     confounded: list[_Probe] = []
     k = -1
+    ref_fit: tuple[FeatureSet, Evidence] | None = None   # the reference's evidence, and at what
     n_full, n_scoped = screen_sizes(lib, opts.scoped_screen, opts.scoped_share)
     while len(found) < opts.max_rounds and len(shared) <= opts.max_shared:
         k += 1
@@ -1311,6 +1312,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         first = _pick(ok, opts.tolerance, False)   # parsimony among near-equal families
         if ref_route is not None:      # a change goes first: the robot's own does not lead
             _, ev_ref = ref_route.fit(fs, one_step=False)
+            ref_fit = (fs, ev_ref)
             pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok),
                                            _focus_choices(p.aug))
                    for p in ok}
@@ -1346,7 +1348,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      None if ref_route is None else ref_route.mv.n, ref_route)
     report["start_spread"] = spread
     if ref_route is not None:          # what the library left unexplained (decision 026)
-        report["unexplained_change"] = _unexplained_change(route, ref_route, fs, ev)
+        report["unexplained_change"] = _unexplained_change(
+            route, ref_route, fs, ev, ref_fit[1] if ref_fit and ref_fit[0] is fs else None)
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
@@ -1358,13 +1361,15 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     return report
 
 
-def _unexplained_change(route: _Route, ref_route: _Route, fs: FeatureSet, ev: Evidence
-                        ) -> dict[str, Any]:
+def _unexplained_change(route: _Route, ref_route: _Route, fs: FeatureSet, ev: Evidence,
+                        ev_ref: Evidence | None = None) -> dict[str, Any]:
     """:func:`.excess.unexplained_change` of the route's final feature set: the data's
     held-out rollout residual at the decision horizon against the reference's, both rolled out
-    with ``fs`` (the reference fitted again with it)."""
+    with ``fs`` (``ev_ref``: the reference's evidence at ``fs`` where the last round made it;
+    else the reference is fitted with ``fs`` here)."""
     from .excess import unexplained_change
-    _, ev_ref = ref_route.fit(fs, one_step=False)
+    if ev_ref is None:
+        _, ev_ref = ref_route.fit(fs, one_step=False)
     h = route.h_dec
     if h not in ev_ref.err:            # the reference's moves are shorter than the horizon
         h = max(k for k in ev_ref.err if k in ev.err)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from littledog_mlsim.diagnose.excess import (MIN_RATIO, move_mse, scope_elements,
+from littledog_mlsim.diagnose.excess import (MIN_RATIO, elements_of, move_mse,
                                              unexplained_change)
 from littledog_mlsim.layout import N_STATE, StateLayout
 
@@ -30,7 +30,7 @@ def _test(data, ref):
 
 def _scale(scope: str, factor: float) -> np.ndarray:
     s = np.ones(N_STATE)
-    s[scope_elements(scope)] = factor
+    s[elements_of(scope)] = factor
     return s
 
 
