@@ -33,5 +33,9 @@ else:
     truth = {t["id"]: t for t in yaml.safe_load((ZOO / "truth.yaml").read_text())["effects"]}
     report = json.loads((work / "diag" / "z02_m15" / "report.json").read_text())
     s = score(truth["z02"], report)
-    print(json.dumps({k: s[k] for k in ("found", "family_right", "scope_right", "param_error",
-                                        "identified", "named")}, indent=1))
+    u = report["rollout_route"].get("unexplained_change") or {}
+    print(json.dumps({**{k: s[k] for k in ("found", "family_right", "scope_right", "param_error",
+                                           "identified", "named")},
+                      "unexplained_change": {k: u.get(k) for k in ("significant", "ratio",
+                                                                   "p_value", "scope")}},
+                     indent=1))

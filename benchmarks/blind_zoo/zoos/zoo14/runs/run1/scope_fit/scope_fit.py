@@ -23,6 +23,9 @@ sys.path.insert(0, str(ROOT))
 from littledog_mlsim.diagnose.families.scopes import joint_scopes, scope_joints  # noqa: E402
 from littledog_mlsim.layout import JOINT_NAMES  # noqa: E402
 
+print("Command: `OPENBLAS_NUM_THREADS=1 .venv/bin/python "
+      "benchmarks/blind_zoo/zoos/zoo14/runs/run1/scope_fit/scope_fit.py "
+      + " ".join(sys.argv[1:]) + "` (the report of run1's WORK)\n")
 for path in sys.argv[1:]:
     u = json.loads(Path(path).read_text())["rollout_route"]["unexplained_change"]
     sr = u["scope_ratios"]
@@ -38,5 +41,10 @@ for path in sys.argv[1:]:
         m[scope_joints(s)] = True
         fits.append((((r[m] - r[m].mean()) ** 2).sum() + ((r[~m] - r[~m].mean()) ** 2).sum(), s))
     fits.sort()
+    print("\nSides and joint types (a side's rest is the other side): " + ", ".join(
+        f"{s} {sr[s]:.2f}" for s in ("side:left", "side:right", "type:hip_rolls",
+                                     "type:hip_pitches", "type:knees"))
+          + f"; side:left's concentration {sr['side:left'] / sr['side:right']:.2f}, "
+          f"side:right's {sr['side:right'] / sr['side:left']:.2f}")
     print(f"\nTwo-level fit of the log ratios (one level: {((r - r.mean()) ** 2).sum():.2f}), "
           "the best five: " + ", ".join(f"{s} {v:.2f}" for v, s in fits[:5]) + "\n")
