@@ -9,7 +9,7 @@ more than three times the clean seeds' own spread (sample std over seeds 91, 92,
 height drops below 0.08 m or its roll or pitch exceeds 0.5 rad at any step.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo14/check_visible.py \
-        --work /tmp/s49/z14 --out benchmarks/blind_zoo/zoos/zoo14
+        --work WORK --out benchmarks/blind_zoo/zoos/zoo14   (WORK: the harness's --work)
 """
 from __future__ import annotations
 
