@@ -110,7 +110,14 @@ what the search accepted but the reference shows as much (not a change; the mode
 and ``significant`` does not count it), and ``unexplained_change``
 (:func:`.excess.unexplained_change` at the final feature set, decision 026): the data's held-out
 rollout error against the reference's; where it is material and significant, ``significant`` is
-true and its ``vocabulary`` names family ``other`` at the scope where the excess concentrates.
+true and its ``vocabulary`` names family ``other`` at the scope where the excess concentrates;
+where that test finds no excess and the search accepted no change, ``reference_change``
+(:func:`.change.reference_change`, decision 027): the reference's model on the data, one step
+and 1 s rollouts, against its own held-out moves; where the excess concentrates at a joint
+scope and a hypothesis of the change screen explains it, ``named`` is true, ``significant``
+is too, and its ``vocabulary`` names the family (``servo_gain``, ``command_delay``,
+``contact_phase``, ``time_drift``) at that scope; the data's own model carries it, so nothing
+is added to the model.
 """
 from __future__ import annotations
 
@@ -1353,6 +1360,14 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
+        elif not found:                # a change the data's own model carries (decision 027)
+            from .change import reference_change
+            report["reference_change"] = rc = reference_change(
+                route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step)
+            if rc["named"]:
+                report["significant"] = True
+            if rc["significant"]:
+                say("change since the reference: " + rc["statement"])
     from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
                              "recording": RECORDINGS["position"],
@@ -1621,6 +1636,9 @@ def _verdict(report: dict[str, Any]) -> str:
     change = report.get("unexplained_change") or {}
     if change.get("significant"):
         parts.append(change["statement"] + "; " + change["recording"])
+    carried_change = report.get("reference_change") or {}
+    if carried_change.get("significant"):
+        parts.append(carried_change["statement"])
     if report["suspected"]:
         parts.append("the data cannot tell: " + ", ".join(
             f"{s['label']} ({s['why']})" for s in report["suspected"]))

@@ -360,6 +360,9 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
     if change:
         L.append(f"\nAgainst the reference: {change['statement']}"
                  + (f"; {change['recording']}" if change["significant"] else ""))
+    carried = r.get("reference_change")
+    if carried:
+        L.append(f"\nThe reference's model on this data: {carried['statement']}")
     return L + [""]
 
 

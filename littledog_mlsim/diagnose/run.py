@@ -222,10 +222,13 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
         keywords["rollout_route"] = rollout
     report = write_report(run.out, sel, stages, **keywords)
     change = (rollout or {}).get("unexplained_change") or {}
+    carried = (rollout or {}).get("reference_change") or {}
     found = ", ".join([e["label"] for e in report["effects"]]
                       + [e["label"] for e in (rollout or {}).get("effects", [])]
                       + ([f"an unexplained change at {change['scope']}"]
-                         if change.get("significant") else []))
+                         if change.get("significant") else [])
+                      + ([f"a change since the reference: {carried['family']} at "
+                          f"{carried['kept_scope']}"] if carried.get("named") else []))
     run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
             f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report

@@ -179,8 +179,9 @@ def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     """Every effect the report names in the vocabulary: the physical route's
     ``effects[*].physical``, the learned route's ``vocabulary`` blocks (one-step loop and
     rollout route), the rollout route's unexplained change since the reference where it is
-    significant (family ``other``), and the sensor-timing check's where it found a shift
-    (either route)."""
+    significant (family ``other``), its change since the reference read through the
+    reference's model where it is named (decision 027), and the sensor-timing check's where it
+    found a shift (either route)."""
     out = []
     for e in report.get("effects", []):
         p = e.get("physical") or {}
@@ -190,6 +191,9 @@ def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     change = (report.get("rollout_route") or {}).get("unexplained_change") or {}
     if change.get("significant"):
         out.append(change.get("vocabulary") or {})
+    carried = (report.get("rollout_route") or {}).get("reference_change") or {}
+    if carried.get("named"):
+        out.append(carried.get("vocabulary") or {})
     timing = report.get("timing") or {}
     if timing.get("significant"):
         out.append(timing.get("vocabulary") or {})

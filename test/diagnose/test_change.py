@@ -1,0 +1,131 @@
+"""A change since the reference that the data's own model carries (decision 027).
+
+The reference's search model on the data: a one-leg set-point delay is found at the leg and
+named a delay; a second clean recording of the same robot is no change; the parts (the scopes
+that hold a scope, the servo slope, the correction's fit) on synthetic numbers.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from littledog_mlsim.data.dataset import load_moves
+from littledog_mlsim.diagnose.candidates import measured_robot_features
+from littledog_mlsim.diagnose.change import (ChangeModel, Hypothesis, reference_change,
+                                             servo_slope, wider_scopes)
+from littledog_mlsim.diagnose.learned import LearnedOptions, _Route
+from littledog_mlsim.layout import N_FEATURE, N_STATE, S
+
+SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30,
+                       horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3)
+
+
+def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int = 5) -> Path:
+    from littledog_mlsim.apps.record import record_dataset
+    effects_file = None
+    if effects is not None:
+        effects_file = root / f"{name}.yaml"
+        effects_file.write_text(effects)
+    out = root / name
+    record_dataset(out, moves_per_type=per_type, seed=seed, jobs=2, progress=False,
+                   effects_file=None if effects_file is None else str(effects_file))
+    return out
+
+
+@pytest.fixture(scope="module")
+def routes(tmp_path_factory):
+    root = tmp_path_factory.mktemp("change")
+    paths = {"reference": _record(root, "reference", None, 7),
+             "clean": _record(root, "clean", None, 8),
+             "delay": _record(root, "delay",
+                              "- class: littledog_mlsim.robot.effects:SetpointDelay\n"
+                              "  params: {delay_ms: 30.0, joints: front_left}\n", 8)}
+    start, quiet = measured_robot_features(), (lambda s: None)
+    return {k: _Route(load_moves(p, "train"), start, SMALL, quiet) for k, p in paths.items()}
+
+
+def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):
+    c = reference_change(routes["delay"], routes["reference"], measured_robot_features())
+    assert c["significant"] and c["ratio"] > 1.5 and c["p_value"] < SMALL.alpha, c
+    assert c["scope"] == "leg:front_left", c["scope_ratios"]
+    assert c["named"] and c["family"] == "command_delay", c["statement"]
+    assert c["vocabulary"]["scope"] == "leg:front_left"
+    assert 10.0 <= c["vocabulary"]["params"]["delay_ms"] <= 50.0
+    assert c["explained"] >= 0.5
+    assert "nothing is added to the model" not in c["statement"]   # no own ratio given
+    assert "the front-left leg, command_delay" in c["statement"]
+    stages = [h["stage"] for h in c["hypotheses"]]
+    assert stages[0] == "servo" and stages.count("family") == 7
+
+
+def test_a_second_recording_of_the_same_robot_is_no_change(routes):
+    c = reference_change(routes["clean"], routes["reference"], measured_robot_features(), 1.1)
+    assert not c["significant"] and not c["named"] and c["ratio"] < 1.5, c
+    assert "vocabulary" not in c and c["hypotheses"] == []
+    assert "no material and significant change since the reference" in c["statement"]
+
+
+def test_the_scopes_that_hold_a_joint_run_narrow_to_wide():
+    assert wider_scopes("joint:back_left_knee") == [
+        "joint:back_left_knee", "leg:back_left", "type:knees", "side:left", "all"]
+    assert wider_scopes("leg:front_right") == ["leg:front_right", "side:right", "all"]
+    assert wider_scopes("all") == ["all"]
+
+
+def test_the_servo_slope_reads_a_weaker_servo_as_a_smaller_slope():
+    rng = np.random.default_rng(0)
+    n, j = 4000, 5
+    X = rng.normal(0.0, 0.3, (n, N_FEATURE))
+    D = rng.normal(0.0, 0.01, (n, N_STATE))
+    e, dq = X[:, N_STATE + j] - X[:, S.q.start + j], X[:, S.dq.start + j]
+    D_ref, D_weak = D.copy(), D.copy()
+    D_ref[:, S.dq.start + j] += 2.0 * e - 0.3 * dq
+    D_weak[:, S.dq.start + j] += 1.2 * e - 0.3 * dq
+    ratio = servo_slope(X, D_weak, j) / servo_slope(X, D_ref, j)
+    assert abs(ratio - 0.6) < 0.02, ratio
+
+
+class _Zero:
+    """A reference model that predicts no change (``ChangeModel``'s ``ref``)."""
+
+    design = None
+    n_features_ = N_FEATURE
+
+    def predict(self, X, fold):
+        return np.zeros((len(X), N_STATE))
+
+
+def test_the_correction_fits_each_joints_own_columns_by_fold():
+    from littledog_mlsim.models.features import FeatureSet
+    rng = np.random.default_rng(1)
+    n, j = 3000, 2
+    X = rng.normal(0.0, 0.3, (n, N_FEATURE))
+    R = rng.normal(0.0, 0.001, (n, N_STATE))
+    R[:, S.dq.start + j] += -0.5 * (X[:, N_STATE + j] - X[:, S.q.start + j])
+    fold = np.arange(n) % 4
+    m = ChangeModel(_Zero(), FeatureSet(), Hypothesis("servo_gain", "leg:front_left"))
+    m.fit(X, R, fold, 4)
+    assert m.joints == [0, 1, 2]
+    assert abs(m.raw_coef(j, 0) + 0.5) < 0.01 and abs(m.raw_coef(0, 0)) < 0.01
+    c = m.correction(X, 3)
+    assert np.all(c[:, S.dq.start + 3:] == 0) and np.all(c[:, :S.q.start] == 0)
+    assert np.allclose(m.predict(X, -1), m.correction(X, -1))
+
+
+def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):
+    """``diagnose_learned`` with a reference: a library without delays accepts nothing, the data's
+    own model carries the delay (no excess, decision 026), and the route names it through the
+    reference's model: ``significant``, the vocabulary, the verdict."""
+    from littledog_mlsim.diagnose.learned import diagnose_learned
+    from littledog_mlsim.models.features import Heading
+    r = diagnose_learned(routes["delay"].train, routes["clean"].train[:4], options=SMALL,
+                         library=[Heading()], reference=routes["reference"].train)
+    assert r["effects"] == [] and not r["unexplained_change"]["significant"], r["verdict"]
+    c = r["reference_change"]
+    assert c["named"] and r["significant"], c["statement"]
+    assert c["vocabulary"]["family"] == "command_delay"
+    assert c["vocabulary"]["scope"] == "leg:front_left"
+    assert c["own_ratio"] == r["unexplained_change"]["ratio"]
+    assert c["statement"] in r["verdict"] and "nothing is added to the model" in c["statement"]
