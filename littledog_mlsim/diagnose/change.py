@@ -26,9 +26,11 @@ reference recording of the same robot it is measured directly (decision 027):
    (:class:`ChangeModel`): the servo's tracking error ``u - q``, the joint's rate and a
    constant (the servo's response: ``servo_gain``), plus a family's column: the set-point
    ``k`` steps back minus the current one (``command_delay``, ``k`` = 1..:data:`MAX_LAG`), the
-   rate while the foot swings and its bounded form ``tanh(dq / SWING_RATE_SCALE)``
-   (``contact_phase``, :class:`..models.feature_library.SwingRate`; named at the leg), the
-   elapsed time times the tracking error (``time_drift``,
+   set-point through a first-order low-pass minus the current one (``command_filter``, the time
+   constants :data:`FILTER_MS`), the
+   rate while the foot swings and the joint's torque per newton of a drag opposing the
+   swinging foot's horizontal motion (``contact_phase``, :func:`swing_drag_torque`; named at
+   the leg), the elapsed time times the tracking error (``time_drift``,
    :class:`..models.feature_library.ElapsedTracking`). Decisions are the route's
    :func:`.stats.sse_decision` on per-move held-out one-step SSE of the scope's angles and
    rates:
@@ -37,18 +39,23 @@ reference recording of the same robot it is measured directly (decision 027):
      material, else nothing is named;
    - a family's column against the servo response must be significant, material and cut at
      least :data:`FAMILY_MIN_CUT` of the scope's elements' error on average; the largest such
-     gain is kept, else the servo response.
+     gain is kept, else the servo response. A delay and a low-pass mimic each other: where
+     one scan's best sits at the edge the other's shape explains (a delay still gaining at
+     the longest lag, a low-pass best at the shortest time constant) and the other's is
+     inside its scan, the other is kept (:func:`_delay_or_low_pass`).
 4. **Named** where the kept hypothesis removes at least :data:`EXPLAINED_SHARE` of the scope's
    one-step error of the reference's model above the data's own model's (``explained``);
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay of ``k`` steps; a drift rate from the
-   ``t (u - q)`` coefficient over the reference's slope. A drag's size in newtons needs the
-   leg's inertia and geometry, which the learned route does not have: it is named without one.
+   median over the scope's joints); a delay of ``k`` steps; a low-pass's time constant; a drift rate from the
+   ``t (u - q)`` coefficient over the reference's slope; a drag in newtons, the coefficient of
+   its torque column over the reference's slope times the ``nominal`` robot's servo stiffness
+   (the slope is that stiffness over the joint's inertia, the coefficient the drag over it;
+   median over the scope's joints), so off by as much as the robot's stiffness is.
 
-The change is carried by the data's own model (decision 026's ratio says how well), so nothing
-is added to the served model for it; the report says so.
+Nothing is added to the served model for it; the statement says whether the data's own model
+carries the change (decision 026's ratio below :data:`.excess.MIN_RATIO`) or not.
 """
 from __future__ import annotations
 
@@ -57,10 +64,11 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from ..layout import CONTROL_DT, N_STATE, S
+from ..layout import CONTROL_DT, N_FEATURE, N_STATE, S
 from ..models.feature_base import Augmentation
-from ..models.feature_library import (JOINT_GROUPS, SWING_LIFT_M, CommandLag, ElapsedTracking,
-                                      SwingRate, _commanded_lift)
+from ..models.feature_library import (JOINT_GROUPS, SWING_LIFT_M, CommandFilter, CommandLag,
+                                      ElapsedTracking, SwingRate, _commanded_lift,
+                                      _forward_kinematics)
 from ..models.features import FeatureSet
 from .excess import CONCENTRATION, MIN_RATIO, unexplained_change
 from .families.scopes import joint_scopes, scope_group, scope_joints, scope_words
@@ -73,14 +81,19 @@ __all__ = ["MAX_LAG", "EXPLAINED_SHARE", "Hypothesis", "ChangeModel", "wider_sco
 
 #: the longest set-point delay screened, in control steps
 MAX_LAG = 5
+#: the set-point low-pass time constants screened [ms]
+FILTER_MS = (15.0, 25.0, 35.0, 50.0, 80.0)
 #: a hypothesis explains the change when it removes at least this share of the scope's one-step
 #: error of the reference's model above the data's own model's
 EXPLAINED_SHARE = 0.5
 #: a family's column adds to the servo response when it cuts at least this share of the
 #: servo-corrected one-step error of the scope's angles and rates, on average
 FAMILY_MIN_CUT = 0.2
-#: joint rate [rad/s] at which a bounded swing drag's column tanh(dq / scale) is 0.76 of full
-SWING_RATE_SCALE = 0.2
+#: foot speed [m/s] below which a swing drag's direction is softened (its size v / sqrt(v^2 +
+#: scale^2))
+FOOT_SPEED_SCALE = 0.05
+#: the robot whose servo stiffness turns a drag's joint response into newtons
+NOMINAL_ROBOT = "nominal"
 #: ridge on the standardised correction columns, per row
 RIDGE = 1e-3
 
@@ -95,18 +108,21 @@ class Hypothesis:
 
     def label(self) -> str:
         what = {"servo_gain": "servo response", "command_delay": "set-point delay",
-                "contact_phase": "rate in swing", "time_drift": "drift with time"}[self.family]
-        lag = f" {self.aug.lag} step(s)" if isinstance(self.aug, CommandLag) else ""
-        return f"{what}{lag} @ {self.scope}"
+                "command_filter": "set-point low-pass", "contact_phase": "rate in swing",
+                "time_drift": "drift with time"}[self.family]
+        if isinstance(self.aug, CommandLag):
+            what += f" {self.aug.lag} step(s)"
+        elif isinstance(self.aug, CommandFilter):
+            what += f" {self.aug.time_constant_ms:g} ms"
+        return f"{what} @ {self.scope}"
 
-    def feature_set(self, fs: FeatureSet) -> FeatureSet:
-        return fs if self.aug is None else fs.with_augmentation(self.aug)
 
-
-def _family_aug(family: str, scope: str, lag: int = 1) -> Augmentation:
+def _family_aug(family: str, scope: str, lag: int = 1, tau_ms: float = 20.0) -> Augmentation:
     group = scope_group(scope)
     if family == "command_delay":
         return CommandLag(lag=lag, joints=group)
+    if family == "command_filter":
+        return CommandFilter(time_constant_ms=tau_ms, joints=group)
     if family == "contact_phase":
         return SwingRate(joints=group)
     if family == "time_drift":
@@ -118,7 +134,8 @@ class ChangeModel:
     """The reference's model (its fit on every move, ``fold=-1``) plus a per-joint linear
     correction of each scope joint's one-step change in angle and rate, fitted per fold on the
     data's one-step residual of the reference's model. Predicts as :class:`.learned.CrossFitModel`
-    does (raw one-step change), on the features of ``hyp.feature_set(fs)``."""
+    does (raw one-step change), on rows of ``fs``'s columns followed by the hypothesis's
+    augmentation's own."""
 
     def __init__(self, ref: "CrossFitModel", fs: FeatureSet, hyp: Hypothesis) -> None:
         self.ref, self.hyp = ref, hyp
@@ -126,22 +143,24 @@ class ChangeModel:
         self.n_ref = fs.n_features
         self.joints = [int(j) for j in scope_joints(hyp.scope)]
         self.extra: dict[int, int] = {}
-        if hyp.aug is not None:
-            sl = hyp.feature_set(fs).column_slices()[-1]
+        if hyp.aug is not None:        # its columns follow fs's (:meth:`_Residuals.of`)
             cols = JOINT_GROUPS[hyp.aug.joints]
-            self.extra = {int(j): sl.start + i for i, j in enumerate(cols)}
+            self.extra = {int(j): self.n_ref + i for i, j in enumerate(cols)}
 
-    def _z(self, X: np.ndarray, j: int) -> np.ndarray:
-        """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column."""
+    def _drag(self, X: np.ndarray) -> np.ndarray | None:
+        """:func:`swing_drag_torque` of X's rows for a swing hypothesis, else None."""
+        return swing_drag_torque(X) if isinstance(self.hyp.aug, SwingRate) else None
+
+    def _z(self, X: np.ndarray, j: int, drag: np.ndarray | None = None) -> np.ndarray:
+        """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column(s)
+        (a swing hypothesis: the rate in swing and ``drag``'s column j)."""
         u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
         cols = [u - q, dq, np.ones_like(u)]
         if j in self.extra:
             e = X[:, self.extra[j]]
-            cols.append(e - u if isinstance(self.hyp.aug, CommandLag) else e)
-            if isinstance(self.hyp.aug, SwingRate):     # a drag of bounded size, too
-                w = np.clip(_commanded_lift(X[:, N_STATE:N_STATE + 12]) / SWING_LIFT_M,
-                            0.0, 1.0)[:, j // 3]
-                cols.append(w * np.tanh(dq / SWING_RATE_SCALE))
+            cols.append(e - u if isinstance(self.hyp.aug, (CommandLag, CommandFilter)) else e)
+            if drag is not None:
+                cols.append(drag[:, j])
         return np.stack(cols, axis=1)
 
     @staticmethod
@@ -154,8 +173,9 @@ class ChangeModel:
         per fold (all rows but the fold's) and on all rows (``fold=-1``)."""
         self.coef_: dict[int, dict[int, np.ndarray]] = {f: {} for f in [-1] + list(range(n_folds))}
         self.scale_: dict[int, np.ndarray] = {}
+        drag = self._drag(X)
         for j in self.joints:
-            Z = self._z(X, j)
+            Z = self._z(X, j, drag)
             sd = Z.std(axis=0)
             sd[2] = 1.0
             sd = np.where(sd < 1e-12, 1.0, sd)
@@ -174,8 +194,10 @@ class ChangeModel:
     def correction(self, X: np.ndarray, fold: int) -> np.ndarray:
         """(n, 33) the correction alone (zero outside the scope's angles and rates)."""
         out = np.zeros((len(X), N_STATE))
+        drag = self._drag(X)
         for j in self.joints:
-            out[:, self.outputs(j)] = (self._z(X, j) / self.scale_[j]) @ self.coef_[fold][j]
+            out[:, self.outputs(j)] = ((self._z(X, j, drag) / self.scale_[j])
+                                       @ self.coef_[fold][j])
         return out
 
     def predict(self, X: np.ndarray, fold: int) -> np.ndarray:
@@ -185,6 +207,31 @@ class ChangeModel:
         """Raw-unit coefficient of correction column ``column`` (0: u - q, 3: the family's) on
         output ``output`` (0: the angle's one-step change, 1: the rate's)."""
         return float(self.coef_[fold][j][column, output] / self.scale_[j][column])
+
+
+def swing_drag_torque(X: np.ndarray) -> np.ndarray:
+    """(n, 12) each joint's torque per newton of a horizontal force of constant size opposing
+    its foot's horizontal velocity while the foot is meant to swing: ``w J_j^T (-v / |v|)``,
+    ``J_j`` the foot position's derivative by the joint's angle (forward kinematics, body
+    frame, x and y), ``v = sum_j J_j dq_j`` the foot's velocity (its size softened below
+    :data:`FOOT_SPEED_SCALE`), ``w`` the leg's swing weight (commanded lift over
+    ``SWING_LIFT_M``, clipped to [0, 1], as :class:`..models.feature_library.SwingRate`). In
+    metres: a drag of F newtons adds ``F`` times it to the joint's torque."""
+    q, dq = X[:, S.q], X[:, S.dq]
+    n = len(X)
+    p0 = _forward_kinematics(q)[..., :2]                         # (n, 4, 2)
+    J = np.empty((n, 12, 2))
+    eps = 1e-5
+    for j in range(12):
+        qq = q.copy()
+        qq[:, j] += eps
+        J[:, j] = (_forward_kinematics(qq)[:, j // 3, :2] - p0[:, j // 3]) / eps
+    legs = np.arange(12) // 3
+    v = np.zeros((n, 4, 2))
+    np.add.at(v, (slice(None), legs), J * dq[:, :, None])
+    v_hat = v / np.sqrt((v ** 2).sum(axis=2, keepdims=True) + FOOT_SPEED_SCALE ** 2)
+    w = np.clip(_commanded_lift(X[:, N_STATE:N_STATE + 12]) / SWING_LIFT_M, 0.0, 1.0)
+    return w[:, legs] * -(J * v_hat[:, legs]).sum(axis=2)
 
 
 def wider_scopes(scope: str) -> list[str]:
@@ -217,9 +264,17 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
                 "per_joint": {str(j): round(float(v), 3) for j, v in r.items()}}
     if hyp.family == "command_delay":
         return {"delay_ms": round(hyp.aug.lag * CONTROL_DT * 1000.0, 1)}
+    if hyp.family == "command_filter":
+        return {"time_constant_ms": float(hyp.aug.time_constant_ms)}
     if hyp.family == "time_drift":
         r = [model.raw_coef(j, 3) / k[j] for j in model.joints if abs(k[j]) > 1e-12]
         return {"rate_per_s": round(float(np.median(r)), 4) if r else None}
+    if hyp.family == "contact_phase":
+        from ..robot.config import per_joint, robot_config
+        kp = per_joint(robot_config(NOMINAL_ROBOT).kp)
+        f = [model.raw_coef(j, 4) / k[j] * kp[j] for j in model.joints if abs(k[j]) > 1e-12]
+        return {"magnitude": round(float(np.median(f)), 3) if f else None,
+                "per_joint": {str(j): round(float(v), 3) for j, v in zip(model.joints, f)}}
     return {"magnitude": None}
 
 
@@ -266,26 +321,36 @@ def _move_sse(R: np.ndarray, mi: np.ndarray, n_moves: int) -> np.ndarray:
 
 @dataclass
 class _Residuals:
-    """One side's one-step residuals of the reference's model, per feature set: rows X, the
-    residual R (the data: of the fit on every reference move; the reference: held out), move
-    index and fold of each row."""
+    """One side's one-step residuals of the reference's model at the route's feature set ``fs``:
+    rows X (``fs``'s columns, then a hypothesis's own: :meth:`of`), the residual R (the data:
+    of the fit on every reference move; the reference: held out), move index and fold of each
+    row."""
 
     route: "_Route"
     ref_model: "CrossFitModel"
+    fs: FeatureSet
     held_out: np.ndarray | None = None           # the reference's own held-out residual
     cache: dict = None
 
     def __post_init__(self) -> None:
+        X, Y, mi = self.fs.features_responses(self.route.train)
+        R = (Y - X[:, :N_STATE] - self.ref_model.predict(X, -1)
+             if self.held_out is None else self.held_out)
+        self.base = (X, R, mi, self.route.fold_of_move[mi])
         self.cache = {}
 
-    def of(self, fs: FeatureSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        if fs not in self.cache:
-            X, Y, mi = fs.features_responses(self.route.train)
-            n0 = self.ref_model.n_features_
-            R = (Y - X[:, :N_STATE] - self.ref_model.predict(X[:, :n0], -1)
-                 if self.held_out is None else self.held_out)
-            self.cache[fs] = (X, R, mi, self.route.fold_of_move[mi])
-        return self.cache[fs]
+    def of(self, hyp: Hypothesis) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The rows with ``hyp``'s columns appended, computed in a feature set of their own
+        (the route's may hold the same augmentation: a shared finding)."""
+        X, R, mi, fold = self.base
+        if hyp.aug is None:
+            return self.base
+        if hyp.aug not in self.cache:
+            Xa, _, mia = FeatureSet((hyp.aug,)).features_responses(self.route.train)
+            if not np.array_equal(mia, mi):          # the same rows, in the same order
+                raise ValueError("change: a hypothesis's rows differ from the route's")
+            self.cache[hyp.aug] = np.hstack([X, Xa[:, N_FEATURE:]])
+        return self.cache[hyp.aug], R, mi, fold
 
 
 def _held_out(model: ChangeModel, X: np.ndarray, R: np.ndarray, fold: np.ndarray,
@@ -300,10 +365,9 @@ def _held_out(model: ChangeModel, X: np.ndarray, R: np.ndarray, fold: np.ndarray
 def _fit(data: _Residuals, ref: _Residuals, fs: FeatureSet, hyp: Hypothesis) -> _Judged:
     """The hypothesis's correction fitted on the data and on the reference, cross-fitted by
     each side's folds, and the per-move SSE of :class:`_Judged`."""
-    fsh = hyp.feature_set(fs)
     n_folds = data.route.opts.n_folds
-    X, R, mi, fold = data.of(fsh)
-    Xr, Rr, mir, fold_r = ref.of(fsh)
+    X, R, mi, fold = data.of(hyp)
+    Xr, Rr, mir, fold_r = ref.of(hyp)
     model = ChangeModel(data.ref_model, fs, hyp).fit(X, R, fold, n_folds)
     model_r = ChangeModel(data.ref_model, fs, hyp).fit(Xr, Rr, fold_r, n_folds)
     n, n_r = data.route.mv.n, ref.route.mv.n
@@ -401,8 +465,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     if scope == "body":
         out["statement"] = _statement(out)
         return out
-    data = _Residuals(route, ref_model)
-    ref = _Residuals(ref_route, ref_model, held_out=ev_ref.one_step)
+    data = _Residuals(route, ref_model, fs)
+    ref = _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step)
     cols = _columns_of(scope_joints(scope))
     # the servo's response at the scope, against the reference's own correction
     servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
@@ -415,11 +479,16 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     # the family: a column that adds to the servo response at that scope
     fams = ([Hypothesis("command_delay", scope, _family_aug("command_delay", scope, k))
              for k in range(1, MAX_LAG + 1)]
+            + [Hypothesis("command_filter", scope, _family_aug("command_filter", scope,
+                                                               tau_ms=t)) for t in FILTER_MS]
             + [Hypothesis(f, scope, _family_aug(f, scope)) for f in ("contact_phase",
                                                                      "time_drift")])
+    judged = []
     for hyp in fams:
         j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(fams), opts, cols)
         out["hypotheses"].append(_row(j, "family"))
+        judged.append(j)
+    for j in _delay_or_low_pass(judged):
         if j.ok and j.total >= FAMILY_MIN_CUT * len(cols) and j.total > kept_gain:
             kept, kept_gain = j, j.total
     if own_one_step is None:
@@ -442,6 +511,27 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     return out
 
 
+def _delay_or_low_pass(judged: Sequence[_Judged]) -> list[_Judged]:
+    """The family hypotheses without the set-point delays or without the low-passes, where
+    one scan's best sits at the edge the other's shape explains: a delay whose gain is still
+    rising at :data:`MAX_LAG` is a low-pass's long tail, a low-pass best at the shortest time
+    constant a delay's sharp step; the other family keeps the field where its own best is
+    inside its scan."""
+    def best(family: str) -> _Judged | None:
+        js = [j for j in judged if j.hyp.family == family]
+        return max(js, key=lambda j: j.total) if js else None
+    d, f = best("command_delay"), best("command_filter")
+    if d is None or f is None:
+        return list(judged)
+    d_edge = d.hyp.aug.lag == MAX_LAG
+    f_edge = f.hyp.aug.time_constant_ms == min(FILTER_MS)
+    if d_edge and not f_edge:
+        return [j for j in judged if j.hyp.family != "command_delay"]
+    if f_edge and not d_edge:
+        return [j for j in judged if j.hyp.family != "command_filter"]
+    return list(judged)
+
+
 def _row(j: _Judged, stage: str) -> dict[str, Any]:
     return {"label": j.hyp.label(), "family": j.hyp.family, "scope": j.hyp.scope,
             "stage": stage, "p_value": float(j.decision.p_value), "total_gain": j.total,
@@ -454,9 +544,13 @@ def _statement(u: dict[str, Any]) -> str:
             f"{u['p_value']:.2g}; 1 s rollouts {u['rollout_ratio']:.2f} times)")
     if not u["significant"]:
         return head + ": no material and significant change since the reference"
-    carried = ("" if u.get("own_ratio") is None else
+    own = u.get("own_ratio")
+    carried = ("" if own is None else
                f"; a model trained on this data carries it (its own rollout error is "
-               f"{u['own_ratio']:.2f} times the reference's), so nothing is added to the model")
+               f"{own:.2f} times the reference's), so nothing is added to the model"
+               if own < MIN_RATIO else
+               f"; a model trained on this data does not carry it (its own rollout error is "
+               f"{own:.2f} times the reference's), and nothing is added to the model")
     if u["concentration"] < CONCENTRATION or u["scope"] == "body":
         return (f"a change since the reference, spread over the robot: {head}; it is not "
                 "named" + carried)

@@ -111,7 +111,7 @@ and ``significant`` does not count it), and ``unexplained_change``
 (:func:`.excess.unexplained_change` at the final feature set, decision 026): the data's held-out
 rollout error against the reference's; where it is material and significant, ``significant`` is
 true and its ``vocabulary`` names family ``other`` at the scope where the excess concentrates;
-where that test finds no excess and the search accepted no change, ``reference_change``
+where the search accepted no change, ``reference_change``
 (:func:`.change.reference_change`, decision 027): the reference's model on the data, one step
 and 1 s rollouts, against its own held-out moves; where the excess concentrates at a joint
 scope and a hypothesis of the change screen explains it, ``named`` is true, ``significant``
@@ -1360,7 +1360,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
-        elif not found:                # a change the data's own model carries (decision 027)
+        if not found:                  # what the change is like, through the reference (027)
             from .change import reference_change
             report["reference_change"] = rc = reference_change(
                 route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step)

@@ -47,7 +47,11 @@ def routes(tmp_path_factory):
 
 
 def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):
-    c = reference_change(routes["delay"], routes["reference"], measured_robot_features())
+    """The route's feature set already holds the leg's 2-step lag (a finding the reference
+    shows as much): the screen's own lag columns are computed beside it, not added to it."""
+    from littledog_mlsim.models.features import CommandLag
+    fs = measured_robot_features().with_augmentation(CommandLag(lag=2, joints="front_left"))
+    c = reference_change(routes["delay"], routes["reference"], fs)
     assert c["significant"] and c["ratio"] > 1.5 and c["p_value"] < SMALL.alpha, c
     assert c["scope"] == "leg:front_left", c["scope_ratios"]
     assert c["named"] and c["family"] == "command_delay", c["statement"]
@@ -57,7 +61,7 @@ def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):
     assert "nothing is added to the model" not in c["statement"]   # no own ratio given
     assert "the front-left leg, command_delay" in c["statement"]
     stages = [h["stage"] for h in c["hypotheses"]]
-    assert stages[0] == "servo" and stages.count("family") == 7
+    assert stages[0] == "servo" and stages.count("family") == 12   # 5 lags, 5 low-passes, 2
 
 
 def test_a_second_recording_of_the_same_robot_is_no_change(routes):
@@ -129,3 +133,56 @@ def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):
     assert c["vocabulary"]["scope"] == "leg:front_left"
     assert c["own_ratio"] == r["unexplained_change"]["ratio"]
     assert c["statement"] in r["verdict"] and "nothing is added to the model" in c["statement"]
+
+
+def test_a_swing_drag_opposes_the_swinging_foots_motion_only():
+    """``swing_drag_torque``: dissipative on the swinging leg (torque . rate < 0), zero on the
+    legs whose commands do not lift them and on a foot at rest."""
+    from littledog_mlsim.diagnose.change import swing_drag_torque
+    from littledog_mlsim.layout import HOME_POSE
+    X = np.zeros((2, N_FEATURE))
+    X[:, S.q] = HOME_POSE
+    u = HOME_POSE.copy()
+    u[1] += 0.3                            # the front-left leg's command lifts its foot
+    u[2] -= 0.4
+    X[:, N_STATE:] = u
+    X[0, S.dq.start + 1] = 2.0             # its hip pitch swings it
+    X[0, S.dq.start + 4] = 2.0             # the front-right one moves too, on the ground
+    T = swing_drag_torque(X)
+    power = (T[0] * X[0, S.dq]).reshape(4, 3).sum(axis=1)
+    assert power[0] < 0 and np.all(T[0, 3:] == 0), T[0]
+    assert np.all(T[1] == 0)               # no motion, no drag
+
+
+def test_the_statement_says_whether_the_datas_own_model_carries_the_change():
+    from littledog_mlsim.diagnose.change import _statement
+    u = {"ratio": 20.0, "scope": "type:hip_pitches", "p_value": 1e-20, "rollout_ratio": 5.0,
+         "significant": True, "concentration": 4.0, "named": True, "family": "command_delay",
+         "kept_scope": "type:hip_pitches", "size": {"delay_ms": 30.0}, "explained": 0.8}
+    carried = _statement({**u, "own_ratio": 0.8})
+    assert "all hip pitches, command_delay (delay_ms 30.0)" in carried
+    assert "a model trained on this data carries it" in carried
+    assert "does not carry it (its own rollout error is 2.10" in _statement({**u, "own_ratio": 2.1})
+
+
+def test_a_delay_still_gaining_at_the_longest_lag_gives_way_to_a_low_pass():
+    from littledog_mlsim.diagnose.change import (FILTER_MS, MAX_LAG, _delay_or_low_pass,
+                                                 _family_aug, _Judged)
+
+    class _D:
+        def __init__(self, total):
+            self.gain = np.array([total])
+
+    def judged(lag_gains, tau_gains):
+        out = [_Judged(Hypothesis("command_delay", "all", _family_aug("command_delay", "all", k)),
+                       None, None, None, None, _D(g)) for k, g in lag_gains.items()]
+        return out + [_Judged(Hypothesis("command_filter", "all",
+                                         _family_aug("command_filter", "all", tau_ms=t)),
+                              None, None, None, None, _D(g)) for t, g in tau_gains.items()]
+    lags = dict(enumerate([2.1, 2.8, 3.4, 3.9, 4.1], start=1))          # still rising
+    taus = dict(zip(FILTER_MS, [3.2, 3.5, 3.6, 3.4, 2.6]))                # peaks inside
+    assert {j.hyp.family for j in _delay_or_low_pass(judged(lags, taus))} == {"command_filter"}
+    lags = dict(enumerate([3.2, 3.5, 3.6, 3.4, 2.9], start=1))          # peaks at 3 steps
+    taus = dict(zip(FILTER_MS, [3.5, 3.3, 3.1, 2.8, 2.0]))                # best at the shortest
+    assert {j.hyp.family for j in _delay_or_low_pass(judged(lags, taus))} == {"command_delay"}
+    assert max(lags) == MAX_LAG
