@@ -330,10 +330,11 @@ class _Residuals:
     ref_model: "CrossFitModel"
     fs: FeatureSet
     held_out: np.ndarray | None = None           # the reference's own held-out residual
+    rows: tuple | None = None                    # fs.features_responses(route.train), if made
     cache: dict = None
 
     def __post_init__(self) -> None:
-        X, Y, mi = self.fs.features_responses(self.route.train)
+        X, Y, mi = self.rows or self.fs.features_responses(self.route.train)
         R = (Y - X[:, :N_STATE] - self.ref_model.predict(X, -1)
              if self.held_out is None else self.held_out)
         self.base = (X, R, mi, self.route.fold_of_move[mi])
@@ -449,7 +450,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     roll = unexplained_change(ev0.err[h], ev0.move[h], ev0.t0[h], route.mv.types,
                               ev_ref.err[h], ev_ref.move[h], ev_ref.t0[h], ref_route.mv.types,
                               h * CONTROL_DT, opts.alpha)
-    _, _, mir = fs.features_responses(ref_route.train)
+    Xr, Yr, mir = fs.features_responses(ref_route.train)
     R = D - ref_model.predict(X, -1)
     one = _where_one_step(R, mi, route.mv.n, ev_ref.one_step, mir, ref_route.mv.n, opts.alpha)
     out: dict[str, Any] = {
@@ -465,8 +466,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     if scope == "body":
         out["statement"] = _statement(out)
         return out
-    data = _Residuals(route, ref_model, fs)
-    ref = _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step)
+    data = _Residuals(route, ref_model, fs, rows=(X, Y, mi))
+    ref = _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step, rows=(Xr, Yr, mir))
     cols = _columns_of(scope_joints(scope))
     # the servo's response at the scope, against the reference's own correction
     servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
@@ -500,7 +501,6 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     family = kept.hyp.family
     out.update(family=family, kept_scope=_scope_for(family, scope), label=kept.hyp.label(),
                explained=share)
-    Xr, Yr, _ = fs.features_responses(ref_route.train)
     out["size"] = _size(kept.model, X, D, Xr, Yr - Xr[:, :N_STATE])
     out["named"] = bool(share >= EXPLAINED_SHARE)
     if out["named"]:

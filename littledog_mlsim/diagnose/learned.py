@@ -116,8 +116,8 @@ where the search accepted no change, ``reference_change``
 and 1 s rollouts, against its own held-out moves; where the excess concentrates at a joint
 scope and a hypothesis of the change screen explains it, ``named`` is true, ``significant``
 is too, and its ``vocabulary`` names the family (``servo_gain``, ``command_delay``,
-``contact_phase``, ``time_drift``) at that scope; the data's own model carries it, so nothing
-is added to the model.
+``command_filter``, ``contact_phase``, ``time_drift``) at that scope; nothing is added to the
+model, and its statement says whether the data's own model carries the change.
 """
 from __future__ import annotations
 
