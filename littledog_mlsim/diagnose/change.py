@@ -432,17 +432,19 @@ def _scope_for(family: str, scope: str) -> str:
 
 def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
                      own_ratio: float | None = None,
-                     own_one_step: np.ndarray | None = None) -> dict[str, Any]:
+                     own_one_step: np.ndarray | None = None,
+                     ref_fit: tuple | None = None) -> dict[str, Any]:
     """The change since the reference read through the reference's model (module doc).
 
     ``route``/``ref_route``: the learned route's data and reference; ``fs``: its final feature
     set; ``own_ratio``: decision 026's ratio (the data's own held-out rollout error against the
     reference's), quoted as how well the data's model carries the change; ``own_one_step``:
     the data's own held-out one-step residual at ``fs`` (rows of ``fs.features_responses``;
-    made here where not given), the floor a correction is measured against."""
+    made here where not given), the floor a correction is measured against; ``ref_fit``:
+    ``ref_route.fit(fs)`` (its one-step residuals included) where the caller made it."""
     from .learned import rollout_evidence
     opts = route.opts
-    ref_model, ev_ref = ref_route.fit(fs, one_step=True)
+    ref_model, ev_ref = ref_fit if ref_fit is not None else ref_route.fit(fs, one_step=True)
     X, Y, mi = fs.features_responses(route.train)
     D = Y - X[:, :N_STATE]
     ev0 = rollout_evidence(ref_model, fs, route.mv, None, opts, X, D, mi, one_step=False)

@@ -1355,15 +1355,19 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      None if ref_route is None else ref_route.mv.n, ref_route)
     report["start_spread"] = spread
     if ref_route is not None:          # what the library left unexplained (decision 026)
+        # the reference at fs, fitted once with its one-step residuals where decision 027 runs
+        ref_at_fs = ref_route.fit(fs) if not found else None
         report["unexplained_change"] = _unexplained_change(
-            route, ref_route, fs, ev, ref_fit[1] if ref_fit and ref_fit[0] is fs else None)
+            route, ref_route, fs, ev, ref_at_fs[1] if ref_at_fs else
+            (ref_fit[1] if ref_fit and ref_fit[0] is fs else None))
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
         if not found:                  # what the change is like, through the reference (027)
             from .change import reference_change
             report["reference_change"] = rc = reference_change(
-                route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step)
+                route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step,
+                ref_at_fs)
             if rc["named"]:
                 report["significant"] = True
             if rc["significant"]:
