@@ -12,7 +12,7 @@ names, hence the same gait parameters and sensor-noise seed):
   roll and pitch stay below FALL_TILT_RAD; every value finite.
 
 Usage (repository root):  .venv/bin/python benchmarks/blind_zoo/zoos/zoo15/check_visible.py \
-    --work /tmp/s50/z15 --seed 101 [--control DIR]   # writes check.md and check.json beside this file
+    --work WORK --seed 101 [--control DIR]   # writes check.md and check.json beside this file
 """
 from __future__ import annotations
 
