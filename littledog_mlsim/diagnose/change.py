@@ -55,7 +55,11 @@ reference recording of the same robot it is measured directly (decision 027):
    median over the scope's joints), so off by as much as the robot's stiffness is.
 
 Nothing is added to the served model for it; the statement says whether the data's own model
-carries the change (decision 026's ratio below :data:`.excess.MIN_RATIO`) or not.
+carries the change (decision 026's ratio below :data:`.excess.MIN_RATIO`) or not. It runs also
+where the route's search accepted changes (``search``): a search led by the data's own model
+can take a rival family or scope first (a delay at the hip pitches for a low-pass on one side),
+and the reference's model, which holds neither, still shows where the robot changed;
+``agrees`` says whether the named change is one the search accepted.
 """
 from __future__ import annotations
 
@@ -84,8 +88,9 @@ MAX_LAG = 5
 #: the set-point low-pass time constants screened [ms]
 FILTER_MS = (15.0, 25.0, 35.0, 50.0, 80.0)
 #: a hypothesis explains the change when it removes at least this share of the scope's one-step
-#: error of the reference's model above the data's own model's
-EXPLAINED_SHARE = 0.5
+#: error of the reference's model above the data's own model's: each hypothesis is linear in its
+#: own columns, so the change it stands for leaves little of the excess (decision 027)
+EXPLAINED_SHARE = 0.75
 #: a family's column adds to the servo response when it cuts at least this share of the
 #: servo-corrected one-step error of the scope's angles and rates, on average
 FAMILY_MIN_CUT = 0.2
@@ -433,7 +438,8 @@ def _scope_for(family: str, scope: str) -> str:
 def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
                      own_ratio: float | None = None,
                      own_one_step: np.ndarray | None = None,
-                     ref_fit: tuple | None = None) -> dict[str, Any]:
+                     ref_fit: tuple | None = None,
+                     accepted: Sequence[Augmentation] = ()) -> dict[str, Any]:
     """The change since the reference read through the reference's model (module doc).
 
     ``route``/``ref_route``: the learned route's data and reference; ``fs``: its final feature
@@ -441,7 +447,10 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     reference's), quoted as how well the data's model carries the change; ``own_one_step``:
     the data's own held-out one-step residual at ``fs`` (rows of ``fs.features_responses``;
     made here where not given), the floor a correction is measured against; ``ref_fit``:
-    ``ref_route.fit(fs)`` (its one-step residuals included) where the caller made it."""
+    ``ref_route.fit(fs)`` (its one-step residuals included) where the caller made it;
+    ``accepted``: the changes the route's search accepted (already in ``fs``), which the
+    statement compares with what this reading names (``search``, ``agrees``)."""
+    from .families.learned import physical_reading
     from .learned import rollout_evidence
     opts = route.opts
     ref_model, ev_ref = ref_fit if ref_fit is not None else ref_route.fit(fs, one_step=True)
@@ -460,7 +469,9 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
         "p_value": one["p_value"], "scope": one["scope"],
         "concentration": one["concentration"], "scope_ratios": one["scope_ratios"],
         "rollout_ratio": roll["ratio"], "rollout_p_value": roll["p_value"],
-        "own_ratio": own_ratio, "horizon_s": h * CONTROL_DT, "hypotheses": []}
+        "own_ratio": own_ratio, "horizon_s": h * CONTROL_DT, "hypotheses": [],
+        "search": [{"label": a.label(), "family": r["family"], "scope": r["scope"]}
+                   for a in accepted for r in [physical_reading(a)]]}
     if not one["significant"] or one["concentration"] < CONCENTRATION:
         out["statement"] = _statement(out)     # none, or spread over the robot: not named
         return out
@@ -505,6 +516,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
                explained=share)
     out["size"] = _size(kept.model, X, D, Xr, Yr - Xr[:, :N_STATE])
     out["named"] = bool(share >= EXPLAINED_SHARE)
+    out["agrees"] = any(r["family"] == family and r["scope"] == out["kept_scope"]
+                        for r in out["search"]) if out["named"] else None
     if out["named"]:
         params = {k: v for k, v in out["size"].items() if k != "per_joint"}
         out["vocabulary"] = {"family": family, "scope": out["kept_scope"], "params": params,
@@ -566,6 +579,10 @@ def _statement(u: dict[str, Any]) -> str:
                 "over the data's own model, so it is not named" + carried)
     size = ", ".join(f"{k} {v}" for k, v in u["size"].items()
                      if k != "per_joint" and v is not None) or "no size without a twin"
+    search = ", ".join(r["label"] for r in u.get("search") or [])
+    beside = ("" if not search else
+              f"; the search's finding ({search}) reads the same" if u.get("agrees") else
+              f"; the search accepted {search} first, a rival reading of the same data")
     return (f"a change since the reference at {scope_words(u['kept_scope'])}, {u['family']} "
             f"({size}): {head}; it removes {100 * u['explained']:.0f} % of the excess over the "
-            "data's own model" + carried)
+            "data's own model" + carried + beside)

@@ -111,7 +111,7 @@ and ``significant`` does not count it), and ``unexplained_change``
 (:func:`.excess.unexplained_change` at the final feature set, decision 026): the data's held-out
 rollout error against the reference's; where it is material and significant, ``significant`` is
 true and its ``vocabulary`` names family ``other`` at the scope where the excess concentrates;
-where the search accepted no change, ``reference_change``
+``reference_change``
 (:func:`.change.reference_change`, decision 027): the reference's model on the data, one step
 and 1 s rollouts, against its own held-out moves; where the excess concentrates at a joint
 scope and a hypothesis of the change screen explains it, ``named`` is true, ``significant``
@@ -1290,7 +1290,6 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     position_unsupported = spread["confounded"] and slope_reading(floor_plane(train_recs)) is None
     confounded: list[_Probe] = []
     k = -1
-    ref_fit: tuple[FeatureSet, Evidence] | None = None   # the reference's evidence, and at what
     n_full, n_scoped = screen_sizes(lib, opts.scoped_screen, opts.scoped_share)
     while len(found) < opts.max_rounds and len(shared) <= opts.max_shared:
         k += 1
@@ -1319,7 +1318,6 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         first = _pick(ok, opts.tolerance, False)   # parsimony among near-equal families
         if ref_route is not None:      # a change goes first: the robot's own does not lead
             _, ev_ref = ref_route.fit(fs, one_step=False)
-            ref_fit = (fs, ev_ref)
             pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok),
                                            _focus_choices(p.aug))
                    for p in ok}
@@ -1355,23 +1353,23 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                      None if ref_route is None else ref_route.mv.n, ref_route)
     report["start_spread"] = spread
     if ref_route is not None:          # what the library left unexplained (decision 026)
-        # the reference at fs, fitted once with its one-step residuals where decision 027 runs
-        ref_at_fs = ref_route.fit(fs) if not found else None
-        report["unexplained_change"] = _unexplained_change(
-            route, ref_route, fs, ev, ref_at_fs[1] if ref_at_fs else
-            (ref_fit[1] if ref_fit and ref_fit[0] is fs else None))
+        # the reference at fs, fitted once with its one-step residuals for decisions 026, 027
+        ref_at_fs = ref_route.fit(fs)
+        report["unexplained_change"] = _unexplained_change(route, ref_route, fs, ev,
+                                                           ref_at_fs[1])
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
-        if not found:                  # what the change is like, through the reference (027)
-            from .change import reference_change
-            report["reference_change"] = rc = reference_change(
-                route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step,
-                ref_at_fs)
-            if rc["named"]:
-                report["significant"] = True
-            if rc["significant"]:
-                say("change since the reference: " + rc["statement"])
+        # what the change is like, through the reference's model (decision 027); also where
+        # the search accepted a change, which may have taken a rival family or scope first
+        from .change import reference_change
+        report["reference_change"] = rc = reference_change(
+            route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step,
+            ref_at_fs, [p.aug for p, _ in found])
+        if rc["named"]:
+            report["significant"] = True
+        if rc["significant"]:
+            say("change since the reference: " + rc["statement"])
     from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
                              "recording": RECORDINGS["position"],

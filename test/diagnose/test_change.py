@@ -13,8 +13,8 @@ import pytest
 
 from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.diagnose.candidates import measured_robot_features
-from littledog_mlsim.diagnose.change import (ChangeModel, Hypothesis, reference_change,
-                                             servo_slope, wider_scopes)
+from littledog_mlsim.diagnose.change import (EXPLAINED_SHARE, ChangeModel, Hypothesis,
+                                             reference_change, servo_slope, wider_scopes)
 from littledog_mlsim.diagnose.learned import LearnedOptions, _Route
 from littledog_mlsim.layout import N_FEATURE, N_STATE, S
 
@@ -51,13 +51,17 @@ def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):
     shows as much): the screen's own lag columns are computed beside it, not added to it."""
     from littledog_mlsim.models.features import CommandLag
     fs = measured_robot_features().with_augmentation(CommandLag(lag=2, joints="front_left"))
-    c = reference_change(routes["delay"], routes["reference"], fs)
+    c = reference_change(routes["delay"], routes["reference"], fs,
+                         accepted=[CommandLag(lag=2, joints="front_left")])
+    assert c["search"] == [{"label": CommandLag(lag=2, joints="front_left").label(),
+                            "family": "command_delay", "scope": "leg:front_left"}]
+    assert c["agrees"] is True          # the search's own lag, read again through the reference
     assert c["significant"] and c["ratio"] > 1.5 and c["p_value"] < SMALL.alpha, c
     assert c["scope"] == "leg:front_left", c["scope_ratios"]
     assert c["named"] and c["family"] == "command_delay", c["statement"]
     assert c["vocabulary"]["scope"] == "leg:front_left"
     assert 10.0 <= c["vocabulary"]["params"]["delay_ms"] <= 50.0
-    assert c["explained"] >= 0.5
+    assert c["explained"] >= EXPLAINED_SHARE
     assert "nothing is added to the model" not in c["statement"]   # no own ratio given
     assert "the front-left leg, command_delay" in c["statement"]
     stages = [h["stage"] for h in c["hypotheses"]]
@@ -163,6 +167,22 @@ def test_the_statement_says_whether_the_datas_own_model_carries_the_change():
     assert "all hip pitches, command_delay (delay_ms 30.0)" in carried
     assert "a model trained on this data carries it" in carried
     assert "does not carry it (its own rollout error is 2.10" in _statement({**u, "own_ratio": 2.1})
+
+
+def test_the_statement_compares_the_reading_with_what_the_search_accepted():
+    from littledog_mlsim.diagnose.change import _statement
+    u = {"ratio": 20.0, "scope": "side:left", "p_value": 1e-20, "rollout_ratio": 5.0,
+         "significant": True, "concentration": 4.0, "named": True, "family": "command_filter",
+         "kept_scope": "side:left", "size": {"time_constant_ms": 35.0}, "explained": 0.9}
+    rival = [{"label": "command_lag(lag=2, joints=hip_pitches)", "family": "command_delay",
+              "scope": "type:hip_pitches"}]
+    assert "the search accepted command_lag(lag=2, joints=hip_pitches) first, a rival" in (
+        _statement({**u, "search": rival, "agrees": False}))
+    same = [{"label": "command_filter(35 ms, left)", "family": "command_filter",
+             "scope": "side:left"}]
+    assert "the search's finding (command_filter(35 ms, left)) reads the same" in (
+        _statement({**u, "search": same, "agrees": True}))
+    assert "search" not in _statement(u)
 
 
 def test_a_delay_still_gaining_at_the_longest_lag_gives_way_to_a_low_pass():
