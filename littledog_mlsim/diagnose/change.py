@@ -48,7 +48,8 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay of ``k`` steps; a low-pass's time constant; a drift rate from the
+   median over the scope's joints); a delay of ``k`` steps; a low-pass's time constant, on a finer
+   grid around the scan's best (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from the
    ``t (u - q)`` coefficient over the reference's slope; a drag in newtons, the coefficient of
    its torque column over the reference's slope times the ``nominal`` robot's servo stiffness
    (the slope is that stiffness over the joint's inertia, the coefficient the drag over it;
@@ -91,6 +92,8 @@ FILTER_MS = (15.0, 25.0, 35.0, 50.0, 80.0)
 #: error of the reference's model above the data's own model's: each hypothesis is linear in its
 #: own columns, so the change it stands for leaves little of the excess (decision 027)
 EXPLAINED_SHARE = 0.75
+#: the kept low-pass's time constant is sized on this finer grid, as ratios to the scan's best
+FINER_STEPS = (0.7, 0.8, 0.9, 1.1, 1.2, 1.35)
 #: a family's column adds to the servo response when it cuts at least this share of the
 #: servo-corrected one-step error of the scope's angles and rates, on average
 FAMILY_MIN_CUT = 0.2
@@ -505,6 +508,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     for j in _delay_or_low_pass(judged):
         if j.ok and j.total >= FAMILY_MIN_CUT * len(cols) and j.total > kept_gain:
             kept, kept_gain = j, j.total
+    sized = (_finer_low_pass(kept, data, ref, fs, cols, out["hypotheses"])
+             if kept.hyp.family == "command_filter" else kept)   # between the scan's taus
     if own_one_step is None:
         _, ev_own = route.fit(fs, one_step=True)
         own_one_step = ev_own.one_step
@@ -514,7 +519,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     family = kept.hyp.family
     out.update(family=family, kept_scope=_scope_for(family, scope), label=kept.hyp.label(),
                explained=share)
-    out["size"] = _size(kept.model, X, D, Xr, Yr - Xr[:, :N_STATE])
+    out["size"] = _size(sized.model, X, D, Xr, Yr - Xr[:, :N_STATE])
     out["named"] = bool(share >= EXPLAINED_SHARE)
     out["agrees"] = any(r["family"] == family and r["scope"] == out["kept_scope"]
                         for r in out["search"]) if out["named"] else None
@@ -524,6 +529,25 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
                              "statement": _statement(out)}
     out["statement"] = _statement(out)
     return out
+
+
+def _finer_low_pass(kept: _Judged, data: "_Residuals", ref: "_Residuals", fs: FeatureSet,
+                    cols: Sequence[int], rows: list[dict[str, Any]]) -> _Judged:
+    """The kept low-pass's time constant on a finer grid (:data:`FINER_STEPS` times the scan's
+    best): the one with the least held-out one-step SSE over the scope's elements ``cols``.
+    The scan decided the family; this sizes it (each row ``stage`` "size")."""
+    best, best_sse = kept, float(kept.sse[:, cols].sum())
+    tau0 = kept.hyp.aug.time_constant_ms
+    for r in FINER_STEPS:
+        hyp = Hypothesis("command_filter", kept.hyp.scope,
+                         _family_aug("command_filter", kept.hyp.scope, tau_ms=tau0 * r))
+        j = _fit(data, ref, fs, hyp)
+        sse = float(j.sse[:, cols].sum())
+        rows.append({"label": hyp.label(), "family": hyp.family, "scope": hyp.scope,
+                     "stage": "size", "sse": sse})
+        if sse < best_sse:
+            best, best_sse = j, sse
+    return best
 
 
 def _delay_or_low_pass(judged: Sequence[_Judged]) -> list[_Judged]:

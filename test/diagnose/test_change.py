@@ -206,3 +206,24 @@ def test_a_delay_still_gaining_at_the_longest_lag_gives_way_to_a_low_pass():
     taus = dict(zip(FILTER_MS, [3.5, 3.3, 3.1, 2.8, 2.0]))                # best at the shortest
     assert {j.hyp.family for j in _delay_or_low_pass(judged(lags, taus))} == {"command_delay"}
     assert max(lags) == MAX_LAG
+
+
+def test_a_kept_low_pass_is_sized_on_a_finer_grid(monkeypatch):
+    """The scan picks 35 ms; a held-out SSE least at 28 ms (0.8 x 35) sizes it 28 ms, and each
+    finer time constant tried is a row of stage "size"."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.change import FINER_STEPS, _family_aug, _finer_low_pass, _Judged
+
+    def judged(tau):
+        hyp = Hypothesis("command_filter", "side:left",
+                         _family_aug("command_filter", "side:left", tau_ms=tau))
+        sse = np.full((3, 24), 1.0 + (tau - 28.0) ** 2 / 100.0)
+        return _Judged(hyp, None, sse, None, None)
+
+    monkeypatch.setattr(change, "_fit", lambda data, ref, fs, hyp: judged(
+        hyp.aug.time_constant_ms))
+    rows: list = []
+    best = _finer_low_pass(judged(35.0), None, None, None, [0, 12], rows)
+    assert best.hyp.aug.time_constant_ms == 28.0
+    assert [r["stage"] for r in rows] == ["size"] * len(FINER_STEPS)
+    assert all(r["sse"] > 0 for r in rows)

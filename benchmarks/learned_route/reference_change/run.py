@@ -58,6 +58,9 @@ def main() -> None:
                      **c, "seconds": time.perf_counter() - t})
         print(f"{d.name}: own {own['ratio']:.2f}; {c['statement']}", flush=True)
         for hyp in c["hypotheses"]:
+            if hyp["stage"] == "size":
+                print(f"    size {hyp['label']}: held-out SSE {hyp['sse']:.4g}", flush=True)
+                continue
             ok = " ok" if hyp["significant"] and hyp["material"] else ""
             print(f"    {hyp['stage']} {hyp['label']}: gain {hyp['total_gain']:+.2f} "
                   f"p {hyp['p_value']:.2g}{ok}", flush=True)
