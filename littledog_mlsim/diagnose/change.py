@@ -27,7 +27,8 @@ reference recording of the same robot it is measured directly (decision 027):
    constant (the servo's response: ``servo_gain``), plus a family's column: the set-point
    ``k`` steps back minus the current one (``command_delay``, ``k`` = 1..:data:`MAX_LAG`), the
    set-point through a first-order low-pass minus the current one (``command_filter``, the time
-   constants :data:`FILTER_MS`), the
+   constants :data:`FILTER_MS`), the set-point's place in a play band of the widths
+   :data:`PLAY_WIDTHS` (``backlash``, :class:`..models.feature_library.Play` of the set-point), the
    rate while the foot swings and the joint's torque per newton of a drag opposing the
    swinging foot's horizontal motion (``contact_phase``, :func:`swing_drag_torque`; named at
    the leg), the elapsed time times the tracking error (``time_drift``,
@@ -48,7 +49,7 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay of ``k`` steps; a low-pass's time constant, on a finer
+   median over the scope's joints); a delay of ``k`` steps; a play band's width; a low-pass's time constant, on a finer
    grid around the scan's best (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from the
    ``t (u - q)`` coefficient over the reference's slope; a drag in newtons, the coefficient of
    its torque column over the reference's slope times the ``nominal`` robot's servo stiffness
@@ -72,17 +73,17 @@ import numpy as np
 from ..layout import CONTROL_DT, N_FEATURE, N_STATE, S
 from ..models.feature_base import Augmentation
 from ..models.feature_library import (JOINT_GROUPS, SWING_LIFT_M, CommandFilter, CommandLag,
-                                      ElapsedTracking, SwingRate, _commanded_lift,
+                                      ElapsedTracking, Play, SwingRate, _commanded_lift,
                                       _forward_kinematics)
 from ..models.features import FeatureSet
 from .excess import CONCENTRATION, MIN_RATIO, unexplained_change
-from .families.scopes import joint_scopes, scope_group, scope_joints, scope_words
+from .families.scopes import group_scope, joint_scopes, scope_group, scope_joints, scope_words
 
 if TYPE_CHECKING:                    # pragma: no cover
     from .learned import CrossFitModel, _Route
 
 __all__ = ["MAX_LAG", "EXPLAINED_SHARE", "Hypothesis", "ChangeModel", "wider_scopes",
-           "reference_change"]
+           "reference_change", "drift_through_reference"]
 
 #: the longest set-point delay screened, in control steps
 MAX_LAG = 5
@@ -92,6 +93,8 @@ FILTER_MS = (15.0, 25.0, 35.0, 50.0, 80.0)
 #: error of the reference's model above the data's own model's: each hypothesis is linear in its
 #: own columns, so the change it stands for leaves little of the excess (decision 027)
 EXPLAINED_SHARE = 0.75
+#: the play band widths screened for a set-point backlash [rad]
+PLAY_WIDTHS = (0.01, 0.02, 0.035, 0.05, 0.08)
 #: the kept low-pass's time constant is sized on this finer grid, as ratios to the scan's best
 FINER_STEPS = (0.7, 0.8, 0.9, 1.1, 1.2, 1.35)
 #: a family's column adds to the servo response when it cuts at least this share of the
@@ -110,23 +113,29 @@ RIDGE = 1e-3
 class Hypothesis:
     """A change at ``scope``: the servo's response, plus ``aug``'s column for ``family``."""
 
-    family: str                       # servo_gain, command_delay, contact_phase, time_drift
+    family: str       # servo_gain, command_delay, command_filter, backlash, contact_phase,
+    #                   time_drift
     scope: str
     aug: Augmentation | None = None
 
     def label(self) -> str:
         what = {"servo_gain": "servo response", "command_delay": "set-point delay",
-                "command_filter": "set-point low-pass", "contact_phase": "rate in swing",
-                "time_drift": "drift with time"}[self.family]
+                "command_filter": "set-point low-pass", "backlash": "set-point play",
+                "contact_phase": "rate in swing", "time_drift": "drift with time"}[self.family]
         if isinstance(self.aug, CommandLag):
             what += f" {self.aug.lag} step(s)"
         elif isinstance(self.aug, CommandFilter):
             what += f" {self.aug.time_constant_ms:g} ms"
+        elif isinstance(self.aug, Play):
+            what += f" {self.aug.width:g} rad"
         return f"{what} @ {self.scope}"
 
 
-def _family_aug(family: str, scope: str, lag: int = 1, tau_ms: float = 20.0) -> Augmentation:
+def _family_aug(family: str, scope: str, lag: int = 1, tau_ms: float = 20.0,
+                width: float = 0.05) -> Augmentation:
     group = scope_group(scope)
+    if family == "backlash":
+        return Play(width=width, source="u", joints=group)
     if family == "command_delay":
         return CommandLag(lag=lag, joints=group)
     if family == "command_filter":
@@ -274,6 +283,8 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
         return {"delay_ms": round(hyp.aug.lag * CONTROL_DT * 1000.0, 1)}
     if hyp.family == "command_filter":
         return {"time_constant_ms": float(hyp.aug.time_constant_ms)}
+    if hyp.family == "backlash":
+        return {"width_rad": float(hyp.aug.width)}
     if hyp.family == "time_drift":
         r = [model.raw_coef(j, 3) / k[j] for j in model.joints if abs(k[j]) > 1e-12]
         return {"rate_per_s": round(float(np.median(r)), 4) if r else None}
@@ -498,6 +509,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
              for k in range(1, MAX_LAG + 1)]
             + [Hypothesis("command_filter", scope, _family_aug("command_filter", scope,
                                                                tau_ms=t)) for t in FILTER_MS]
+            + [Hypothesis("backlash", scope, _family_aug("backlash", scope, width=w))
+               for w in PLAY_WIDTHS]
             + [Hypothesis(f, scope, _family_aug(f, scope)) for f in ("contact_phase",
                                                                      "time_drift")])
     judged = []
@@ -548,6 +561,34 @@ def _finer_low_pass(kept: _Judged, data: "_Residuals", ref: "_Residuals", fs: Fe
         if sse < best_sse:
             best, best_sse = j, sse
     return best
+
+
+def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet,
+                            aug: ElapsedTracking, ref_fit: tuple) -> dict[str, Any]:
+    """Whether a drift of the servos with time that the route's search accepted (``aug``) is
+    one through the reference's model (decision 028): at ``aug``'s joints, the time-drift
+    hypothesis's column ``t (u - q)`` on top of the servo response, both fitted on the data's
+    one-step residual of the reference's model (``ref_fit``: ``ref_route.fit(fs)``, with its
+    held-out one-step residuals), judged as the change screen judges a family (one
+    candidate). ``confirmed``: significant and material; else the search's drift stands in
+    for a change of another kind that grows along the move."""
+    ref_model, ev_ref = ref_fit
+    opts = route.opts
+    X, Y, mi = fs.features_responses(route.train)
+    Xr, Yr, mir = fs.features_responses(ref_route.train)
+    data = _Residuals(route, ref_model, fs, rows=(X, Y, mi))
+    ref = _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step, rows=(Xr, Yr, mir))
+    scope = group_scope(aug.joints)
+    cols = _columns_of(scope_joints(scope))
+    servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
+    _judge(servo, servo.base, 1, opts, cols)
+    drift = _judge(_fit(data, ref, fs, Hypothesis("time_drift", scope,
+                                                  _family_aug("time_drift", scope))),
+                   servo.sse, 1, opts, cols)
+    d = drift.decision
+    return {"confirmed": drift.ok, "scope": scope, "total_gain": drift.total,
+            "p_value": float(d.p_value), "significant": bool(d.significant),
+            "material": bool(d.material), "servo_total_gain": servo.total}
 
 
 def _delay_or_low_pass(judged: Sequence[_Judged]) -> list[_Judged]:

@@ -1480,6 +1480,7 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
                   * CONTROL_DT)
     floor = floor_plane(train)
     effects, carried = [], []
+    ref_start: list[tuple] = []        # the reference at ``start``, fitted where a drift asks
     for (p, scan), into in [(f, effects) for f in found] + [(f, carried) for f in shared]:
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar, floor)
         if isinstance(p.aug, Heading):
@@ -1487,8 +1488,20 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
                                              None if ref_route is None else ref_route.train,
                                              opts, route.say)
             text, numbers = _with_drift(text, numbers, ev0, route.h_dec)
+        stand_in = None
         if isinstance(p.aug, ElapsedTracking) and ref_route is not None:
             text, numbers = _drift_against_reference(p.aug, numbers, route.mv, ref_route.mv)
+            from .change import drift_through_reference
+            if not ref_start:
+                ref_start.append(ref_route.fit(start))
+            check = drift_through_reference(route, ref_route, start, p.aug, ref_start[0])
+            numbers = {**numbers, "through_reference": check}
+            stand_in = not check["confirmed"]
+            if stand_in:               # decision 028
+                text += ("; only a stand-in: through the reference's model the servo response "
+                         f"at {_scope_words(p.aug)} does not drift with time (gain "
+                         f"{check['total_gain']:+.2f}, p = {check['p_value']:.2g}), so the "
+                         "model keeps the column and the family is not named")
         rivals = _scope_rivals(scan, opts.tolerance, opts.scope_alpha)
         if rivals:
             numbers = {**numbers, "scope_cannot_tell": rivals}
@@ -1498,9 +1511,12 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
                 for r in rivals)
         entry = {**p.to_dict(), "augmentation": p.aug.to_dict(), "gain": p.total_gain,
                  "scope": p.aug.params().get("joints", "body"), "statement": text,
-                 "physical": numbers, "vocabulary": vocabulary_reading(p.aug, numbers, text,
-                                                                       floor),
+                 "physical": numbers,
+                 "vocabulary": None if stand_in else vocabulary_reading(p.aug, numbers, text,
+                                                                        floor),
                  "scan": scan}
+        if stand_in is not None:
+            entry["stand_in"] = stand_in
         if contrasts is not None:
             entry["reference"] = contrasts[p.aug.label()]
         into.append(entry)

@@ -41,7 +41,10 @@ def routes(tmp_path_factory):
              "clean": _record(root, "clean", None, 8),
              "delay": _record(root, "delay",
                               "- class: littledog_mlsim.robot.effects:SetpointDelay\n"
-                              "  params: {delay_ms: 30.0, joints: front_left}\n", 8)}
+                              "  params: {delay_ms: 30.0, joints: front_left}\n", 8),
+             "sag": _record(root, "sag",
+                            "- class: littledog_mlsim.robot.effects:ServoGain\n"
+                            "  params: {gain_ratio: 1.0, joints: all, drift_per_s: -0.08}\n", 8)}
     start, quiet = measured_robot_features(), (lambda s: None)
     return {k: _Route(load_moves(p, "train"), start, SMALL, quiet) for k, p in paths.items()}
 
@@ -65,7 +68,7 @@ def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):
     assert "nothing is added to the model" not in c["statement"]   # no own ratio given
     assert "the front-left leg, command_delay" in c["statement"]
     stages = [h["stage"] for h in c["hypotheses"]]
-    assert stages[0] == "servo" and stages.count("family") == 12   # 5 lags, 5 low-passes, 2
+    assert stages[0] == "servo" and stages.count("family") == 17   # 5 lags, 5 low-passes, 5 plays, 2
 
 
 def test_a_second_recording_of_the_same_robot_is_no_change(routes):
@@ -227,3 +230,20 @@ def test_a_kept_low_pass_is_sized_on_a_finer_grid(monkeypatch):
     assert best.hyp.aug.time_constant_ms == 28.0
     assert [r["stage"] for r in rows] == ["size"] * len(FINER_STEPS)
     assert all(r["sse"] > 0 for r in rows)
+
+
+def test_a_drift_the_search_accepts_is_confirmed_only_through_the_reference(routes):
+    """Decision 028: a servo sag with time shows as a drift of the servo response through the
+    reference's model; a one-leg delay (which a search can take a drift for) and a clean
+    recording do not."""
+    from littledog_mlsim.diagnose.change import drift_through_reference
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    fs = measured_robot_features()
+    ref_fit = routes["reference"].fit(fs)
+    sag = drift_through_reference(routes["sag"], routes["reference"], fs,
+                                  ElapsedTracking(joints="all"), ref_fit)
+    assert sag["confirmed"] and sag["scope"] == "all" and sag["total_gain"] > 0, sag
+    for name, joints in (("delay", "front_left"), ("clean", "all")):
+        c = drift_through_reference(routes[name], routes["reference"], fs,
+                                    ElapsedTracking(joints=joints), ref_fit)
+        assert not c["confirmed"], (name, c)
