@@ -82,7 +82,10 @@ elements), max_gain, outputs, scope, statement (physical sentence), physical (nu
 ``scope_cannot_tell`` where a wider scope within the tolerance does not gain more move by move,
 :func:`_scope_rivals`), scan (the scope/parameter candidates: label, total_gain, p_value,
 stage "scope" or "parameter", ``p_wider`` for a scope wider than the one kept, ``kept_scope``
-on that one)}``; ``rounds``: per round the
+on that one), vocabulary (the physical route's form; null for a stand-in), and with a reference
+on a drift with time ``stand_in`` (decision 028: the reference's model does not confirm the
+drift, :func:`.change.drift_through_reference`, ``physical.through_reference``)}``;
+``rounds``: per round the
 probes ``{label, family, p_value, total_gain, max_gain, significant, material}``, and
 ``scoped``, the narrower screen's probes in the same form, where the round made one;
 ``evidence``: before/after TrainPool held-out rollout errors per horizon
