@@ -49,12 +49,13 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay of ``k`` steps; a play band's width; a low-pass's time constant, on a finer
-   grid around the scan's best (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from the
-   ``t (u - q)`` coefficient over the reference's slope; a drag in newtons, the coefficient of
-   its torque column over the reference's slope times the ``nominal`` robot's servo stiffness
-   (the slope is that stiffness over the joint's inertia, the coefficient the drag over it;
-   median over the scope's joints), so off by as much as the robot's stiffness is.
+   median over the scope's joints); a delay of ``k`` steps; a play band's width; a low-pass's
+   time constant, on a finer grid around the scan's best (:data:`FINER_STEPS`;
+   :func:`_finer_low_pass`); a drift rate from the ``t (u - q)`` coefficient over the
+   reference's slope; a drag in newtons, the coefficient of its torque column over the
+   reference's slope times the ``nominal`` robot's servo stiffness (the slope is that stiffness
+   over the joint's inertia, the coefficient the drag over it; median over the scope's joints),
+   so off by as much as the robot's stiffness is.
 
 Nothing is added to the served model for it; the statement says whether the data's own model
 carries the change (decision 026's ratio below :data:`.excess.MIN_RATIO`) or not. It runs also
@@ -530,7 +531,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
     share = float((before - after) / (before - own)) if before > own else 0.0
     family = kept.hyp.family
-    out.update(family=family, kept_scope=_scope_for(family, scope), label=kept.hyp.label(),
+    out.update(family=family, kept_scope=_scope_for(family, scope), label=sized.hyp.label(),
                explained=share)
     out["size"] = _size(sized.model, X, D, Xr, Yr - Xr[:, :N_STATE])
     out["named"] = bool(share >= EXPLAINED_SHARE)
@@ -553,7 +554,7 @@ def _finer_low_pass(kept: _Judged, data: "_Residuals", ref: "_Residuals", fs: Fe
     tau0 = kept.hyp.aug.time_constant_ms
     for r in FINER_STEPS:
         hyp = Hypothesis("command_filter", kept.hyp.scope,
-                         _family_aug("command_filter", kept.hyp.scope, tau_ms=tau0 * r))
+                         _family_aug("command_filter", kept.hyp.scope, tau_ms=round(tau0 * r, 1)))
         j = _fit(data, ref, fs, hyp)
         sse = float(j.sse[:, cols].sum())
         rows.append({"label": hyp.label(), "family": hyp.family, "scope": hyp.scope,
@@ -569,9 +570,10 @@ def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet
     one through the reference's model (decision 028): at ``aug``'s joints, the time-drift
     hypothesis's column ``t (u - q)`` on top of the servo response, both fitted on the data's
     one-step residual of the reference's model (``ref_fit``: ``ref_route.fit(fs)``, with its
-    held-out one-step residuals), judged as the change screen judges a family (one
-    candidate). ``confirmed``: significant and material; else the search's drift stands in
-    for a change of another kind that grows along the move."""
+    held-out one-step residuals), judged against the servo response by the route's
+    ``sse_decision`` (one candidate; no :data:`FAMILY_MIN_CUT`). ``confirmed``: significant
+    and material; else the search's drift stands in for a change of another kind that grows
+    along the move."""
     ref_model, ev_ref = ref_fit
     opts = route.opts
     X, Y, mi = fs.features_responses(route.train)
@@ -645,9 +647,13 @@ def _statement(u: dict[str, Any]) -> str:
     size = ", ".join(f"{k} {v}" for k, v in u["size"].items()
                      if k != "per_joint" and v is not None) or "no size without a twin"
     search = ", ".join(r["label"] for r in u.get("search") or [])
+    mine = set(scope_joints(u["kept_scope"]).tolist())
+    rival = any(r["scope"] != "body" and mine & set(scope_joints(r["scope"]).tolist())
+                for r in u.get("search") or [])
     beside = ("" if not search else
               f"; the search's finding ({search}) reads the same" if u.get("agrees") else
-              f"; the search accepted {search} first, a rival reading of the same data")
+              f"; the search accepted {search} first, a rival reading of the same joints"
+              if rival else f"; beside the search's {search}")
     return (f"a change since the reference at {scope_words(u['kept_scope'])}, {u['family']} "
             f"({size}): {head}; it removes {100 * u['explained']:.0f} % of the excess over the "
             "data's own model" + carried + beside)

@@ -119,7 +119,9 @@ true and its ``vocabulary`` names family ``other`` at the scope where the excess
 and 1 s rollouts, against its own held-out moves; where the excess concentrates at a joint
 scope and a hypothesis of the change screen explains it, ``named`` is true, ``significant``
 is too, and its ``vocabulary`` names the family (``servo_gain``, ``command_delay``,
-``command_filter``, ``contact_phase``, ``time_drift``) at that scope; nothing is added to the
+``command_filter``, ``backlash``, ``contact_phase``, ``time_drift``) at that scope, ``search``
+lists what the search accepted (stand-ins left out) and ``agrees`` whether the named change is
+one of them; nothing is added to the
 model, and its statement says whether the data's own model carries the change.
 """
 from __future__ import annotations
@@ -1366,9 +1368,10 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         # what the change is like, through the reference's model (decision 027); also where
         # the search accepted a change, which may have taken a rival family or scope first
         from .change import reference_change
+        stand_ins = {e["label"] for e in report["effects"] if e.get("stand_in")}
         report["reference_change"] = rc = reference_change(
             route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step,
-            ref_at_fs, [p.aug for p, _ in found])
+            ref_at_fs, [p.aug for p, _ in found if p.aug.label() not in stand_ins])
         if rc["named"]:
             report["significant"] = True
         if rc["significant"]:
@@ -1501,10 +1504,12 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
             numbers = {**numbers, "through_reference": check}
             stand_in = not check["confirmed"]
             if stand_in:               # decision 028
-                text += ("; only a stand-in: through the reference's model the servo response "
-                         f"at {_scope_words(p.aug)} does not drift with time (gain "
-                         f"{check['total_gain']:+.2f}, p = {check['p_value']:.2g}), so the "
-                         "model keeps the column and the family is not named")
+                text = ("a stand-in for a change that grows along the move, not a drift of the "
+                        f"servos: the column t (u - q) at {_scope_words(p.aug)} cuts the "
+                        f"data's rollout error (read as a drift, {text}), but through the "
+                        "reference's model the servo response there does not drift with time "
+                        f"(gain {check['total_gain']:+.2f}, p = {check['p_value']:.2g}); the "
+                        "model keeps the column and the family is not named")
         rivals = _scope_rivals(scan, opts.tolerance, opts.scope_alpha)
         if rivals:
             numbers = {**numbers, "scope_cannot_tell": rivals}

@@ -68,7 +68,8 @@ def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):
     assert "nothing is added to the model" not in c["statement"]   # no own ratio given
     assert "the front-left leg, command_delay" in c["statement"]
     stages = [h["stage"] for h in c["hypotheses"]]
-    assert stages[0] == "servo" and stages.count("family") == 17   # 5 lags, 5 low-passes, 5 plays, 2
+    # 5 lags, 5 low-passes, 5 plays, the rate in swing, the drift
+    assert stages[0] == "servo" and stages.count("family") == 17
 
 
 def test_a_second_recording_of_the_same_robot_is_no_change(routes):
@@ -181,6 +182,9 @@ def test_the_statement_compares_the_reading_with_what_the_search_accepted():
               "scope": "type:hip_pitches"}]
     assert "the search accepted command_lag(lag=2, joints=hip_pitches) first, a rival" in (
         _statement({**u, "search": rival, "agrees": False}))
+    push = [{"label": "heading()", "family": "odom_force", "scope": "body"}]
+    assert "; beside the search's heading()" in _statement({**u, "search": push,
+                                                             "agrees": False})
     same = [{"label": "command_filter(35 ms, left)", "family": "command_filter",
              "scope": "side:left"}]
     assert "the search's finding (command_filter(35 ms, left)) reads the same" in (
@@ -229,7 +233,8 @@ def test_a_kept_low_pass_is_sized_on_a_finer_grid(monkeypatch):
     best = _finer_low_pass(judged(35.0), None, None, None, [0, 12], rows)
     assert best.hyp.aug.time_constant_ms == 28.0
     assert [r["stage"] for r in rows] == ["size"] * len(FINER_STEPS)
-    assert all(r["sse"] > 0 for r in rows)
+    assert [r["label"] for r in rows] == [f"set-point low-pass {round(35.0 * f, 1):g} ms @ "
+                                          "side:left" for f in FINER_STEPS]
 
 
 def test_a_drift_the_search_accepts_is_confirmed_only_through_the_reference(routes):
@@ -247,3 +252,38 @@ def test_a_drift_the_search_accepts_is_confirmed_only_through_the_reference(rout
         c = drift_through_reference(routes[name], routes["reference"], fs,
                                     ElapsedTracking(joints=joints), ref_fit)
         assert not c["confirmed"], (name, c)
+
+
+@pytest.mark.parametrize("confirmed", [True, False])
+def test_a_drift_the_reference_does_not_confirm_is_kept_as_an_unnamed_stand_in(routes,
+                                                                               monkeypatch,
+                                                                               confirmed):
+    """``diagnose_learned`` with a reference on a servo sag, a library of the drift alone: the
+    search accepts it; confirmed through the reference it keeps its vocabulary, otherwise
+    (the check's answer replaced here) the model keeps the column, ``stand_in`` is true, the
+    vocabulary null and the statement says so (decision 028)."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.learned import diagnose_learned
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    real = change.drift_through_reference
+    seen = []
+
+    def check(*args):
+        seen.append(real(*args))
+        return {**seen[-1], "confirmed": confirmed}
+
+    monkeypatch.setattr(change, "drift_through_reference", check)
+    r = diagnose_learned(routes["sag"].train, routes["clean"].train[:4], options=SMALL,
+                         library=[ElapsedTracking(joints="all")],
+                         reference=routes["reference"].train)
+    (e,) = r["effects"]
+    assert seen and seen[0]["confirmed"], seen          # the real check confirms the sag
+    assert e["physical"]["through_reference"]["confirmed"] is confirmed
+    assert e["stand_in"] is (not confirmed)
+    if confirmed:
+        assert e["vocabulary"]["family"] == "time_drift", e["vocabulary"]
+    else:
+        assert e["vocabulary"] is None
+        assert e["statement"].startswith("a stand-in for a change that grows along the move")
+        assert e["statement"] in r["verdict"]
+    assert "elapsed_tracking" in str(r["feature_set"])   # the model keeps the column

@@ -1,14 +1,14 @@
 """A time drift read through the reference's model: confirmed, or a stand-in (decision 028).
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/learned_route/reference_change/drift_check.py \
-        --reference WORK/reference --check WORK/effects/z07=all WORK/effects/z05=type:hip_pitches \
-        --label "zoo16" --out OUT
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \
+        benchmarks/learned_route/reference_change/drift_check.py --reference WORK/reference \
+        --check WORK/effects/z07=all WORK/effects/z05=type:hip_pitches --label zoo16 --out OUT
 
 For each DATA=SCOPE, ``littledog_mlsim.diagnose.change.drift_through_reference`` at the
 measured robot's start features (the route's start feature set): the search model fitted on the
 whole reference predicts the data's next step; at the scope's joints the column t (u - q) on top
-of the servo response is judged as the change screen judges a family. Writes OUT.md and
-OUT.json (appending rows where OUT.json exists, so several zoos share one table).
+of the servo response is judged against it (significant and material, one candidate). Writes
+OUT.md and OUT.json (appending rows where OUT.json exists, so several zoos share one table).
 """
 from __future__ import annotations
 
