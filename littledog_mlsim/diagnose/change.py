@@ -494,12 +494,10 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     if scope == "body":
         out["statement"] = _statement(out)
         return out
-    data = _Residuals(route, ref_model, fs, rows=(X, Y, mi))
-    ref = _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step, rows=(Xr, Yr, mir))
+    data, ref = _sides(route, ref_route, ref_model, ev_ref, fs, (X, Y, mi), (Xr, Yr, mir))
     cols = _columns_of(scope_joints(scope))
     # the servo's response at the scope, against the reference's own correction
-    servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
-    _judge(servo, servo.base, 1, opts, cols)
+    servo = _servo_response(data, ref, fs, scope, opts, cols)
     out["hypotheses"].append(_row(servo, "servo"))
     if not servo.ok:
         out["statement"] = _statement(out)
@@ -545,6 +543,24 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     return out
 
 
+def _sides(route: "_Route", ref_route: "_Route", ref_model: "CrossFitModel", ev_ref: Any,
+           fs: FeatureSet, rows: tuple | None = None, ref_rows: tuple | None = None
+           ) -> tuple["_Residuals", "_Residuals"]:
+    """The data's and the reference's one-step residuals of the reference's model at ``fs``
+    (the reference's held out: ``ev_ref.one_step``); ``rows``/``ref_rows``: each side's
+    ``fs.features_responses`` where the caller made them."""
+    return (_Residuals(route, ref_model, fs, rows=rows),
+            _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step, rows=ref_rows))
+
+
+def _servo_response(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
+                    opts: Any, cols: Sequence[int]) -> _Judged:
+    """The servo response's correction at ``scope``, judged against the same correction
+    fitted on the reference (what its columns do where nothing changed)."""
+    servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
+    return _judge(servo, servo.base, 1, opts, cols)
+
+
 def _finer_low_pass(kept: _Judged, data: "_Residuals", ref: "_Residuals", fs: FeatureSet,
                     cols: Sequence[int], rows: list[dict[str, Any]]) -> _Judged:
     """The kept low-pass's time constant on a finer grid (:data:`FINER_STEPS` times the scan's
@@ -576,14 +592,10 @@ def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet
     along the move."""
     ref_model, ev_ref = ref_fit
     opts = route.opts
-    X, Y, mi = fs.features_responses(route.train)
-    Xr, Yr, mir = fs.features_responses(ref_route.train)
-    data = _Residuals(route, ref_model, fs, rows=(X, Y, mi))
-    ref = _Residuals(ref_route, ref_model, fs, held_out=ev_ref.one_step, rows=(Xr, Yr, mir))
+    data, ref = _sides(route, ref_route, ref_model, ev_ref, fs)
     scope = group_scope(aug.joints)
     cols = _columns_of(scope_joints(scope))
-    servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
-    _judge(servo, servo.base, 1, opts, cols)
+    servo = _servo_response(data, ref, fs, scope, opts, cols)
     drift = _judge(_fit(data, ref, fs, Hypothesis("time_drift", scope,
                                                   _family_aug("time_drift", scope))),
                    servo.sse, 1, opts, cols)

@@ -15,14 +15,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT))
+sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
+
+from _common import ROOT, git_state  # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
@@ -43,8 +43,7 @@ def main() -> None:
     quiet = lambda s: None  # noqa: E731
     ref = _Route(load_moves(a.reference, "train"), start, opts, quiet)
     ref_fit = ref.fit(start)
-    code = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                          capture_output=True, text=True).stdout.strip()
+    code = git_state()
     out_json = a.out.with_suffix(".json")
     doc = (json.loads(out_json.read_text()) if out_json.exists()
            else {"commands": [], "rows": []})

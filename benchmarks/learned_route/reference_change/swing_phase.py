@@ -18,14 +18,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT))
+sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
+
+from _common import ROOT, git_state  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -55,8 +55,7 @@ def main() -> None:
     ref_model, ev_ref = ref.fit(start, one_step=True)
     Xr, _, _ = start.features_responses(ref.train)
     wr = _swing(Xr)
-    code = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                          capture_output=True, text=True).stdout.strip()
+    code = git_state()
     out_json = a.out.with_suffix(".json")
     doc = json.loads(out_json.read_text()) if out_json.exists() else {"commands": [], "rows": []}
     doc["commands"].append({"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
