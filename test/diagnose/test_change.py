@@ -287,3 +287,50 @@ def test_a_drift_the_reference_does_not_confirm_is_kept_as_an_unnamed_stand_in(r
         assert e["statement"].startswith("a stand-in for a change that grows along the move")
         assert e["statement"] in r["verdict"]
     assert "elapsed_tracking" in str(r["feature_set"])   # the model keeps the column
+
+
+def _swing_rows(n_moves: int, rows_per_move: int, rng: np.random.Generator):
+    """Rows of moves in which diagonal leg pairs swing in turn (commands that lift the feet),
+    with move indices."""
+    from littledog_mlsim.layout import HOME_POSE
+    n = n_moves * rows_per_move
+    X = np.zeros((n, N_FEATURE))
+    X[:, S.q] = HOME_POSE
+    u = np.tile(HOME_POSE, (n, 1))
+    for i in range(n):
+        phase = (i // 10) % 3                  # a pair swings, the other pair, all stand
+        for leg in ((0, 3), (1, 2), ())[phase]:
+            sign = 1.0 if leg < 2 else -1.0
+            u[i, 3 * leg + 1] += 0.3 * sign
+            u[i, 3 * leg + 2] -= 0.4 * sign
+    X[:, N_STATE:] = u
+    return X, np.repeat(np.arange(n_moves), rows_per_move)
+
+
+@pytest.mark.parametrize("case", ["drag", "clean", "everywhere"])
+def test_a_change_in_one_legs_swing_is_located_there(case):
+    """Decision 029's location: the back-left leg's residual larger only while it swings is
+    located at that leg; the same residual as the reference's is not; a residual larger on
+    every leg in swing is not concentrated at one."""
+    from littledog_mlsim.diagnose.change import (SWING_CONCENTRATION, _where_in_swing,
+                                                 swing_weight)
+    rng = np.random.default_rng(3)
+    X, mi = _swing_rows(40, 60, rng)
+    Xr, mir = _swing_rows(40, 60, rng)
+    R, Rr = rng.normal(size=(len(X), N_STATE)), rng.normal(size=(len(Xr), N_STATE))
+    w = swing_weight(X)
+    joints = {"drag": [6, 7, 8], "clean": [], "everywhere": list(range(12))}[case]
+    for j in joints:
+        rows = w[:, j // 3] > 0.5
+        R[rows, S.q.start + j] *= 1.6
+        R[rows, S.dq.start + j] *= 1.6
+    out = _where_in_swing(R, X, mi, 40, Rr, Xr, mir, 40, 1e-3)
+    cells = out["cells"]
+    if case == "drag":
+        assert out["located"] and out["scope"] == "leg:back_left", out
+        assert cells["back_left"]["swing"] > 2.0 and cells["back_left"]["stance"] < 1.2
+        assert out["concentration"] >= SWING_CONCENTRATION and out["p_value"] < 1e-3
+    else:
+        assert not out["located"], out
+        assert (out["concentration"] < SWING_CONCENTRATION if case == "everywhere"
+                else out["ratio"] < 1.5), out

@@ -1,0 +1,103 @@
+"""Decision 029 on read zoos: where decision 027 locates a change in one leg's swing, and what it names.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \
+        benchmarks/learned_route/reference_change/swing_location.py --zoo-dir WORK16 \
+        --truth benchmarks/blind_zoo/zoos/zoo16/truth.yaml --label zoo16 --out OUT
+
+WORK16 holds a zoo's recordings as the blind-zoo harness writes them (``reference``,
+``effects/zNN``, ``clean/sNNN_e0``). For every effect and clean seed, the search model fitted on
+the whole reference at the route's start feature set (the measured robot's) is read through
+:func:`littledog_mlsim.diagnose.change.reference_change`, as a diagnosis whose search accepted
+nothing would read it; the table gives where it locates a change (over all rows, or in one
+leg's swing), the swing cell of that leg, its stance ratio, the force test, and what is named,
+beside the truth (these zoos' truth has been read). Writes OUT.md and OUT.json (appending rows
+where OUT.json exists).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
+
+from _common import ROOT, git_state  # noqa: E402
+
+import yaml  # noqa: E402
+
+from littledog_mlsim.data.dataset import load_moves  # noqa: E402
+from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
+from littledog_mlsim.diagnose.change import reference_change  # noqa: E402
+from littledog_mlsim.diagnose.learned import LearnedOptions, _Route  # noqa: E402
+
+
+def _truth(path: Path) -> dict[str, str]:
+    doc = yaml.safe_load(path.read_text())
+    items = doc["effects"] if isinstance(doc, dict) else doc
+    return {e["id"]: f"{e['family']} @ {e['scope']}" for e in items}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--zoo-dir", type=Path, required=True)
+    p.add_argument("--truth", type=Path, required=True)
+    p.add_argument("--label", required=True)
+    p.add_argument("--out", type=Path, required=True)
+    a = p.parse_args()
+    opts, start = LearnedOptions(), measured_robot_features()
+    quiet = lambda s: None  # noqa: E731
+    truth = _truth(a.truth)
+    ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
+    ref_fit = ref.fit(start, one_step=True)
+    out_json = a.out.with_suffix(".json")
+    doc = json.loads(out_json.read_text()) if out_json.exists() else {"commands": [], "rows": []}
+    doc["commands"].append({"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
+        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
+        "code": git_state(), "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    data = (sorted(d for d in (a.zoo_dir / "effects").iterdir() if d.is_dir())
+            + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
+    for d in data:
+        t = time.perf_counter()
+        r = _Route(load_moves(d, "train"), start, opts, quiet)
+        c = reference_change(r, ref, start, None, None, ref_fit)
+        sw = c["swing"]
+        sc = sw.get("screen") or {}
+        force = next((h for h in sc.get("hypotheses", []) if h["stage"] == "force"), None)
+        voc = c.get("vocabulary") or {}
+        row = {"zoo": a.label, "data": d.name, "truth": truth.get(d.name, "clean"),
+               "all_rows_ratio": round(c["ratio"], 2), "located_by": c["located_by"],
+               "swing_leg": sw.get("leg"), "swing_ratio": round(sw.get("ratio", 0.0), 2),
+               "swing_concentration": round(sw.get("concentration", 0.0), 2),
+               "swing_p": sw.get("p_value"), "swing_located": sw["located"],
+               "stance_ratio": (round(sc["stance_ratio"], 2) if sc else None),
+               "force_p": None if force is None else force["p_value"],
+               "force_ok": None if force is None else bool(force["significant"]
+                                                           and force["material"]),
+               "named": (f"{voc['family']} @ {voc['scope']}" if c["named"] else None),
+               "params": voc.get("params"), "seconds": round(time.perf_counter() - t, 1)}
+        doc["rows"].append(row)
+        print(row, flush=True)
+    out_json.write_text(json.dumps(doc, indent=1))
+    lines = ["# Decision 029 on read zoos: a change located in one leg's swing", ""]
+    lines += [f"Command: `{c['command']}`  \nCode: {c['code']}; {c['date']} UTC  "
+              for c in doc["commands"]]
+    lines += ["", "| zoo | data | truth | all rows | located by | swing leg: ratio, x others, "
+              "located | its stance | force p (ok) | named | params |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in doc["rows"]:
+        force = ("" if r["force_p"] is None else f"{r['force_p']:.2g} ({r['force_ok']})")
+        stance = "" if r["stance_ratio"] is None else f"{r['stance_ratio']:.2f}"
+        lines.append(
+            f"| {r['zoo']} | {r['data']} | {r['truth']} | {r['all_rows_ratio']:.2f} | "
+            f"{r['located_by'] or ''} | {r['swing_leg']}: {r['swing_ratio']:.2f}, "
+            f"x{r['swing_concentration']:.2f}, {r['swing_located']} | {stance} | {force} | "
+            f"{r['named'] or ''} | {r['params'] or ''} |")
+    a.out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
