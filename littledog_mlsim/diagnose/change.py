@@ -19,7 +19,15 @@ reference recording of the same robot it is measured directly (decision 027):
    data never held, and its rollouts then go wrong everywhere.
 2. **Only a concentrated change at joints is screened**: a change with no scope at least
    :data:`.excess.CONCENTRATION` times the rest, or in the body's elements, is reported and
-   not named.
+   not named, unless it lives in one leg's swing (decision 029, :func:`_where_in_swing`):
+   the same ratio per leg on the rows where the leg swings and where it stands; the leg whose
+   swing ratio is the largest, material, significant and at least
+   :data:`SWING_CONCENTRATION` times the other legs' is screened on its swing rows
+   (:func:`_screen_in_swing`) where the change over all rows is not material, or where the
+   joint scope located over all rows lies in that leg and was not named. There a force on the
+   swinging foot (``contact_phase``, ``phase: swing``) is named where the leg's stance ratio
+   is not material and the force's columns are significant and material on those rows (one
+   test at the route's ``scope_alpha``); it is sized by :func:`_drag_newtons`.
 3. **What it is like.** A hypothesis corrects the reference's model by a per-joint linear
    function of each scope joint's one-step change in angle and rate, fitted on the data's
    residual of the reference's model and cross-fitted by the route's folds

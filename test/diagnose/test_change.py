@@ -44,7 +44,10 @@ def routes(tmp_path_factory):
                               "  params: {delay_ms: 30.0, joints: front_left}\n", 8),
              "sag": _record(root, "sag",
                             "- class: littledog_mlsim.robot.effects:ServoGain\n"
-                            "  params: {gain_ratio: 1.0, joints: all, drift_per_s: -0.08}\n", 8)}
+                            "  params: {gain_ratio: 1.0, joints: all, drift_per_s: -0.08}\n", 8),
+             "drag": _record(root, "drag",
+                             "- class: littledog_mlsim.robot.effects:SwingDrag\n"
+                             "  params: {force_N: 3.0, legs: back_left, speed_m_s: 0.1}\n", 8)}
     start, quiet = measured_robot_features(), (lambda s: None)
     return {k: _Route(load_moves(p, "train"), start, SMALL, quiet) for k, p in paths.items()}
 
@@ -76,6 +79,7 @@ def test_a_second_recording_of_the_same_robot_is_no_change(routes):
     c = reference_change(routes["clean"], routes["reference"], measured_robot_features(), 1.1)
     assert not c["significant"] and not c["named"] and c["ratio"] < 1.5, c
     assert "vocabulary" not in c and c["hypotheses"] == []
+    assert not c["swing"]["located"] and c["located_by"] is None
     assert "no material and significant change since the reference" in c["statement"]
 
 
@@ -334,3 +338,37 @@ def test_a_change_in_one_legs_swing_is_located_there(case):
         assert not out["located"], out
         assert (out["concentration"] < SWING_CONCENTRATION if case == "everywhere"
                 else out["ratio"] < 1.5), out
+
+
+def test_the_statement_of_a_change_in_one_legs_swing_says_why_it_is_named_or_not():
+    from littledog_mlsim.diagnose.change import _statement
+    swing = {"ratio": 1.84, "p_value": 1e-14, "concentration": 1.6, "scope": "leg:back_left",
+             "leg": "back_left", "located": True}
+    u = {"ratio": 1.19, "scope": "all", "p_value": 1e-6, "rollout_ratio": 0.99,
+         "significant": False, "concentration": 1.0, "located_by": "swing",
+         "family": "contact_phase", "kept_scope": "leg:back_left", "label": "rate in swing",
+         "explained": 0.43, "size": {"magnitude": 0.9, "per_joint": {}}}
+    named = _statement({**u, "named": True, "swing": {**swing, "screen": {
+        "stance_ratio": 1.19, "swing_only": True}}})
+    assert "the back-left leg, contact_phase (magnitude 0.9, phase swing)" in named
+    assert "while its foot swings 1.84 times" in named
+    assert "in stance the leg's ratio is 1.19, so the change is one of the swing alone" in named
+    both = _statement({**u, "named": False, "family": "command_filter", "swing": {
+        **swing, "screen": {"stance_ratio": 1.7, "swing_only": False}}})
+    assert "not one of the swing alone, so it is not named" in both
+    assert "no material and significant change" not in both
+
+
+def test_a_drag_on_one_swinging_foot_is_located_in_its_swing_and_named_a_force(routes):
+    """Decision 029: a 3 N drag on the back-left foot in swing leaves no concentrated change
+    over all rows; its swing locates it, its stance is unchanged, and the force on the
+    swinging foot is named at the leg."""
+    c = reference_change(routes["drag"], routes["reference"], measured_robot_features())
+    sw = c["swing"]
+    assert sw["located"] and sw["scope"] == "leg:back_left", sw
+    assert c["located_by"] == "swing" and c["named"], c["statement"]
+    assert sw["screen"]["swing_only"] and sw["screen"]["stance_ratio"] < 1.5
+    assert [h["stage"] for h in sw["screen"]["hypotheses"]].count("force") == 1
+    v = c["vocabulary"]
+    assert v["family"] == "contact_phase" and v["scope"] == "leg:back_left", v
+    assert v["params"]["phase"] == "swing" and v["params"]["magnitude"] > 0
