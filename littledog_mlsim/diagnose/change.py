@@ -263,9 +263,9 @@ def swing_drag_torque(X: np.ndarray) -> np.ndarray:
     np.add.at(v, (slice(None), legs), J * dq[:, :, None])
     # the body's own motion at the foot: its velocity plus its rates across the foot's place
     p = _forward_kinematics(q)                                   # (n, 4, 3)
-    w_b = X[:, S.d_rpy]
-    v[..., 0] += X[:, S.d_b][:, None, 0] + w_b[:, None, 1] * p[..., 2] - w_b[:, None, 2] * p[..., 1]
-    v[..., 1] += X[:, S.d_b][:, None, 1] + w_b[:, None, 2] * p[..., 0] - w_b[:, None, 0] * p[..., 2]
+    vb, wb = X[:, S.d_b][:, None, :], X[:, S.d_rpy][:, None, :]
+    v[..., 0] += vb[..., 0] + wb[..., 1] * p[..., 2] - wb[..., 2] * p[..., 1]
+    v[..., 1] += vb[..., 1] + wb[..., 2] * p[..., 0] - wb[..., 0] * p[..., 2]
     v_hat = v / np.sqrt((v ** 2).sum(axis=2, keepdims=True) + FOOT_SPEED_SCALE ** 2)
     return swing_weight(X)[:, legs] * -(J * v_hat[:, legs]).sum(axis=2)
 
@@ -673,9 +673,10 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
     material there: a family of the set-points (a delay, a low-pass, a play) or of time acts
     in stance as well, and a force on a foot in the air reads on swing rows like a set-point
     that lags. That force is one test, of the hypothesis the location points to, at the
-    route's level for a choice within a finding (``scope_alpha``; row ``stage`` "force"). Nothing else is named from the swing's rows (a family of all phases is read on
-    all rows, by :func:`_screen`); where the force is not named, the family with the largest
-    gain among the significant and material ones is reported as the best hypothesis.
+    route's level for a choice within a finding (``scope_alpha``; row ``stage`` "force").
+    Nothing else is named from the swing's rows (a family of all phases is read on all rows,
+    by :func:`_screen`); where the force is not named, the family with the largest gain
+    among the significant and material ones is reported as the best hypothesis.
     ``explained``: the share of the leg's swing-row one-step error of the reference's model
     above the data's own model's that the kept hypothesis removes."""
     from ..layout import LEGS
@@ -723,11 +724,11 @@ def _drag_newtons(data: "_Residuals", leg: int, Xr: np.ndarray, Dr: np.ndarray
     """A drag on leg ``leg``'s swinging foot in newtons: per joint of the leg, on the rows
     where the leg swings, the least-squares coefficient of the drag's torque column
     (:func:`swing_drag_torque`) in the data's one-step rate residual of the reference's model,
-    beside the servo response's columns, over the reference's servo slope there (``Xr``,
+    beside a constant, over the reference's servo slope there (``Xr``,
     ``Dr``: the reference's swing rows and one-step changes) times the ``nominal`` robot's
-    servo stiffness; the median over the leg's joints (module doc, 5). The rate in swing is
-    left out of this fit: a drag and a damping in swing share most of their shape, and the
-    damping column would take the drag's share."""
+    servo stiffness; the median over the leg's joints (module doc, 5). The rate, the rate in
+    swing and the tracking error are left out of this fit: a drag and a damping in swing share
+    most of their shape, and a rate's column would take the drag's share."""
     from ..robot.config import per_joint, robot_config
     X, R, _, _ = data.base
     m = swing_weight(X)[:, leg] > SWING_ROW
@@ -736,8 +737,7 @@ def _drag_newtons(data: "_Residuals", leg: int, Xr: np.ndarray, Dr: np.ndarray
     kp = per_joint(robot_config(NOMINAL_ROBOT).kp)
     f = {}
     for j in range(3 * leg, 3 * leg + 3):
-        u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
-        Z = np.stack([np.ones_like(u), T[:, j]], axis=1)
+        Z = np.stack([np.ones(len(X)), T[:, j]], axis=1)
         c, *_ = np.linalg.lstsq(Z, R[:, S.dq.start + j], rcond=None)
         k = servo_slope(Xr, Dr, j)
         if abs(k) > 1e-12:
@@ -901,11 +901,11 @@ def _statement(u: dict[str, Any]) -> str:
               if rival else f"; beside the search's {search}")
     if by_swing and u["family"] == "contact_phase":
         size += ", phase swing"
-        how = (f"; in stance the leg's ratio is {screen['stance_ratio']:.2f}, so the change is one of the "
-               "swing alone, and on the rows where the foot swings a force on it (the rate in "
-               "swing and a drag's torque) is significant and material against the servo "
-               f"response; it removes {100 * u['explained']:.0f} % of the excess over the "
-               "data's own model there")
+        how = (f"; in stance the leg's ratio is {screen['stance_ratio']:.2f}, so the change "
+               "is one of the swing alone, and on the rows where the foot swings a force on it "
+               "(the rate in swing and a drag's torque) is significant and material against "
+               f"the servo response; it removes {100 * u['explained']:.0f} % of the excess "
+               "over the data's own model there")
     else:
         how = (f"; it removes {100 * u['explained']:.0f} % of the excess over the data's own "
                "model")

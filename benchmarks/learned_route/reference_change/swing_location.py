@@ -1,4 +1,4 @@
-"""Decision 029 on read zoos: where decision 027 locates a change in one leg's swing, and what it names.
+"""Decision 029 on read zoos: where a change is located in one leg's swing, and what is named.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python \
         benchmarks/learned_route/reference_change/swing_location.py --zoo-dir WORK16 \
