@@ -850,19 +850,20 @@ def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candi
     """Scope, then parameter, of a detected family by the same held-out rollout SSE. ``known``:
     probes this round already made at ``fs`` (the screens'), reused instead of made again."""
     have = {p.aug.label(): p for p in known}
-    members = _scope_members(first.aug)
+    members = _new_columns(fs, _scope_members(first.aug))
     new = route.probes(fs, ev0, [a for a in members if a.label() not in have], n_candidates)
     made = {p.aug.label(): p for p in new}
     tried = [first] + [have.get(a.label()) or made[a.label()] for a in members]
     within = route.opts.tolerance if route.opts.widen_within_tolerance else None
     scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
                            route.opts.scope_alpha, route.opts.widen_focus, within)
-    joints = _joint_members(scoped.aug) if route.opts.joint_scopes else []
+    joints = _new_columns(fs, _joint_members(scoped.aug)) if route.opts.joint_scopes else []
     if joints:     # one joint of the leg, type or side kept, if it carries the gain
         tried += route.probes(fs, ev0, joints, n_candidates)
         scoped, wider = _widen(_pick(tried, route.opts.tolerance, False), tried,
                                route.opts.scope_alpha, route.opts.widen_focus, within)
-    params = [scoped] + route.probes(fs, ev0, _param_members(scoped.aug), n_candidates)
+    params = [scoped] + route.probes(fs, ev0, _new_columns(fs, _param_members(scoped.aug)),
+                                     n_candidates)
     best = _pick(params, route.opts.tolerance, isinstance(scoped.aug, CommandLag))
     scan = [{"label": p.aug.label(), "total_gain": p.total_gain,
              "p_value": float(p.decision.p_value), "stage": stage,
@@ -870,6 +871,15 @@ def _refine(route: _Route, fs: FeatureSet, ev0: Evidence, first: _Probe, n_candi
              **({"kept_scope": True} if p is scoped else {})}
             for stage, group in (("scope", tried), ("parameter", params[1:])) for p in group]
     return best, scan
+
+
+def _new_columns(fs: FeatureSet, augs: Sequence[Augmentation]) -> list[Augmentation]:
+    """The augmentations of ``augs`` none of whose columns ``fs`` already holds: a scope's or
+    parameter's neighbour can be a column an earlier round accepted (the one-step loop's
+    ``command_lag(lag=1)`` beside the scan of a ``command_lag(lag=2)``), and ``fs`` with it
+    again would hold a column twice."""
+    have = set(fs.names)
+    return [a for a in augs if not have & set(a.columns())]
 
 
 def _scope_rivals(scan: Sequence[dict[str, Any]], tolerance: float, alpha: float

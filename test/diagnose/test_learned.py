@@ -802,3 +802,20 @@ def test_the_with_reference_options_turn_theirs_on_only_where_a_reference_is_giv
         with pytest.raises(Seen) as seen:
             diagnose_learned([], [], options=opts, reference=reference)
         assert seen.value.args == on, (reference, opts)
+
+
+def test_a_neighbour_whose_columns_the_model_holds_is_not_probed_again():
+    """zoo17 run1's z11: the one-step loop accepted ``command_lag(lag=1, joints=all)``; the
+    rollout route's parameter scan of ``command_lag(lag=2, joints=all)`` probed lag 1 again and
+    the feature set held its columns twice (the diagnosis stopped with an error)."""
+    from littledog_mlsim.diagnose.learned import _new_columns, _param_members
+    from littledog_mlsim.models.features import CommandLag, FeatureSet
+    fs = FeatureSet((CommandLag(lag=1, joints="all"),))
+    members = _param_members(CommandLag(lag=2, joints="all"))
+    assert any(a == CommandLag(lag=1, joints="all") for a in members)
+    kept = _new_columns(fs, members)
+    assert kept and CommandLag(lag=1, joints="all") not in kept
+    for a in kept:
+        fs.with_augmentation(a)                  # no column twice
+    assert _new_columns(fs, [CommandLag(lag=1, joints="front_left"),
+                             CommandLag(lag=3, joints="all")]) == [CommandLag(lag=3, joints="all")]
