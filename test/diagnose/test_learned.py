@@ -518,14 +518,14 @@ def test_a_kept_leg_narrows_to_the_joint_that_carries_the_gain():
     first_aug = Play(width=0.03, source="u", joints="front_left")
     r, calls = route(0.02)
     first = r.probes(None, None, [first_aug], 1)[0]
-    best, scan = _refine(r, None, None, first, 16)
+    best, scan = _refine(r, FeatureSet(), None, first, 16)
     assert best.aug.joints == "front_left_hip_pitch", scan
     assert [e["label"] for e in scan if e.get("kept_scope")] == [best.aug.label()]
     r, calls = route(0.5)                  # the leg's other joints carry half as much again
-    best, _ = _refine(r, None, None, r.probes(None, None, [first_aug], 1)[0], 16)
+    best, _ = _refine(r, FeatureSet(), None, r.probes(None, None, [first_aug], 1)[0], 16)
     assert best.aug.joints == "front_left"
     r, calls = route(0.02, LearnedOptions(joint_scopes=False))
-    best, _ = _refine(r, None, None, r.probes(None, None, [first_aug], 1)[0], 16)
+    best, _ = _refine(r, FeatureSet(), None, r.probes(None, None, [first_aug], 1)[0], 16)
     assert best.aug.joints == "front_left"
     assert not any("hip_pitch)" in c for cs in calls for c in cs)
     assert _joint_members(SwingRate(joints="front_left")) == []
@@ -690,7 +690,7 @@ def test_a_round_with_nothing_at_full_scope_screens_the_narrower_scopes_at_their
     calls.clear()
     first = next(p for p in scoped if p.aug.joints == "back_left")
     whole = SimpleNamespace(aug=CommandLag(lag=2), total_gain=0.3, decision=first.decision)
-    best, scan = _refine(Route(), None, None, first, 16, [whole] + scoped)
+    best, scan = _refine(Route(), FeatureSet(), None, first, 16, [whole] + scoped)
     legs_joints = [f"command_lag(lag=2, joints=back_left_{j})"
                    for j in ("hip_roll", "hip_pitch", "knee")]
     assert [c[0] for c in calls] == [[], legs_joints, [f"command_lag(lag={d}, joints=back_left)"
