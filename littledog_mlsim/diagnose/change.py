@@ -74,7 +74,7 @@ and the reference's model, which holds neither, still shows where the robot chan
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
@@ -251,7 +251,8 @@ def swing_drag_torque(X: np.ndarray) -> np.ndarray:
     metres: a drag of F newtons adds ``F`` times it to the joint's torque."""
     q, dq = X[:, S.q], X[:, S.dq]
     n = len(X)
-    p0 = _forward_kinematics(q)[..., :2]                         # (n, 4, 2)
+    p = _forward_kinematics(q)                                   # (n, 4, 3)
+    p0 = p[..., :2]
     J = np.empty((n, 12, 2))
     eps = 1e-5
     for j in range(12):
@@ -262,7 +263,6 @@ def swing_drag_torque(X: np.ndarray) -> np.ndarray:
     v = np.zeros((n, 4, 2))
     np.add.at(v, (slice(None), legs), J * dq[:, :, None])
     # the body's own motion at the foot: its velocity plus its rates across the foot's place
-    p = _forward_kinematics(q)                                   # (n, 4, 3)
     vb, wb = X[:, S.d_b][:, None, :], X[:, S.d_rpy][:, None, :]
     v[..., 0] += vb[..., 0] + wb[..., 1] * p[..., 2] - wb[..., 2] * p[..., 1]
     v[..., 1] += vb[..., 1] + wb[..., 2] * p[..., 0] - wb[..., 0] * p[..., 2]
@@ -408,16 +408,15 @@ def _held_out(model: ChangeModel, X: np.ndarray, R: np.ndarray, fold: np.ndarray
 
 
 def _fit(data: _Residuals, ref: _Residuals, fs: FeatureSet, hyp: Hypothesis,
-         swing_leg: int | None = None) -> _Judged:
+         rows: tuple[np.ndarray, np.ndarray] | None = None) -> _Judged:
     """The hypothesis's correction fitted on the data and on the reference, cross-fitted by
-    each side's folds, and the per-move SSE of :class:`_Judged`; ``swing_leg``: on each side
-    only the rows where that leg swings (:data:`SWING_ROW`; decision 029)."""
+    each side's folds, and the per-move SSE of :class:`_Judged`; ``rows``: each side's row
+    mask (the rows where one leg swings: decision 029), else every row."""
     n_folds = data.route.opts.n_folds
     X, R, mi, fold = data.of(hyp)
     Xr, Rr, mir, fold_r = ref.of(hyp)
-    if swing_leg is not None:
-        m, m_r = (swing_weight(X)[:, swing_leg] > SWING_ROW,
-                  swing_weight(Xr)[:, swing_leg] > SWING_ROW)
+    if rows is not None:
+        m, m_r = rows
         X, R, mi, fold = X[m], R[m], mi[m], fold[m]
         Xr, Rr, mir, fold_r = Xr[m_r], Rr[m_r], mir[m_r], fold_r[m_r]
     model = ChangeModel(data.ref_model, fs, hyp).fit(X, R, fold, n_folds)
@@ -478,10 +477,9 @@ def _phase_mse(R: np.ndarray, mi: np.ndarray, n: int, rows: np.ndarray, cols: Se
                ) -> np.ndarray:
     """(m, len(cols)) the mean squared residual per element of each move with rows in
     ``rows`` (a boolean mask), over those rows only."""
-    out = np.zeros((n, len(cols)))
-    np.add.at(out, mi[rows], R[rows][:, cols] ** 2)
-    count = np.bincount(mi[rows], minlength=n)
-    return out[count > 0] / count[count > 0, None]
+    from .excess import move_mse
+    has = np.bincount(mi[rows], minlength=n) > 0
+    return move_mse(R[rows][:, cols], mi[rows], n)[has]
 
 
 def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref: np.ndarray,
@@ -683,21 +681,23 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
     i = LEGS.index(leg)
     scope = f"leg:{leg}"
     cols = _columns_of(scope_joints(scope))
-    servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope), swing_leg=i)
+    m, m_r = swing_weight(X)[:, i] > SWING_ROW, swing_weight(Xr)[:, i] > SWING_ROW
+    servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope), rows=(m, m_r))
     _judge(servo, servo.base, 1, opts, cols)
     rows = [_row(servo, "servo")]
     fams = _families(scope)
-    kept = None
+    kept = fitted_force = None
     for hyp in fams:
-        j = _judge(_fit(data, ref, fs, hyp, swing_leg=i), servo.sse, len(fams), opts, cols)
+        fitted = _fit(data, ref, fs, hyp, rows=(m, m_r))
+        if hyp.family == "contact_phase":
+            fitted_force = replace(fitted)           # judged again below, on its own
+        j = _judge(fitted, servo.sse, len(fams), opts, cols)
         rows.append(_row(j, "family"))
         if j.ok and (kept is None or j.total > kept.total):
             kept = j
     # the force the swing's location points to: one test, at the route's level for a choice
     # within a finding (``scope_alpha``)
-    force = _judge(_fit(data, ref, fs, Hypothesis("contact_phase", scope,
-                                                  _family_aug("contact_phase", scope)),
-                        swing_leg=i), servo.sse, 1, opts, cols, alpha=opts.scope_alpha)
+    force = _judge(fitted_force, servo.sse, 1, opts, cols, alpha=opts.scope_alpha)
     rows.append({**_row(force, "force"), "alpha": opts.scope_alpha})
     swing_only = bool(stance_ratio < MIN_RATIO)
     by_phase = bool(swing_only and force.ok)
@@ -708,31 +708,28 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
                            "family": None if kept is None else kept.hyp.family}
     if kept is None:
         return out
-    m = swing_weight(X)[:, i] > SWING_ROW
     own = _move_sse(own_one_step[m], mi[m], data.route.mv.n)[:, cols].sum()
     before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
     share = float((before - after) / (before - own)) if before > own else 0.0
-    m_r = swing_weight(Xr)[:, i] > SWING_ROW
-    size = (_drag_newtons(data, i, Xr[m_r], Dr[m_r]) if kept.hyp.family == "contact_phase"
+    size = (_drag_newtons(X[m], data.base[1][m], i, Xr[m_r], Dr[m_r])
+            if kept.hyp.family == "contact_phase"
             else _size(kept.model, X[m], D[m], Xr[m_r], Dr[m_r]))
     out.update(label=kept.hyp.label(), explained=share, size=size, named=by_phase)
     return out
 
 
-def _drag_newtons(data: "_Residuals", leg: int, Xr: np.ndarray, Dr: np.ndarray
+def _drag_newtons(X: np.ndarray, R: np.ndarray, leg: int, Xr: np.ndarray, Dr: np.ndarray
                   ) -> dict[str, Any]:
     """A drag on leg ``leg``'s swinging foot in newtons: per joint of the leg, on the rows
-    where the leg swings, the least-squares coefficient of the drag's torque column
-    (:func:`swing_drag_torque`) in the data's one-step rate residual of the reference's model,
-    beside a constant, over the reference's servo slope there (``Xr``,
-    ``Dr``: the reference's swing rows and one-step changes) times the ``nominal`` robot's
-    servo stiffness; the median over the leg's joints (module doc, 5). The rate, the rate in
-    swing and the tracking error are left out of this fit: a drag and a damping in swing share
-    most of their shape, and a rate's column would take the drag's share."""
+    where the leg swings (``X``, and ``R`` the data's one-step residual of the reference's
+    model there), the least-squares coefficient of the drag's torque column
+    (:func:`swing_drag_torque`) in the rate's residual, beside a constant, over the
+    reference's servo slope there (``Xr``, ``Dr``: the reference's swing rows and one-step
+    changes) times the ``nominal`` robot's servo stiffness; the median over the leg's joints
+    (module doc, 5). The rate, the rate in swing and the tracking error are left out of this
+    fit: a drag and a damping in swing share most of their shape, and a rate's column would
+    take the drag's share."""
     from ..robot.config import per_joint, robot_config
-    X, R, _, _ = data.base
-    m = swing_weight(X)[:, leg] > SWING_ROW
-    X, R = X[m], R[m]
     T = swing_drag_torque(X)
     kp = per_joint(robot_config(NOMINAL_ROBOT).kp)
     f = {}
