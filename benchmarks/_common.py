@@ -105,3 +105,24 @@ def batch_robots(moves, n: int, offset: int = BATCH_OFFSET):
         pose0.append([m.pose0.x0, m.pose0.y0, m.pose0.yaw0])
     T = min(len(x) for x in u)
     return np.stack(s0), np.stack([x[:T] for x in u]), np.array(pose0)
+
+
+def appended_study(out_json: Path) -> dict:
+    """A study whose runs append rows to one table: the document in ``out_json`` where it
+    exists, else a new one (``commands``, ``rows``), with this run's command line (relative to
+    the repository), code and date appended to ``commands``."""
+    import json
+    import sys
+    import time
+    doc = (json.loads(out_json.read_text()) if out_json.exists()
+           else {"commands": [], "rows": []})
+    doc["commands"].append({"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
+        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
+        "code": git_state(), "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    return doc
+
+
+def study_commands(doc: dict) -> list[str]:
+    """The Markdown lines naming each of an appended study's commands, its code and date."""
+    return [f"Command: `{c['command']}`  \nCode: {c['code']}; {c['date']} UTC  "
+            for c in doc["commands"]]

@@ -22,7 +22,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import ROOT, git_state  # noqa: E402
+from _common import appended_study, study_commands  # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
@@ -43,13 +43,8 @@ def main() -> None:
     quiet = lambda s: None  # noqa: E731
     ref = _Route(load_moves(a.reference, "train"), start, opts, quiet)
     ref_fit = ref.fit(start)
-    code = git_state()
     out_json = a.out.with_suffix(".json")
-    doc = (json.loads(out_json.read_text()) if out_json.exists()
-           else {"commands": [], "rows": []})
-    doc["commands"].append({"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
-        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
-        "code": code, "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    doc = appended_study(out_json)
     for item in a.check:
         data, scope = item.split("=")
         t = time.perf_counter()
@@ -63,8 +58,7 @@ def main() -> None:
               f"p {c['p_value']:.2g} confirmed {c['confirmed']}", flush=True)
     out_json.write_text(json.dumps(doc, indent=1))
     lines = ["# A time drift read through the reference's model (decision 028)", ""]
-    lines += [f"Command: `{c['command']}`  \nCode: {c['code']}; {c['date']} UTC  " for c in
-              doc["commands"]]
+    lines += study_commands(doc)
     lines += ["", "| zoo | data | scope | t (u - q) on the servo response: gain | p | "
               "significant | material | confirmed | servo response gain | seconds |",
               "|---|---|---|---|---|---|---|---|---|---|"]

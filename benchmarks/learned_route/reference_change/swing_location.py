@@ -25,7 +25,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import ROOT, git_state  # noqa: E402
+from _common import appended_study, study_commands  # noqa: E402
 
 import yaml  # noqa: E402
 
@@ -54,10 +54,7 @@ def main() -> None:
     ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
     ref_fit = ref.fit(start, one_step=True)
     out_json = a.out.with_suffix(".json")
-    doc = json.loads(out_json.read_text()) if out_json.exists() else {"commands": [], "rows": []}
-    doc["commands"].append({"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
-        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
-        "code": git_state(), "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    doc = appended_study(out_json)
     data = (sorted(d for d in (a.zoo_dir / "effects").iterdir() if d.is_dir())
             + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
     for d in data:
@@ -83,8 +80,7 @@ def main() -> None:
         print(row, flush=True)
     out_json.write_text(json.dumps(doc, indent=1))
     lines = ["# Decision 029 on read zoos: a change located in one leg's swing", ""]
-    lines += [f"Command: `{c['command']}`  \nCode: {c['code']}; {c['date']} UTC  "
-              for c in doc["commands"]]
+    lines += study_commands(doc)
     lines += ["", "| zoo | data | truth | all rows | located by | swing leg: ratio, x others, "
               "located | its stance | force p (ok) | named | params |",
               "|---|---|---|---|---|---|---|---|---|---|"]

@@ -19,13 +19,12 @@ import argparse
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import ROOT, git_state  # noqa: E402
+from _common import appended_study, study_commands  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -55,12 +54,8 @@ def main() -> None:
     ref_model, ev_ref = ref.fit(start, one_step=True)
     Xr, _, _ = start.features_responses(ref.train)
     wr = _swing(Xr)
-    code = git_state()
     out_json = a.out.with_suffix(".json")
-    doc = json.loads(out_json.read_text()) if out_json.exists() else {"commands": [], "rows": []}
-    doc["commands"].append({"command": "OPENBLAS_NUM_THREADS=1 .venv/bin/python " + " ".join(
-        [str(Path(sys.argv[0]).resolve().relative_to(ROOT))] + sys.argv[1:]),
-        "code": code, "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    doc = appended_study(out_json)
     for d in a.data:
         r = _Route(load_moves(d, "train"), start, opts, quiet)
         X, Y, _ = start.features_responses(r.train)
@@ -80,8 +75,7 @@ def main() -> None:
     out_json.write_text(json.dumps(doc, indent=1))
     keys = [f"{n} {ph}" for n in LEGS for ph in ("swing", "stance")]
     lines = ["# The reference's one-step model on the data, by leg and gait phase", ""]
-    lines += [f"Command: `{c['command']}`  \nCode: {c['code']}; {c['date']} UTC  "
-              for c in doc["commands"]]
+    lines += study_commands(doc)
     lines += ["", "| zoo | data | " + " | ".join(keys) + " |", "|---|---|" + "---|" * len(keys)]
     lines += [f"| {r['zoo']} | {r['data']} | " + " | ".join(f"{r[k]:.2f}" for k in keys) + " |"
               for r in doc["rows"]]
