@@ -46,9 +46,11 @@ reference recording of the same robot it is measured directly (decision 027):
    - the servo response against the same correction fitted on the reference's own held-out
      residual (what these columns do where nothing changed) must be significant and
      material, else nothing is named;
-   - a family's column against the servo response must be significant, material and cut at
-     least :data:`FAMILY_MIN_CUT` of the scope's elements' error on average; the largest such
-     gain is kept, else the servo response. A delay and a low-pass mimic each other: where
+   - a family's column against the servo response must be significant and material, and the
+     family must stand alone (decision 030, :func:`_stands_alone`): the best of its scan, its
+     column and a constant without the servo's columns, leaves no more held-out one-step
+     error at the scope than the servo response alone. The largest such gain is kept, else
+     the servo response. A delay and a low-pass mimic each other: where
      one scan's best sits at the edge the other's shape explains (a delay still gaining at
      the longest lag, a low-pass best at the shortest time constant) and the other's is
      inside its scan, the other is kept (:func:`_delay_or_low_pass`).
@@ -106,9 +108,6 @@ EXPLAINED_SHARE = 0.75
 PLAY_WIDTHS = (0.01, 0.02, 0.035, 0.05, 0.08)
 #: the kept low-pass's time constant is sized on this finer grid, as ratios to the scan's best
 FINER_STEPS = (0.7, 0.8, 0.9, 1.1, 1.2, 1.35)
-#: a family's column adds to the servo response when it cuts at least this share of the
-#: servo-corrected one-step error of the scope's angles and rates, on average
-FAMILY_MIN_CUT = 0.2
 #: foot speed [m/s] below which a swing drag's direction is softened (its size v / sqrt(v^2 +
 #: scale^2))
 FOOT_SPEED_SCALE = 0.05
@@ -132,6 +131,7 @@ class Hypothesis:
     #                   time_drift
     scope: str
     aug: Augmentation | None = None
+    alone: bool = False   # the family's column(s) and a constant, without the servo response
 
     def label(self) -> str:
         what = {"servo_gain": "servo response", "command_delay": "set-point delay",
@@ -183,11 +183,17 @@ class ChangeModel:
         """:func:`swing_drag_torque` of X's rows for a swing hypothesis, else None."""
         return swing_drag_torque(X) if isinstance(self.hyp.aug, SwingRate) else None
 
+    @property
+    def const(self) -> int:
+        """The constant's place among a joint's correction columns (:meth:`_z`)."""
+        return 0 if self.hyp.alone else 2
+
     def _z(self, X: np.ndarray, j: int, drag: np.ndarray | None = None) -> np.ndarray:
         """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column(s)
-        (a swing hypothesis: the rate in swing and ``drag``'s column j)."""
+        (a swing hypothesis: the rate in swing and ``drag``'s column j); a hypothesis
+        ``alone``: 1 and the family's column(s), without the servo's."""
         u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
-        cols = [u - q, dq, np.ones_like(u)]
+        cols = [np.ones_like(u)] if self.hyp.alone else [u - q, dq, np.ones_like(u)]
         if j in self.extra:
             e = X[:, self.extra[j]]
             cols.append(e - u if isinstance(self.hyp.aug, (CommandLag, CommandFilter)) else e)
@@ -209,7 +215,7 @@ class ChangeModel:
         for j in self.joints:
             Z = self._z(X, j, drag)
             sd = Z.std(axis=0)
-            sd[2] = 1.0
+            sd[self.const] = 1.0
             sd = np.where(sd < 1e-12, 1.0, sd)
             self.scale_[j] = sd
             Zs, r = Z / sd, R[:, self.outputs(j)]
@@ -219,7 +225,7 @@ class ChangeModel:
             for f in [-1] + list(range(n_folds)):
                 A = G if f < 0 else G - G_f[f]
                 bb = b if f < 0 else b - b_f[f]
-                n = max(1.0, float(A[2, 2]))
+                n = max(1.0, float(A[self.const, self.const]))
                 self.coef_[f][j] = np.linalg.solve(A + RIDGE * n * np.eye(len(sd)), bb)
         return self
 
@@ -636,15 +642,17 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
     if not servo.ok:
         return {"named": False}
     kept, kept_gain = servo, 0.0
-    # the family: a column that adds to the servo response at that scope
+    # the family: a column that adds to the servo response at that scope, and alone explains
+    # as much as the servo response alone (decision 030)
     fams = _families(scope)
     judged = []
     for hyp in fams:
         j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(fams), opts, cols)
         rows.append(_row(j, "family"))
         judged.append(j)
+    stands = _stands_alone(servo, fams, data, ref, fs, cols, rows)
     for j in _delay_or_low_pass(judged):
-        if j.ok and j.total >= FAMILY_MIN_CUT * len(cols) and j.total > kept_gain:
+        if j.ok and stands[j.hyp.family] and j.total > kept_gain:
             kept, kept_gain = j, j.total
     sized = (_finer_low_pass(kept, data, ref, fs, cols, rows)
              if kept.hyp.family == "command_filter" else kept)   # between the scan's taus
@@ -655,6 +663,31 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
     return {"family": family, "kept_scope": _scope_for(family, scope),
             "label": sized.hyp.label(), "explained": share,
             "size": _size(sized.model, X, D, Xr, Dr), "named": bool(share >= EXPLAINED_SHARE)}
+
+
+def _stands_alone(servo: _Judged, fams: Sequence[Hypothesis], data: "_Residuals",
+                  ref: "_Residuals", fs: FeatureSet, cols: Sequence[int],
+                  rows: list[dict[str, Any]]) -> dict[str, bool]:
+    """Per family, whether its column alone (with a constant, without the servo's columns)
+    leaves no more held-out one-step error at the scope's elements ``cols`` than the servo
+    response alone, for the best of its scan (decision 030). A change of the set-point's path
+    (a delay, a low-pass) is its column's shape, and the servo's columns only mimic it; a
+    change of the servo is the servo's columns, and a family's column only adds to them. Each
+    family's best is appended to ``rows`` (``stage`` "alone", ``sse``; the servo's row gets its
+    own ``sse``)."""
+    servo_sse = float(servo.sse[:, cols].sum())
+    for r in rows:
+        if r["stage"] == "servo" and r["scope"] == servo.hyp.scope:
+            r["sse"] = servo_sse
+    best: dict[str, tuple[float, Hypothesis]] = {}
+    for hyp in fams:
+        sse = float(_fit(data, ref, fs, replace(hyp, alone=True)).sse[:, cols].sum())
+        if hyp.family not in best or sse < best[hyp.family][0]:
+            best[hyp.family] = (sse, hyp)
+    for family, (sse, hyp) in best.items():
+        rows.append({"label": hyp.label(), "family": family, "scope": hyp.scope,
+                     "stage": "alone", "sse": sse, "stands": bool(sse <= servo_sse)})
+    return {family: sse <= servo_sse for family, (sse, _) in best.items()}
 
 
 def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg: str,
@@ -800,7 +833,7 @@ def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet
     hypothesis's column ``t (u - q)`` on top of the servo response, both fitted on the data's
     one-step residual of the reference's model (``ref_fit``: ``ref_route.fit(fs)``, with its
     held-out one-step residuals), judged against the servo response by the route's
-    ``sse_decision`` (one candidate; no :data:`FAMILY_MIN_CUT`). ``confirmed``: significant
+    ``sse_decision`` (one candidate; no test of the family alone). ``confirmed``: significant
     and material; else the search's drift stands in for a change of another kind that grows
     along the move."""
     ref_model, ev_ref = ref_fit

@@ -241,6 +241,52 @@ def test_a_kept_low_pass_is_sized_on_a_finer_grid(monkeypatch):
                                           "side:left" for f in FINER_STEPS]
 
 
+class _Side:
+    """One side of the change screen on synthetic rows (``_Residuals``'s interface): X, the
+    residual R of a reference model that predicts no change, 40 moves in 4 folds, and a
+    hypothesis's columns (the front-left leg's 1-step lag) appended."""
+
+    def __init__(self, X, R, lagged):
+        from types import SimpleNamespace
+        self.X, self.R, self.lagged = X, R, lagged
+        self.mi = np.arange(len(X)) % 40
+        self.fold = self.mi % 4
+        self.ref_model = _Zero()
+        self.route = SimpleNamespace(opts=SimpleNamespace(n_folds=4), mv=SimpleNamespace(n=40))
+
+    def of(self, hyp):
+        X = self.X if hyp.aug is None else np.hstack([self.X, self.lagged])
+        return X, self.R, self.mi, self.fold
+
+
+@pytest.mark.parametrize("truth", ["delay", "servo"])
+def test_a_family_is_kept_only_where_its_column_alone_explains_as_much_as_the_servo(truth):
+    """Decision 030: on residuals made by a set-point delay, the delay's column alone leaves
+    less held-out error than the servo response alone (its columns only mimic a delay); on
+    residuals made by a weaker servo, the delay's column alone leaves more."""
+    from littledog_mlsim.diagnose.change import _family_aug, _fit, _stands_alone
+    from littledog_mlsim.models.features import FeatureSet
+    rng = np.random.default_rng(3)
+    n = 4000
+    X = rng.normal(0.0, 0.3, (n, N_FEATURE))
+    lagged = X[:, N_STATE:N_STATE + 3] + rng.normal(0.0, 0.2, (n, 3))     # u one step back
+    R = rng.normal(0.0, 0.002, (n, N_STATE))
+    for j in range(3):
+        u, q = X[:, N_STATE + j], X[:, S.q.start + j]
+        R[:, S.dq.start + j] += (0.5 * (lagged[:, j] - u) if truth == "delay"
+                                 else -0.5 * (u - q))
+    side = _Side(X, R, lagged)
+    scope, fs, cols = "leg:front_left", FeatureSet(), [0, 1, 2, 12, 13, 14]
+    servo = _fit(side, side, fs, Hypothesis("servo_gain", scope))
+    fams = [Hypothesis("command_delay", scope, _family_aug("command_delay", scope, 1))]
+    rows = [{"stage": "servo", "scope": scope}]
+    stands = _stands_alone(servo, fams, side, side, fs, cols, rows)
+    assert stands == {"command_delay": truth == "delay"}
+    assert rows[0]["sse"] == pytest.approx(float(servo.sse[:, cols].sum()))
+    assert rows[1]["stage"] == "alone" and rows[1]["stands"] is (truth == "delay")
+    assert (rows[1]["sse"] < rows[0]["sse"]) is (truth == "delay")
+
+
 def test_a_drift_the_search_accepts_is_confirmed_only_through_the_reference(routes):
     """Decision 028: a servo sag with time shows as a drift of the servo response through the
     reference's model; a one-leg delay (which a search can take a drift for) and a clean
