@@ -27,7 +27,9 @@ reference recording of the same robot it is measured directly (decision 027):
    joint scope located over all rows lies in that leg and was not named. There a force on the
    swinging foot (``contact_phase``, ``phase: swing``) is named where the leg's stance ratio
    is not material and the force's columns are significant and material on those rows (one
-   test at the route's ``scope_alpha``); it is sized by :func:`_drag_newtons`.
+   test at the route's ``scope_alpha``); it is sized by :func:`_drag_newtons`, and named only
+   where that size opposes the foot's motion (a positive drag; so also a drag kept over all
+   rows).
 3. **What it is like.** A hypothesis corrects the reference's model by a per-joint linear
    function of each scope joint's one-step change in angle and rate, fitted on the data's
    residual of the reference's model and cross-fitted by the route's folds
@@ -49,11 +51,11 @@ reference recording of the same robot it is measured directly (decision 027):
    - a family's column against the servo response must be significant and material, and the
      family must stand alone (decision 030, :func:`_stands_alone`): the best of its scan, its
      column and a constant without the servo's columns, leaves no more held-out one-step
-     error at the scope than the servo response alone. The largest such gain is kept, else
-     the servo response. A delay and a low-pass mimic each other: where
-     one scan's best sits at the edge the other's shape explains (a delay still gaining at
-     the longest lag, a low-pass best at the shortest time constant) and the other's is
-     inside its scan, the other is kept (:func:`_delay_or_low_pass`).
+     error at the scope than the servo response alone. Of the families that qualify, the one
+     whose best alone leaves the least error is kept, at its scan's largest gain on top of
+     the servo response; else the servo response. A delay and a low-pass mimic each other on
+     top of the servo's columns (a delay's gain still rising at the longest lag, a low-pass's
+     at the shortest time constant), not alone.
 4. **Named** where the kept hypothesis removes at least :data:`EXPLAINED_SHARE` of the scope's
    one-step error of the reference's model above the data's own model's (``explained``);
    otherwise the change is reported at its scope without a family.
@@ -641,7 +643,7 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
     rows.append(_row(servo, "servo"))
     if not servo.ok:
         return {"named": False}
-    kept, kept_gain = servo, 0.0
+    kept = servo
     # the family: a column that adds to the servo response at that scope, and alone explains
     # as much as the servo response alone (decision 030)
     fams = _families(scope)
@@ -650,27 +652,31 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
         j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(fams), opts, cols)
         rows.append(_row(j, "family"))
         judged.append(j)
-    stands = _stands_alone(servo, fams, data, ref, fs, cols, rows)
-    for j in _delay_or_low_pass(judged):
-        if j.ok and stands[j.hyp.family] and j.total > kept_gain:
-            kept, kept_gain = j, j.total
+    alone = _stands_alone(servo, fams, data, ref, fs, cols, rows)
+    ok = {j.hyp.family for j in judged if j.ok and j.hyp.family in alone}
+    if ok:       # the family that stands best alone; its scan's largest gain on the servo's
+        family = min(ok, key=alone.__getitem__)
+        kept = max((j for j in judged if j.ok and j.hyp.family == family),
+                   key=lambda j: j.total)
     sized = (_finer_low_pass(kept, data, ref, fs, cols, rows)
              if kept.hyp.family == "command_filter" else kept)   # between the scan's taus
     own = _move_sse(own_one_step, mi, data.route.mv.n)[:, cols].sum()
     before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
     share = float((before - after) / (before - own)) if before > own else 0.0
     family = kept.hyp.family
+    size = _size(sized.model, X, D, Xr, Dr)
     return {"family": family, "kept_scope": _scope_for(family, scope),
-            "label": sized.hyp.label(), "explained": share,
-            "size": _size(sized.model, X, D, Xr, Dr), "named": bool(share >= EXPLAINED_SHARE)}
+            "label": sized.hyp.label(), "explained": share, "size": size,
+            "named": bool(share >= EXPLAINED_SHARE
+                          and (family != "contact_phase" or _opposes(size)))}
 
 
 def _stands_alone(servo: _Judged, fams: Sequence[Hypothesis], data: "_Residuals",
                   ref: "_Residuals", fs: FeatureSet, cols: Sequence[int],
-                  rows: list[dict[str, Any]]) -> dict[str, bool]:
-    """Per family, whether its column alone (with a constant, without the servo's columns)
-    leaves no more held-out one-step error at the scope's elements ``cols`` than the servo
-    response alone, for the best of its scan (decision 030). A change of the set-point's path
+                  rows: list[dict[str, Any]]) -> dict[str, float]:
+    """The families that stand alone, each with the held-out one-step SSE its best leaves at
+    the scope's elements ``cols`` (decision 030): the best of its scan, its column alone (with
+    a constant, without the servo's columns), leaves no more than the servo response alone. A change of the set-point's path
     (a delay, a low-pass) is its column's shape, and the servo's columns only mimic it; a
     change of the servo is the servo's columns, and a family's column only adds to them. Each
     family's best is appended to ``rows`` (``stage`` "alone", ``sse``; the servo's row gets its
@@ -687,7 +693,7 @@ def _stands_alone(servo: _Judged, fams: Sequence[Hypothesis], data: "_Residuals"
     for family, (sse, hyp) in best.items():
         rows.append({"label": hyp.label(), "family": family, "scope": hyp.scope,
                      "stage": "alone", "sse": sse, "stands": bool(sse <= servo_sse)})
-    return {family: sse <= servo_sse for family, (sse, _) in best.items()}
+    return {family: sse for family, (sse, _) in best.items() if sse <= servo_sse}
 
 
 def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg: str,
@@ -700,8 +706,8 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
 
     A force on the swinging foot (``contact_phase``: the rate in swing and the drag's torque
     column) is named where the change is a change of the swing alone (the leg's stance ratio
-    ``stance_ratio`` below :data:`.excess.MIN_RATIO`) and its column is significant and
-    material there: a family of the set-points (a delay, a low-pass, a play) or of time acts
+    ``stance_ratio`` below :data:`.excess.MIN_RATIO`), its column is significant and
+    material there, and its size opposes the foot's motion (:func:`_opposes`): a family of the set-points (a delay, a low-pass, a play) or of time acts
     in stance as well, and a force on a foot in the air reads on swing rows like a set-point
     that lags. That force is one test, of the hypothesis the location points to, at the
     route's level for a choice within a finding (``scope_alpha``; row ``stage`` "force").
@@ -747,8 +753,17 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
     size = (_drag_newtons(X[m], data.base[1][m], i, Xr[m_r], Dr[m_r])
             if kept.hyp.family == "contact_phase"
             else _size(kept.model, X[m], D[m], Xr[m_r], Dr[m_r]))
-    out.update(label=kept.hyp.label(), explained=share, size=size, named=by_phase)
+    out.update(label=kept.hyp.label(), explained=share, size=size,
+               named=by_phase and _opposes(size))
     return out
+
+
+def _opposes(size: dict[str, Any]) -> bool:
+    """Whether a drag's size (:func:`_drag_newtons`, or :func:`_size` of ``contact_phase``)
+    opposes the foot's motion: a positive magnitude. A negative one would push the foot along
+    its motion, which is no drag; the force's columns then stand in for a change of another
+    kind."""
+    return size.get("magnitude") is not None and size["magnitude"] > 0
 
 
 def _drag_newtons(X: np.ndarray, R: np.ndarray, leg: int, Xr: np.ndarray, Dr: np.ndarray
@@ -849,27 +864,6 @@ def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet
     return {"confirmed": drift.ok, "scope": scope, "total_gain": drift.total,
             "p_value": float(d.p_value), "significant": bool(d.significant),
             "material": bool(d.material), "servo_total_gain": servo.total}
-
-
-def _delay_or_low_pass(judged: Sequence[_Judged]) -> list[_Judged]:
-    """The family hypotheses without the set-point delays or without the low-passes, where
-    one scan's best sits at the edge the other's shape explains: a delay whose gain is still
-    rising at :data:`MAX_LAG` is a low-pass's long tail, a low-pass best at the shortest time
-    constant a delay's sharp step; the other family keeps the field where its own best is
-    inside its scan."""
-    def best(family: str) -> _Judged | None:
-        js = [j for j in judged if j.hyp.family == family]
-        return max(js, key=lambda j: j.total) if js else None
-    d, f = best("command_delay"), best("command_filter")
-    if d is None or f is None:
-        return list(judged)
-    d_edge = d.hyp.aug.lag == MAX_LAG
-    f_edge = f.hyp.aug.time_constant_ms == min(FILTER_MS)
-    if d_edge and not f_edge:
-        return [j for j in judged if j.hyp.family != "command_delay"]
-    if f_edge and not d_edge:
-        return [j for j in judged if j.hyp.family != "command_filter"]
-    return list(judged)
 
 
 def _row(j: _Judged, stage: str) -> dict[str, Any]:

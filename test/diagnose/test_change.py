@@ -196,27 +196,57 @@ def test_the_statement_compares_the_reading_with_what_the_search_accepted():
     assert "search" not in _statement(u)
 
 
-def test_a_delay_still_gaining_at_the_longest_lag_gives_way_to_a_low_pass():
-    from littledog_mlsim.diagnose.change import (FILTER_MS, MAX_LAG, _delay_or_low_pass,
-                                                 _family_aug, _Judged)
+@pytest.mark.parametrize("delay_alone, kept", [(100.0, "set-point delay 5 step(s)"),
+                                               (130.0, "set-point low-pass 35 ms")])
+def test_the_family_that_stands_best_alone_is_kept_at_its_largest_gain(monkeypatch,
+                                                                       delay_alone, kept):
+    """Decision 030: on top of the servo response a delay's gain still rises at the longest
+    lag and a low-pass's peaks inside its scan; the family kept is the one whose best alone
+    leaves the least error (the delay at 100, the low-pass at 120, the servo at 150), at its
+    largest gain on top of the servo response."""
+    from types import SimpleNamespace
 
-    class _D:
-        def __init__(self, total):
-            self.gain = np.array([total])
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.change import FILTER_MS, _Judged, _screen
 
-    def judged(lag_gains, tau_gains):
-        out = [_Judged(Hypothesis("command_delay", "all", _family_aug("command_delay", "all", k)),
-                       None, None, None, None, _D(g)) for k, g in lag_gains.items()]
-        return out + [_Judged(Hypothesis("command_filter", "all",
-                                         _family_aug("command_filter", "all", tau_ms=t)),
-                              None, None, None, None, _D(g)) for t, g in tau_gains.items()]
-    lags = dict(enumerate([2.1, 2.8, 3.4, 3.9, 4.1], start=1))          # still rising
-    taus = dict(zip(FILTER_MS, [3.2, 3.5, 3.6, 3.4, 2.6]))                # peaks inside
-    assert {j.hyp.family for j in _delay_or_low_pass(judged(lags, taus))} == {"command_filter"}
-    lags = dict(enumerate([3.2, 3.5, 3.6, 3.4, 2.9], start=1))          # peaks at 3 steps
-    taus = dict(zip(FILTER_MS, [3.5, 3.3, 3.1, 2.8, 2.0]))                # best at the shortest
-    assert {j.hyp.family for j in _delay_or_low_pass(judged(lags, taus))} == {"command_delay"}
-    assert max(lags) == MAX_LAG
+    on_top = {**{f"set-point delay {k} step(s)": g
+                 for k, g in zip(range(1, 6), [1.4, 1.8, 2.3, 2.7, 2.8])},
+              **{f"set-point low-pass {t:g} ms": g
+                 for t, g in zip(FILTER_MS, [2.1, 2.4, 2.5, 2.3, 1.5])}}
+    sse = np.ones((3, 24))
+
+    def decided(hyp, gain):
+        d = SimpleNamespace(significant=True, material=True, gain=np.array([gain]), p_value=1e-9)
+        return _Judged(hyp, None, sse, 2.0 * sse, None, d)
+
+    def judge(j, base, n, opts, cols, alpha=None):
+        j.decision = decided(j.hyp, on_top.get(j.hyp.label().split(" @")[0], 0.0)).decision
+        if j.hyp.family not in ("command_delay", "command_filter"):
+            j.decision.significant = False
+        return j
+    monkeypatch.setattr(change, "_servo_response", lambda *a: decided(
+        Hypothesis("servo_gain", "leg:front_left"), 1.0))
+    monkeypatch.setattr(change, "_fit", lambda data, ref, fs, hyp: _Judged(hyp, None, sse,
+                                                                           2.0 * sse, None))
+    monkeypatch.setattr(change, "_judge", judge)
+    monkeypatch.setattr(change, "_stands_alone", lambda *a: {"command_delay": delay_alone,
+                                                             "command_filter": 120.0})
+    monkeypatch.setattr(change, "_finer_low_pass", lambda j, *a: j)
+    monkeypatch.setattr(change, "_size", lambda model, *a: {})
+    data = SimpleNamespace(route=SimpleNamespace(mv=SimpleNamespace(n=3)))
+    rows: list = []
+    out = _screen(data, None, None, "leg:front_left", np.zeros((6, N_STATE)),
+                  None, None, np.arange(6) % 3, None, None, None, rows)
+    assert out["label"] == f"{kept} @ leg:front_left"
+    assert out["family"] == ("command_delay" if delay_alone < 120.0 else "command_filter")
+
+
+def test_a_drag_is_named_only_where_it_opposes_the_foots_motion():
+    """A negative drag would push the foot along its motion: no drag, whatever it explains."""
+    from littledog_mlsim.diagnose.change import _opposes
+    assert _opposes({"magnitude": 0.89, "per_joint": {}})
+    assert not _opposes({"magnitude": -0.24, "per_joint": {}})
+    assert not _opposes({"magnitude": 0.0}) and not _opposes({"magnitude": None})
 
 
 def test_a_kept_low_pass_is_sized_on_a_finer_grid(monkeypatch):
@@ -281,7 +311,9 @@ def test_a_family_is_kept_only_where_its_column_alone_explains_as_much_as_the_se
     fams = [Hypothesis("command_delay", scope, _family_aug("command_delay", scope, 1))]
     rows = [{"stage": "servo", "scope": scope}]
     stands = _stands_alone(servo, fams, side, side, fs, cols, rows)
-    assert stands == {"command_delay": truth == "delay"}
+    assert list(stands) == (["command_delay"] if truth == "delay" else [])
+    if truth == "delay":
+        assert stands["command_delay"] == pytest.approx(rows[1]["sse"])
     assert rows[0]["sse"] == pytest.approx(float(servo.sse[:, cols].sum()))
     assert rows[1]["stage"] == "alone" and rows[1]["stands"] is (truth == "delay")
     assert (rows[1]["sse"] < rows[0]["sse"]) is (truth == "delay")
