@@ -126,3 +126,11 @@ def study_commands(doc: dict) -> list[str]:
     """The Markdown lines naming each of an appended study's commands, its code and date."""
     return [f"Command: `{c['command']}`  \nCode: {c['code']}; {c['date']} UTC  "
             for c in doc["commands"]]
+
+
+def zoo_truth(path: Path) -> dict[str, str]:
+    """A blind zoo's ``truth.yaml`` read as ``{effect id: "family @ scope"}`` (after its run)."""
+    import yaml
+    doc = yaml.safe_load(Path(path).read_text())
+    items = doc["effects"] if isinstance(doc, dict) else doc
+    return {e["id"]: f"{e['family']} @ {e['scope']}" for e in items}

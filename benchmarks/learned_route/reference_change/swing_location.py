@@ -25,20 +25,12 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import appended_study, study_commands  # noqa: E402
-
-import yaml  # noqa: E402
+from _common import appended_study, study_commands, zoo_truth  # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
 from littledog_mlsim.diagnose.change import reference_change  # noqa: E402
 from littledog_mlsim.diagnose.learned import LearnedOptions, _Route  # noqa: E402
-
-
-def _truth(path: Path) -> dict[str, str]:
-    doc = yaml.safe_load(path.read_text())
-    items = doc["effects"] if isinstance(doc, dict) else doc
-    return {e["id"]: f"{e['family']} @ {e['scope']}" for e in items}
 
 
 def main() -> None:
@@ -50,7 +42,7 @@ def main() -> None:
     a = p.parse_args()
     opts, start = LearnedOptions(), measured_robot_features()
     quiet = lambda s: None  # noqa: E731
-    truth = _truth(a.truth)
+    truth = zoo_truth(a.truth)
     ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
     ref_fit = ref.fit(start, one_step=True)
     out_json = a.out.with_suffix(".json")
