@@ -676,11 +676,11 @@ def _stands_alone(servo: _Judged, fams: Sequence[Hypothesis], data: "_Residuals"
                   rows: list[dict[str, Any]]) -> dict[str, float]:
     """The families that stand alone, each with the held-out one-step SSE its best leaves at
     the scope's elements ``cols`` (decision 030): the best of its scan, its column alone (with
-    a constant, without the servo's columns), leaves no more than the servo response alone. A change of the set-point's path
-    (a delay, a low-pass) is its column's shape, and the servo's columns only mimic it; a
-    change of the servo is the servo's columns, and a family's column only adds to them. Each
-    family's best is appended to ``rows`` (``stage`` "alone", ``sse``; the servo's row gets its
-    own ``sse``)."""
+    a constant, without the servo's columns), leaves no more than the servo response alone.
+    A change of the set-point's path (a delay, a low-pass) is its column's shape, and the
+    servo's columns only mimic it; a change of the servo is the servo's columns, and a
+    family's column only adds to them. Each family's best is appended to ``rows`` (``stage``
+    "alone", ``sse``, ``stands``; the servo's row gets its own ``sse``)."""
     servo_sse = float(servo.sse[:, cols].sum())
     for r in rows:
         if r["stage"] == "servo" and r["scope"] == servo.hyp.scope:
@@ -707,9 +707,9 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
     A force on the swinging foot (``contact_phase``: the rate in swing and the drag's torque
     column) is named where the change is a change of the swing alone (the leg's stance ratio
     ``stance_ratio`` below :data:`.excess.MIN_RATIO`), its column is significant and
-    material there, and its size opposes the foot's motion (:func:`_opposes`): a family of the set-points (a delay, a low-pass, a play) or of time acts
-    in stance as well, and a force on a foot in the air reads on swing rows like a set-point
-    that lags. That force is one test, of the hypothesis the location points to, at the
+    material there, and its size opposes the foot's motion (:func:`_opposes`): a family of
+    the set-points (a delay, a low-pass, a play) or of time acts in stance as well, and a
+    force on a foot in the air reads on swing rows like a set-point that lags. That force is one test, of the hypothesis the location points to, at the
     route's level for a choice within a finding (``scope_alpha``; row ``stage`` "force").
     Nothing else is named from the swing's rows (a family of all phases is read on all rows,
     by :func:`_screen`); where the force is not named, the family with the largest gain
