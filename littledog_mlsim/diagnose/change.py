@@ -709,8 +709,9 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
     ``stance_ratio`` below :data:`.excess.MIN_RATIO`), its column is significant and
     material there, and its size opposes the foot's motion (:func:`_opposes`): a family of
     the set-points (a delay, a low-pass, a play) or of time acts in stance as well, and a
-    force on a foot in the air reads on swing rows like a set-point that lags. That force is one test, of the hypothesis the location points to, at the
-    route's level for a choice within a finding (``scope_alpha``; row ``stage`` "force").
+    force on a foot in the air reads on swing rows like a set-point that lags. That force is
+    one test, of the hypothesis the location points to, at the route's level for a choice
+    within a finding (``scope_alpha``; row ``stage`` "force").
     Nothing else is named from the swing's rows (a family of all phases is read on all rows,
     by :func:`_screen`); where the force is not named, the family with the largest gain
     among the significant and material ones is reported as the best hypothesis.
