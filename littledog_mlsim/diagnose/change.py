@@ -652,7 +652,7 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
         j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(fams), opts, cols)
         rows.append(_row(j, "family"))
         judged.append(j)
-    alone = _stands_alone(servo, fams, data, ref, fs, cols, rows)
+    alone = _stands_alone(servo, fams, data, fs, cols, rows)
     ok = {j.hyp.family for j in judged if j.ok and j.hyp.family in alone}
     if ok:       # the family that stands best alone; its scan's largest gain on the servo's
         family = min(ok, key=alone.__getitem__)
@@ -672,22 +672,28 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
 
 
 def _stands_alone(servo: _Judged, fams: Sequence[Hypothesis], data: "_Residuals",
-                  ref: "_Residuals", fs: FeatureSet, cols: Sequence[int],
-                  rows: list[dict[str, Any]]) -> dict[str, float]:
+                  fs: FeatureSet, cols: Sequence[int], rows: list[dict[str, Any]]
+                  ) -> dict[str, float]:
     """The families that stand alone, each with the held-out one-step SSE its best leaves at
     the scope's elements ``cols`` (decision 030): the best of its scan, its column alone (with
     a constant, without the servo's columns), leaves no more than the servo response alone.
     A change of the set-point's path (a delay, a low-pass) is its column's shape, and the
     servo's columns only mimic it; a change of the servo is the servo's columns, and a
     family's column only adds to them. Each family's best is appended to ``rows`` (``stage``
-    "alone", ``sse``, ``stands``; the servo's row gets its own ``sse``)."""
+    "alone", ``sse``, ``stands``; the servo's row gets its own ``sse``). Only the data's side
+    is fitted: nothing here is judged against the reference."""
     servo_sse = float(servo.sse[:, cols].sum())
     for r in rows:
         if r["stage"] == "servo" and r["scope"] == servo.hyp.scope:
             r["sse"] = servo_sse
     best: dict[str, tuple[float, Hypothesis]] = {}
+    n_folds = data.route.opts.n_folds
     for hyp in fams:
-        sse = float(_fit(data, ref, fs, replace(hyp, alone=True)).sse[:, cols].sum())
+        alone = replace(hyp, alone=True)
+        X, R, mi, fold = data.of(alone)
+        model = ChangeModel(data.ref_model, fs, alone).fit(X, R, fold, n_folds)
+        sse = float(_move_sse(_held_out(model, X, R, fold, n_folds), mi,
+                              data.route.mv.n)[:, cols].sum())
         if hyp.family not in best or sse < best[hyp.family][0]:
             best[hyp.family] = (sse, hyp)
     for family, (sse, hyp) in best.items():

@@ -310,7 +310,7 @@ def test_a_family_is_kept_only_where_its_column_alone_explains_as_much_as_the_se
     servo = _fit(side, side, fs, Hypothesis("servo_gain", scope))
     fams = [Hypothesis("command_delay", scope, _family_aug("command_delay", scope, 1))]
     rows = [{"stage": "servo", "scope": scope}]
-    stands = _stands_alone(servo, fams, side, side, fs, cols, rows)
+    stands = _stands_alone(servo, fams, side, fs, cols, rows)
     assert list(stands) == (["command_delay"] if truth == "delay" else [])
     if truth == "delay":
         assert stands["command_delay"] == pytest.approx(rows[1]["sse"])
