@@ -124,7 +124,14 @@ lists what the search accepted (stand-ins left out) and ``agrees`` whether the n
 one of them; ``swing`` and ``located_by`` (decision 029): the same ratio per leg in swing and
 stance, and where a change lives in one leg's swing alone, a force on that foot
 (``contact_phase``, ``phase: swing``) named at the leg; nothing is added to the model, and its
-statement says whether the data's own model carries the change.
+statement says whether the data's own model carries the change. ``reference.conditions``
+(where the caller gives them, :mod:`.conditions`, decision 031): the data's and the reference's
+command excitation, ``comparable``, and where they differ a ``statement`` and the
+``recording`` that makes them comparable; ``reference.not_comparable`` lists, in the form of
+``effects`` with ``why`` and ``recording``, what the search accepted of a family excitation
+shows while they differ (carried by the model; ``significant`` does not count it), and
+``unexplained_change`` and ``reference_change`` are then kept as measured with
+``comparable: false``, neither ``significant`` nor ``named``.
 """
 from __future__ import annotations
 
@@ -144,6 +151,7 @@ from ..layout import (CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES,
 from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedTime, FeatureSet,
                                GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
 from ..models.feature_library import JOINT_GROUPS, ElapsedTracking, SwingRate
+from .conditions import Conditions
 from .selection import SearchModel, move_folds
 from .stats import PathTest, contrast_combined, path_test, sse_decision
 
@@ -1238,7 +1246,7 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
                      progress: Callable[[str], None] | None = None,
                      scheduler: str | None = None,
                      reference: Sequence[MoveRecording] | None = None,
-                     jobs: int = 1) -> dict[str, Any]:
+                     jobs: int = 1, conditions: "Conditions | None" = None) -> dict[str, Any]:
     """The learned route on TrainPool ``train_recs``, scored on TestPool ``test_recs``; returns
     the report dict of the module doc. ``start``: the model's feature set before the search
     (default :func:`.candidates.measured_robot_features`); ``library``: the family probes
@@ -1251,7 +1259,11 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
     ``OPENBLAS_NUM_THREADS=1``). ``reference``: the TrainPool of a recording of the same
     robot before the change; an effect is then reported only if it cuts the data's held-out
     rollout error more than the reference's (:func:`contrast`), and one that does not is the
-    robot's own: carried by the model, listed under ``reference.shared``."""
+    robot's own: carried by the model, listed under ``reference.shared``. ``conditions``: the
+    data's and the reference's command excitation (:mod:`.conditions`, decision 031); where
+    they differ, a finding of a family excitation shows is listed under
+    ``reference.not_comparable`` (carried by the model, not a change), and decisions 026 and
+    027 are read but neither significant nor named."""
     from .candidates import measured_robot_features
     opts = options or LearnedOptions()
     if reference is not None:
@@ -1282,7 +1294,7 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
             elif local:
                 route.local(int(jobs))
             return _search(route, train_recs, test_recs, start, lib, opts, mass_kg, t_start,
-                           ref_route)
+                           ref_route, None if reference is None else conditions)
     finally:
         if route is not None:
             route.close()
@@ -1293,7 +1305,9 @@ def diagnose_learned(train_recs: Sequence[MoveRecording], test_recs: Sequence[Mo
 def _search(route: _Route, train_recs: Sequence[MoveRecording],
             test_recs: Sequence[MoveRecording], start: FeatureSet, lib: list[Augmentation],
             opts: LearnedOptions, mass_kg: float | None, t_start: float,
-            ref_route: "_Route | None" = None) -> dict[str, Any]:
+            ref_route: "_Route | None" = None,
+            conditions: "Conditions | None" = None) -> dict[str, Any]:
+    from .conditions import cannot_contrast
     from .families.learned import floor_plane, slope_reading, start_spread
     say = route.say
     model0, ev0 = route.fit(start)
@@ -1301,6 +1315,7 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     rounds: list[dict[str, Any]] = []
     found: list[tuple[_Probe, list[dict[str, Any]]]] = []
     shared: list[tuple[_Probe, list[dict[str, Any]]]] = []   # in the reference as well
+    uncontrasted: list[tuple[_Probe, list[dict[str, Any]]]] = []   # decision 031
     contrasts: dict[str, dict[str, Any]] = {}
     last: list[_Probe] = []
     spread = start_spread(train_recs)
@@ -1308,9 +1323,9 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
     confounded: list[_Probe] = []
     k = -1
     n_full, n_scoped = screen_sizes(lib, opts.scoped_screen, opts.scoped_share)
-    while len(found) < opts.max_rounds and len(shared) <= opts.max_shared:
+    while len(found) < opts.max_rounds and len(shared) + len(uncontrasted) <= opts.max_shared:
         k += 1
-        taken = ({p.aug.family for p, _ in found + shared}
+        taken = ({p.aug.family for p, _ in found + shared + uncontrasted}
                  | {p.aug.family for p in confounded})
         todo = [a for a in lib if a.family not in taken and not set(a.columns()) & set(fs.names)]
         last = route.probes(fs, ev, todo, n_full)
@@ -1338,8 +1353,9 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             pre = {p.aug.label(): contrast(route, ref_route, fs, p, ev_ref, len(ok),
                                            _focus_choices(p.aug))
                    for p in ok}
-            changed = [p for p in ok if pre[p.aug.label()]["changed"]]
-            if not changed and len(shared) == opts.max_shared:
+            changed = [p for p in ok if pre[p.aug.label()]["changed"]
+                       and not cannot_contrast(p.aug, conditions)]
+            if not changed and len(shared) + len(uncontrasted) == opts.max_shared:
                 break
             first = _pick(changed or ok, opts.tolerance, False)
             say(f"round {k}: against the reference: " + ", ".join(
@@ -1354,26 +1370,34 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             c = pre.get(best.aug.label())
             c = (contrast(route, ref_route, fs, best, ev_ref, len(ok), choices) if c is None
                  else _chosen_among(c, choices, route.opts.contrast_alpha))
+            if cannot_contrast(best.aug, conditions):
+                c = {**c, "changed": False, "comparable": False}
             contrasts[best.aug.label()] = c
             say(f"round {k}: {best.aug.label()} gain {best.total_gain:+.2f} here, "
                 f"{c['reference_total_gain']:+.2f} on the reference: p(change) {c['p_change']:.2g}")
-        (found if ref_route is None or contrasts[best.aug.label()]["changed"]
-         else shared).append((best, scan))
+        into = (found if ref_route is None or contrasts[best.aug.label()]["changed"]
+                else uncontrasted if cannot_contrast(best.aug, conditions) else shared)
+        into.append((best, scan))
         fs = fs.with_augmentation(best.aug)
         model, ev = route.fit(fs)
         say(f"round {k}: accepted {best.aug.label()}" + (
-            "" if found and found[-1][0] is best else " (in the reference as well)"))
+            "" if into is found else " (in the reference as well)" if into is shared
+            else " (the reference, recorded under another excitation, cannot tell)"))
     report = _report(route, train_recs, test_recs, start, fs, model0, model, ev0, ev, found,
                      rounds, [p for p in last if all(p is not c for c in confounded)], opts,
                      mass_kg or _default_mass(), t_start, shared,
                      None if ref_route is None else contrasts,
-                     None if ref_route is None else ref_route.mv.n, ref_route)
+                     None if ref_route is None else ref_route.mv.n, ref_route,
+                     uncontrasted, conditions)
     report["start_spread"] = spread
     if ref_route is not None:          # what the library left unexplained (decision 026)
         # the reference at fs, fitted once with its one-step residuals for decisions 026, 027
         ref_at_fs = ref_route.fit(fs)
         report["unexplained_change"] = _unexplained_change(route, ref_route, fs, ev,
                                                            ref_at_fs[1])
+        if conditions is not None and not conditions.comparable:
+            report["unexplained_change"] = _not_compared(report["unexplained_change"],
+                                                         conditions)
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
@@ -1384,6 +1408,8 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         report["reference_change"] = rc = reference_change(
             route, ref_route, fs, report["unexplained_change"]["ratio"], ev.one_step,
             ref_at_fs, [p.aug for p, _ in found if p.aug.label() not in stand_ins])
+        if conditions is not None and not conditions.comparable:
+            report["reference_change"] = rc = _not_compared(rc, conditions)
         if rc["named"]:
             report["significant"] = True
         if rc["significant"]:
@@ -1394,6 +1420,19 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
                              "vocabulary": physical_reading(p.aug)} for p in confounded]
     report["verdict"] = _verdict(report)
     return report
+
+
+def _not_compared(reading: dict[str, Any], conditions: "Conditions") -> dict[str, Any]:
+    """Decision 026's or 027's ``reading`` against a reference recorded under other
+    ``conditions`` (decision 031): kept as measured, but neither significant nor named; its
+    statement says why and its recording what settles it."""
+    out = {**reading, "significant": False, "comparable": False,
+           "statement": (f"not compared: {conditions.to_dict()['statement']} (as measured: "
+                         f"{reading.get('statement', '')})"),
+           "recording": conditions.recording}
+    if "named" in out:
+        out["named"] = False
+    return out
 
 
 def _unexplained_change(route: _Route, ref_route: _Route, fs: FeatureSet, ev: Evidence,
@@ -1491,15 +1530,16 @@ def contrast(route: _Route, ref_route: _Route, fs: FeatureSet, probe: _Probe,
 
 def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds, last, opts,
             mass_kg, t_start, shared=(), contrasts=None, n_reference=None,
-            ref_route=None) -> dict[str, Any]:
+            ref_route=None, uncontrasted=(), conditions=None) -> dict[str, Any]:
     from .families.learned import floor_plane
     X, _, mi = fs.features_responses(route.train)
     t_bar = float(np.mean(np.concatenate([np.arange(s.shape[0]) for s in route.mv.S]))
                   * CONTROL_DT)
     floor = floor_plane(train)
-    effects, carried = [], []
+    effects, carried, not_comparable = [], [], []
     ref_start: list[tuple] = []        # the reference at ``start``, fitted where a drift asks
-    for (p, scan), into in [(f, effects) for f in found] + [(f, carried) for f in shared]:
+    for (p, scan), into in ([(f, effects) for f in found] + [(f, carried) for f in shared]
+                            + [(f, not_comparable) for f in uncontrasted]):
         text, numbers = physical_statement(p.aug, model, fs, X, mass_kg, t_bar, floor)
         if isinstance(p.aug, Heading):
             text, numbers = _push_in_newtons(numbers, route.train,
@@ -1539,10 +1579,13 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
             entry["stand_in"] = stand_in
         if contrasts is not None:
             entry["reference"] = contrasts[p.aug.label()]
+        if into is not_comparable:
+            entry["why"], entry["recording"] = conditions.why, conditions.recording
         into.append(entry)
     mv_test = _moves(test)
     before = _test_scores(model0, start, test, mv_test, opts)
-    after = _test_scores(model, fs, test, mv_test, opts) if found or shared else before
+    after = (_test_scores(model, fs, test, mv_test, opts) if found or shared or uncontrasted
+             else before)
     residual = residual_structure(ev, route.mv, route.fold_of_move, _phase_columns(route.train),
                                   route.h_dec, opts)
     per_type = train_per_type(route.mv)
@@ -1557,6 +1600,9 @@ def _report(route, train, test, start, fs, model0, model, ev0, ev, found, rounds
               "options": asdict(opts), "seconds": time.perf_counter() - t_start}
     if n_reference is not None:
         report["reference"] = {"n_moves": n_reference, "shared": carried}
+        if conditions is not None:
+            report["reference"]["conditions"] = conditions.to_dict()
+            report["reference"]["not_comparable"] = not_comparable
     report["verdict"] = _verdict(report)
     return report
 
@@ -1671,6 +1717,11 @@ def _verdict(report: dict[str, Any]) -> str:
     if carried:
         parts.append("in the reference as well (the robot's own, carried by the model; not a "
                      "change since it): " + "; ".join(e["statement"] for e in carried))
+    uncontrasted = report.get("reference", {}).get("not_comparable", [])
+    if uncontrasted:
+        parts.append("the reference cannot tell whether these are changes (carried by the "
+                     "model): " + "; ".join(e["label"] for e in uncontrasted) + " ("
+                     + uncontrasted[0]["why"] + "; " + uncontrasted[0]["recording"] + ")")
     change = report.get("unexplained_change") or {}
     if change.get("significant"):
         parts.append(change["statement"] + "; " + change["recording"])

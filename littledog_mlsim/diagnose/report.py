@@ -131,7 +131,32 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
         **info,
     }
     doc["suspected"] = _rollout_suspects(info.get("rollout_route"))
+    cond = info.get("reference_conditions")
+    if cond is not None and not cond["comparable"]:
+        _not_comparable(doc, cond)
     return _clean(doc)
+
+
+def _not_comparable(doc: dict[str, Any], cond: Mapping[str, Any]) -> None:
+    """Decision 031 on the one-step loop's effects: with a reference recorded under another
+    command excitation than the data (``cond``: :meth:`.conditions.Conditions.to_dict`), an
+    effect of a family excitation shows moves from ``effects`` to ``not_comparable`` (the model
+    keeps its columns) and is listed under ``suspected`` with why and the recording that
+    settles it; ``significant`` counts what is left."""
+    from .conditions import Conditions
+    from .families.learned import learned_family
+    c = Conditions(cond["data_excitation_rad"], cond["reference_excitation_rad"])
+    moved = [e for e in doc["effects"] if learned_family(e["family"]).excitation_shows]
+    doc["effects"] = [e for e in doc["effects"] if e not in moved]
+    doc["significant"] = bool(doc["effects"])
+    doc["not_comparable"] = [{**e, "why": c.why, "recording": c.recording} for e in moved]
+    for e in moved:
+        ph = e.get("physical") or {}
+        doc["suspected"].append({"family": ph.get("family", "other"),
+                                 "scope": ph.get("scope", "body"),
+                                 "params": ph.get("params", {}), "why": c.why,
+                                 "recording": c.recording, "label": e["label"],
+                                 "p_value": e["p_value"]})
 
 
 def _rollout_suspects(r: Mapping[str, Any] | None) -> list[dict[str, Any]]:
@@ -184,8 +209,10 @@ def _figures(out: Path, sel: SelectionResult, doc: dict) -> dict[str, list[str]]
 
     figs: dict[str, list[str]] = {"effects": [], "summary": []}
     picked_rounds = [r for r in sel.rounds if r.picked is not None]
-    for k, (r, eff) in enumerate(zip(picked_rounds, doc["effects"])):
-        figs["effects"].append(_effect_figure(out, plt, k, r, eff, sel))
+    by_round = {e["round"]: e for e in doc["effects"]}   # not those moved by decision 031
+    for k, r in enumerate(picked_rounds):
+        if k + 1 in by_round:
+            figs["effects"].append(_effect_figure(out, plt, k, r, by_round[k + 1], sel))
     figs["summary"].append(_nmse_figure(out, plt, doc["stages"]))
     if list(doc["stages"][0]["rollout"]):
         figs["summary"].append(_rollout_figure(out, doc["stages"], "effect", "rollout"))
@@ -351,6 +378,9 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
         L.append(f"- in the reference as well: `{e['label']}` (gain {e.get('gain', 0):.2f} here, "
                  f"{c.get('reference_total_gain', float('nan')):.2f} on the reference; p of a "
                  f"change {c.get('p_change', float('nan')):.2g}): {e.get('statement', '')}")
+    for e in (r.get("reference") or {}).get("not_comparable", []):
+        L.append(f"- the reference cannot tell: `{e['label']}` (the model keeps it): "
+                 f"{e.get('statement', '')}")
     for s in r.get("suspected", []):
         L.append(f"- suspected: {s.get('label', s)}")
     res = r.get("residual") or {}
@@ -359,7 +389,8 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
     change = r.get("unexplained_change")
     if change:
         L.append(f"\nAgainst the reference: {change['statement']}"
-                 + (f"; {change['recording']}" if change["significant"] else ""))
+                 + (f"; {change['recording']}" if change["significant"]
+                    or change.get("comparable") is False else ""))
     carried = r.get("reference_change")
     if carried:
         L.append(f"\nThe reference's model on this data: {carried['statement']}")
@@ -396,6 +427,14 @@ def _md_head(doc: dict) -> list[str]:
                 if any(v is not None for v in (ph.get("params") or {}).values())]
     if readings:                         # the effects the vocabulary gives a magnitude
         L += readings + [""]
+    cond = doc.get("reference_conditions") or {}
+    if not cond.get("comparable", True):
+        add(f"Against the reference: {cond['statement']}; {cond['recording']}.\n")
+    for e in doc.get("not_comparable", []):
+        add(f"- the reference cannot tell: {e['family']} `{e['label']}` (p = "
+            f"{e['p_value']:.2g}; the model keeps it): {e['why']}")
+    if doc.get("not_comparable"):
+        add("")
     add(f"Method: residuals of a {srch.get('kind')} search model (M = "
         f"{srch.get('n_random_features')} random features, ARD length scales from a GP) "
         f"cross-fitted over {srch.get('n_folds')} folds of moves; each candidate is added as a "

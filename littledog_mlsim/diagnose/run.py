@@ -209,8 +209,9 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     feature_sets = [run.start]
     for picked in sel.accepted:
         feature_sets.append(feature_sets[-1].with_augmentation(picked.augmentation))
+    conditions = _conditions(run)
     rollout = (None if route.rollout is None
-               else _rollout_route(run, route, feature_sets[-1]))
+               else _rollout_route(run, route, feature_sets[-1], conditions))
     for aug in ([] if rollout is None else _accepted(rollout, feature_sets[-1])):
         feature_sets.append(feature_sets[-1].with_augmentation(aug))
     stages, last_model = _stages(run, feature_sets)
@@ -220,6 +221,8 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     keywords["floor_plane"] = floor_plane(run.train)
     if rollout is not None:
         keywords["rollout_route"] = rollout
+    if conditions is not None:
+        keywords["reference_conditions"] = conditions.to_dict()
     report = write_report(run.out, sel, stages, **keywords)
     change = (rollout or {}).get("unexplained_change") or {}
     carried = (rollout or {}).get("reference_change") or {}
@@ -234,21 +237,37 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     return report
 
 
-def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet) -> dict[str, Any]:
+def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet,
+                   conditions: Any = None) -> dict[str, Any]:
     """The rollout route's report, searched from ``start`` (what the one-step loop ended
     with)."""
     from .learned import diagnose_learned
     return diagnose_learned(run.train, run.test, start=start, options=route.rollout,
                             library=route.rollout_library, progress=run.say,
                             scheduler=route.scheduler, jobs=route.jobs,
-                            reference=_reference_moves(run) if run.o.reference else None)
+                            reference=_reference_moves(run) if run.o.reference else None,
+                            conditions=conditions)
+
+
+def _conditions(run: _Run) -> Any:
+    """The data's and the reference's recording conditions (:mod:`.conditions`, decision
+    031); None without a reference. Where they differ, the run says so."""
+    if run.o.reference is None:
+        return None
+    from .conditions import conditions_of
+    c = conditions_of(run.index.info, read_index(run.o.reference).info,
+                      os.fspath(run.data), f"reference {run.o.reference}")
+    if not c.comparable:
+        run.say("reference: " + c.to_dict()["statement"] + "; " + c.recording)
+    return c
 
 
 def _accepted(rollout: Mapping[str, Any], fs: FeatureSet) -> list[Any]:
     """The rollout route's accepted augmentations that ``fs`` does not carry yet."""
     from ..models.features import augmentation_from_dict
     out, names = [], set(fs.names)
-    for e in rollout.get("effects", []) + rollout.get("reference", {}).get("shared", []):
+    ref = rollout.get("reference", {})
+    for e in rollout.get("effects", []) + ref.get("shared", []) + ref.get("not_comparable", []):
         aug = augmentation_from_dict(e["augmentation"])
         if not set(aug.columns()) & names:
             out.append(aug)

@@ -209,7 +209,12 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, p
     assert r["significant"] and r["effects"][0]["family"] == "pose (heading)", r["rounds"]
     c = r["effects"][0]["reference"]
     assert c["changed"] and c["reference_total_gain"] < r["effects"][0]["total_gain"], c
-    assert r["reference"] == {"n_moves": len(load_moves(data["clean"], "train")), "shared": []}
+    assert r["reference"] == {"n_moves": len(load_moves(data["clean"], "train")), "shared": [],
+                              "not_comparable": [],
+                              "conditions": {"data_excitation_rad": 0.0,
+                                             "reference_excitation_rad": 0.0,
+                                             "comparable": True}}
+    assert report["reference_conditions"] == r["reference"]["conditions"]
     assert report["effects"] == [] and len(report["stages"]) == 1 + len(r["effects"])
     last = report["after"]["feature_set"]
     assert last == report["stages"][-1]["feature_set"] != report["before"]["feature_set"]
@@ -222,6 +227,50 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, p
     md = (out / "report.md").read_text()
     assert "## Rollout route" in md and r["effects"][0]["label"] in md
     assert "Against the reference: an unexplained change since the reference" in md
+
+
+def test_against_a_reference_of_another_excitation_a_command_response_is_no_change(
+        data, tmp_path, monkeypatch):
+    """Decision 031 end to end: the push against the clean recording whose ``dataset.yaml``
+    says it was made with command excitation, the heading family marked as one excitation
+    shows (its attribute, monkeypatched). The finding is carried by the report model but listed
+    under ``reference.not_comparable``, and decision 026's reading is kept but not significant:
+    the diagnosis raises nothing, and says which reference would settle it."""
+    import shutil
+
+    import yaml
+
+    from littledog_mlsim.diagnose import DiagnoseOptions, LearnedRoute, diagnose
+    from littledog_mlsim.diagnose.conditions import Conditions
+    from littledog_mlsim.diagnose.families.learned import learned_family
+    ref = tmp_path / "excited_reference"
+    shutil.copytree(data["clean"], ref)
+    index = yaml.safe_load((ref / "dataset.yaml").read_text())
+    index["info"]["command_excitation_rad"] = 0.05
+    (ref / "dataset.yaml").write_text(yaml.safe_dump(index, sort_keys=False))
+    monkeypatch.setattr(learned_family("pose (heading)"), "excitation_shows", True)
+    route = LearnedRoute(max_rounds=0, rollout=SMALL, rollout_library=LIBRARY)
+    report = diagnose(data["push"], tmp_path / "d", DiagnoseOptions(
+        route=route, reference=ref, method="lr", figures=False, progress=False))
+    cond = Conditions(0.0, 0.05)
+    r = report["rollout_route"]
+    assert report["reference_conditions"] == r["reference"]["conditions"] == cond.to_dict()
+    assert r["effects"] == [] and r["significant"] is False and report["significant"] is False
+    (e,) = r["reference"]["not_comparable"]
+    assert e["family"] == "pose (heading)" and not e["reference"]["changed"], e
+    assert e["reference"]["comparable"] is False
+    assert (e["why"], e["recording"]) == (cond.why, cond.recording)
+    assert r["reference"]["shared"] == []
+    u, rc = r["unexplained_change"], r["reference_change"]
+    assert u["comparable"] is False and u["significant"] is False and u["ratio"] > 0, u
+    assert rc["comparable"] is False and not rc["significant"] and not rc["named"]
+    assert u["statement"].startswith("not compared: ") and u["recording"] == cond.recording
+    # the report model carries the heading columns all the same
+    assert len(report["stages"]) == 2
+    assert "heading" in str(report["after"]["feature_set"]["augmentations"])
+    assert "the reference cannot tell whether these are changes" in r["verdict"]
+    md = (tmp_path / "d" / "report.md").read_text()
+    assert f"- the reference cannot tell: `{e['label']}` (the model keeps it)" in md
 
 
 def test_a_finding_the_reference_shows_as_much_is_no_change(data):

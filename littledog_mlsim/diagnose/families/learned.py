@@ -45,7 +45,11 @@ class LearnedFamily:
     ``other``); ``scans_delay``: its members are command lags whose delay the replacement scan
     estimates (``selection.py``, step 5); ``single_joints``: the rollout route narrows a kept
     leg, joint type or side to one joint where that joint carries the gain (False where the
-    physical family acts on a whole leg).
+    physical family acts on a whole leg); ``excitation_shows``: its columns are the joints' own
+    response to their commands and states (their history, or a nonlinear function of them),
+    which command excitation probes and a gait alone hardly does, so a recording with excitation
+    gains from them more than one without for any robot (decision 031: a reference recorded
+    under another excitation cannot contrast them).
     """
 
     features: ClassVar[tuple[type[Augmentation], ...]] = ()
@@ -53,6 +57,7 @@ class LearnedFamily:
     parameter: ClassVar[str] = ""
     scans_delay: ClassVar[bool] = False
     single_joints: ClassVar[bool] = True
+    excitation_shows: ClassVar[bool] = False
 
     @property
     def name(self) -> str:
@@ -155,6 +160,7 @@ class CommandDelayFeatures(LearnedFamily):
 
     features = (fl.CommandLag, fl.CommandIncrement)
     reads_as = CommandDelay
+    excitation_shows = True
     scans_delay = True
 
     def magnitude(self, aug: Augmentation) -> float | None:
@@ -190,6 +196,7 @@ class CommandFilterFeatures(LearnedFamily):
 
     features = (fl.CommandFilter,)
     reads_as = CommandFilter
+    excitation_shows = True
 
     def magnitude(self, aug: Augmentation) -> float | None:
         return aug.params()["time_constant_ms"]
@@ -199,6 +206,7 @@ class CommandFilterFeatures(LearnedFamily):
 class CoulombFeatures(LearnedFamily):
     features = (fl.JointRateSign,)
     reads_as = JointFrictionFamily
+    excitation_shows = True
 
 
 @register_learned
@@ -207,6 +215,7 @@ class PlayFeatures(LearnedFamily):
 
     features = (fl.Play,)
     reads_as = Backlash
+    excitation_shows = True
 
     def magnitude(self, aug: Augmentation) -> float | None:
         return aug.params()["width"]
@@ -216,7 +225,22 @@ class PlayFeatures(LearnedFamily):
 class SaturationFeatures(LearnedFamily):
     features = (fl.TrackingSaturation,)
     reads_as = TorqueSaturation
+    excitation_shows = True
     parameter = "torque_limit_Nm"
+
+
+@register_learned
+class StateLagFeatures(LearnedFamily):
+    """Earlier states: dynamics of a higher order than the model's, a filter or a lag."""
+
+    features = (fl.StateLag,)
+    excitation_shows = True
+
+
+@register_learned
+class RateMagnitudeFeatures(LearnedFamily):
+    features = (fl.JointRateMagnitude,)
+    excitation_shows = True
 
 
 @register_learned
