@@ -10,7 +10,8 @@ does (``diagnose --no-figures --jobs 2 --physics off --rollout-route --reference
 WORKnn/reference``, into OUT/<zoo>_<name>, skipped where its report.json exists), and scored
 with the harness's own ``significant`` and ``score`` against the zoo's ``truth.yaml`` (these
 zoos' truth has been read). The table gives beside it the zoo's blind run1 (its committed
-``results.json``). Writes TABLE.md and TABLE.json (appending rows where TABLE.json exists).
+``results.json``); seconds are each report's own. Writes TABLE.md and TABLE.json (appending
+rows where TABLE.json exists).
 """
 from __future__ import annotations
 
@@ -19,7 +20,6 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -49,18 +49,16 @@ def recordings(work: Path) -> list[tuple[str, Path]]:
     return out
 
 
-def diagnose(data: Path, out: Path, reference: Path) -> float | None:
-    """Seconds of one diagnosis (None where its report was there already)."""
+def diagnose(data: Path, out: Path, reference: Path) -> None:
+    """One diagnosis, unless its report is there already."""
     if (out / "report.json").exists():
-        return None
-    t0 = time.perf_counter()
+        return
     cmd = [str(ROOT / ".venv/bin/littledog-mlsim"), "diagnose", "--data", str(data), "--out",
            str(out), "--no-figures", "--jobs", "2", "--physics", "off", "--rollout-route",
            "--reference", str(reference)]
     out.parent.mkdir(parents=True, exist_ok=True)
     with open(out.with_suffix(".log"), "w") as log:
         subprocess.run(cmd, check=True, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
-    return time.perf_counter() - t0
 
 
 def blind_run1(zoo: str) -> dict[str, dict]:
@@ -75,11 +73,11 @@ def blind_run1(zoo: str) -> dict[str, dict]:
     return out
 
 
-def row(zoo: str, name: str, report: dict, truth: dict | None, seconds: float | None) -> dict:
+def row(zoo: str, name: str, report: dict, truth: dict | None) -> dict:
     rr = report.get("rollout_route") or {}
     ref = rr.get("reference") or {}
     uc, rc = rr.get("unexplained_change") or {}, rr.get("reference_change") or {}
-    out = {"zoo": zoo, "data": name, "seconds": seconds,
+    out = {"zoo": zoo, "data": name, "seconds": report.get("seconds"),
            "truth": None if truth is None else f"{truth['family']} @ {truth['scope']}",
            "learned_inputs": None if truth is None else truth.get("learned_inputs"),
            "significant": significant(report),
@@ -140,9 +138,9 @@ def main(argv=None) -> None:
         run1 = blind_run1(zoo)
         for name, data in recordings(work):
             out = a.out / f"{zoo}_{name}"
-            seconds = diagnose(data, out, work / "reference")
+            diagnose(data, out, work / "reference")
             report = json.loads((out / "report.json").read_text())
-            r = row(zoo, name, report, truth.get(name), seconds)
+            r = row(zoo, name, report, truth.get(name))
             r["run1"] = run1.get(name, {"named": []})
             doc["rows"].append(r)
             print(json.dumps({k: r[k] for k in ("zoo", "data", "significant", "named")}))
