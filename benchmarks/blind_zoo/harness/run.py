@@ -11,7 +11,8 @@ against the truth:
 - parameter error: ``|estimate / truth - 1|`` of the family's primary parameter;
 - one-step (mean TestPool nMSE) and rollout (mean final (x, y) error) before and after, and the
   same model's error on clean data of the same seed and recording condition;
-- clean runs: ``significant`` must be false (a false alarm otherwise);
+- clean runs: ``significant`` must be false (a false alarm otherwise); a diagnosis that stops
+  with an error is neither, and is counted apart;
 - where the effect was not found and the report names a recording that would settle it
   (``suspected[*].recording`` with ``--excitation``), that recording is made and diagnosed too
   and scored in its own columns (the loop closed by the report's own advice).
@@ -294,7 +295,9 @@ def markdown(rows: list[dict[str, Any]], clean: list[dict[str, Any]], summary: d
           "diagnose [s] |", "|---|---|---|---|---|---|"]
     for c in clean:
         h.append(f"| {c['name']} | {c['seed']} | {_fmt(c['excitation'], 'g')} | "
-                 f"{_fmt(c['significant'])} | {c['named']} | {_fmt(c['seconds'], '.0f')} |")
+                 f"{_fmt(c['significant'])} | "
+                 f"{'stopped with an error' if c.get('error') else c['named']} | "
+                 f"{_fmt(c['seconds'], '.0f')} |")
     h += ["", "Summary: " + "; ".join(f"{k} {_fmt(v, '.3g')}" for k, v in summary.items())]
     return "\n".join(h) + "\n"
 
@@ -523,6 +526,7 @@ def main(argv: list[str] | None = None) -> int:
     clean = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
               "significant": significant(d.report),
               "named": _named(score({"family": "", "scope": ""}, d.report)),
+              "error": d.report.get("error"),
               "seconds": d.diag_seconds} for d in clean_sets]
     first = [r for r in rows if "(recommended" not in r["id"]]
     n = len(first)
@@ -543,6 +547,8 @@ def main(argv: list[str] | None = None) -> int:
         "found with a rollout ratio": len(ratios),
         "false alarms": sum(c["significant"] for c in clean),
         "clean runs": len(clean),
+        "clean runs that stopped with an error (neither alarm nor pass)": sum(
+            bool(c["error"]) for c in clean),
         "diagnose seconds max": max(times) if times else None,
     }
     out.mkdir(parents=True, exist_ok=True)
