@@ -134,3 +134,15 @@ def zoo_truth(path: Path) -> dict[str, str]:
     doc = yaml.safe_load(Path(path).read_text())
     items = doc["effects"] if isinstance(doc, dict) else doc
     return {e["id"]: f"{e['family']} @ {e['scope']}" for e in items}
+
+
+def zoo_study_parser(description: str):
+    """The arguments the read-zoo studies share (``learned_route/reference_change``): a zoo's
+    recordings (``--zoo-dir``), its ``--truth``, the rows' ``--label`` and the ``--out`` stem."""
+    import argparse
+    p = argparse.ArgumentParser(description=description)
+    p.add_argument("--zoo-dir", type=Path, required=True)
+    p.add_argument("--truth", type=Path, required=True)
+    p.add_argument("--label", required=True)
+    p.add_argument("--out", type=Path, required=True)
+    return p

@@ -60,23 +60,30 @@ class Conditions:
                    else "without command excitation (record without --excitation)"))
 
     @property
-    def why(self) -> str:
-        """Why a finding of a family excitation shows cannot be contrasted."""
+    def _recorded(self) -> str:
         return (f"the reference was recorded with command excitation "
                 f"{self.reference_excitation_rad:g} rad and the data with "
-                f"{self.data_excitation_rad:g} rad; a recording with more excitation gains "
-                "more from the joints' own command response for any robot, so the reference "
-                "cannot tell whether this robot had it before")
+                f"{self.data_excitation_rad:g} rad")
+
+    @property
+    def statement(self) -> str:
+        """What the differing conditions rule out."""
+        return (self._recorded + ": the joints' command response and the rollout error cannot "
+                "be compared against it")
+
+    @property
+    def why(self) -> str:
+        """Why a finding of a family excitation shows cannot be contrasted."""
+        return (self._recorded + "; a recording with more excitation gains more from the "
+                "joints' own command response for any robot, so the reference cannot tell "
+                "whether this robot had it before")
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"data_excitation_rad": self.data_excitation_rad,
                                "reference_excitation_rad": self.reference_excitation_rad,
                                "comparable": self.comparable}
         if not self.comparable:
-            out["statement"] = (f"the reference was recorded with command excitation "
-                                f"{self.reference_excitation_rad:g} rad and the data with "
-                                f"{self.data_excitation_rad:g} rad: the joints' command response "
-                                "and the rollout error cannot be compared against it")
+            out["statement"] = self.statement
             out["recording"] = self.recording
         return out
 

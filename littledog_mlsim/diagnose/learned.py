@@ -1427,7 +1427,7 @@ def _not_compared(reading: dict[str, Any], conditions: "Conditions") -> dict[str
     ``conditions`` (decision 031): kept as measured, but neither significant nor named; its
     statement says why and its recording what settles it."""
     out = {**reading, "significant": False, "comparable": False,
-           "statement": (f"not compared: {conditions.to_dict()['statement']} (as measured: "
+           "statement": (f"not compared: {conditions.statement} (as measured: "
                          f"{reading.get('statement', '')})"),
            "recording": conditions.recording}
     if "named" in out:

@@ -20,7 +20,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -30,6 +30,9 @@ from ..models.features import FeatureSet
 from .candidates import BASELINES, default_library
 from .options import AutoRoute, DiagnoseOptions, LearnedRoute, PhysicalRoute
 from .selection import SearchModel, select_effects
+
+if TYPE_CHECKING:
+    from .conditions import Conditions
 
 __all__ = ["diagnose", "fit_report_model", "score_on_test", "DEFAULT_METHOD",
            "DEFAULT_OPTIONS"]
@@ -238,7 +241,7 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
 
 
 def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet,
-                   conditions: Any = None) -> dict[str, Any]:
+                   conditions: "Conditions | None" = None) -> dict[str, Any]:
     """The rollout route's report, searched from ``start`` (what the one-step loop ended
     with)."""
     from .learned import diagnose_learned
@@ -249,7 +252,7 @@ def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet,
                             conditions=conditions)
 
 
-def _conditions(run: _Run) -> Any:
+def _conditions(run: _Run) -> "Conditions | None":
     """The data's and the reference's recording conditions (:mod:`.conditions`, decision
     031); None without a reference. Where they differ, the run says so."""
     if run.o.reference is None:
@@ -258,7 +261,7 @@ def _conditions(run: _Run) -> Any:
     c = conditions_of(run.index.info, read_index(run.o.reference).info,
                       os.fspath(run.data), f"reference {run.o.reference}")
     if not c.comparable:
-        run.say("reference: " + c.to_dict()["statement"] + "; " + c.recording)
+        run.say(f"reference: {c.statement}; {c.recording}")
     return c
 
 

@@ -19,7 +19,6 @@ floor. Writes OUT.md and OUT.json (appending rows where OUT.json exists).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -29,18 +28,18 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import appended_study, study_commands  # noqa: E402
+from _common import appended_study, study_commands, zoo_study_parser  # noqa: E402
 
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
+import numpy as np   # noqa: E402
+import yaml   # noqa: E402
 
-from littledog_mlsim.data.dataset import load_moves  # noqa: E402
-from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
-from littledog_mlsim.diagnose.change import _columns_of, _move_sse  # noqa: E402
-from littledog_mlsim.diagnose.families.scopes import scope_joints  # noqa: E402
-from littledog_mlsim.diagnose.learned import LearnedOptions, _Route  # noqa: E402
-from littledog_mlsim.layout import CONTROL_DT, N_STATE, S  # noqa: E402
-from littledog_mlsim.robot.config import per_joint, robot_config  # noqa: E402
+from littledog_mlsim.data.dataset import load_moves   # noqa: E402
+from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
+from littledog_mlsim.diagnose.change import _columns_of, _move_sse   # noqa: E402
+from littledog_mlsim.diagnose.families.scopes import scope_joints   # noqa: E402
+from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E402
+from littledog_mlsim.layout import CONTROL_DT, N_STATE, S   # noqa: E402
+from littledog_mlsim.robot.config import per_joint, robot_config   # noqa: E402
 
 KP = per_joint(robot_config("nominal").kp)
 
@@ -155,11 +154,7 @@ def scan(route, ref_model, fs, scope, n):
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--zoo-dir", type=Path, required=True)
-    p.add_argument("--truth", type=Path, required=True)
-    p.add_argument("--label", required=True)
-    p.add_argument("--out", type=Path, required=True)
+    p = zoo_study_parser(__doc__.splitlines()[0])
     p.add_argument("--case", action="append", required=True, help="DATA@SCOPE")
     a = p.parse_args()
     truth = {e["id"]: e for e in yaml.safe_load(a.truth.read_text())["effects"]}

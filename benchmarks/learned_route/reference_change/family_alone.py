@@ -17,7 +17,6 @@ where OUT.json exists).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -27,12 +26,12 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import appended_study, study_commands, zoo_truth  # noqa: E402
+from _common import appended_study, study_commands, zoo_study_parser, zoo_truth  # noqa: E402
 
-from littledog_mlsim.data.dataset import load_moves  # noqa: E402
-from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
-from littledog_mlsim.diagnose.change import reference_change  # noqa: E402
-from littledog_mlsim.diagnose.learned import LearnedOptions, _Route  # noqa: E402
+from littledog_mlsim.data.dataset import load_moves   # noqa: E402
+from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
+from littledog_mlsim.diagnose.change import reference_change   # noqa: E402
+from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E402
 
 
 def write_md(doc: dict, path: Path) -> None:
@@ -57,11 +56,7 @@ def write_md(doc: dict, path: Path) -> None:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--zoo-dir", type=Path, required=True)
-    p.add_argument("--truth", type=Path, required=True)
-    p.add_argument("--label", required=True)
-    p.add_argument("--out", type=Path, required=True)
+    p = zoo_study_parser(__doc__.splitlines()[0])
     a = p.parse_args()
     opts, start = LearnedOptions(), measured_robot_features()
     quiet = lambda s: None  # noqa: E731
