@@ -358,6 +358,13 @@ def _md_timing(t: Mapping[str, Any] | None) -> list[str]:
              f"{t['median_ms']:+.1f} ms from the pose (median over {t['n_moves']} moves, "
              f"quartiles {t['iqr_ms'][0]:+.1f} to {t['iqr_ms'][1]:+.1f}){ref}. Shift "
              f"{t['shift_ms']:+.1f} ms, p = {t['p_value']:.2g} ({t['test']}).\n")
+    legs = (t.get("legs") or {}).get("per_leg") or []
+    if legs:
+        L.append("Per leg (its own angles, over the rows its foot stands): " + "; ".join(
+            f"{r['leg'].replace('_', '-')} "
+            + ("not read" if r["shift_ms"] is None
+               else f"{r['shift_ms']:+.1f} ms (p = {r['p_value']:.2g})") for r in legs)
+            + ".\n")
     if t.get("significant"):
         L.append(f"**Found:** {t['statement']}. What to do: {t['recording']}.\n")
     else:
