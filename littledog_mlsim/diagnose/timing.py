@@ -36,7 +36,7 @@ Method
    two-sided Wilcoxon test cannot go below 1e-4 with fewer than 15 moves.) Moves too short for
    the leads tried, or whose profile is flat (a robot standing still: no minimum to read), are
    skipped and counted.
-5. Per leg (:func:`leg_timing`; decision 033): one leg's joint states late (its own message or
+5. Per leg (:func:`leg_timing`; decision 032): one leg's joint states late (its own message or
    encoder bus) moves the whole robot's lead little, since that leg stands half the time, and
    reads at one step as a set-point delay at that leg. A foot's position depends on its own
    leg's angles only, so each leg has its own profile: the RMS of its foot's height about a
