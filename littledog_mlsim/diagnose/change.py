@@ -61,8 +61,7 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay by its column alone on a grid of fractional
-   delays (:func:`_finer_delay`, decision 032); a play band's width; a low-pass's
+   median over the scope's joints); a delay of ``k`` steps; a play band's width; a low-pass's
    time constant, on a finer grid around the scan's best (:data:`FINER_STEPS`;
    :func:`_finer_low_pass`); a drift rate from the ``t (u - q)`` coefficient over the
    reference's slope; a drag in newtons, the coefficient of its torque column over the
@@ -111,13 +110,6 @@ EXPLAINED_SHARE = 0.75
 PLAY_WIDTHS = (0.01, 0.02, 0.035, 0.05, 0.08)
 #: the kept low-pass's time constant is sized on this finer grid, as ratios to the scan's best
 FINER_STEPS = (0.7, 0.8, 0.9, 1.1, 1.2, 1.35)
-#: a kept set-point delay is sized by its column alone, ``u(t - b - d) - u(t - b)`` with ``b``
-#: this many control steps, over the delays :data:`DELAY_SIZES` (decision 032): the scan's SSE
-#: fixes the column's centre ``b + d / 2`` and hardly ``b`` and ``d`` apart; ``b`` is the mean
-#: read off six delays of read zoos (zoo14-19)
-DELAY_BASE_STEPS = 0.5
-#: the set-point delays sized [control steps]
-DELAY_SIZES = tuple(float(v) for v in np.arange(0.5, MAX_LAG + 1.01, 0.5))
 #: foot speed [m/s] below which a swing drag's direction is softened (its size v / sqrt(v^2 +
 #: scale^2))
 FOOT_SPEED_SCALE = 0.05
@@ -672,8 +664,7 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
     before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
     share = float((before - after) / (before - own)) if before > own else 0.0
     family = kept.hyp.family
-    size = (_finer_delay(data, fs, kept.hyp.scope, cols, rows)
-            if family == "command_delay" else _size(sized.model, X, D, Xr, Dr))
+    size = _size(sized.model, X, D, Xr, Dr)
     return {"family": family, "kept_scope": _scope_for(family, scope),
             "label": sized.hyp.label(), "explained": share, "size": size,
             "named": bool(share >= EXPLAINED_SHARE
@@ -880,44 +871,6 @@ def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet
     return {"confirmed": drift.ok, "scope": scope, "total_gain": drift.total,
             "p_value": float(d.p_value), "significant": bool(d.significant),
             "material": bool(d.material), "servo_total_gain": servo.total}
-
-
-def _finer_delay(data: "_Residuals", fs: FeatureSet, scope: str, cols: Sequence[int],
-                 rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """The kept set-point delay's size (decision 032): of :data:`DELAY_SIZES`, the ``d`` whose
-    column ``u(t - b - d) - u(t - b)`` (``b`` = :data:`DELAY_BASE_STEPS`; a fractional lag
-    linear between neighbouring set-points, as a sub-step delay of a held command) alone, with
-    a constant, leaves the least held-out one-step SSE over the scope's elements ``cols``. The
-    scan decided the family; this sizes it (each row ``stage`` "size", ``sse``)."""
-    n_folds = data.route.opts.n_folds
-    group = scope_group(scope)
-    top = int(np.ceil(DELAY_BASE_STEPS + max(DELAY_SIZES))) + 1
-    carrier = replace(Hypothesis("command_delay", scope,
-                                 _family_aug("command_delay", scope, 1)), alone=True)
-    X, R, mi, fold = data.of(carrier)
-    n0 = X.shape[1] - len(JOINT_GROUPS[group])
-    lag = {0: X[:, [N_STATE + j for j in JOINT_GROUPS[group]]]}
-    for k in range(1, top + 1):
-        lag[k] = data.of(Hypothesis("command_delay", scope,
-                                    _family_aug("command_delay", scope, k)))[0][:, n0:]
-
-    def at(steps: float) -> np.ndarray:
-        k = int(np.floor(steps))
-        f = steps - k
-        return (1.0 - f) * lag[k] + f * lag[min(k + 1, top)]
-
-    best, best_sse = None, np.inf
-    for d in DELAY_SIZES:
-        Xe = X.copy()
-        Xe[:, n0:] = at(DELAY_BASE_STEPS + d) - at(DELAY_BASE_STEPS) + lag[0]
-        model = ChangeModel(data.ref_model, fs, carrier).fit(Xe, R, fold, n_folds)
-        sse = float(_move_sse(_held_out(model, Xe, R, fold, n_folds), mi,
-                              data.route.mv.n)[:, cols].sum())
-        rows.append({"label": f"set-point delay {d * CONTROL_DT * 1000.0:g} ms @ {scope}",
-                     "family": "command_delay", "scope": scope, "stage": "size", "sse": sse})
-        if sse < best_sse:
-            best, best_sse = d, sse
-    return {"delay_ms": round(best * CONTROL_DT * 1000.0, 1)}
 
 
 def _row(j: _Judged, stage: str) -> dict[str, Any]:
