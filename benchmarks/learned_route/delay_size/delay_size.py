@@ -1,5 +1,5 @@
-"""Decision 032 on read zoos: a set-point delay named since the reference, sized by its column
-alone at fractional delays, against the scan's integer lag.
+"""A set-point delay named since the reference on read zoos: the scan's integer lag against
+its column alone at fractional delays (tried at dbab1d8, not adopted).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/learned_route/delay_size/delay_size.py \
         --zoo-dir WORK19 --truth benchmarks/blind_zoo/zoos/zoo19/truth.yaml --label zoo19 \
@@ -10,8 +10,10 @@ WORK19 holds a zoo's recordings as the blind-zoo harness writes them (``referenc
 the whole reference at the route's start feature set is read through
 :func:`littledog_mlsim.diagnose.change.reference_change`, as a diagnosis whose search accepted
 nothing would read it. Each row gives the truth, what decision 027 names, the scan's integer lag
-(``set-point delay k step(s)``, the size before decision 032) and the size now, each with its
-error against the truth (these zoos' truth has been read). Writes OUT.md and OUT.json
+(``set-point delay k step(s)``, the size decision 027 gives) and the size of the tried code
+(``size.delay_ms``: at dbab1d8 the kept delay's column alone, ``u(t - 0.5 - d) - u(t - 0.5)``
+steps, on a grid of d; at any later commit the same as the scan's), each with its error against
+the truth (these zoos' truth has been read). Writes OUT.md and OUT.json
 (appending rows where OUT.json exists).
 """
 from __future__ import annotations
@@ -39,8 +41,8 @@ def _err(ms: float | None, truth: float) -> float | None:
 
 def write_md(doc: dict, path: Path) -> None:
     """The study's table of ``doc``'s rows, under its commands."""
-    lines = ["# Decision 032 on read zoos: the size of a set-point delay named since the "
-             "reference", ""]
+    lines = ["# The size of a set-point delay named since the reference, on read zoos "
+             "(tried, not adopted)", ""]
     lines += study_commands(doc)
     lines += ["", "| zoo | effect | truth | named | scan's lag [ms] | error | sized [ms] | error |",
               "|---|---|---|---|---|---|---|---|"]
