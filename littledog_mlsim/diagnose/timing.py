@@ -157,9 +157,9 @@ def _profiles(move: MoveRecording, leads: Sequence[int] = LEADS
 
 
 def lead_profile(move: MoveRecording, leads: Sequence[int] = LEADS) -> np.ndarray:
-    """(len(leads),) RMS [m] of the two lowest feet's world height over the move about a plane
-    in the body's (x, y) position (a level or inclined floor), the pose at t and the joint
-    angles at t + lead."""
+    """(len(leads),) RMS [m] of the two lowest feet's mean height above the floor over the
+    move, about a plane in the body's (x, y) position, the pose at t and the joint angles at
+    t + lead (:func:`_profiles`)."""
     return _profiles(move, leads)[0]
 
 
