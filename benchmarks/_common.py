@@ -146,3 +146,11 @@ def zoo_study_parser(description: str):
     p.add_argument("--label", required=True)
     p.add_argument("--out", type=Path, required=True)
     return p
+
+
+def save_study(doc: dict, out: Path, write_md) -> None:
+    """Write an appended study's ``doc`` to ``out``.json and its table to ``out``.md
+    (``write_md(doc, path)``)."""
+    import json
+    out.with_suffix(".json").write_text(json.dumps(doc, indent=1))
+    write_md(doc, out.with_suffix(".md"))

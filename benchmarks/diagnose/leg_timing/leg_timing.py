@@ -13,7 +13,6 @@ against the reference's). Writes OUT.md and OUT.json (appending rows where OUT.j
 """
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
@@ -22,7 +21,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-from _common import appended_study, study_commands, zoo_study_parser, zoo_truth  # noqa: E402
+from _common import (appended_study, save_study, study_commands, zoo_study_parser,  # noqa: E402
+                     zoo_truth)
 
 from littledog_mlsim.data.dataset import load_moves   # noqa: E402
 from littledog_mlsim.diagnose.timing import sensor_timing   # noqa: E402
@@ -52,8 +52,7 @@ def main() -> None:
     a = p.parse_args()
     truth = zoo_truth(a.truth)
     ref = load_moves(a.zoo_dir / "reference", "train")
-    out_json = a.out.with_suffix(".json")
-    doc = appended_study(out_json)
+    doc = appended_study(a.out.with_suffix(".json"))
     data = (sorted(d for d in (a.zoo_dir / "effects").iterdir() if d.is_dir())
             + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
     for d in data:
@@ -72,8 +71,7 @@ def main() -> None:
                "seconds": round(time.perf_counter() - t0, 1)}
         doc["rows"].append(row)
         print(row, flush=True)
-    out_json.write_text(json.dumps(doc, indent=1))
-    write_md(doc, a.out.with_suffix(".md"))
+    save_study(doc, a.out, write_md)
 
 
 if __name__ == "__main__":

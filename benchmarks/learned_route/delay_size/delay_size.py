@@ -27,7 +27,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
 import yaml  # noqa: E402
-from _common import appended_study, study_commands, zoo_study_parser  # noqa: E402
+from _common import appended_study, save_study, study_commands, zoo_study_parser  # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves   # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
@@ -71,8 +71,7 @@ def main() -> None:
     delays = [e for e in items if e["family"] == "command_delay"]
     ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
     ref_fit = ref.fit(start, one_step=True)
-    out_json = a.out.with_suffix(".json")
-    doc = appended_study(out_json)
+    doc = appended_study(a.out.with_suffix(".json"))
     for e in delays:
         t = time.perf_counter()
         truth = float(e["params"]["delay_ms"])
@@ -90,9 +89,7 @@ def main() -> None:
                "seconds": round(time.perf_counter() - t, 1)}
         doc["rows"].append(row)
         print(row, flush=True)
-    import json
-    out_json.write_text(json.dumps(doc, indent=1))
-    write_md(doc, a.out.with_suffix(".md"))
+    save_study(doc, a.out, write_md)
 
 
 if __name__ == "__main__":
