@@ -293,7 +293,9 @@ def cmd_diagnose(a: argparse.Namespace) -> int:
 
 def print_diagnosis(r: dict, out: Path) -> None:
     """The lines ``diagnose`` prints of its report: the effects, the suspects, the rollout
-    route's verdict where it ran, and the one-step nMSE."""
+    route's verdict where it ran, a sensor-timing finding, and the one-step nMSE. Where the
+    one-step loop's findings could not be compared with the reference (decision 031), the
+    "nothing significant" line says so."""
     for e in r.get("effects", []):
         if "physical" in e:
             print(f"effect {e['round']}: {e['physical']['family']} on {e['physical']['scope']} "
@@ -311,7 +313,14 @@ def print_diagnosis(r: dict, out: Path) -> None:
                   f"{', '.join(e['outputs'][:6])}{' ...' if len(e['outputs']) > 6 else ''}; "
                   f"TestPool nMSE of those {100 * sum(cut) / max(len(cut), 1):.1f} % lower")
     elif not (r.get("rollout_route") or {}).get("significant"):
-        print("nothing significant: no candidate effect explains the residual")
+        nc = r.get("not_comparable") or []
+        print("nothing significant: no candidate effect explains the residual" if not nc else
+              f"nothing significant against the reference: {len(nc)} finding(s) of the joints' "
+              "command response cannot be compared with it (another command excitation; "
+              "listed as suspected)")
+    t = r.get("timing") or {}
+    if t.get("significant"):
+        print(f"timing: {t['statement']}")
     if r.get("rollout_route"):
         print(f"rollout route: {r['rollout_route'].get('verdict', '')}")
     b, f = r["before"]["nmse_mean"], r["after"]["nmse_mean"]

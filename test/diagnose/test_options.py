@@ -93,7 +93,8 @@ def test_cli_refuses_a_bad_twin_or_reference_in_one_line(tmp_path):
 
 def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
     """A finding of the rollout route alone (here an unexplained change) is not printed as
-    "nothing significant"; without a rollout route that line stays."""
+    "nothing significant"; without a rollout route that line stays, saying so where findings
+    could not be compared with the reference; a sensor-timing finding gets its own line."""
     from littledog_mlsim.cli import print_diagnosis
     base = {"effects": [], "suspected": [], "before": {"nmse_mean": 0.07},
             "after": {"nmse_mean": 0.07}}
@@ -107,3 +108,14 @@ def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "nothing significant: no candidate effect explains the residual"
     assert len(out) == 2
+    # findings set aside as not comparable with the reference are not "no candidate"
+    print_diagnosis({**base, "not_comparable": [{"label": "state_lag(lag=3, group=all)"}]},
+                    tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("nothing significant against the reference: 1 finding(s)")
+    assert "cannot be compared" in out[0] and "no candidate" not in out[0]
+    # a sensor-timing finding is printed
+    timing = {"significant": True, "statement": "the pose lags the joint states by about 30 ms"}
+    print_diagnosis({**base, "timing": timing}, tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert out[1] == "timing: the pose lags the joint states by about 30 ms" and len(out) == 3
