@@ -128,12 +128,16 @@ def study_commands(doc: dict) -> list[str]:
             for c in doc["commands"]]
 
 
-def zoo_truth(path: Path) -> dict[str, str]:
-    """A blind zoo's ``truth.yaml`` read as ``{effect id: "family @ scope"}`` (after its run)."""
+def zoo_effects(path: Path) -> list[dict]:
+    """A blind zoo's ``truth.yaml``: its effects' entries (after its run)."""
     import yaml
     doc = yaml.safe_load(Path(path).read_text())
-    items = doc["effects"] if isinstance(doc, dict) else doc
-    return {e["id"]: f"{e['family']} @ {e['scope']}" for e in items}
+    return doc["effects"] if isinstance(doc, dict) else doc
+
+
+def zoo_truth(path: Path) -> dict[str, str]:
+    """A blind zoo's ``truth.yaml`` read as ``{effect id: "family @ scope"}`` (after its run)."""
+    return {e["id"]: f"{e['family']} @ {e['scope']}" for e in zoo_effects(path)}
 
 
 def zoo_study_parser(description: str):

@@ -26,8 +26,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
-import yaml  # noqa: E402
-from _common import appended_study, save_study, study_commands, zoo_study_parser  # noqa: E402
+from _common import (appended_study, save_study, study_commands, zoo_effects,  # noqa: E402
+                     zoo_study_parser)
 
 from littledog_mlsim.data.dataset import load_moves   # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
@@ -66,9 +66,7 @@ def main() -> None:
     a = p.parse_args()
     opts, start = LearnedOptions(), measured_robot_features()
     quiet = lambda s: None  # noqa: E731
-    items = yaml.safe_load(a.truth.read_text())
-    items = items["effects"] if isinstance(items, dict) else items
-    delays = [e for e in items if e["family"] == "command_delay"]
+    delays = [e for e in zoo_effects(a.truth) if e["family"] == "command_delay"]
     ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
     ref_fit = ref.fit(start, one_step=True)
     doc = appended_study(a.out.with_suffix(".json"))
