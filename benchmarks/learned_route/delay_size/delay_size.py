@@ -26,6 +26,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[3]), str(Path(__file__).resolve().parents[2])]
 
+import numpy as np  # noqa: E402
 from _common import (appended_study, save_study, study_commands, zoo_effects,  # noqa: E402
                      zoo_study_parser)
 
@@ -56,8 +57,10 @@ def write_md(doc: dict, path: Path) -> None:
     if sized:
         within = sum(r["sized_error"] <= 0.25 for r in sized)
         before = sum(r["scan_error"] <= 0.25 for r in sized)
+        mean = [100 * np.mean([r[k] for r in sized]) for k in ("scan_error", "sized_error")]
         lines += ["", f"Within 25 %: {before} of {len(sized)} by the scan's lag, {within} of "
-                  f"{len(sized)} sized (rows where a delay was named)."]
+                  f"{len(sized)} sized (rows where a delay was named). Mean error: "
+                  f"{mean[0]:.0f} % by the scan's lag, {mean[1]:.0f} % sized."]
     path.write_text("\n".join(lines) + "\n")
 
 
