@@ -131,7 +131,9 @@ command excitation, ``comparable``, and where they differ a ``statement`` and th
 ``effects`` with ``why`` and ``recording``, what the search accepted of a family excitation
 shows while they differ (carried by the model; ``significant`` does not count it), and
 ``unexplained_change`` and ``reference_change`` are then kept as measured with
-``comparable: false``, neither ``significant`` nor ``named``.
+``comparable: false``, neither ``significant`` nor ``named``, except an ``unexplained_change``
+that concentrates at a joint scope (:func:`concentrated_at_joints`, decision 033): it is read as
+measured, with ``comparable: false`` and ``concentrated: true``.
 """
 from __future__ import annotations
 
@@ -1396,8 +1398,10 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
         report["unexplained_change"] = _unexplained_change(route, ref_route, fs, ev,
                                                            ref_at_fs[1])
         if conditions is not None and not conditions.comparable:
-            report["unexplained_change"] = _not_compared(report["unexplained_change"],
-                                                         conditions)
+            uc = report["unexplained_change"]
+            report["unexplained_change"] = (_compared_where_concentrated(uc, conditions)
+                                            if concentrated_at_joints(uc)
+                                            else _not_compared(uc, conditions))
         if report["unexplained_change"]["significant"]:
             report["significant"] = True
             say("unexplained change: " + report["unexplained_change"]["statement"])
@@ -1433,6 +1437,31 @@ def _not_compared(reading: dict[str, Any], conditions: "Conditions") -> dict[str
     if "named" in out:
         out["named"] = False
     return out
+
+
+def concentrated_at_joints(reading: Mapping[str, Any]) -> bool:
+    """Whether decision 026's ``reading`` concentrates at a joint scope narrower than all
+    joints (:data:`.excess.CONCENTRATION`, its own rule): a change a difference of command
+    excitation alone does not give, since the excitation drives every joint's set-points
+    alike (decision 033)."""
+    from .excess import CONCENTRATION
+    return (reading.get("scope") not in (None, "all", "body")
+            and float(reading.get("concentration", 0.0)) >= CONCENTRATION)
+
+
+def _compared_where_concentrated(reading: dict[str, Any], conditions: "Conditions"
+                                 ) -> dict[str, Any]:
+    """Decision 026's ``reading`` against a reference recorded under other ``conditions``
+    where it concentrates at a joint scope (decision 033): read as measured, significant where
+    it is, with ``comparable`` false and ``concentrated`` true; the statement says why it was
+    compared all the same."""
+    from .families.scopes import scope_words
+    return {**reading, "comparable": False, "concentrated": True,
+            "statement": (f"compared although {conditions.statement}, since the change "
+                          f"concentrates at {scope_words(reading['scope'])} "
+                          f"({reading['concentration']:.2f} times the other joints' ratio), "
+                          f"which a difference of excitation over all joints does not give: "
+                          f"{reading.get('statement', '')}")}
 
 
 def _unexplained_change(route: _Route, ref_route: _Route, fs: FeatureSet, ev: Evidence,

@@ -95,3 +95,25 @@ def test_a_reading_against_another_excitation_is_kept_but_neither_significant_no
     assert out["statement"].endswith("(as measured: a change)")
     assert out["recording"] == cond.recording
     assert "named" not in _not_compared({"significant": True, "statement": ""}, cond)
+
+
+def test_a_reading_concentrated_at_a_joint_scope_is_compared_across_excitations():
+    """Decision 033: decision 026's reading across excitations counts where it concentrates at
+    a joint scope narrower than all joints; spread over the joints or the body it does not."""
+    from littledog_mlsim.diagnose.excess import CONCENTRATION
+    from littledog_mlsim.diagnose.learned import (_compared_where_concentrated,
+                                                  concentrated_at_joints)
+    cond = Conditions(0.05, 0.0)
+    knee = {"significant": True, "ratio": 1.87, "scope": "joint:front_left_knee",
+            "concentration": 3.51, "statement": "a change", "recording": "r"}
+    assert concentrated_at_joints(knee)
+    for scope, conc in (("all", 1.0), ("body", 2.5), ("type:knees", CONCENTRATION - 0.01)):
+        assert not concentrated_at_joints({**knee, "scope": scope, "concentration": conc})
+    out = _compared_where_concentrated(knee, cond)
+    assert (out["significant"], out["comparable"], out["concentrated"], out["ratio"],
+            out["scope"]) == (True, False, True, 1.87, "joint:front_left_knee")
+    assert "front-left knee" in out["statement"] and out["statement"].endswith(": a change")
+    assert cond.statement in out["statement"]
+    quiet = _compared_where_concentrated({**knee, "significant": False}, cond)
+    assert quiet["significant"] is False
+
