@@ -21,7 +21,7 @@ reference recording of the same robot it is measured directly (decision 027):
    :data:`.excess.CONCENTRATION` times the rest, or in the body's elements, is reported and
    not named, unless it lives in one leg's swing (decision 029, :func:`_where_in_swing`):
    the same ratio per leg on the rows where the leg swings and where it stands; the leg whose
-   swing ratio is the largest, material, significant and at least
+   swing ratio is the largest, material (:data:`SWING_MIN_RATIO`), significant and at least
    :data:`SWING_CONCENTRATION` times the other legs' is screened on its swing rows
    (:func:`_screen_in_swing`) where the change over all rows is not material, or where the
    joint scope located over all rows lies in that leg and was not named. There a force on the
@@ -118,8 +118,11 @@ NOMINAL_ROBOT = "nominal"
 #: ridge on the standardised correction columns, per row
 RIDGE = 1e-3
 #: a leg's swing-phase one-step ratio at least this many times the other legs' (in their swing)
-#: locates a change there where no scope of all rows is concentrated (decision 029)
-SWING_CONCENTRATION = 1.5
+#: locates a change there where no scope of all rows is concentrated (decisions 029, 034)
+SWING_CONCENTRATION = 1.4
+#: a leg's swing-phase one-step ratio at least this is material there (decision 034; decision
+#: 029 took decision 026's 1.5)
+SWING_MIN_RATIO = 1.25
 #: a leg swings on a row where its swing weight (commanded lift over ``SWING_LIFT_M``) is above
 #: this, and stands where it is zero
 SWING_ROW = 0.5
@@ -498,7 +501,7 @@ def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref:
     stands), each move's mean squared residual of the leg's angles and rates over those rows,
     divided element by element by the reference's held-out mean there, averaged over the six
     elements; a cell's ratio is the data's mean score over the reference's. The leg with the
-    largest swing ratio is ``located`` where that ratio is material (:data:`.excess.MIN_RATIO`),
+    largest swing ratio is ``located`` where that ratio is material (:data:`SWING_MIN_RATIO`),
     significant (one-sided Mann-Whitney U over moves, p below ``alpha`` over the four legs) and
     at least :data:`SWING_CONCENTRATION` times the mean of the other legs' swing ratios."""
     from scipy import stats as st
@@ -533,7 +536,7 @@ def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref:
     p = float(st.mannwhitneyu(a, b, alternative="greater").pvalue)
     conc = swing[leg] / rest if rest > 0 else float("inf")
     out.update(leg=leg, scope=f"leg:{leg}", ratio=swing[leg], concentration=conc, p_value=p,
-               located=bool(swing[leg] >= MIN_RATIO and p < alpha / len(swing)
+               located=bool(swing[leg] >= SWING_MIN_RATIO and p < alpha / len(swing)
                             and conc >= SWING_CONCENTRATION))
     return out
 

@@ -389,33 +389,39 @@ def _swing_rows(n_moves: int, rows_per_move: int, rng: np.random.Generator):
     return X, np.repeat(np.arange(n_moves), rows_per_move)
 
 
-@pytest.mark.parametrize("case", ["drag", "clean", "everywhere"])
+@pytest.mark.parametrize("case", ["drag", "small_drag", "clean", "everywhere"])
 def test_a_change_in_one_legs_swing_is_located_there(case):
-    """Decision 029's location: the back-left leg's residual larger only while it swings is
-    located at that leg; the same residual as the reference's is not; a residual larger on
-    every leg in swing is not concentrated at one."""
-    from littledog_mlsim.diagnose.change import (SWING_CONCENTRATION, _where_in_swing,
-                                                 swing_weight)
+    """Decision 029's location (with decision 034's thresholds): the back-left leg's residual
+    larger only while it swings is located at that leg, also where its swing ratio is below
+    1.5; the same residual as the reference's is not; a residual larger on every leg in swing
+    is not concentrated at one."""
+    from littledog_mlsim.diagnose.change import (SWING_CONCENTRATION, SWING_MIN_RATIO,
+                                                 _where_in_swing, swing_weight)
     rng = np.random.default_rng(3)
     X, mi = _swing_rows(40, 60, rng)
     Xr, mir = _swing_rows(40, 60, rng)
     R, Rr = rng.normal(size=(len(X), N_STATE)), rng.normal(size=(len(Xr), N_STATE))
     w = swing_weight(X)
-    joints = {"drag": [6, 7, 8], "clean": [], "everywhere": list(range(12))}[case]
+    joints = {"drag": [6, 7, 8], "small_drag": [6, 7, 8], "clean": [],
+              "everywhere": list(range(12))}[case]
+    scale = 1.18 if case == "small_drag" else 1.6
     for j in joints:
         rows = w[:, j // 3] > 0.5
-        R[rows, S.q.start + j] *= 1.6
-        R[rows, S.dq.start + j] *= 1.6
+        R[rows, S.q.start + j] *= scale
+        R[rows, S.dq.start + j] *= scale
     out = _where_in_swing(R, X, mi, 40, Rr, Xr, mir, 40, 1e-3)
     cells = out["cells"]
     if case == "drag":
         assert out["located"] and out["scope"] == "leg:back_left", out
         assert cells["back_left"]["swing"] > 2.0 and cells["back_left"]["stance"] < 1.2
         assert out["concentration"] >= SWING_CONCENTRATION and out["p_value"] < 1e-3
+    elif case == "small_drag":
+        assert out["located"] and out["scope"] == "leg:back_left", out
+        assert SWING_MIN_RATIO <= cells["back_left"]["swing"] < 1.5, out
     else:
         assert not out["located"], out
         assert (out["concentration"] < SWING_CONCENTRATION if case == "everywhere"
-                else out["ratio"] < 1.5), out
+                else out["ratio"] < SWING_MIN_RATIO), out
 
 
 def test_the_statement_of_a_change_in_one_legs_swing_says_why_it_is_named_or_not():

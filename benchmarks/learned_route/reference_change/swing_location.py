@@ -34,7 +34,18 @@ from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E4
 
 def main() -> None:
     p = zoo_study_parser(__doc__.splitlines()[0])
+    p.add_argument("--only", default=None,
+                   help="comma-separated recordings (zNN, sNNN_e0) to read; default all")
+    p.add_argument("--swing-min-ratio", type=float, default=None,
+                   help="decision 029's material swing ratio (change.SWING_MIN_RATIO) to try")
+    p.add_argument("--swing-concentration", type=float, default=None,
+                   help="decision 029's concentration (change.SWING_CONCENTRATION) to try")
     a = p.parse_args()
+    import littledog_mlsim.diagnose.change as change
+    if a.swing_min_ratio is not None:
+        change.SWING_MIN_RATIO = a.swing_min_ratio
+    if a.swing_concentration is not None:
+        change.SWING_CONCENTRATION = a.swing_concentration
     opts, start = LearnedOptions(), measured_robot_features()
     quiet = lambda s: None  # noqa: E731
     truth = zoo_truth(a.truth)
@@ -44,6 +55,8 @@ def main() -> None:
     doc = appended_study(out_json)
     data = (sorted(d for d in (a.zoo_dir / "effects").iterdir() if d.is_dir())
             + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
+    if a.only:
+        data = [d for d in data if d.name in a.only.split(",")]
     for d in data:
         t = time.perf_counter()
         r = _Route(load_moves(d, "train"), start, opts, quiet)
@@ -53,6 +66,8 @@ def main() -> None:
         force = next((h for h in sc.get("hypotheses", []) if h["stage"] == "force"), None)
         voc = c.get("vocabulary") or {}
         row = {"zoo": a.label, "data": d.name, "truth": truth.get(d.name, "clean"),
+               "swing_min_ratio": change.SWING_MIN_RATIO,
+               "swing_concentration_min": change.SWING_CONCENTRATION,
                "all_rows_ratio": round(c["ratio"], 2), "located_by": c["located_by"],
                "swing_leg": sw.get("leg"), "swing_ratio": round(sw.get("ratio", 0.0), 2),
                "swing_concentration": round(sw.get("concentration", 0.0), 2),
