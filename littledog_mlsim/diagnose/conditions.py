@@ -60,6 +60,11 @@ class Conditions:
                    else "without command excitation (record without --excitation)"))
 
     @property
+    def recorded(self) -> str:
+        """How the two recordings' excitations differ."""
+        return self._recorded
+
+    @property
     def _recorded(self) -> str:
         return (f"the reference was recorded with command excitation "
                 f"{self.reference_excitation_rad:g} rad and the data with "

@@ -1457,11 +1457,11 @@ def _compared_where_concentrated(reading: dict[str, Any], conditions: "Condition
     compared all the same."""
     from .families.scopes import scope_words
     return {**reading, "comparable": False, "concentrated": True,
-            "statement": (f"compared although {conditions.statement}, since the change "
-                          f"concentrates at {scope_words(reading['scope'])} "
+            "statement": (f"{conditions.recorded}, but the change concentrates at "
+                          f"{scope_words(reading['scope'])} "
                           f"({reading['concentration']:.2f} times the other joints' ratio), "
-                          f"which a difference of excitation over all joints does not give: "
-                          f"{reading.get('statement', '')}")}
+                          f"which a difference of excitation over all joints does not give, "
+                          f"so it is compared all the same: {reading.get('statement', '')}")}
 
 
 def _unexplained_change(route: _Route, ref_route: _Route, fs: FeatureSet, ev: Evidence,

@@ -113,7 +113,7 @@ def test_a_reading_concentrated_at_a_joint_scope_is_compared_across_excitations(
     assert (out["significant"], out["comparable"], out["concentrated"], out["ratio"],
             out["scope"]) == (True, False, True, 1.87, "joint:front_left_knee")
     assert "front-left knee" in out["statement"] and out["statement"].endswith(": a change")
-    assert cond.statement in out["statement"]
+    assert out["statement"].startswith(cond.recorded + ", but the change concentrates")
     quiet = _compared_where_concentrated({**knee, "significant": False}, cond)
     assert quiet["significant"] is False
 
