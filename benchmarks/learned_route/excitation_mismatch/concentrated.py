@@ -7,7 +7,8 @@
         --out benchmarks/learned_route/excitation_mismatch/concentrated
 
 Each ``--run`` is a blind run's diagnosis directory as the harness writes it (one ``NAME/
-report.json`` per recording: ``zNN``, ``clean_sNNN_eE``). For every recording made with command
+report.json`` per recording: ``zNN``, ``clean_sNNN_eE``), or the OUT directory of this study's
+``run.py`` (``LABEL_NAME/report.json``). For every recording made with command
 excitation (the effect's ``recording.excitation`` in the zoo's truth, or a clean name ending in
 ``e`` and a positive number; every zoo's reference is recorded without), the table gives decision
 026's reading as the run measured it (``rollout_route.unexplained_change``: ratio, p, scope and
@@ -85,22 +86,25 @@ def main() -> None:
     doc = appended_study(a.out.with_suffix(".json"))
     for label, diag in runs.items():
         effects = {e["id"]: e for e in zoo_effects(truths[label])}
-        for d in sorted(x for x in diag.iterdir() if x.is_dir()):
-            exc = _excitation(d.name, effects)
+        dirs = sorted(x for x in diag.iterdir() if x.is_dir())
+        prefixed = [x for x in dirs if x.name.startswith(f"{label}_")]   # run.py's OUT
+        for d in prefixed or dirs:
+            name = d.name.removeprefix(f"{label}_") if prefixed else d.name
+            exc = _excitation(name, effects)
             rep = d / "report.json"
             if exc <= 0:
                 continue
             if not rep.exists():
-                print(f"{label} {d.name}: no report.json", flush=True)
+                print(f"{label} {name}: no report.json", flush=True)
                 continue
             rr = json.loads(rep.read_text()).get("rollout_route") or {}
             u, rc = rr.get("unexplained_change") or {}, rr.get("reference_change") or {}
             if not u:
                 continue
-            e = effects.get(d.name)
+            e = effects.get(name)
             measured = bool(u["material"] and u["p_value"] < u["alpha"])
             top = sorted(u.get("scope_ratios", {}).items(), key=lambda kv: -kv[1])[:3]
-            row = {"zoo": label, "data": d.name, "excitation": exc,
+            row = {"zoo": label, "data": name, "excitation": exc,
                    "truth": "clean" if e is None else f"{e['family']} @ {e['scope']}",
                    "ratio": u["ratio"], "p_value": u["p_value"], "scope": u["scope"],
                    "concentration": u["concentration"], "top_scopes": top,
