@@ -17,9 +17,10 @@ reference recording of the same robot it is measured directly (decision 027):
    the reference's own are reported beside it (``rollout_ratio``). One step, not rollouts,
    locates it: a joint that behaves differently drives the reference's model into states its
    data never held, and its rollouts then go wrong everywhere.
-2. **Only a concentrated change at joints is screened**: a change with no scope at least
-   :data:`.excess.CONCENTRATION` times the rest, or in the body's elements, is reported and
-   not named, unless it lives in one leg's swing (decision 029, :func:`_where_in_swing`):
+2. **Only a change at joints is screened**: one concentrated at a joint scope, or spread over
+   all joints (decision 035, :data:`SCREEN_SPREAD`). A change in the body's elements is
+   reported and not named, unless it lives in one leg's swing (decision 029,
+   :func:`_where_in_swing`):
    the same ratio per leg on the rows where the leg swings and where it stands; the leg whose
    swing ratio is the largest, material (:data:`SWING_MIN_RATIO`), significant and at least
    :data:`SWING_CONCENTRATION` times the other legs' is screened on its swing rows
@@ -123,6 +124,9 @@ SWING_CONCENTRATION = 1.4
 #: a leg's swing-phase one-step ratio at least this is material there (decision 034; decision
 #: 029 took decision 026's 1.5)
 SWING_MIN_RATIO = 1.25
+#: a change spread over all joints (scope ``all``) is screened as a concentrated one is
+#: (decision 035)
+SCREEN_SPREAD = True
 #: a leg swings on a row where its swing weight (commanded lift over ``SWING_LIFT_M``) is above
 #: this, and stands where it is zero
 SWING_ROW = 0.5
@@ -493,6 +497,14 @@ def _phase_mse(R: np.ndarray, mi: np.ndarray, n: int, rows: np.ndarray, cols: Se
     return move_mse(R[rows][:, cols], mi[rows], n)[has]
 
 
+def _screened_scope(u: dict[str, Any]) -> bool:
+    """Whether the change over all rows lies where decision 027 screens it: a joint scope
+    concentrated by :data:`.excess.CONCENTRATION`, or spread over all joints (``all``, decision
+    035, where :data:`SCREEN_SPREAD`); never the body's elements."""
+    return bool(u["scope"] != "body" and (u["concentration"] >= CONCENTRATION
+                                          or (SCREEN_SPREAD and u["scope"] == "all")))
+
+
 def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref: np.ndarray,
                     X_ref: np.ndarray, mir: np.ndarray, n_ref: int, alpha: float
                     ) -> dict[str, Any]:
@@ -590,8 +602,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
                    for a in accepted for r in [physical_reading(a)]]}
     out["swing"] = sw = _where_in_swing(R, X, mi, route.mv.n, ev_ref.one_step, Xr, mir,
                                         ref_route.mv.n, opts.alpha)
-    located = (one["significant"] and one["concentration"] >= CONCENTRATION
-               and one["scope"] != "body")
+    located = bool(one["significant"] and _screened_scope(one))
     # decision 029: a leg's swing where the change over all rows is not material, or where
     # the scope of all rows lies in that leg
     in_swing = sw["located"] and (
@@ -902,7 +913,7 @@ def _statement(u: dict[str, Any]) -> str:
                if own < MIN_RATIO else
                f"; a model trained on this data does not carry it (its own rollout error is "
                f"{own:.2f} times the reference's), and nothing is added to the model")
-    if not by_swing and (u["concentration"] < CONCENTRATION or u["scope"] == "body"):
+    if not by_swing and not _screened_scope(u):
         return (f"a change since the reference, spread over the robot: {head}; it is not "
                 "named" + carried)
     if u.get("family") is None:

@@ -456,3 +456,20 @@ def test_a_drag_on_one_swinging_foot_is_located_in_its_swing_and_named_a_force(r
     v = c["vocabulary"]
     assert v["family"] == "contact_phase" and v["scope"] == "leg:back_left", v
     assert v["params"]["phase"] == "swing" and v["params"]["magnitude"] > 0
+
+
+def test_a_change_spread_over_all_joints_is_screened_and_one_in_the_body_is_not():
+    """Decision 035: decision 027 screens a change concentrated at a joint scope or spread
+    over all joints, never one in the body's elements; the statement of an unscreened body
+    change says it is not named."""
+    from littledog_mlsim.diagnose.change import CONCENTRATION, _screened_scope, _statement
+    assert _screened_scope({"scope": "all", "concentration": 1.0})
+    assert _screened_scope({"scope": "leg:back_left", "concentration": CONCENTRATION})
+    assert not _screened_scope({"scope": "body", "concentration": 1.0})
+    assert not _screened_scope({"scope": "body", "concentration": 2.5})
+    body = {"ratio": 3.0, "scope": "body", "concentration": 1.0, "p_value": 1e-9,
+            "rollout_ratio": 1.2, "significant": True, "named": False, "own_ratio": 0.9,
+            "swing": {"located": False}, "located_by": None}
+    assert "spread over the robot" in _statement(body)
+    spread = {**body, "scope": "all", "family": None}
+    assert "the joints' servo response does not differ" in _statement(spread)

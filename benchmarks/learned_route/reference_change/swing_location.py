@@ -40,8 +40,13 @@ def main() -> None:
                    help="decision 029's material swing ratio (change.SWING_MIN_RATIO) to try")
     p.add_argument("--swing-concentration", type=float, default=None,
                    help="decision 029's concentration (change.SWING_CONCENTRATION) to try")
+    p.add_argument("--screen-spread", action="store_true",
+                   help="also screen a change spread over all joints (change.CONCENTRATION "
+                        "set to 1 for this run: a trial, not the package's rule)")
     a = p.parse_args()
     import littledog_mlsim.diagnose.change as change
+    if a.screen_spread:
+        change.CONCENTRATION = 1.0
     if a.swing_min_ratio is not None:
         change.SWING_MIN_RATIO = a.swing_min_ratio
     if a.swing_concentration is not None:
@@ -68,6 +73,9 @@ def main() -> None:
         row = {"zoo": a.label, "data": d.name, "truth": truth.get(d.name, "clean"),
                "swing_min_ratio": change.SWING_MIN_RATIO,
                "swing_concentration_min": change.SWING_CONCENTRATION,
+               "screen_spread": bool(a.screen_spread), "all_rows_scope": c["scope"],
+               "family": c.get("family"), "kept_scope": c.get("kept_scope"),
+               "explained": c.get("explained"),
                "all_rows_ratio": round(c["ratio"], 2), "located_by": c["located_by"],
                "swing_leg": sw.get("leg"), "swing_ratio": round(sw.get("ratio", 0.0), 2),
                "swing_concentration": round(sw.get("concentration", 0.0), 2),
