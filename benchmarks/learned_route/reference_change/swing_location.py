@@ -42,7 +42,8 @@ def main() -> None:
                    help="decision 029's concentration (change.SWING_CONCENTRATION) to try")
     p.add_argument("--screen-spread", action="store_true",
                    help="also screen a change spread over all joints (change.CONCENTRATION "
-                        "set to 1 for this run: a trial, not the package's rule)")
+                        "set to 1 for this run; the way decision 035 was tried before it "
+                        "became the package's rule)")
     a = p.parse_args()
     import littledog_mlsim.diagnose.change as change
     if a.screen_spread:
