@@ -62,10 +62,6 @@ class Conditions:
     @property
     def recorded(self) -> str:
         """How the two recordings' excitations differ."""
-        return self._recorded
-
-    @property
-    def _recorded(self) -> str:
         return (f"the reference was recorded with command excitation "
                 f"{self.reference_excitation_rad:g} rad and the data with "
                 f"{self.data_excitation_rad:g} rad")
@@ -73,13 +69,13 @@ class Conditions:
     @property
     def statement(self) -> str:
         """What the differing conditions rule out."""
-        return (self._recorded + ": the joints' command response and the rollout error cannot "
+        return (self.recorded + ": the joints' command response and the rollout error cannot "
                 "be compared against it")
 
     @property
     def why(self) -> str:
         """Why a finding of a family excitation shows cannot be contrasted."""
-        return (self._recorded + "; a recording with more excitation gains more from the "
+        return (self.recorded + "; a recording with more excitation gains more from the "
                 "joints' own command response for any robot, so the reference cannot tell "
                 "whether this robot had it before")
 

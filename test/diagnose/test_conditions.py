@@ -116,4 +116,3 @@ def test_a_reading_concentrated_at_a_joint_scope_is_compared_across_excitations(
     assert out["statement"].startswith(cond.recorded + ", but the change concentrates")
     quiet = _compared_where_concentrated({**knee, "significant": False}, cond)
     assert quiet["significant"] is False
-
