@@ -57,14 +57,25 @@ reference recording of the same robot it is measured directly (decision 027):
      the servo response; else the servo response. A delay and a low-pass mimic each other on
      top of the servo's columns (a delay's gain still rising at the longest lag, a low-pass's
      at the shortest time constant), not alone.
+   - **Replayed** (decision 036, :func:`_replay`): where the kept hypothesis is a change of
+     the set-point's path (a delay, a low-pass, a play), the reference's model predicts the
+     data's next step from the data's state and the set-point each hypothesis of that
+     family says the servo acts on (delays of 5-60 ms in quarter steps, low-passes of
+     10-80 ms, plays of 0.01-0.1 rad), with nothing fitted. The replay that leaves the least
+     one-step error sizes the family where it removes at least :data:`REPLAY_MIN_SHARE` of
+     the excess over the data's own model: a free column can trade its scale for its
+     delay, a replay cannot. The family stays the screen's: across families the replay
+     depends on how well the reference's commands taught its model the answer to a
+     set-point apart from the state, and a one-leg delay's replay is beaten by a low-pass's.
 4. **Named** where the kept hypothesis removes at least :data:`EXPLAINED_SHARE` of the scope's
    one-step error of the reference's model above the data's own model's (``explained``);
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay of ``k`` steps; a play band's width; a low-pass's
-   time constant, on a finer grid around the scan's best (:data:`FINER_STEPS`;
-   :func:`_finer_low_pass`); a drift rate from the ``t (u - q)`` coefficient over the
+   median over the scope's joints); a delay, a low-pass's time constant or a play band's
+   width, the replay's where it explains enough (3), else a delay of ``k`` steps, a play
+   band's width and a low-pass's time constant on a finer grid around the scan's best
+   (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from the ``t (u - q)`` coefficient over the
    reference's slope; a drag in newtons, the coefficient of its torque column over the
    reference's slope times the ``nominal`` robot's servo stiffness (the slope is that stiffness
    over the joint's inertia, the coefficient the drag over it; median over the scope's joints),
@@ -127,6 +138,21 @@ SWING_MIN_RATIO = 1.25
 #: a change spread over all joints (scope ``all``) is screened as a concentrated one is
 #: (decision 035)
 SCREEN_SPREAD = True
+#: the families of the set-point's path: a change the reference's model can replay, given the
+#: set-point the servo would then act on
+SETPOINT_FAMILIES = ("command_delay", "command_filter", "backlash")
+#: a kept change of the set-point's path is named and sized by replaying the reference's model
+#: with each hypothesised set-point (decision 036, :func:`_replay`)
+REPLAY_SETPOINT = True
+#: delays replayed [control steps]; a fractional one interpolates between whole steps
+REPLAY_DELAYS = tuple(float(d) for d in np.arange(0.5, MAX_LAG + 1.0 + 1e-9, 0.25))
+#: low-pass time constants replayed [ms]
+REPLAY_FILTER_MS = (10.0, 12.5, 15.0, 17.5, 20.0, 22.5, 25.0, 30.0, 35.0, 40.0, 50.0, 65.0, 80.0)
+#: play band widths replayed [rad]
+REPLAY_PLAY_WIDTHS = (0.01, 0.015, 0.02, 0.025, 0.035, 0.05, 0.065, 0.08, 0.1)
+#: the kept family's best replay sizes it where it removes at least this share of the scope's
+#: one-step error of the reference's model above the data's own model's
+REPLAY_MIN_SHARE = 0.5
 #: a leg swings on a row where its swing weight (commanded lift over ``SWING_LIFT_M``) is above
 #: this, and stands where it is zero
 SWING_ROW = 0.5
@@ -672,17 +698,93 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
         family = min(ok, key=alone.__getitem__)
         kept = max((j for j in judged if j.ok and j.hyp.family == family),
                    key=lambda j: j.total)
-    sized = (_finer_low_pass(kept, data, ref, fs, cols, rows)
-             if kept.hyp.family == "command_filter" else kept)   # between the scan's taus
     own = _move_sse(own_one_step, mi, data.route.mv.n)[:, cols].sum()
     before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
     share = float((before - after) / (before - own)) if before > own else 0.0
-    family = kept.hyp.family
-    size = _size(sized.model, X, D, Xr, Dr)
+    replay = None
+    if REPLAY_SETPOINT and kept.hyp.family in SETPOINT_FAMILIES:
+        rp = _replay(data, fs, scope, cols, rows)
+        replay = {**rp["best"][kept.hyp.family], "unchanged": rp["unchanged"]}
+        replay["explained"] = (float((rp["unchanged"] - replay["sse"]) / (rp["unchanged"] - own))
+                               if rp["unchanged"] > own else 0.0)
+        # decision 036: the replay sizes the family where it explains at least half the
+        # excess with nothing fitted
+        replay["kept"] = bool(replay["explained"] >= REPLAY_MIN_SHARE)
+    if replay is not None and replay["kept"]:
+        family, label, size = kept.hyp.family, replay["label"], replay["size"]
+    else:
+        sized = (_finer_low_pass(kept, data, ref, fs, cols, rows)
+                 if kept.hyp.family == "command_filter" else kept)   # between the scan's taus
+        family, label, size = kept.hyp.family, sized.hyp.label(), _size(sized.model, X, D,
+                                                                         Xr, Dr)
     return {"family": family, "kept_scope": _scope_for(family, scope),
-            "label": sized.hyp.label(), "explained": share, "size": size,
+            "label": label, "explained": share, "size": size, "replay": replay,
             "named": bool(share >= EXPLAINED_SHARE
                           and (family != "contact_phase" or _opposes(size)))}
+
+
+def _replay(data: "_Residuals", fs: FeatureSet, scope: str, cols: Sequence[int],
+            rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Decision 036: a change of the set-point's path sized by replay. The reference's model
+    predicts the data's next step from the data's state and, at the scope's joints, the
+    set-point each hypothesis says the servo acts on: the set-point :data:`REPLAY_DELAYS`
+    steps back (a fractional delay interpolates between whole steps), through a first-order
+    low-pass of :data:`REPLAY_FILTER_MS`, or held in a play band of
+    :data:`REPLAY_PLAY_WIDTHS`. Nothing is fitted: if the robot now acts on that set-point,
+    the reference's model, which learned how the robot answers a set-point, predicts the data
+    as it predicts the reference, as far as the reference's commands taught it the answer to
+    a set-point apart from the state. Returns ``unchanged``, the one-step SSE over the scope's
+    elements ``cols`` at the recorded set-point, and ``best``: per family, the hypothesis
+    whose replay leaves the least (``family``, ``label``, ``size``, ``sse``). Each hypothesis
+    is a row of ``rows`` (``stage`` "replay", ``sse``; the recorded set-point's label is
+    "unchanged")."""
+    X, R, mi, _ = data.base
+    n_ref, n = fs.n_features, data.route.mv.n
+    joints = list(JOINT_GROUPS[scope_group(scope)])
+    at = N_STATE + np.asarray(joints)
+    U = X[:, at]
+    key = ("replay", n_ref)
+    if key not in data.cache:       # the reference's model at the recorded set-points
+        data.cache[key] = data.ref_model.predict(X[:, :n_ref], -1)
+    p0 = data.cache[key]
+
+    def sse(e: np.ndarray) -> float:
+        X2 = X[:, :n_ref].copy()
+        X2[:, at] = e
+        return float(_move_sse(R + p0 - data.ref_model.predict(X2, -1), mi, n)[:, cols].sum())
+
+    def column(aug: Augmentation) -> np.ndarray:
+        return data.of(Hypothesis("replay", scope, aug))[0][:, n_ref:n_ref + len(joints)]
+
+    group = scope_group(scope)
+    lags = {0: U}
+    for k in range(1, int(np.ceil(max(REPLAY_DELAYS))) + 1):
+        lags[k] = column(CommandLag(lag=k, joints=group))
+    cand: list[tuple[float, str, str, dict[str, Any]]] = []
+    for d in REPLAY_DELAYS:
+        k, f = int(np.floor(d)), d - np.floor(d)
+        e = lags[k] if f == 0 else (1.0 - f) * lags[k] + f * lags[k + 1]
+        ms = round(d * CONTROL_DT * 1000.0, 1)
+        cand.append((sse(e), "command_delay", f"set-point delay {ms:g} ms", {"delay_ms": ms}))
+    for tau in REPLAY_FILTER_MS:
+        cand.append((sse(column(CommandFilter(time_constant_ms=tau, joints=group))),
+                     "command_filter", f"set-point low-pass {tau:g} ms",
+                     {"time_constant_ms": tau}))
+    for w in REPLAY_PLAY_WIDTHS:
+        e = U - 0.5 * w * column(Play(width=w, source="u", joints=group))
+        cand.append((sse(e), "backlash", f"set-point play {w:g} rad", {"width_rad": w}))
+    unchanged = sse(U)
+    rows.append({"label": f"unchanged @ {scope}", "family": None, "scope": scope,
+                 "stage": "replay", "sse": unchanged})
+    for v, family, what, _ in cand:
+        rows.append({"label": f"{what} @ {scope}", "family": family, "scope": scope,
+                     "stage": "replay", "sse": v})
+    best: dict[str, dict[str, Any]] = {}
+    for v, family, what, size in cand:
+        if family not in best or v < best[family]["sse"]:
+            best[family] = {"family": family, "label": f"{what} @ {scope} (replayed)",
+                            "size": size, "sse": v}
+    return {"unchanged": unchanged, "best": best}
 
 
 def _stands_alone(servo: _Judged, fams: Sequence[Hypothesis], data: "_Residuals",

@@ -233,6 +233,7 @@ def test_the_family_that_stands_best_alone_is_kept_at_its_largest_gain(monkeypat
                                                              "command_filter": 120.0})
     monkeypatch.setattr(change, "_finer_low_pass", lambda j, *a: j)
     monkeypatch.setattr(change, "_size", lambda model, *a: {})
+    monkeypatch.setattr(change, "REPLAY_SETPOINT", False)     # decision 036 apart
     data = SimpleNamespace(route=SimpleNamespace(mv=SimpleNamespace(n=3)))
     rows: list = []
     out = _screen(data, None, None, "leg:front_left", np.zeros((6, N_STATE)),
@@ -473,3 +474,147 @@ def test_a_change_spread_over_all_joints_is_screened_and_one_in_the_body_is_not(
     assert "spread over the robot" in _statement(body)
     spread = {**body, "scope": "all", "family": None}
     assert "the joints' servo response does not differ" in _statement(spread)
+
+
+class _ReplaySide:
+    """One side for :func:`_replay`: moves of smooth set-points on the front-left leg, the
+    reference's model a servo ``k (u - q)`` on each joint's rate, and the data's residual what
+    that servo does where it acts on ``truth``'s set-point instead of u."""
+
+    k, joints, n_moves, T = 0.3, [0, 1, 2], 12, 300
+
+    def __init__(self, truth) -> None:
+        from types import SimpleNamespace
+        rng = np.random.default_rng(5)
+        t = np.arange(self.T) * 0.01
+        X = np.zeros((self.n_moves * self.T, N_FEATURE))
+        for m in range(self.n_moves):
+            rows = slice(m * self.T, (m + 1) * self.T)
+            for j in self.joints:
+                f, ph = rng.uniform(1.0, 3.0), rng.uniform(0.0, 6.3)
+                X[rows, N_STATE + j] = 0.3 * np.sin(2 * np.pi * f * t + ph)
+                X[rows, S.q.start + j] = rng.normal(0.0, 0.2, self.T)
+        self.mi = np.repeat(np.arange(self.n_moves), self.T)
+        self.X = X
+        self.cache: dict = {}
+        self.route = SimpleNamespace(mv=SimpleNamespace(n=self.n_moves))
+        self.ref_model = self
+        U = X[:, N_STATE + np.array(self.joints)]
+        R = rng.normal(0.0, 1e-4, (len(X), N_STATE))
+        R[:, S.dq.start + np.array(self.joints)] += self.k * (truth(self, U) - U)
+        self.base = (X, R, self.mi, self.mi % 4)
+
+    def predict(self, X, fold):
+        out = np.zeros((len(X), N_STATE))
+        for j in self.joints:
+            out[:, S.dq.start + j] = self.k * (X[:, N_STATE + j] - X[:, S.q.start + j])
+        return out
+
+    def per_move(self, U, step):
+        """``step(carry, u_t) -> (carry, value)`` run along each move, starting at u_0."""
+        out = np.empty_like(U)
+        for m in range(self.n_moves):
+            r = np.flatnonzero(self.mi == m)
+            c = U[r[0]].copy()
+            for i in r:
+                c, out[i] = step(c, U[i])
+        return out
+
+    def lagged(self, U, lag):
+        out = np.empty_like(U)
+        for m in range(self.n_moves):
+            r = np.flatnonzero(self.mi == m)
+            out[r] = np.vstack([np.repeat(U[r[:1]], lag, axis=0), U[r]])[:len(r)]
+        return out
+
+    def filtered(self, U, tau_ms):
+        a = 1.0 - np.exp(-10.0 / tau_ms)
+        return self.per_move(U, lambda c, u: (c + a * (u - c),) * 2)
+
+    def played(self, U, width):
+        h = 0.5 * width
+        return self.per_move(U, lambda c, u: (np.clip(c, u - h, u + h),) * 2)
+
+    def of(self, hyp):
+        from littledog_mlsim.models.feature_library import CommandFilter, CommandLag, Play
+        U, aug = self.X[:, N_STATE:N_STATE + 3], hyp.aug
+        if isinstance(aug, CommandLag):
+            col = self.lagged(U, aug.lag)
+        elif isinstance(aug, CommandFilter):
+            col = self.filtered(U, aug.time_constant_ms)
+        else:
+            assert isinstance(aug, Play)
+            col = (U - self.played(U, aug.width)) / (0.5 * aug.width)
+        return np.hstack([self.X, col]), *self.base[1:]
+
+
+@pytest.mark.parametrize("truth, family, size", [
+    (lambda s, U: 0.5 * (s.lagged(U, 2) + s.lagged(U, 3)), "command_delay", {"delay_ms": 25.0}),
+    (lambda s, U: s.filtered(U, 25.0), "command_filter", {"time_constant_ms": 25.0}),
+    (lambda s, U: s.played(U, 0.05), "backlash", {"width_rad": 0.05}),
+    (lambda s, U: U, None, None)])
+def test_a_set_point_change_is_sized_by_replaying_the_reference(truth, family, size):
+    """Decision 036: the reference's model, given the set-point each hypothesis says the servo
+    acts on, predicts the data best at the true family and size (a 25 ms delay between whole
+    steps, a 25 ms low-pass, a 0.05 rad play); on unchanged set-points no hypothesis beats the
+    recorded one."""
+    from littledog_mlsim.diagnose.change import _replay
+    from littledog_mlsim.models.features import FeatureSet
+    side = _ReplaySide(truth)
+    rows: list = []
+    rp = _replay(side, FeatureSet(), "leg:front_left", [0, 1, 2, 12, 13, 14], rows)
+    assert rows[0]["label"] == "unchanged @ leg:front_left"
+    assert rp["unchanged"] == pytest.approx(rows[0]["sse"])
+    assert {r["stage"] for r in rows} == {"replay"} and len(rows) > 40
+    assert set(rp["best"]) == {"command_delay", "command_filter", "backlash"}
+    if family is None:
+        assert all(b["sse"] >= rp["unchanged"] for b in rp["best"].values()), rp
+        return
+    best = rp["best"][family]
+    assert best["size"] == size and best["label"].endswith("@ leg:front_left (replayed)"), best
+    assert best["sse"] < 0.1 * rp["unchanged"]
+    assert min(rp["best"].values(), key=lambda b: b["sse"]) is best
+
+
+@pytest.mark.parametrize("replay_sse, sized", [(40.0, True), (60.0, False)])
+def test_the_kept_family_is_sized_by_its_replay_where_that_explains_half(monkeypatch,
+                                                                          replay_sse, sized):
+    """Decision 036: the family stays the screen's (a delay); its size is the best replayed
+    delay's where that replay removes at least half the excess over the data's own model
+    (here 0.6 of it), else the scan's own (0.4)."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.change import _Judged, _screen
+    sse = np.ones((3, 24))
+
+    def decided(hyp, gain):
+        d = SimpleNamespace(significant=True, material=True, gain=np.array([gain]), p_value=1e-9)
+        return _Judged(hyp, None, sse, 2.0 * sse, None, d)
+
+    def judge(j, base, n, opts, cols, alpha=None):
+        ok = j.hyp.family == "command_delay"
+        j.decision = decided(j.hyp, (2.0 + j.hyp.aug.lag / 10) if ok else 0.0).decision
+        j.decision.significant = ok
+        return j
+    monkeypatch.setattr(change, "_servo_response", lambda *a: decided(
+        Hypothesis("servo_gain", "leg:front_left"), 1.0))
+    monkeypatch.setattr(change, "_fit", lambda data, ref, fs, hyp: _Judged(hyp, None, sse,
+                                                                           2.0 * sse, None))
+    monkeypatch.setattr(change, "_judge", judge)
+    monkeypatch.setattr(change, "_stands_alone", lambda *a: {"command_delay": 50.0})
+    monkeypatch.setattr(change, "_size", lambda model, *a: {"delay_ms": 50.0})
+    best = {f: {"family": f, "label": f"{f} replayed", "size": {"x": f}, "sse": 90.0}
+            for f in ("command_filter", "backlash")}
+    best["command_delay"] = {"family": "command_delay", "label": "delay 22.5 ms (replayed)",
+                             "size": {"delay_ms": 22.5}, "sse": replay_sse}
+    monkeypatch.setattr(change, "_replay", lambda *a: {"unchanged": 100.0, "best": best})
+    data = SimpleNamespace(route=SimpleNamespace(mv=SimpleNamespace(n=3)))
+    out = _screen(data, None, None, "leg:front_left", np.zeros((6, N_STATE)),
+                  None, None, np.arange(6) % 3, None, None, None, [])
+    assert out["family"] == "command_delay"
+    assert out["replay"]["explained"] == pytest.approx(1.0 - replay_sse / 100.0)
+    assert out["replay"]["kept"] is sized
+    assert out["size"] == ({"delay_ms": 22.5} if sized else {"delay_ms": 50.0})
+    assert out["label"] == ("delay 22.5 ms (replayed)" if sized
+                            else "set-point delay 5 step(s) @ leg:front_left")

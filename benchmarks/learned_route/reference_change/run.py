@@ -28,6 +28,7 @@ sys.path.insert(0, str(ROOT))
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features  # noqa: E402
 from littledog_mlsim.diagnose.excess import unexplained_change  # noqa: E402
+from littledog_mlsim.diagnose import change  # noqa: E402
 from littledog_mlsim.diagnose.change import reference_change  # noqa: E402
 from littledog_mlsim.diagnose.learned import LearnedOptions, _Route  # noqa: E402
 from littledog_mlsim.layout import CONTROL_DT  # noqa: E402
@@ -39,7 +40,11 @@ def main() -> None:
     p.add_argument("--data", type=Path, nargs="+", required=True)
     p.add_argument("--label", default=None, help="a name for the zoo in the table")
     p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--no-replay", action="store_true",
+                   help="name a set-point change by its fitted column, as before decision 036")
     a = p.parse_args()
+    if a.no_replay:
+        change.REPLAY_SETPOINT = False
     opts, start = LearnedOptions(), measured_robot_features()
     quiet = lambda s: None  # noqa: E731
     ref = _Route(load_moves(a.reference, "train"), start, opts, quiet)
@@ -58,8 +63,8 @@ def main() -> None:
                      **c, "seconds": time.perf_counter() - t})
         print(f"{d.name}: own {own['ratio']:.2f}; {c['statement']}", flush=True)
         for hyp in c["hypotheses"]:
-            if hyp["stage"] == "size":
-                print(f"    size {hyp['label']}: held-out SSE {hyp['sse']:.4g}", flush=True)
+            if "total_gain" not in hyp:          # a size, alone or replay row
+                print(f"    {hyp['stage']} {hyp['label']}: SSE {hyp['sse']:.4g}", flush=True)
                 continue
             ok = " ok" if hyp["significant"] and hyp["material"] else ""
             print(f"    {hyp['stage']} {hyp['label']}: gain {hyp['total_gain']:+.2f} "
@@ -72,19 +77,30 @@ def main() -> None:
          f"Command: `{cmd}`  ", f"Code: {code}; {time.strftime('%Y-%m-%d %H:%M')}\n",
          "| data | own rollout / reference | reference's model: one step / reference | "
          "p | 1 s rollout / reference | significant | scope | concentration | named | "
-         "family @ scope | size | explained | seconds |",
-         "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+         "family @ scope | size | explained | replay (decision 036) | seconds |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     L += [f"| {x['data']} | {x['own']['ratio']:.2f} | {x['ratio']:.2f} | {x['p_value']:.2g} | "
           f"{x['rollout_ratio']:.2f} | {'yes' if x['significant'] else 'no'} | {x['scope']} | "
           f"{x['concentration']:.2f} | {'yes' if x['named'] else 'no'} | "
           f"{(x.get('family') or '-') + ' @ ' + (x.get('kept_scope') or '-')} | "
           f"{ {k: v for k, v in (x.get('size') or {}).items() if k != 'per_joint'} or '-'} | "
-          f"{x.get('explained', float('nan')):.2f} | {x['seconds']:.0f} |" for x in rows]
+          f"{x.get('explained', float('nan')):.2f} | {_replay_cell(x.get('replay'))} | "
+          f"{x['seconds']:.0f} |" for x in rows]
     L += [""] + [f"- {x['data']}: {x['statement']}" for x in rows]
     a.out.parent.mkdir(parents=True, exist_ok=True)
     a.out.with_suffix(".md").write_text("\n".join(L) + "\n")
     a.out.with_suffix(".json").write_text(json.dumps({"command": cmd, "code": code,
                                                       "rows": rows}, indent=1))
+
+
+def _replay_cell(r: dict | None) -> str:
+    """Decision 036's best replayed set-point: its label, the share of the excess it removes,
+    and whether it was kept; '-' where it did not run or no replay beat the recorded
+    set-point."""
+    if not r:
+        return "-"
+    return (f"{r['label'].split(' @')[0]}, explains {r['explained']:.2f}"
+            f"{'' if r['kept'] else ', not kept'}")
 
 
 if __name__ == "__main__":
