@@ -382,8 +382,9 @@ def _stages(run: _Run, feature_sets: Sequence[FeatureSet]) -> tuple[list[dict[st
             m, note = run.loaded, None
         else:
             info = {"diagnosis_stage": k, "data_dir": os.fspath(run.data)}
-            m, note = _fit_with_fallback(fs_k, run.method, run.model_options, run.train,
-                                         run.target, o.seed, info, run.say)
+            m, note = _fit_with_fallback(fs_k, run.method,
+                                         fit_options(run.method, run.model_options, o.jobs),
+                                         run.train, run.target, o.seed, info, run.say)
         if m is None:
             scores = _failed_stage(note, o.projections, o.projection_alpha)
         else:
@@ -410,6 +411,16 @@ def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
     :meth:`.families.Family.augmentation`."""
     from .families import FAMILIES
     return FAMILIES[family].augmentation(scope, params)
+
+
+def fit_options(method: str, options: Mapping[str, Any], jobs: int) -> dict[str, Any]:
+    """The report model's fit options: an LGPR's per-cluster fits run in ``jobs`` local
+    processes unless its options name ``n_jobs`` (the model is the same bit for bit: its
+    module doc)."""
+    out = dict(options)
+    if method == "lgpr" and jobs > 1 and "n_jobs" not in out:
+        out["n_jobs"] = int(jobs)
+    return out
 
 
 def _fit_with_fallback(fs, method, options, train, target, seed, info, say):

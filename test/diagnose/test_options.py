@@ -119,3 +119,16 @@ def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
     print_diagnosis({**base, "timing": timing}, tmp_path)
     out = capsys.readouterr().out.splitlines()
     assert out[1] == "timing: the pose lags the joint states by about 30 ms" and len(out) == 3
+
+
+def test_the_report_models_lgpr_fits_run_in_the_diagnosis_jobs():
+    """``diagnose --jobs N`` fits each stage's LGPR in N local processes (the same model bit for
+    bit: ``test/models/test_lgpr.py``); options that name ``n_jobs``, one job, and other
+    methods are left as they are, and the run's options are not changed."""
+    from littledog_mlsim.diagnose.run import fit_options
+    opts = {"cluster_size": 500}
+    assert fit_options("lgpr", opts, 2) == {"cluster_size": 500, "n_jobs": 2}
+    assert opts == {"cluster_size": 500}
+    assert fit_options("lgpr", opts, 1) == opts
+    assert fit_options("lgpr", {"n_jobs": 1}, 2) == {"n_jobs": 1}
+    assert fit_options("lr", {}, 2) == {}
