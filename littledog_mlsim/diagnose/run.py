@@ -217,7 +217,7 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
                else _rollout_route(run, route, feature_sets[-1], conditions))
     for aug in ([] if rollout is None else _accepted(rollout, feature_sets[-1])):
         feature_sets.append(feature_sets[-1].with_augmentation(aug))
-    stages, last_model = _stages(run, feature_sets)
+    stages, last_model = _stages(run, feature_sets, 1 if route.scheduler else route.jobs)
     keywords = _report_keywords(run, last_model)
     keywords["route"] = {"name": "learned", "why": why}
     from .families.learned import floor_plane
@@ -300,9 +300,8 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
     excitation = float(run.index.info.get("command_excitation_rad", 0.0) or 0.0)
     config = robot_config_from(robot)
     reference = _reference_moves(run)
-    pid = identify(run.train, run.test,
-                   route.options(run.o.alpha, run.o.min_gain, config, excitation),
-                   reference=reference, progress=run.say)
+    popts = route.options(run.o.alpha, run.o.min_gain, config, excitation)
+    pid = identify(run.train, run.test, popts, reference=reference, progress=run.say)
     fs = run.start
     feature_sets = [run.start]
     effect_augs, effect_stage = [], []
@@ -315,7 +314,7 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
             aug = None
         effect_augs.append(aug)
         effect_stage.append(len(feature_sets) - 1)
-    stages, last_model = _stages(run, feature_sets)
+    stages, last_model = _stages(run, feature_sets, 1 if popts.scheduler else popts.jobs)
     keywords = _report_keywords(run, last_model)
     keywords["route"] = {"name": "physical", "why": why, "robot": config.name,
                          "twin": None if run.o.twin is None else _plain_twin(run.o.twin),
@@ -371,8 +370,10 @@ def _timing(run: _Run) -> dict[str, Any]:
     return t
 
 
-def _stages(run: _Run, feature_sets: Sequence[FeatureSet]) -> tuple[list[dict[str, Any]], Any]:
-    """Fit and score the report model for every feature set (the loop's stages)."""
+def _stages(run: _Run, feature_sets: Sequence[FeatureSet], jobs: int = 1
+            ) -> tuple[list[dict[str, Any]], Any]:
+    """Fit and score the report model for every feature set (the loop's stages); an LGPR's
+    clusters fit in ``jobs`` local processes (:func:`fit_options`)."""
     o = run.o
     stages: list[dict[str, Any]] = []
     last_model = None
@@ -383,7 +384,7 @@ def _stages(run: _Run, feature_sets: Sequence[FeatureSet]) -> tuple[list[dict[st
         else:
             info = {"diagnosis_stage": k, "data_dir": os.fspath(run.data)}
             m, note = _fit_with_fallback(fs_k, run.method,
-                                         fit_options(run.method, run.model_options, o.jobs),
+                                         fit_options(run.method, run.model_options, jobs),
                                          run.train, run.target, o.seed, info, run.say)
         if m is None:
             scores = _failed_stage(note, o.projections, o.projection_alpha)
