@@ -416,8 +416,8 @@ def augmentation_for(family: str, scope: str, params: Mapping[str, Any]):
 
 def fit_options(method: str, options: Mapping[str, Any], jobs: int) -> dict[str, Any]:
     """The report model's fit options: an LGPR's per-cluster fits run in ``jobs`` local
-    processes unless its options name ``n_jobs`` (the model is the same bit for bit: its
-    module doc)."""
+    processes unless its options name ``n_jobs`` (each cluster's fit depends only on its data
+    and seed: LGPR's module doc)."""
     out = dict(options)
     if method == "lgpr" and jobs > 1 and "n_jobs" not in out:
         out["n_jobs"] = int(jobs)

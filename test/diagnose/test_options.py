@@ -122,9 +122,9 @@ def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
 
 
 def test_the_report_models_lgpr_fits_run_in_the_diagnosis_jobs():
-    """``diagnose --jobs N`` fits each stage's LGPR in N local processes (the same model bit for
-    bit: ``test/models/test_lgpr.py``); options that name ``n_jobs``, one job, and other
-    methods are left as they are, and the run's options are not changed."""
+    """``diagnose --jobs N`` fits each stage's LGPR in N local processes (``n_jobs`` 1 and 2
+    give the same model: ``test/models/test_lgpr.py``); options that name ``n_jobs``, one
+    job, and other methods are left as they are, and the run's options are not changed."""
     from littledog_mlsim.diagnose.run import fit_options
     opts = {"cluster_size": 500}
     assert fit_options("lgpr", opts, 2) == {"cluster_size": 500, "n_jobs": 2}
