@@ -196,6 +196,33 @@ def test_the_statement_compares_the_reading_with_what_the_search_accepted():
     assert "search" not in _statement(u)
 
 
+def _patch_screen(monkeypatch, gain_of, alone, size) -> None:
+    """:func:`_screen`'s parts replaced: the servo response significant at gain 1; each
+    family hypothesis significant at ``gain_of(hyp)``, or not where that is None; ``alone``
+    the families that stand alone; ``size`` every kept hypothesis's size."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.change import _Judged
+    sse = np.ones((3, 24))
+
+    def decided(hyp, gain):
+        d = SimpleNamespace(significant=gain is not None, material=True,
+                            gain=np.array([gain or 0.0]), p_value=1e-9)
+        return _Judged(hyp, None, sse, 2.0 * sse, None, d)
+
+    def judge(j, base, n, opts, cols, alpha=None):
+        j.decision = decided(j.hyp, gain_of(j.hyp)).decision
+        return j
+    monkeypatch.setattr(change, "_servo_response", lambda *a: decided(
+        Hypothesis("servo_gain", "leg:front_left"), 1.0))
+    monkeypatch.setattr(change, "_fit", lambda data, ref, fs, hyp: _Judged(hyp, None, sse,
+                                                                           2.0 * sse, None))
+    monkeypatch.setattr(change, "_judge", judge)
+    monkeypatch.setattr(change, "_stands_alone", lambda *a: alone)
+    monkeypatch.setattr(change, "_size", lambda model, *a: size)
+
+
 @pytest.mark.parametrize("delay_alone, kept", [(100.0, "set-point delay 5 step(s)"),
                                                (130.0, "set-point low-pass 35 ms")])
 def test_the_family_that_stands_best_alone_is_kept_at_its_largest_gain(monkeypatch,
@@ -207,32 +234,17 @@ def test_the_family_that_stands_best_alone_is_kept_at_its_largest_gain(monkeypat
     from types import SimpleNamespace
 
     from littledog_mlsim.diagnose import change
-    from littledog_mlsim.diagnose.change import FILTER_MS, _Judged, _screen
+    from littledog_mlsim.diagnose.change import FILTER_MS, _screen
 
     on_top = {**{f"set-point delay {k} step(s)": g
                  for k, g in zip(range(1, 6), [1.4, 1.8, 2.3, 2.7, 2.8])},
               **{f"set-point low-pass {t:g} ms": g
                  for t, g in zip(FILTER_MS, [2.1, 2.4, 2.5, 2.3, 1.5])}}
-    sse = np.ones((3, 24))
-
-    def decided(hyp, gain):
-        d = SimpleNamespace(significant=True, material=True, gain=np.array([gain]), p_value=1e-9)
-        return _Judged(hyp, None, sse, 2.0 * sse, None, d)
-
-    def judge(j, base, n, opts, cols, alpha=None):
-        j.decision = decided(j.hyp, on_top.get(j.hyp.label().split(" @")[0], 0.0)).decision
-        if j.hyp.family not in ("command_delay", "command_filter"):
-            j.decision.significant = False
-        return j
-    monkeypatch.setattr(change, "_servo_response", lambda *a: decided(
-        Hypothesis("servo_gain", "leg:front_left"), 1.0))
-    monkeypatch.setattr(change, "_fit", lambda data, ref, fs, hyp: _Judged(hyp, None, sse,
-                                                                           2.0 * sse, None))
-    monkeypatch.setattr(change, "_judge", judge)
-    monkeypatch.setattr(change, "_stands_alone", lambda *a: {"command_delay": delay_alone,
-                                                             "command_filter": 120.0})
+    _patch_screen(monkeypatch,
+                  lambda hyp: (on_top.get(hyp.label().split(" @")[0], 0.0)
+                               if hyp.family in ("command_delay", "command_filter") else None),
+                  {"command_delay": delay_alone, "command_filter": 120.0}, {})
     monkeypatch.setattr(change, "_finer_low_pass", lambda j, *a: j)
-    monkeypatch.setattr(change, "_size", lambda model, *a: {})
     monkeypatch.setattr(change, "REPLAY_SETPOINT", False)     # decision 036 apart
     data = SimpleNamespace(route=SimpleNamespace(mv=SimpleNamespace(n=3)))
     rows: list = []
@@ -585,25 +597,10 @@ def test_the_kept_family_is_sized_by_its_replay_where_that_explains_half(monkeyp
     from types import SimpleNamespace
 
     from littledog_mlsim.diagnose import change
-    from littledog_mlsim.diagnose.change import _Judged, _screen
-    sse = np.ones((3, 24))
-
-    def decided(hyp, gain):
-        d = SimpleNamespace(significant=True, material=True, gain=np.array([gain]), p_value=1e-9)
-        return _Judged(hyp, None, sse, 2.0 * sse, None, d)
-
-    def judge(j, base, n, opts, cols, alpha=None):
-        ok = j.hyp.family == "command_delay"
-        j.decision = decided(j.hyp, (2.0 + j.hyp.aug.lag / 10) if ok else 0.0).decision
-        j.decision.significant = ok
-        return j
-    monkeypatch.setattr(change, "_servo_response", lambda *a: decided(
-        Hypothesis("servo_gain", "leg:front_left"), 1.0))
-    monkeypatch.setattr(change, "_fit", lambda data, ref, fs, hyp: _Judged(hyp, None, sse,
-                                                                           2.0 * sse, None))
-    monkeypatch.setattr(change, "_judge", judge)
-    monkeypatch.setattr(change, "_stands_alone", lambda *a: {"command_delay": 50.0})
-    monkeypatch.setattr(change, "_size", lambda model, *a: {"delay_ms": 50.0})
+    from littledog_mlsim.diagnose.change import _screen
+    _patch_screen(monkeypatch,
+                  lambda hyp: 2.0 + hyp.aug.lag / 10 if hyp.family == "command_delay" else None,
+                  {"command_delay": 50.0}, {"delay_ms": 50.0})
     best = {f: {"family": f, "label": f"{f} replayed", "size": {"x": f}, "sse": 90.0}
             for f in ("command_filter", "backlash")}
     best["command_delay"] = {"family": "command_delay", "label": "delay 22.5 ms (replayed)",
