@@ -740,7 +740,8 @@ def _replay(data: "_Residuals", fs: FeatureSet, scope: str, cols: Sequence[int],
     "unchanged")."""
     X, R, mi, _ = data.base
     n_ref, n = fs.n_features, data.route.mv.n
-    joints = list(JOINT_GROUPS[scope_group(scope)])
+    group = scope_group(scope)
+    joints = list(JOINT_GROUPS[group])
     at = N_STATE + np.asarray(joints)
     U = X[:, at]
     key = ("replay", n_ref)
@@ -756,7 +757,6 @@ def _replay(data: "_Residuals", fs: FeatureSet, scope: str, cols: Sequence[int],
     def column(aug: Augmentation) -> np.ndarray:
         return data.of(Hypothesis("replay", scope, aug))[0][:, n_ref:n_ref + len(joints)]
 
-    group = scope_group(scope)
     lags = {0: U}
     for k in range(1, int(np.ceil(max(REPLAY_DELAYS))) + 1):
         lags[k] = column(CommandLag(lag=k, joints=group))
