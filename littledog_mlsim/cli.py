@@ -403,7 +403,7 @@ def _import_options(a: argparse.Namespace):
         cmd_cutoff_s=a.cmd_cutoff, twist=a.twist, dejitter=not a.no_dejitter,
         move_types=move_types,
         infer_types=not a.no_infer, test_fraction=a.test_fraction, storage=a.storage,
-        skip_bad_bags=a.skip_bad)
+        skip_bad_bags=a.skip_bad, command_excitation_rad=a.excitation)
 
 
 def cmd_import(a: argparse.Namespace) -> int:
@@ -488,6 +488,10 @@ def add_import_arguments(im: argparse.ArgumentParser) -> None:
                     help="storage of the written bags")
     im.add_argument("--skip-bad", action="store_true",
                     help="leave out a bag that cannot be imported (reported) instead of failing")
+    im.add_argument("--excitation", type=float, default=d.command_excitation_rad, metavar="RAD",
+                    help="std of the white noise the recorded commands carried for system "
+                         "identification, written to dataset.yaml as record --excitation writes "
+                         "it (default 0: none; at most 0.2); diagnose --reference compares it")
 def cmd_view(a: argparse.Namespace) -> int:
     import logging
 

@@ -94,6 +94,8 @@ ROLE_TYPES: dict[str, tuple[str, ...]] = {
 MAX_SPEED_M_S = 2.0        # fastest plausible body speed, for reset detection
 MAX_RATE_RAD_S = 10.0      # fastest plausible body rotation
 MAX_JOINT_RATE_RAD_S = 30.0
+#: the largest command excitation an import records (``record --excitation``'s limit)
+MAX_EXCITATION_RAD = 0.2
 _NS = 1_000_000_000
 
 
@@ -121,6 +123,7 @@ class ImportOptions:
     test_fraction: float = 0.3
     storage: str = "mcap"
     skip_bad_bags: bool = False
+    command_excitation_rad: float = 0.0   # std of the noise the robot's commands carried
 
     def check(self) -> None:
         """ValueError (one line) for an invalid option."""
@@ -151,6 +154,11 @@ class ImportOptions:
                                  f"{', '.join(DATASET_MOVE_TYPES)}")
         if self.storage not in ("mcap", "sqlite3"):
             raise ValueError(f"storage must be mcap or sqlite3, got {self.storage!r}")
+        e = self.command_excitation_rad
+        if isinstance(e, bool) or not isinstance(e, (int, float)) or not (
+                np.isfinite(e) and 0.0 <= e <= MAX_EXCITATION_RAD):
+            raise ValueError(f"command excitation must be between 0 and {MAX_EXCITATION_RAD} "
+                             f"rad, got {e!r}")
 
     def topic(self, role: str) -> str:
         return {"cmd": self.cmd_topic, "joint_states": self.joint_states_topic,
@@ -1015,6 +1023,9 @@ def import_bags(bags: Sequence[str | os.PathLike], out: str | os.PathLike,
             "storage": opts.storage, "control_dt_ns": CONTROL_DT_NS,
             "types": sorted(by_type, key=DATASET_MOVE_TYPES.index),
             "recorded_by": f"littledog_mlsim {__version__} import", **source}
+    if opts.command_excitation_rad:
+        # the key record writes: diagnose --reference compares it (diagnose.conditions)
+        info["command_excitation_rad"] = float(opts.command_excitation_rad)
     with atomic_directory(out, replace=overwrite) as tmp:
         for m in moves:
             write_bag(tmp / m.rec.name, m.rec, storage=opts.storage)

@@ -253,6 +253,9 @@ def test_bad_input_is_one_line_and_writes_nothing(sources, tmp_path):
     assert str(bad) in msg and "/littledog/cmd" in msg and "message 0" in msg
     # wrong type for a role
     msg = fails([good], "cannot be the pose topic", pose_topic="/littledog/joint_states")
+    # a command excitation that is no number of radians record could have used
+    for bad_e in (float("nan"), -0.01, 0.5, True):
+        fails([good], "command excitation must be between 0 and 0.2", command_excitation_rad=bad_e)
     # corrupt storage: cut inside its header, nothing to salvage (a file cut later is read as
     # far as it is whole: test/test_faults.py)
     broken = tmp_path / "broken.mcap"
@@ -299,10 +302,20 @@ def test_cli_import_and_unknown_types_through_the_pipeline(sources, tmp_path, ca
     write_realstyle_bag(folder / "a.mcap", sources[:1], RealStyle(seed=11))
     write_realstyle_bag(folder / "b.mcap", sources[2:3], RealStyle(seed=12))
     p = cli(capsys, "import", str(folder), "--out", str(tmp_path / "f"), "--move-type", "F",
-            "--move-type", "unknown", "--test-fraction", "0")
+            "--move-type", "unknown", "--test-fraction", "0", "--excitation", "0.05")
     assert p.returncode == 0, p.stderr
-    assert read_index(tmp_path / "f").names() == ["F_00", "U_00"]
+    f_index = read_index(tmp_path / "f")
+    assert f_index.names() == ["F_00", "U_00"]
+    # --excitation is written as record writes it, and diagnose --reference reads it
+    from littledog_mlsim.diagnose.conditions import conditions_of
+    assert f_index.info["command_excitation_rad"] == 0.05
+    assert "command_excitation_rad" not in read_index(data).info
+    c = conditions_of(f_index.info, read_index(data).info)
+    assert (c.data_excitation_rad, c.reference_excitation_rad, c.comparable) == (0.05, 0.0, False)
     # --move-type per bag and a bad option are one line
     p = cli(capsys, "import", str(bag), "--out", str(tmp_path / "x"), "--move-type", "Q")
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "unknown move type" in p.stderr
+    assert not (tmp_path / "x").exists()
+    p = cli(capsys, "import", str(bag), "--out", str(tmp_path / "x"), "--excitation", "nan")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "command excitation" in p.stderr
     assert not (tmp_path / "x").exists()
