@@ -133,7 +133,10 @@ shows while they differ (carried by the model; ``significant`` does not count it
 ``unexplained_change`` and ``reference_change`` are then kept as measured with
 ``comparable: false``, neither ``significant`` nor ``named``, except an ``unexplained_change``
 that concentrates at a joint scope (:func:`concentrated_at_joints`, decision 033): it is read as
-measured, with ``comparable: false`` and ``concentrated: true``.
+measured, with ``comparable: false`` and ``concentrated: true``. ``drift_change``
+(:func:`drift_change`, decision 037): where the search suspected a heading effect it did not
+accept, the drift against the reference as a second test; where it holds, ``named``, the
+route's ``significant`` and a ``vocabulary`` naming ``odom_force @ body`` in newtons.
 """
 from __future__ import annotations
 
@@ -201,6 +204,8 @@ class LearnedOptions:
     widen_within_tolerance: bool = True  # a wider scope's total need only be within tolerance
     push_robot: str | None = "nominal"  # with a reference: whose push response sizes a push
     push_moves_per_type: int = 2  # ... walking this many of the reference's moves per type
+    drift_confirms: bool = True   # with a reference: a suspected heading confirmed by the
+    #                               drift against it is named a push (decision 037)
     seed: int = 0
 
 
@@ -1012,11 +1017,13 @@ def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str,
 
 def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
                      reference: Sequence[MoveRecording] | None, opts: LearnedOptions,
-                     say: Callable[[str], None]) -> tuple[str, dict[str, Any]]:
+                     say: Callable[[str], None], fitted: bool = True
+                     ) -> tuple[str, dict[str, Any]]:
     """A heading effect's push in newtons (:mod:`.push`): the TrainPool's drift against the
     reference's, over the push response of the physics robot ``opts.push_robot`` walking the
     reference's commands. Without a reference, a push robot, pybullet, or a drift, the
-    statement says which was missing and ``force_N`` stays None."""
+    statement says which was missing and ``force_N`` stays None. ``fitted``: the statement
+    ends with the direction of a fitted heading effect (``numbers['direction_deg']``)."""
     from .push import PybulletPushes, describe, drift_against_reference, push_mobility, \
         push_reading
     deg = numbers["direction_deg"]
@@ -1048,8 +1055,69 @@ def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
     out.update({k: reading[k] for k in ("force_N", "direction_deg", "force_xy_N")},
                equivalent_slope_deg=math.degrees(math.asin(min(1.0, reading["force_N"] / weight))),
                push={**reading, "robot": opts.push_robot, "mobility_moves": n})
-    return (describe(reading, drift, opts.push_robot) + f"; the fitted heading effect "
-            f"points toward {deg:.0f} deg", out)
+    return (describe(reading, drift, opts.push_robot) + (
+        f"; the fitted heading effect points toward {deg:.0f} deg" if fitted else ""), out)
+
+
+#: the vocabulary families a heading probe reads as (a force fixed in odom, a slope)
+HEADING_FAMILIES = ("odom_force", "ground_slope")
+
+
+def drift_change(report: dict[str, Any], train: Sequence[MoveRecording],
+                 reference: Sequence[MoveRecording], opts: LearnedOptions, mass_kg: float,
+                 say: Callable[[str], None]) -> dict[str, Any]:
+    """Decision 037: a push fixed in odom that the search suspected but did not accept,
+    confirmed by the drift against the reference.
+
+    Where the search accepted no heading effect and suspects one as significant and material
+    but raising the total held-out rollout error (a heading column also moves the body's own
+    elements, and can cost there what it gains in odom), the TrainPool's drift against the
+    reference's (:func:`.push.drift_against_reference`, no model) is the second test, at the
+    level of a choice within a finding (``scope_alpha``). Where it holds, the push is named
+    ``odom_force @ body`` in newtons from the drift over the physics robot's push response
+    (:func:`_push_in_newtons`, decision 025), toward the drift's direction. Nothing is added
+    to the model. Returns ``{tested, named, why, suspected, drift, alpha, statement}`` and,
+    where named, ``push`` (the force's numbers) and ``vocabulary``."""
+    from .push import drift_against_reference
+    out: dict[str, Any] = {"tested": False, "named": False, "suspected": None, "drift": None,
+                           "alpha": opts.scope_alpha}
+    accepted = [e for e in report.get("effects", []) + report.get("reference", {}).get(
+        "shared", []) if (e.get("vocabulary") or {}).get("family") in HEADING_FAMILIES]
+    if accepted:
+        return {**out, "why": "the search accepted a heading effect",
+                "statement": "no drift test: the search accepted a heading effect"}
+    suspects = [s for s in report.get("suspected", [])
+                if (s.get("vocabulary") or {}).get("family") in HEADING_FAMILIES
+                and s.get("why") == NO_TOTAL_GAIN]
+    if not suspects:
+        return {**out, "why": "no heading effect suspected",
+                "statement": "no drift test: no heading effect suspected"}
+    out["suspected"] = suspects[0]["label"]
+    drift = drift_against_reference(train, reference)
+    if drift is None:
+        return {**out, "why": "too few moves of the reference's types",
+                "statement": "no drift test: too few moves of the reference's types"}
+    d = drift.to_dict()
+    out.update(tested=True, drift=d)
+    if not d["p_value"] < opts.scope_alpha:
+        out["why"] = "the drift against the reference is not significant"
+        out["statement"] = (f"{suspects[0]['label']} was suspected, but the drift against the "
+                            f"reference, {100 * d['speed_mps']:.2f} cm/s toward "
+                            f"{d['direction_deg']:.0f} deg, is not significant "
+                            f"(p = {d['p_value']:.2g}, alpha {opts.scope_alpha:g})")
+        return out
+    numbers = {"force_N": None, "direction_deg": d["direction_deg"], "force_xy_N": None,
+               "mass_kg": mass_kg}
+    text, numbers = _push_in_newtons(numbers, train, reference, opts, say, fitted=False)
+    params = {"force_N": numbers.get("force_N"), "direction_deg": numbers["direction_deg"]}
+    statement = (f"a push since the reference: {text} ({suspects[0]['label']} was suspected, "
+                 f"significant and material but raising the total held-out rollout error; the "
+                 f"drift against the reference confirms it, p = {d['p_value']:.2g} < "
+                 f"{opts.scope_alpha:g}; nothing is added to the model)")
+    return {**out, "named": True, "why": "the drift against the reference confirms it",
+            "push": numbers, "statement": statement,
+            "vocabulary": {"family": "odom_force", "scope": "body", "params": params,
+                           "statement": statement}}
 
 
 def _with_drift(text: str, numbers: dict[str, Any], ev0: Evidence, h: int
@@ -1418,6 +1486,13 @@ def _search(route: _Route, train_recs: Sequence[MoveRecording],
             report["significant"] = True
         if rc["significant"]:
             say("change since the reference: " + rc["statement"])
+        # a push the search suspected but did not accept, confirmed by the drift (decision 037)
+        if opts.drift_confirms:
+            report["drift_change"] = dc = drift_change(report, train_recs, ref_route.train,
+                                                       opts, mass_kg or _default_mass(), say)
+            if dc["named"]:
+                report["significant"] = True
+                say(dc["statement"])
     from .families.learned import physical_reading
     report["suspected"] += [{**p.to_dict(), "why": _confounded_why(spread),
                              "recording": RECORDINGS["position"],
@@ -1757,6 +1832,9 @@ def _verdict(report: dict[str, Any]) -> str:
     carried_change = report.get("reference_change") or {}
     if carried_change.get("significant"):
         parts.append(carried_change["statement"])
+    drift = report.get("drift_change") or {}
+    if drift.get("named"):
+        parts.append(drift["statement"])
     if report["suspected"]:
         parts.append("the data cannot tell: " + ", ".join(
             f"{s['label']} ({s['why']})" for s in report["suspected"]))

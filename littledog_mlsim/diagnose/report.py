@@ -401,6 +401,9 @@ def _md_rollout_route(r: Mapping[str, Any] | None) -> list[str]:
     carried = r.get("reference_change")
     if carried:
         L.append(f"\nThe reference's model on this data: {carried['statement']}")
+    pushed = r.get("drift_change")
+    if pushed and pushed.get("tested"):
+        L.append(f"\nThe drift against the reference: {pushed['statement']}")
     return L + [""]
 
 

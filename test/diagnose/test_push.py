@@ -108,3 +108,40 @@ def test_no_reading_from_a_robot_that_does_not_drift():
     d = drift_against_reference(_set(6, 2, drift_odom=(0.01, 0.0)), _set(6, 1))
     assert push_reading(d, np.zeros((2, 2))) is None
     assert push_reading(d, [[0.02, 0.0], [0.0, 1e-9]]) is None
+
+
+def test_a_suspected_heading_is_named_a_push_where_the_drift_confirms_it():
+    """Decision 037: where the search suspects a heading effect (significant and material,
+    raising the total rollout error) and accepted none, the drift against the reference is
+    the second test at ``scope_alpha``; a drifting recording names ``odom_force @ body``
+    toward the drift, a clean one does not, and nothing is tested without the suspicion or
+    where a heading effect was accepted."""
+    from littledog_mlsim.diagnose.learned import NO_TOTAL_GAIN, LearnedOptions, drift_change
+    opts = LearnedOptions(push_robot=None)          # no physics robot: no size in newtons
+    suspect = {"label": "heading()", "why": NO_TOTAL_GAIN,
+               "vocabulary": {"family": "odom_force", "scope": "body"}}
+    report = {"effects": [], "reference": {"shared": []}, "suspected": [suspect]}
+    ref = _set(6, 1, yaws=(0.0, 1.2, -2.5))
+    drifting = _set(6, 2, yaws=(0.0, 1.2, -2.5), drift_odom=(-0.008, -0.008))
+    quiet = lambda s: None  # noqa: E731
+    got = drift_change(report, drifting, ref, opts, 2.5, quiet)
+    assert got["tested"] and got["named"], got
+    assert got["drift"]["p_value"] < opts.scope_alpha == got["alpha"]
+    v = got["vocabulary"]
+    assert (v["family"], v["scope"]) == ("odom_force", "body")
+    assert abs((v["params"]["direction_deg"] - 225.0 + 180.0) % 360.0 - 180.0) < 15.0
+    assert v["params"]["force_N"] is None and "push_robot is off" in got["statement"]
+    clean = drift_change(report, _set(6, 3, yaws=(0.0, 1.2, -2.5)), ref, opts, 2.5, quiet)
+    assert clean["tested"] and not clean["named"] and "not significant" in clean["statement"]
+    # no suspicion, or a suspicion of another kind: nothing tested
+    for other in ([], [{**suspect, "why": "significant but below the materiality minimum"}],
+                  [{**suspect, "vocabulary": {"family": "time_drift", "scope": "all"}}]):
+        r = drift_change({**report, "suspected": other}, drifting, ref, opts, 2.5, quiet)
+        assert not r["tested"] and not r["named"] and r["why"] == "no heading effect suspected"
+    # a heading effect the search accepted (or found shared with the reference): not tested
+    for where in ("effects", "shared"):
+        acc = {"label": "heading()", "vocabulary": {"family": "odom_force", "scope": "body"}}
+        r = dict(report, effects=[acc] if where == "effects" else [],
+                 reference={"shared": [acc] if where == "shared" else []})
+        got = drift_change(r, drifting, ref, opts, 2.5, quiet)
+        assert not got["tested"] and not got["named"], got

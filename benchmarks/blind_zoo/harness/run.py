@@ -181,7 +181,8 @@ def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     ``effects[*].physical``, the learned route's ``vocabulary`` blocks (one-step loop and
     rollout route), the rollout route's unexplained change since the reference where it is
     significant (family ``other``), its change since the reference read through the
-    reference's model where it is named (decision 027), and the sensor-timing check's where it
+    reference's model where it is named (decision 027), its push confirmed by the drift
+    against the reference where named (decision 037), and the sensor-timing check's where it
     found a shift (either route)."""
     out = []
     for e in report.get("effects", []):
@@ -195,6 +196,9 @@ def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     carried = (report.get("rollout_route") or {}).get("reference_change") or {}
     if carried.get("named"):
         out.append(carried.get("vocabulary") or {})
+    pushed = (report.get("rollout_route") or {}).get("drift_change") or {}
+    if pushed.get("named"):
+        out.append(pushed.get("vocabulary") or {})
     timing = report.get("timing") or {}
     if timing.get("significant"):
         out.append(timing.get("vocabulary") or {})
