@@ -335,10 +335,45 @@ def servo_slope(X: np.ndarray, D: np.ndarray, j: int) -> float:
     return float(coef[0])
 
 
-def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: np.ndarray
-          ) -> dict[str, Any]:
+def elapsed_s(mi: np.ndarray) -> np.ndarray:
+    """Each row's seconds since its move's first row, for rows of whole moves in time order
+    (``mi``: each row's move index, as :meth:`..models.features.FeatureSet.features_responses`
+    gives them)."""
+    mi = np.asarray(mi)
+    starts = np.r_[0, np.flatnonzero(np.diff(mi)) + 1]
+    lengths = np.diff(np.r_[starts, len(mi)])
+    return (np.arange(len(mi)) - np.repeat(starts, lengths)) * CONTROL_DT
+
+
+def stiffness_rate(X: np.ndarray, D: np.ndarray, mi: np.ndarray, j: int) -> float:
+    """Joint j's relative stiffness change per second on one recording's rows: the
+    least-squares coefficient of t (u - q) over that of u - q in the rate's one-step change,
+    beside a constant, the rate and the angle (t: :func:`elapsed_s`; a servo gain
+    k (1 + r t) gives r)."""
+    u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
+    e, t = u - q, elapsed_s(mi)
+    Z = np.stack([np.ones_like(u), e, t * e, dq, q], axis=1)
+    c, *_ = np.linalg.lstsq(Z, D[:, S.dq.start + j], rcond=None)
+    return float(c[2] / c[1]) if abs(c[1]) > 1e-12 else float("nan")
+
+
+def _drift_rate(X: np.ndarray, D: np.ndarray, mi: np.ndarray, Xr: np.ndarray, Dr: np.ndarray,
+                mir: np.ndarray, joints: Sequence[int]) -> dict[str, Any]:
+    """Decision 038: a time drift's rate, each joint's :func:`stiffness_rate` on the data
+    minus on the reference, the median over ``joints``."""
+    r = {j: stiffness_rate(X, D, mi, j) - stiffness_rate(Xr, Dr, mir, j) for j in joints}
+    ok = [v for v in r.values() if np.isfinite(v)]
+    return {"rate_per_s": round(float(np.median(ok)), 4) if ok else None,
+            "per_joint": {str(j): round(v, 4) for j, v in r.items() if np.isfinite(v)}}
+
+
+def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: np.ndarray,
+          mi: np.ndarray | None = None, mir: np.ndarray | None = None) -> dict[str, Any]:
     """The kept hypothesis's size in its family's unit (module doc, 3): X, D the data's
-    features and one-step changes, Xr, Dr the reference's."""
+    features and one-step changes, Xr, Dr the reference's; ``mi``, ``mir`` their rows' move
+    indices where the rows are whole moves (a time drift is then sized by
+    :func:`_drift_rate`, decision 038, and the correction's own figure is kept as
+    ``model_rate_per_s``)."""
     hyp = model.hyp
     k = {j: servo_slope(Xr, Dr, j) for j in model.joints}
     if hyp.family == "servo_gain":
@@ -353,7 +388,10 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
         return {"width_rad": float(hyp.aug.width)}
     if hyp.family == "time_drift":
         r = [model.raw_coef(j, 3) / k[j] for j in model.joints if abs(k[j]) > 1e-12]
-        return {"rate_per_s": round(float(np.median(r)), 4) if r else None}
+        own = round(float(np.median(r)), 4) if r else None
+        if mi is None or mir is None:
+            return {"rate_per_s": own}
+        return {**_drift_rate(X, D, mi, Xr, Dr, mir, model.joints), "model_rate_per_s": own}
     if hyp.family == "contact_phase":
         from ..robot.config import per_joint, robot_config
         kp = per_joint(robot_config(NOMINAL_ROBOT).kp)
@@ -646,7 +684,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     if located:
         out["located_by"] = "all_rows"
         out.update(_screen(data, ref, fs, one["scope"], own_one_step, X, D, mi, Xr, Dr, opts,
-                           out["hypotheses"]))
+                           out["hypotheses"], mir))
     if not out["named"] and in_swing:
         sw["screen"] = sc = _screen_in_swing(data, ref, fs, sw["leg"],
                                              sw["cells"][sw["leg"]]["stance"], own_one_step,
@@ -658,7 +696,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
     if out["named"]:
         out["agrees"] = any(r["family"] == out["family"] and r["scope"] == out["kept_scope"]
                             for r in out["search"])
-        params = {k: v for k, v in out["size"].items() if k != "per_joint"}
+        params = {k: v for k, v in out["size"].items()
+                  if k not in ("per_joint", "model_rate_per_s")}
         if out["located_by"] == "swing" and out["family"] == "contact_phase":
             params["phase"] = "swing"
         out["vocabulary"] = {"family": out["family"], "scope": out["kept_scope"],
@@ -671,8 +710,8 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
 
 def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
             own_one_step: np.ndarray, X: np.ndarray, D: np.ndarray, mi: np.ndarray,
-            Xr: np.ndarray, Dr: np.ndarray, opts: Any, rows: list[dict[str, Any]]
-            ) -> dict[str, Any]:
+            Xr: np.ndarray, Dr: np.ndarray, opts: Any, rows: list[dict[str, Any]],
+            mir: np.ndarray | None = None) -> dict[str, Any]:
     """Decision 027's screen at a scope located over all rows (module doc, 3-5): the servo
     response, then every family's column against it; the hypotheses' rows are appended to
     ``rows``. Returns ``named`` and, where the servo response differs, ``family``,
@@ -716,7 +755,7 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
         sized = (_finer_low_pass(kept, data, ref, fs, cols, rows)
                  if kept.hyp.family == "command_filter" else kept)   # between the scan's taus
         family, label, size = kept.hyp.family, sized.hyp.label(), _size(sized.model, X, D,
-                                                                         Xr, Dr)
+                                                                         Xr, Dr, mi, mir)
     return {"family": family, "kept_scope": _scope_for(family, scope),
             "label": label, "explained": share, "size": size, "replay": replay,
             "named": bool(share >= EXPLAINED_SHARE

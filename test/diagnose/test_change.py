@@ -615,3 +615,33 @@ def test_the_kept_family_is_sized_by_its_replay_where_that_explains_half(monkeyp
     assert out["size"] == ({"delay_ms": 22.5} if sized else {"delay_ms": 50.0})
     assert out["label"] == ("delay 22.5 ms (replayed)" if sized
                             else "set-point delay 5 step(s) @ leg:front_left")
+
+
+def test_a_time_drift_is_sized_by_its_stiffness_slope_against_the_reference():
+    """Decision 038: each joint's coefficient of t (u - q) over that of u - q in its rate's
+    one-step change, beside a constant, the rate and the angle, on the data minus on the
+    reference; a servo gain k (1 + r t) reads r, whatever the reference's own trend."""
+    from littledog_mlsim.diagnose.change import _drift_rate, elapsed_s, stiffness_rate
+
+    def rows(rate: float, seed: int, moves: int = 8, steps: int = 300):
+        rng = np.random.default_rng(seed)
+        n = moves * steps
+        mi = np.repeat(np.arange(moves), steps)
+        t = elapsed_s(mi)
+        assert t[0] == 0.0 and t[steps] == 0.0 and t[steps - 1] == pytest.approx(2.99)
+        X = np.zeros((n, N_FEATURE))
+        X[:, S.q] = rng.normal(0.0, 0.3, (n, 12))
+        X[:, S.dq] = rng.normal(0.0, 1.0, (n, 12))
+        X[:, N_STATE:N_STATE + 12] = X[:, S.q] + rng.normal(0.0, 0.1, (n, 12))
+        e = X[:, N_STATE:N_STATE + 12] - X[:, S.q]
+        D = np.zeros((n, N_STATE))
+        D[:, S.dq] = (2.0 * (1.0 + rate * t)[:, None] * e - 0.3 * X[:, S.dq]
+                      + 0.05 * X[:, S.q] + rng.normal(0.0, 0.01, (n, 12)))
+        return X, D, mi
+
+    X, D, mi = rows(-0.08 + 0.02, 1)          # the reference's own trend, +0.02 /s, on top
+    Xr, Dr, mir = rows(0.02, 2)
+    assert stiffness_rate(Xr, Dr, mir, 4) == pytest.approx(0.02, abs=0.003)
+    got = _drift_rate(X, D, mi, Xr, Dr, mir, [0, 1, 2])
+    assert got["rate_per_s"] == pytest.approx(-0.08, abs=0.005)
+    assert set(got["per_joint"]) == {"0", "1", "2"}
