@@ -75,8 +75,9 @@ reference recording of the same robot it is measured directly (decision 027):
    median over the scope's joints); a delay, a low-pass's time constant or a play band's
    width, the replay's where it explains enough (3), else a delay of ``k`` steps, a play
    band's width and a low-pass's time constant on a finer grid around the scan's best
-   (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from the ``t (u - q)`` coefficient over the
-   reference's slope; a drag in newtons, the coefficient of its torque column over the
+   (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from each scope joint's own
+   stiffness slope on the data minus on the reference (:func:`_drift_rate`, decision 038; the
+   ``t (u - q)`` coefficient over the reference's slope is kept as ``model_rate_per_s``); a drag in newtons, the coefficient of its torque column over the
    reference's slope times the ``nominal`` robot's servo stiffness (the slope is that stiffness
    over the joint's inertia, the coefficient the drag over it; median over the scope's joints),
    so off by as much as the robot's stiffness is.
