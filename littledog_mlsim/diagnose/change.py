@@ -77,10 +77,11 @@ reference recording of the same robot it is measured directly (decision 027):
    band's width and a low-pass's time constant on a finer grid around the scan's best
    (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from each scope joint's own
    stiffness slope on the data minus on the reference (:func:`_drift_rate`, decision 038; the
-   ``t (u - q)`` coefficient over the reference's slope is kept as ``model_rate_per_s``); a drag in newtons, the coefficient of its torque column over the
-   reference's slope times the ``nominal`` robot's servo stiffness (the slope is that stiffness
-   over the joint's inertia, the coefficient the drag over it; median over the scope's joints),
-   so off by as much as the robot's stiffness is.
+   ``t (u - q)`` coefficient over the reference's slope is kept as ``model_rate_per_s``); a
+   drag in newtons, the coefficient of its torque column over the reference's slope times the
+   ``nominal`` robot's servo stiffness (the slope is that stiffness over the joint's inertia,
+   the coefficient the drag over it; median over the scope's joints), so off by as much as the
+   robot's stiffness is.
 
 Nothing is added to the served model for it; the statement says whether the data's own model
 carries the change (decision 026's ratio below :data:`.excess.MIN_RATIO`) or not. It runs also
