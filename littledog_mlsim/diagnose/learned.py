@@ -1017,13 +1017,14 @@ def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str,
 
 def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
                      reference: Sequence[MoveRecording] | None, opts: LearnedOptions,
-                     say: Callable[[str], None], fitted: bool = True
-                     ) -> tuple[str, dict[str, Any]]:
+                     say: Callable[[str], None], fitted: bool = True,
+                     drift: "Drift | None" = None) -> tuple[str, dict[str, Any]]:
     """A heading effect's push in newtons (:mod:`.push`): the TrainPool's drift against the
     reference's, over the push response of the physics robot ``opts.push_robot`` walking the
     reference's commands. Without a reference, a push robot, pybullet, or a drift, the
     statement says which was missing and ``force_N`` stays None. ``fitted``: the statement
-    ends with the direction of a fitted heading effect (``numbers['direction_deg']``)."""
+    ends with the direction of a fitted heading effect (``numbers['direction_deg']``);
+    ``drift``: the drift against the reference where the caller measured it."""
     from .push import PybulletPushes, describe, drift_against_reference, push_mobility, \
         push_reading
     deg = numbers["direction_deg"]
@@ -1032,7 +1033,8 @@ def _push_in_newtons(numbers: dict[str, Any], train: Sequence[MoveRecording],
         why = ("a reference recording of the robot without it (the drift against it)"
                if reference is None else "a robot's push response (push_robot is off)")
         return f"{head}; its size in newtons needs {why}", numbers
-    drift = drift_against_reference(train, reference)
+    if drift is None:
+        drift = drift_against_reference(train, reference)
     if drift is None:
         return (f"{head}; too few moves of the reference's types to measure the drift against "
                 f"it, so no size in newtons", numbers)
@@ -1108,7 +1110,8 @@ def drift_change(report: dict[str, Any], train: Sequence[MoveRecording],
         return out
     numbers = {"force_N": None, "direction_deg": d["direction_deg"], "force_xy_N": None,
                "mass_kg": mass_kg}
-    text, numbers = _push_in_newtons(numbers, train, reference, opts, say, fitted=False)
+    text, numbers = _push_in_newtons(numbers, train, reference, opts, say, fitted=False,
+                                     drift=drift)
     params = {"force_N": numbers.get("force_N"), "direction_deg": numbers["direction_deg"]}
     statement = (f"a push since the reference: {text} ({suspects[0]['label']} was suspected, "
                  f"significant and material but raising the total held-out rollout error; the "
