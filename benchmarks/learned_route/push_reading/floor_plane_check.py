@@ -7,7 +7,7 @@ slope reading) on a zoo's recordings, each dataset's TrainPool.
 
 Writes OUT.md and OUT.json: per dataset the plane's slope, uphill direction (odom), rise per
 metre and the share of the body height's variance it explains (r2; the slope reading needs
-``PLANE_R2``).
+``PLANE_R2``), and the body's lowest height (over all moves, and the median of each move's).
 """
 from __future__ import annotations
 
@@ -19,6 +19,8 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
+
+import numpy as np   # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves   # noqa: E402
 from littledog_mlsim.diagnose.families.learned import PLANE_R2, floor_plane   # noqa: E402
@@ -32,20 +34,25 @@ def main() -> None:
     a = p.parse_args()
     rows = []
     for name in a.datasets.split(","):
-        fp = floor_plane(load_moves(a.zoo_dir / name, "train"))
-        rows.append({"dataset": name, **(fp or {})})
+        recs = load_moves(a.zoo_dir / name, "train")
+        fp = floor_plane(recs)
+        low = [float(np.min(np.asarray(r.position)[:, 2])) for r in recs]
+        rows.append({"dataset": name, **(fp or {}), "lowest_body_z_m": min(low),
+                     "median_move_lowest_body_z_m": float(np.median(low))})
         print(rows[-1], flush=True)
     cmd = " ".join(["OPENBLAS_NUM_THREADS=1 .venv/bin/python",
                     str(Path(sys.argv[0]))] + sys.argv[1:])
     a.out.with_suffix(".json").write_text(json.dumps({"command": cmd, "plane_r2": PLANE_R2,
                                                       "rows": rows}, indent=1))
     lines = ["# The body heights' plane on a zoo's recordings", "", f"Command: `{cmd}`", "",
-             "| dataset | slope [deg] | uphill direction [deg, odom] | rise [m/m] | r2 |",
-             "|---|---|---|---|---|"]
+             "| dataset | slope [deg] | uphill direction [deg, odom] | rise [m/m] | r2 | "
+             "lowest body height [m] | median over moves of each move's lowest [m] |",
+             "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['dataset']} | {r.get('slope_deg', float('nan')):.2f} | "
                      f"{r.get('uphill_direction_deg', float('nan')):.0f} | "
-                     f"{r.get('rise_per_m', float('nan')):.3f} | {r.get('r2', float('nan')):.3f} |")
+                     f"{r.get('rise_per_m', float('nan')):.3f} | {r.get('r2', float('nan')):.3f} | "
+                     f"{r['lowest_body_z_m']:.3f} | {r['median_move_lowest_body_z_m']:.3f} |")
     a.out.with_suffix(".md").write_text("\n".join(lines) + "\n")
 
 
