@@ -57,6 +57,12 @@ reference recording of the same robot it is measured directly (decision 027):
      the servo response; else the servo response. A delay and a low-pass mimic each other on
      top of the servo's columns (a delay's gain still rising at the longest lag, a low-pass's
      at the shortest time constant), not alone.
+   - **An angle offset** (decision 039, :func:`_offset`): where no family qualifies, a
+     constant alone (``encoder_offset``) is kept in place of the servo response where it is
+     significant and material against the same constant fitted on the reference and gains
+     more than the servo response's other columns gain on top of it: a sensor
+     mounted ``c`` off makes the servo act on ``u - q + c``, a constant in the rate's change
+     with the servo's slope unchanged.
    - **Replayed** (decision 036, :func:`_replay`): where the kept hypothesis is a change of
      the set-point's path (a delay, a low-pass, a play), the reference's model predicts the
      data's next step from the data's state and the set-point each hypothesis of that
@@ -72,7 +78,8 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); a delay, a low-pass's time constant or a play band's
+   median over the scope's joints); an angle offset, the constant over the reference's slope
+   (median over the scope's joints); a delay, a low-pass's time constant or a play band's
    width, the replay's where it explains enough (3), else a delay of ``k`` steps, a play
    band's width and a low-pass's time constant on a finer grid around the scan's best
    (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from each scope joint's own
@@ -140,6 +147,9 @@ SWING_MIN_RATIO = 1.25
 #: a change spread over all joints (scope ``all``) is screened as a concentrated one is
 #: (decision 035)
 SCREEN_SPREAD = True
+#: where no family stands beside the servo response, a constant alone is screened against it:
+#: an angle sensor's offset (decision 039, :func:`_offset`)
+SCREEN_OFFSET = True
 #: the families of the set-point's path: a change the reference's model can replay, given the
 #: set-point the servo would then act on
 SETPOINT_FAMILIES = ("command_delay", "command_filter", "backlash")
@@ -164,14 +174,15 @@ SWING_ROW = 0.5
 class Hypothesis:
     """A change at ``scope``: the servo's response, plus ``aug``'s column for ``family``."""
 
-    family: str       # servo_gain, command_delay, command_filter, backlash, contact_phase,
-    #                   time_drift
+    family: str       # servo_gain, encoder_offset, command_delay, command_filter, backlash,
+    #                   contact_phase, time_drift
     scope: str
     aug: Augmentation | None = None
     alone: bool = False   # the family's column(s) and a constant, without the servo response
 
     def label(self) -> str:
-        what = {"servo_gain": "servo response", "command_delay": "set-point delay",
+        what = {"servo_gain": "servo response", "encoder_offset": "angle offset",
+                "command_delay": "set-point delay",
                 "command_filter": "set-point low-pass", "backlash": "set-point play",
                 "contact_phase": "rate in swing", "time_drift": "drift with time"}[self.family]
         if isinstance(self.aug, CommandLag):
@@ -378,6 +389,11 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
     ``model_rate_per_s``)."""
     hyp = model.hyp
     k = {j: servo_slope(Xr, Dr, j) for j in model.joints}
+    if hyp.family == "encoder_offset":
+        # the servo acts on u - (q - offset): the rate's one-step change gains k * offset
+        r = {j: model.raw_coef(j, 0) / k[j] for j in model.joints if abs(k[j]) > 1e-12}
+        return {"offset_rad": round(float(np.median(list(r.values()))), 4) if r else None,
+                "per_joint": {str(j): round(float(v), 4) for j, v in r.items()}}
     if hyp.family == "servo_gain":
         r = {j: servo_slope(X, D, j) / k[j] for j in model.joints if abs(k[j]) > 1e-12}
         return {"gain_ratio": round(float(np.median(list(r.values()))), 3) if r else None,
@@ -739,6 +755,10 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
         family = min(ok, key=alone.__getitem__)
         kept = max((j for j in judged if j.ok and j.hyp.family == family),
                    key=lambda j: j.total)
+    elif SCREEN_OFFSET:      # decision 039: the servo response's gain, or an offset alone
+        offset = _offset(servo, data, ref, fs, scope, opts, cols, rows)
+        if offset is not None:
+            kept = offset
     own = _move_sse(own_one_step, mi, data.route.mv.n)[:, cols].sum()
     before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
     share = float((before - after) / (before - own)) if before > own else 0.0
@@ -984,6 +1004,25 @@ def _servo_response(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope
     fitted on the reference (what its columns do where nothing changed)."""
     servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope))
     return _judge(servo, servo.base, 1, opts, cols)
+
+
+def _offset(servo: _Judged, data: "_Residuals", ref: "_Residuals", fs: FeatureSet,
+            scope: str, opts: Any, cols: Sequence[int], rows: list[dict[str, Any]]
+            ) -> _Judged | None:
+    """Decision 039: a change the servo response reads where no family's column stands beside
+    it, read as an angle sensor's offset. An encoder mounted ``c`` off makes the servo act on
+    ``u - q + c`` for the recorded ``q``: the rate's one-step change gains a constant, and
+    the servo's slope is unchanged. The constant alone (``encoder_offset``: a constant per
+    joint, no servo column) must be significant and material against the same constant
+    fitted on the reference, and gain more over it than the servo response's other columns
+    (``u - q`` and the rate) gain on top of the constant; then the offset is kept. Rows
+    ``stage`` "offset" and "gain over offset". Returns the offset's judged fit, or None."""
+    off = _fit(data, ref, fs, Hypothesis("encoder_offset", scope, alone=True))
+    _judge(off, off.base, 1, opts, cols)
+    rows.append(_row(off, "offset"))
+    gain = _judge(replace(servo), off.sse, 1, opts, cols)
+    rows.append(_row(gain, "gain over offset"))
+    return off if off.ok and off.total > gain.total else None
 
 
 def _finer_low_pass(kept: _Judged, data: "_Residuals", ref: "_Residuals", fs: FeatureSet,
