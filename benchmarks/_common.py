@@ -152,6 +152,30 @@ def zoo_study_parser(description: str):
     return p
 
 
+def zoo_effect_routes(a):
+    """The read-zoo studies' loop (``learned_route/reference_change``), for the arguments of
+    :func:`zoo_study_parser` with ``--only``: the learned route's start features, the
+    reference's route and its fit at them (``ref.fit(start, one_step=True)``), then per effect
+    of ``--only`` ``(name, truth entry, its route, seconds since the effect's start)``; the
+    last is a function, read after the effect's work."""
+    import time
+
+    from littledog_mlsim.data.dataset import load_moves
+    from littledog_mlsim.diagnose.candidates import measured_robot_features
+    from littledog_mlsim.diagnose.learned import LearnedOptions, _Route
+    opts, start, quiet = LearnedOptions(), measured_robot_features(), (lambda s: None)
+    truth = {e["id"]: e for e in zoo_effects(a.truth)}
+    ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
+    ref_fit = ref.fit(start, one_step=True)
+
+    def effects():
+        for name in a.only.split(","):
+            t = time.perf_counter()
+            r = _Route(load_moves(a.zoo_dir / "effects" / name, "train"), start, opts, quiet)
+            yield name, truth[name], r, lambda: round(time.perf_counter() - t, 1)
+    return start, ref, ref_fit, effects()
+
+
 def save_study(doc: dict, out: Path, write_md) -> None:
     """Write an appended study's ``doc`` to ``out``.json and its table to ``out``.md
     (``write_md(doc, path)``)."""

@@ -19,19 +19,15 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import appended_study, save_study, study_commands, zoo_effects, \
+from _common import appended_study, save_study, study_commands, zoo_effect_routes, \
     zoo_study_parser  # noqa: E402
 
-from littledog_mlsim.data.dataset import load_moves   # noqa: E402
-from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
 from littledog_mlsim.diagnose.change import reference_change   # noqa: E402
-from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E402
 
 
 def _err(got, truth):
@@ -57,16 +53,10 @@ def main() -> None:
     p = zoo_study_parser(__doc__.splitlines()[0])
     p.add_argument("--only", required=True, help="comma-separated effect ids (zNN)")
     a = p.parse_args()
-    opts, start, quiet = LearnedOptions(), measured_robot_features(), (lambda s: None)
-    truth = {e["id"]: e for e in zoo_effects(a.truth)}
-    ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
-    ref_fit = ref.fit(start, one_step=True)
+    start, ref, ref_fit, effects = zoo_effect_routes(a)
     doc = appended_study(a.out.with_suffix(".json"))
-    for name in a.only.split(","):
-        t = time.perf_counter()
-        r = _Route(load_moves(a.zoo_dir / "effects" / name, "train"), start, opts, quiet)
+    for name, e, r, seconds in effects:
         c = reference_change(r, ref, start, None, None, ref_fit)
-        e = truth[name]
         tr = (e.get("params") or {}).get("rate_per_s")
         drift = c["named"] and c.get("family") == "time_drift"
         size = c.get("size") or {}
@@ -78,7 +68,7 @@ def main() -> None:
                          if c["named"] else None),
                "rate": rate, "error": _err(rate, tr), "model_rate": model_rate,
                "model_error": _err(model_rate, tr), "per_joint": size.get("per_joint"),
-               "seconds": round(time.perf_counter() - t, 1)}
+               "seconds": seconds()}
         doc["rows"].append(row)
         print(row, flush=True)
     save_study(doc, a.out, write_md)
