@@ -172,7 +172,7 @@ def zoo_effect_routes(a):
         for name in a.only.split(","):
             t = time.perf_counter()
             r = _Route(load_moves(a.zoo_dir / "effects" / name, "train"), start, opts, quiet)
-            yield name, truth[name], r, lambda: round(time.perf_counter() - t, 1)
+            yield name, truth[name], r, lambda t=t: round(time.perf_counter() - t, 1)
     return start, ref, ref_fit, effects()
 
 

@@ -60,9 +60,9 @@ reference recording of the same robot it is measured directly (decision 027):
    - **An angle offset** (decision 039, :func:`_offset`): where no family qualifies, a
      constant alone (``encoder_offset``) is kept in place of the servo response where it is
      significant and material against the same constant fitted on the reference and gains
-     more than the servo response's other columns gain on top of it: a sensor
-     mounted ``c`` off makes the servo act on ``u - q + c``, a constant in the rate's change
-     with the servo's slope unchanged.
+     more than the servo response's other columns gain on top of it: an angle sensor mounted
+     off shows at the recorded angle as a near-constant in the rate's change with the servo's
+     slope unchanged (:func:`_offset`).
    - **Replayed** (decision 036, :func:`_replay`): where the kept hypothesis is a change of
      the set-point's path (a delay, a low-pass, a play), the reference's model predicts the
      data's next step from the data's state and the set-point each hypothesis of that
@@ -78,8 +78,9 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
-   median over the scope's joints); an angle offset, the constant over the reference's slope
-   (median over the scope's joints); a delay, a low-pass's time constant or a play band's
+   median over the scope's joints); an angle offset, none (the constant's size depends on
+   where the servo reads its angle and on the loads at the joint; ``per_joint`` gives each
+   joint's constant); a delay, a low-pass's time constant or a play band's
    width, the replay's where it explains enough (3), else a delay of ``k`` steps, a play
    band's width and a low-pass's time constant on a finer grid around the scan's best
    (:data:`FINER_STEPS`; :func:`_finer_low_pass`); a drift rate from each scope joint's own
@@ -290,8 +291,9 @@ class ChangeModel:
         return self.ref.predict(X[:, :self.n_ref], -1) + self.correction(X, fold)
 
     def raw_coef(self, j: int, column: int, output: int = 1, fold: int = -1) -> float:
-        """Raw-unit coefficient of correction column ``column`` (0: u - q, 3: the family's) on
-        output ``output`` (0: the angle's one-step change, 1: the rate's)."""
+        """Raw-unit coefficient of correction column ``column`` (0: u - q, or the constant of a
+        hypothesis ``alone``; 3: the family's) on output ``output`` (0: the angle's one-step
+        change, 1: the rate's)."""
         return float(self.coef_[fold][j][column, output] / self.scale_[j][column])
 
 
@@ -390,10 +392,10 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
     hyp = model.hyp
     k = {j: servo_slope(Xr, Dr, j) for j in model.joints}
     if hyp.family == "encoder_offset":
-        # the servo acts on u - (q - offset): the rate's one-step change gains k * offset
-        r = {j: model.raw_coef(j, 0) / k[j] for j in model.joints if abs(k[j]) > 1e-12}
-        return {"offset_rad": round(float(np.median(list(r.values()))), 4) if r else None,
-                "per_joint": {str(j): round(float(v), 4) for j, v in r.items()}}
+        # no angle without a twin (decision 039): each joint's constant in its rate's one-step
+        # change [rad/s], as measured
+        return {"offset_rad": None,
+                "per_joint": {str(j): round(model.raw_coef(j, 0), 5) for j in model.joints}}
     if hyp.family == "servo_gain":
         r = {j: servo_slope(X, D, j) / k[j] for j in model.joints if abs(k[j]) > 1e-12}
         return {"gain_ratio": round(float(np.median(list(r.values()))), 3) if r else None,
@@ -1010,9 +1012,13 @@ def _offset(servo: _Judged, data: "_Residuals", ref: "_Residuals", fs: FeatureSe
             scope: str, opts: Any, cols: Sequence[int], rows: list[dict[str, Any]]
             ) -> _Judged | None:
     """Decision 039: a change the servo response reads where no family's column stands beside
-    it, read as an angle sensor's offset. An encoder mounted ``c`` off makes the servo act on
-    ``u - q + c`` for the recorded ``q``: the rate's one-step change gains a constant, and
-    the servo's slope is unchanged. The constant alone (``encoder_offset``: a constant per
+    it, read as an angle sensor's offset. An encoder mounted ``c`` off shows at the recorded
+    angle ``q`` as a near-constant in the rate's one-step change, with the servo's slope
+    unchanged: where the servo reads another sensor than the one recorded, it acts on
+    ``u - q + c``; where it closes its loop on the offset encoder, it acts on ``u - q`` and
+    every load that depends on the true angle (gravity, the leg's geometry) is shifted by
+    ``c``. The constant's size depends on which, and on those loads, so no angle is given
+    without a twin (:func:`_size`). The constant alone (``encoder_offset``: a constant per
     joint, no servo column) must be significant and material against the same constant
     fitted on the reference, and gain more over it than the servo response's other columns
     (``u - q`` and the rate) gain on top of the constant; then the offset is kept. Rows
