@@ -176,6 +176,18 @@ def zoo_effect_routes(a):
     return start, ref, ref_fit, effects()
 
 
+def zoo_effect_study(description: str):
+    """A read-zoo study over ``--only``'s effects, set up: the arguments of
+    :func:`zoo_study_parser` and ``--only`` parsed, :func:`zoo_effect_routes` of them, and the
+    appended study document at ``--out``. Returns ``(args, start, ref, ref_fit, effects,
+    doc)``."""
+    p = zoo_study_parser(description)
+    p.add_argument("--only", required=True, help="comma-separated effect ids (zNN)")
+    a = p.parse_args()
+    start, ref, ref_fit, effects = zoo_effect_routes(a)
+    return a, start, ref, ref_fit, effects, appended_study(a.out.with_suffix(".json"))
+
+
 def save_study(doc: dict, out: Path, write_md) -> None:
     """Write an appended study's ``doc`` to ``out``.json and its table to ``out``.md
     (``write_md(doc, path)``)."""

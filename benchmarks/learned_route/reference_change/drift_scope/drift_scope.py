@@ -22,8 +22,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import appended_study, save_study, study_commands, zoo_effect_routes, \
-    zoo_study_parser  # noqa: E402
+from _common import save_study, study_commands, zoo_effect_study  # noqa: E402
 
 from littledog_mlsim.diagnose import change   # noqa: E402
 from littledog_mlsim.layout import N_STATE   # noqa: E402
@@ -49,13 +48,9 @@ def write_md(doc: dict, path: Path) -> None:
 
 
 def main() -> None:
-    p = zoo_study_parser(__doc__.splitlines()[0])
-    p.add_argument("--only", required=True, help="comma-separated effect ids (zNN)")
-    a = p.parse_args()
-    start, ref, ref_fit, effects = zoo_effect_routes(a)
+    a, start, ref, ref_fit, effects, doc = zoo_effect_study(__doc__.splitlines()[0])
     ref_model, ev_ref = ref_fit
     Xr, Yr, mir = start.features_responses(ref.train)
-    doc = appended_study(a.out.with_suffix(".json"))
     for name, e, r, seconds in effects:
         c = change.reference_change(r, ref, start, None, None, ref_fit)
         X, Y, mi = start.features_responses(r.train)

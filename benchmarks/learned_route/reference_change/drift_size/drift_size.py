@@ -24,8 +24,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import appended_study, save_study, study_commands, zoo_effect_routes, \
-    zoo_study_parser  # noqa: E402
+from _common import save_study, study_commands, zoo_effect_study  # noqa: E402
 
 from littledog_mlsim.diagnose.change import reference_change   # noqa: E402
 
@@ -50,11 +49,7 @@ def write_md(doc: dict, path: Path) -> None:
 
 
 def main() -> None:
-    p = zoo_study_parser(__doc__.splitlines()[0])
-    p.add_argument("--only", required=True, help="comma-separated effect ids (zNN)")
-    a = p.parse_args()
-    start, ref, ref_fit, effects = zoo_effect_routes(a)
-    doc = appended_study(a.out.with_suffix(".json"))
+    a, start, ref, ref_fit, effects, doc = zoo_effect_study(__doc__.splitlines()[0])
     for name, e, r, seconds in effects:
         c = reference_change(r, ref, start, None, None, ref_fit)
         tr = (e.get("params") or {}).get("rate_per_s")
