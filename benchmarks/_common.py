@@ -157,7 +157,8 @@ def zoo_effect_routes(a):
     :func:`zoo_study_parser` with ``--only``: the learned route's start features, the
     reference's route and its fit at them (``ref.fit(start, one_step=True)``), then per effect
     of ``--only`` ``(name, truth entry, its route, seconds since the effect's start)``; the
-    last is a function, read after the effect's work."""
+    last is a function, read after the effect's work. A name the truth lacks is read from the
+    harness's ``clean/`` recordings, with the truth entry family ``clean``."""
     import time
 
     from littledog_mlsim.data.dataset import load_moves
@@ -171,8 +172,11 @@ def zoo_effect_routes(a):
     def effects():
         for name in a.only.split(","):
             t = time.perf_counter()
-            r = _Route(load_moves(a.zoo_dir / "effects" / name, "train"), start, opts, quiet)
-            yield name, truth[name], r, lambda t=t: round(time.perf_counter() - t, 1)
+            clean = name not in truth and (a.zoo_dir / "clean" / name).is_dir()
+            where = a.zoo_dir / ("clean" if clean else "effects") / name
+            r = _Route(load_moves(where, "train"), start, opts, quiet)
+            entry = {"id": name, "family": "clean", "scope": "-"} if clean else truth[name]
+            yield name, entry, r, lambda t=t: round(time.perf_counter() - t, 1)
     return start, ref, ref_fit, effects()
 
 

@@ -75,7 +75,10 @@ reference recording of the same robot it is measured directly (decision 027):
      set-point apart from the state, and a one-leg delay's replay is beaten by a low-pass's.
 4. **Named** where the kept hypothesis removes at least :data:`EXPLAINED_SHARE` of the scope's
    one-step error of the reference's model above the data's own model's (``explained``);
-   otherwise the change is reported at its scope without a family.
+   otherwise the change is reported at its scope without a family. A change spread over all
+   joints where a time drift is kept and not named is screened again at each joint type, side
+   and leg where it is material, and named at the scope where the drift explains the most,
+   where that is enough (decision 040, :func:`_screen_narrower`, ``narrower``).
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
    median over the scope's joints); an angle offset, none (the constant's size depends on
@@ -151,6 +154,19 @@ SCREEN_SPREAD = True
 #: where no family stands beside the servo response, a constant alone is screened against it:
 #: an angle sensor's offset (decision 039, :func:`_offset`)
 SCREEN_OFFSET = True
+#: a change spread over all joints whose kept family (one of :data:`NARROWER_FAMILIES`) is not
+#: named there is screened again at each joint type, side and leg where the change is
+#: material, and named at the one where the same family explains the most, if it explains
+#: enough there (decision 040, :func:`_screen_narrower`)
+SCREEN_NARROWER = True
+#: the families decision 040 screens again: a drift's excess grows from nothing along each move
+#: and spreads through the body, so a drift of some joints reads as spread
+NARROWER_FAMILIES = ("time_drift",)
+#: the scopes decision 040 screens under ``all``
+NARROWER_SCOPES = (tuple(f"type:{t}" for t in ("hip_rolls", "hip_pitches", "knees"))
+                   + ("side:left", "side:right")
+                   + tuple(f"leg:{g}" for g in ("front_left", "front_right", "back_left",
+                                                "back_right")))
 #: the families of the set-point's path: a change the reference's model can replay, given the
 #: set-point the servo would then act on
 SETPOINT_FAMILIES = ("command_delay", "command_filter", "backlash")
@@ -705,6 +721,15 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
         out["located_by"] = "all_rows"
         out.update(_screen(data, ref, fs, one["scope"], own_one_step, X, D, mi, Xr, Dr, opts,
                            out["hypotheses"], mir))
+        if (SCREEN_NARROWER and one["scope"] == "all" and not out["named"]
+                and out.get("family") in NARROWER_FAMILIES):
+            nr = _screen_narrower(data, ref, fs, out["family"], one["scope_ratios"],
+                                  own_one_step, X, D, mi, Xr, Dr, opts, mir)
+            kept = nr.pop("kept")
+            out["narrower"] = {**nr, "all": {"label": out["label"],
+                                             "explained": out["explained"]}}
+            if nr["named"]:
+                out.update(kept)
     if not out["named"] and in_swing:
         sw["screen"] = sc = _screen_in_swing(data, ref, fs, sw["leg"],
                                              sw["cells"][sw["leg"]]["stance"], own_one_step,
@@ -784,6 +809,39 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
             "label": label, "explained": share, "size": size, "replay": replay,
             "named": bool(share >= EXPLAINED_SHARE
                           and (family != "contact_phase" or _opposes(size)))}
+
+
+def _screen_narrower(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, family: str,
+                     ratios: dict[str, float], own_one_step: np.ndarray, X: np.ndarray,
+                     D: np.ndarray, mi: np.ndarray, Xr: np.ndarray, Dr: np.ndarray, opts: Any,
+                     mir: np.ndarray) -> dict[str, Any]:
+    """Decision 040: a change spread over all joints whose kept ``family`` (a time drift,
+    :data:`NARROWER_FAMILIES`) explains too little there to be named, screened again (:func:`_screen`) at each of :data:`NARROWER_SCOPES`
+    whose one-step ratio (``ratios``, the located reading's per scope) is material
+    (:data:`.excess.MIN_RATIO`). A drift of some joints grows from nothing along each move
+    and moves the others through the body, so it reads as spread, and over all joints its
+    column leaves the others' excess; at its own joints it explains most of theirs. Of the scopes where the screen keeps the same
+    family, the one where it explains the most is ``kept`` (the screen's result, with
+    ``scope``), and ``named`` where the screen names it there. ``scopes``: each scope's
+    ratio and, where screened, the family kept, its label and the share it explains."""
+    scopes, best = [], None
+    for scope in NARROWER_SCOPES:
+        row: dict[str, Any] = {"scope": scope, "ratio": float(ratios[scope]),
+                               "family": None, "label": None, "explained": None,
+                               "named": False}
+        scopes.append(row)
+        if ratios[scope] < MIN_RATIO:
+            continue
+        s = _screen(data, ref, fs, scope, own_one_step, X, D, mi, Xr, Dr, opts, [], mir)
+        if s.get("family") is None:
+            continue
+        row.update(family=s["family"], label=s["label"], explained=s["explained"],
+                   named=s["named"])
+        if s["family"] == family and (best is None or s["explained"] > best[1]["explained"]):
+            best = (scope, s)
+    return {"scopes": scopes, "scope": None if best is None else best[0],
+            "kept": None if best is None else best[1],
+            "named": bool(best is not None and best[1]["named"])}
 
 
 def _replay(data: "_Residuals", fs: FeatureSet, scope: str, cols: Sequence[int],
@@ -1119,9 +1177,17 @@ def _statement(u: dict[str, Any]) -> str:
                 f"{100 * u['explained']:.0f} % of the excess over the data's own model, but "
                 f"{why}, so it is not named" + carried)
     if not u.get("named"):
+        nr = u.get("narrower") or {}
+        same = [r for r in nr.get("scopes", ()) if r["scope"] == nr.get("scope")]
+        narrower = ("" if not nr else
+                    "; at no narrower scope where the change is material does the screen keep "
+                    "the same family" if not same else
+                    f"; of the narrower scopes, the same family explains the most at "
+                    f"{scope_words(same[0]['scope'])}, {100 * same[0]['explained']:.0f} % of "
+                    "theirs")
         return (f"a change since the reference at {scope_words(where)}: {head}; the best "
                 f"hypothesis ({u['label']}) removes {100 * u['explained']:.0f} % of the excess "
-                "over the data's own model, so it is not named" + carried)
+                f"over the data's own model{narrower}, so it is not named" + carried)
     size = ", ".join(f"{k} {v}" for k, v in u["size"].items()
                      if k != "per_joint" and v is not None) or "no size without a twin"
     search = ", ".join(r["label"] for r in u.get("search") or [])
@@ -1142,5 +1208,12 @@ def _statement(u: dict[str, Any]) -> str:
     else:
         how = (f"; it removes {100 * u['explained']:.0f} % of the excess over the data's own "
                "model")
+        nr = u.get("narrower") or {}
+        if nr.get("named"):
+            how = (f"; over all joints the best hypothesis ({nr['all']['label']}) removes "
+                   f"{100 * nr['all']['explained']:.0f} % of the excess over the data's own "
+                   f"model, and at {scope_words(nr['scope'])}, where the same family explains "
+                   f"the most of the narrower scopes', it removes "
+                   f"{100 * u['explained']:.0f} % of theirs")
     return (f"a change since the reference at {scope_words(u['kept_scope'])}, {u['family']} "
             f"({size}): {head}" + how + carried + beside)

@@ -540,6 +540,71 @@ def test_a_change_spread_over_all_joints_is_screened_and_one_in_the_body_is_not(
     assert "the joints' servo response does not differ" in _statement(spread)
 
 
+@pytest.mark.parametrize("case", ["named", "too_little", "other_family", "not_material"])
+def test_a_spread_change_not_named_is_screened_at_the_narrower_scopes(monkeypatch, case):
+    """Decision 040: where a family kept over all joints explains too little to be named, the
+    screen runs again at each joint type, side and leg where the change is material; the
+    scope where the same family explains the most is kept, and named where the screen names
+    it there; a scope where another family is kept, or where the change is not material, does
+    not count."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.change import MIN_RATIO, NARROWER_SCOPES, _screen_narrower
+    share = {"type:hip_pitches": 0.80, "side:left": 0.56, "leg:back_left": 0.68}
+    if case == "too_little":
+        share["type:hip_pitches"] = 0.60
+    ratios = {s: (2.0 if s in share else 1.1) for s in NARROWER_SCOPES}
+    if case == "not_material":
+        ratios["type:hip_pitches"] = MIN_RATIO - 0.01
+    screened = []
+
+    def screen(data, ref, fs, scope, *a):
+        screened.append(scope)
+        family = ("command_filter" if case == "other_family" and scope == "type:hip_pitches"
+                  else "time_drift")
+        return {"family": family, "kept_scope": scope, "label": f"{family} @ {scope}",
+                "explained": share[scope], "size": {"rate_per_s": -0.07}, "replay": None,
+                "named": share[scope] >= EXPLAINED_SHARE}
+    monkeypatch.setattr(change, "_screen", screen)
+    out = _screen_narrower(None, None, None, "time_drift", ratios, None, None, None, None,
+                           None, None, None, None)
+    assert screened == [s for s in NARROWER_SCOPES if ratios[s] >= MIN_RATIO]
+    assert [r["scope"] for r in out["scopes"]] == list(NARROWER_SCOPES)
+    if case == "named":
+        assert out["named"] and out["scope"] == "type:hip_pitches"
+        assert out["kept"]["kept_scope"] == "type:hip_pitches"
+    elif case == "too_little":
+        assert not out["named"] and out["scope"] == "leg:back_left"
+    else:
+        assert not out["named"] and out["scope"] == "leg:back_left"
+        assert out["kept"]["explained"] == 0.68
+
+
+def test_the_statement_of_a_change_named_at_a_narrower_scope_says_so():
+    """Decision 040's statement: over all joints, then where the same family explains the
+    most; and where it is not named, the narrower scopes' best."""
+    from littledog_mlsim.diagnose.change import _statement
+    nr = {"scope": "type:hip_pitches", "named": True,
+          "all": {"label": "drift with time @ all", "explained": 0.57},
+          "scopes": [{"scope": "type:hip_pitches", "ratio": 2.1, "family": "time_drift",
+                      "label": "drift with time @ type:hip_pitches", "explained": 0.8,
+                      "named": True}]}
+    u = {"ratio": 1.84, "scope": "all", "p_value": 1e-20, "rollout_ratio": 1.5,
+         "significant": True, "concentration": 1.0, "named": True, "family": "time_drift",
+         "kept_scope": "type:hip_pitches", "label": "drift with time @ type:hip_pitches",
+         "size": {"rate_per_s": -0.07}, "explained": 0.8, "narrower": nr}
+    named = _statement(u)
+    assert "at all hip pitches, time_drift (rate_per_s -0.07)" in named
+    assert "over all joints the best hypothesis (drift with time @ all) removes 57 %" in named
+    assert "at all hip pitches, where the same family explains the most" in named
+    not_named = _statement({**u, "named": False, "kept_scope": "all", "explained": 0.57,
+                            "label": "drift with time @ all",
+                            "narrower": {**nr, "named": False,
+                                         "scopes": [{**nr["scopes"][0], "explained": 0.63}]}})
+    assert "removes 57 % of the excess over the data's own model; of the narrower scopes" in (
+        not_named)
+    assert "at all hip pitches, 63 % of theirs, so it is not named" in not_named
+
+
 class _ReplaySide:
     """One side for :func:`_replay`: moves of smooth set-points on the front-left leg, the
     reference's model a servo ``k (u - q)`` on each joint's rate, and the data's residual what
