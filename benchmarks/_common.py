@@ -186,7 +186,8 @@ def zoo_effect_study(description: str):
     appended study document at ``--out``. Returns ``(args, start, ref, ref_fit, effects,
     doc)``."""
     p = zoo_study_parser(description)
-    p.add_argument("--only", required=True, help="comma-separated effect ids (zNN)")
+    p.add_argument("--only", required=True,
+                   help="comma-separated effect ids (zNN), or clean datasets of the harness (sNNN_eX)")
     a = p.parse_args()
     start, ref, ref_fit, effects = zoo_effect_routes(a)
     return a, start, ref, ref_fit, effects, appended_study(a.out.with_suffix(".json"))

@@ -721,8 +721,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
         out["located_by"] = "all_rows"
         out.update(_screen(data, ref, fs, one["scope"], own_one_step, X, D, mi, Xr, Dr, opts,
                            out["hypotheses"], mir))
-        if (SCREEN_NARROWER and one["scope"] == "all" and not out["named"]
-                and out.get("family") in NARROWER_FAMILIES):
+        if _screens_narrower(one, out):
             nr = _screen_narrower(data, ref, fs, out["family"], one["scope_ratios"],
                                   own_one_step, X, D, mi, Xr, Dr, opts, mir)
             kept = nr.pop("kept")
@@ -811,28 +810,40 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
                           and (family != "contact_phase" or _opposes(size)))}
 
 
+def _screens_narrower(one: dict[str, Any], out: dict[str, Any]) -> bool:
+    """Whether decision 040 screens the change again at narrower scopes: located over all
+    joints (``one``, the located reading), screened there and not named, the family kept one
+    of :data:`NARROWER_FAMILIES` (``out``, the screen's result)."""
+    return bool(SCREEN_NARROWER and one["scope"] == "all" and not out.get("named")
+                and out.get("family") in NARROWER_FAMILIES)
+
+
 def _screen_narrower(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, family: str,
                      ratios: dict[str, float], own_one_step: np.ndarray, X: np.ndarray,
                      D: np.ndarray, mi: np.ndarray, Xr: np.ndarray, Dr: np.ndarray, opts: Any,
                      mir: np.ndarray) -> dict[str, Any]:
     """Decision 040: a change spread over all joints whose kept ``family`` (a time drift,
-    :data:`NARROWER_FAMILIES`) explains too little there to be named, screened again (:func:`_screen`) at each of :data:`NARROWER_SCOPES`
-    whose one-step ratio (``ratios``, the located reading's per scope) is material
-    (:data:`.excess.MIN_RATIO`). A drift of some joints grows from nothing along each move
-    and moves the others through the body, so it reads as spread, and over all joints its
-    column leaves the others' excess; at its own joints it explains most of theirs. Of the scopes where the screen keeps the same
-    family, the one where it explains the most is ``kept`` (the screen's result, with
-    ``scope``), and ``named`` where the screen names it there. ``scopes``: each scope's
-    ratio and, where screened, the family kept, its label and the share it explains."""
+    :data:`NARROWER_FAMILIES`) explains too little there to be named, screened again
+    (:func:`_screen`) at each of :data:`NARROWER_SCOPES` whose one-step ratio (``ratios``,
+    the located reading's per scope) is material (:data:`.excess.MIN_RATIO`). A drift of
+    some joints grows from nothing along each move and moves the others through the body, so
+    it reads as spread, and over all joints its column leaves the others' excess, which at
+    its own joints weighs less. Of the scopes where the screen keeps the same family, the one
+    where it explains the most is ``kept`` (the screen's result, with ``scope``; the first in
+    :data:`NARROWER_SCOPES` of equals), and ``named`` where the screen names it there.
+    ``scopes``: every scope of :data:`NARROWER_SCOPES`, its ratio and, where screened, the
+    family kept (None where it is not material or the screen kept nothing), its label, the
+    share it explains, whether the screen names it, and the screen's ``hypotheses``."""
     scopes, best = [], None
     for scope in NARROWER_SCOPES:
         row: dict[str, Any] = {"scope": scope, "ratio": float(ratios[scope]),
                                "family": None, "label": None, "explained": None,
-                               "named": False}
+                               "named": False, "hypotheses": []}
         scopes.append(row)
-        if ratios[scope] < MIN_RATIO:
+        if not ratios[scope] >= MIN_RATIO:          # NaN too
             continue
-        s = _screen(data, ref, fs, scope, own_one_step, X, D, mi, Xr, Dr, opts, [], mir)
+        s = _screen(data, ref, fs, scope, own_one_step, X, D, mi, Xr, Dr, opts,
+                    row["hypotheses"], mir)
         if s.get("family") is None:
             continue
         row.update(family=s["family"], label=s["label"], explained=s["explained"],
@@ -1184,7 +1195,7 @@ def _statement(u: dict[str, Any]) -> str:
                     "the same family" if not same else
                     f"; of the narrower scopes, the same family explains the most at "
                     f"{scope_words(same[0]['scope'])}, {100 * same[0]['explained']:.0f} % of "
-                    "theirs")
+                    "the excess there")
         return (f"a change since the reference at {scope_words(where)}: {head}; the best "
                 f"hypothesis ({u['label']}) removes {100 * u['explained']:.0f} % of the excess "
                 f"over the data's own model{narrower}, so it is not named" + carried)
@@ -1212,8 +1223,8 @@ def _statement(u: dict[str, Any]) -> str:
         if nr.get("named"):
             how = (f"; over all joints the best hypothesis ({nr['all']['label']}) removes "
                    f"{100 * nr['all']['explained']:.0f} % of the excess over the data's own "
-                   f"model, and at {scope_words(nr['scope'])}, where the same family explains "
-                   f"the most of the narrower scopes', it removes "
-                   f"{100 * u['explained']:.0f} % of theirs")
+                   f"model, and at {scope_words(nr['scope'])}, the narrower scope where the "
+                   f"same family explains the most, it removes {100 * u['explained']:.0f} % "
+                   "of the excess there")
     return (f"a change since the reference at {scope_words(u['kept_scope'])}, {u['family']} "
             f"({size}): {head}" + how + carried + beside)
