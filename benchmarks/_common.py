@@ -187,7 +187,8 @@ def zoo_effect_study(description: str):
     doc)``."""
     p = zoo_study_parser(description)
     p.add_argument("--only", required=True,
-                   help="comma-separated effect ids (zNN), or clean datasets of the harness (sNNN_eX)")
+                   help="comma-separated effect ids (zNN), or the harness's clean datasets "
+                        "(sNNN_eX)")
     a = p.parse_args()
     start, ref, ref_fit, effects = zoo_effect_routes(a)
     return a, start, ref, ref_fit, effects, appended_study(a.out.with_suffix(".json"))
