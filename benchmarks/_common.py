@@ -135,6 +135,12 @@ def zoo_effects(path: Path) -> list[dict]:
     return doc["effects"] if isinstance(doc, dict) else doc
 
 
+def truth_with_params(e: dict) -> str:
+    """A truth entry as "family @ scope (params)", the params left out where it has none."""
+    params = e.get("params") or {}
+    return f"{e['family']} @ {e['scope']}" + (f" ({params})" if params else "")
+
+
 def zoo_truth(path: Path) -> dict[str, str]:
     """A blind zoo's ``truth.yaml`` read as ``{effect id: "family @ scope"}`` (after its run)."""
     return {e["id"]: f"{e['family']} @ {e['scope']}" for e in zoo_effects(path)}

@@ -22,7 +22,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import save_study, study_commands, zoo_effect_study  # noqa: E402
+from _common import (save_study, study_commands, truth_with_params,  # noqa: E402
+                     zoo_effect_study)
 
 from littledog_mlsim.diagnose import change   # noqa: E402
 from littledog_mlsim.layout import N_STATE   # noqa: E402
@@ -66,10 +67,9 @@ def main() -> None:
                            "size": {k: v for k, v in (s.get("size") or {}).items()
                                     if k != "per_joint"}})
             print(name, scopes[-1], flush=True)
-        params = e.get("params") or {}
         doc["rows"].append({
             "zoo": a.label, "data": name,
-            "truth": f"{e['family']} @ {e['scope']}" + (f" ({params})" if params else ""),
+            "truth": truth_with_params(e),
             "scope": c["scope"], "ratio": c["ratio"],
             "named": (f"{c['vocabulary']['family']} @ {c['vocabulary']['scope']}"
                       if c["named"] else None),

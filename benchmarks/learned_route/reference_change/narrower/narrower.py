@@ -23,7 +23,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import save_study, study_commands, zoo_effect_study  # noqa: E402
+from _common import (save_study, study_commands, truth_with_params,  # noqa: E402
+                     zoo_effect_study)
 
 from littledog_mlsim.diagnose import change   # noqa: E402
 
@@ -59,10 +60,9 @@ def main() -> None:
     for name, e, r, seconds in effects:
         c = change.reference_change(r, ref, start, None, None, ref_fit)
         nr = c.get("narrower")
-        params = e.get("params") or {}
         row = {
             "zoo": a.label, "data": name,
-            "truth": f"{e['family']} @ {e['scope']}" + (f" ({params})" if params else ""),
+            "truth": truth_with_params(e),
             "scope": c["scope"], "ratio": c["ratio"], "significant": c["significant"],
             "all_label": (nr["all"]["label"] if nr else c.get("label")),
             "all_explained": (nr["all"]["explained"] if nr else c.get("explained")),
