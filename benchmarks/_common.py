@@ -141,6 +141,12 @@ def truth_with_params(e: dict) -> str:
     return f"{e['family']} @ {e['scope']}" + (f" ({params})" if params else "")
 
 
+def named_change(c: dict) -> str | None:
+    """Decision 027's reading ``c`` (``reference_change``) as "family @ scope" where it names
+    a change, else None."""
+    return f"{c['vocabulary']['family']} @ {c['vocabulary']['scope']}" if c["named"] else None
+
+
 def zoo_truth(path: Path) -> dict[str, str]:
     """A blind zoo's ``truth.yaml`` read as ``{effect id: "family @ scope"}`` (after its run)."""
     return {e["id"]: f"{e['family']} @ {e['scope']}" for e in zoo_effects(path)}

@@ -22,8 +22,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import (save_study, study_commands, truth_with_params,  # noqa: E402
-                     zoo_effect_study)
+from _common import (named_change, save_study, study_commands,  # noqa: E402
+                     truth_with_params, zoo_effect_study)
 
 from littledog_mlsim.diagnose import change   # noqa: E402
 from littledog_mlsim.layout import N_STATE   # noqa: E402
@@ -35,8 +35,8 @@ SCOPES = ("all", "type:hip_rolls", "type:hip_pitches", "type:knees", "side:left"
 def write_md(doc: dict, path: Path) -> None:
     lines = ["# Decision 027's screen forced at narrower scopes", ""]
     lines += study_commands(doc)
-    lines += ["", "| zoo | effect | truth | located (ratio) | named by the reading | scope forced | "
-              "kept | explained | size |", "|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", "| zoo | effect | truth | located (ratio) | named by the reading | "
+              "scope forced | kept | explained | size |", "|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
         for s in r["scopes"]:
             size = ", ".join(f"{k} {v}" for k, v in s["size"].items()) or "-"
@@ -71,8 +71,7 @@ def main() -> None:
             "zoo": a.label, "data": name,
             "truth": truth_with_params(e),
             "scope": c["scope"], "ratio": c["ratio"],
-            "named": (f"{c['vocabulary']['family']} @ {c['vocabulary']['scope']}"
-                      if c["named"] else None),
+            "named": named_change(c),
             "scopes": scopes, "seconds": seconds()})
     save_study(doc, a.out, write_md)
 

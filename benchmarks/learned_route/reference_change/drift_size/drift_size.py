@@ -24,7 +24,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import save_study, study_commands, zoo_effect_study  # noqa: E402
+from _common import named_change, save_study, study_commands, zoo_effect_study  # noqa: E402
 
 from littledog_mlsim.diagnose.change import reference_change   # noqa: E402
 
@@ -59,8 +59,7 @@ def main() -> None:
         model_rate = size.get("model_rate_per_s") if drift else None
         row = {"zoo": a.label, "data": name, "truth": f"{e['family']} @ {e['scope']}",
                "truth_rate": tr,
-               "named": (f"{c['vocabulary']['family']} @ {c['vocabulary']['scope']}"
-                         if c["named"] else None),
+               "named": named_change(c),
                "rate": rate, "error": _err(rate, tr), "model_rate": model_rate,
                "model_error": _err(model_rate, tr), "per_joint": size.get("per_joint"),
                "seconds": seconds()}

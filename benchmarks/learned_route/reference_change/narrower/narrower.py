@@ -23,8 +23,8 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import (save_study, study_commands, truth_with_params,  # noqa: E402
-                     zoo_effect_study)
+from _common import (named_change, save_study, study_commands,  # noqa: E402
+                     truth_with_params, zoo_effect_study)
 
 from littledog_mlsim.diagnose import change   # noqa: E402
 
@@ -67,8 +67,7 @@ def main() -> None:
             "all_label": (nr["all"]["label"] if nr else c.get("label")),
             "all_explained": (nr["all"]["explained"] if nr else c.get("explained")),
             "narrower": nr,
-            "named": (f"{c['vocabulary']['family']} @ {c['vocabulary']['scope']}"
-                      if c["named"] else None),
+            "named": named_change(c),
             "size": ({k: v for k, v in c["size"].items() if k != "per_joint"}
                      if c.get("named") else None),
             "statement": c["statement"], "seconds": seconds()}

@@ -11,8 +11,9 @@ at the route's start feature set is read through
 :func:`littledog_mlsim.diagnose.change.reference_change`, as a diagnosis whose search accepted
 nothing would read it, once with decision 039's offset screen (``change.SCREEN_OFFSET``) and
 once without; each row gives what each names, the hypothesis kept with it (its share of the
-excess explained and its size, named or not), and the offset screen's two tests (the constant alone against the reference; the servo's other columns against the
-constant), against the truth (read). Writes OUT.md and OUT.json (appending rows where OUT.json
+excess explained and its size, named or not), and the offset screen's two tests (the
+constant alone against the reference; the servo's other columns against the constant),
+against the truth (read). Writes OUT.md and OUT.json (appending rows where OUT.json
 exists).
 """
 from __future__ import annotations
@@ -24,7 +25,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
-from _common import save_study, study_commands, zoo_effect_study  # noqa: E402
+from _common import named_change, save_study, study_commands, zoo_effect_study  # noqa: E402
 
 from littledog_mlsim.diagnose import change   # noqa: E402
 
@@ -36,8 +37,7 @@ def _named(c: dict) -> str | None:
         return None
     v = c["vocabulary"]
     key = PRIMARY.get(v["family"])
-    size = "" if key is None else f" ({key} {v['params'].get(key)})"
-    return f"{v['family']} @ {v['scope']}{size}"
+    return named_change(c) + ("" if key is None else f" ({key} {v['params'].get(key)})")
 
 
 def _stage(c: dict, stage: str) -> dict | None:
