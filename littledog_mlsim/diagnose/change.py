@@ -115,7 +115,8 @@ from ..models.feature_library import (JOINT_GROUPS, SWING_LIFT_M, CommandFilter,
                                       _forward_kinematics)
 from ..models.features import FeatureSet
 from .excess import CONCENTRATION, MIN_RATIO, unexplained_change
-from .families.scopes import group_scope, joint_scopes, scope_group, scope_joints, scope_words
+from .families.scopes import (TYPE_SCOPES, group_scope, joint_scopes, leg_scopes, scope_group,
+                              scope_joints, scope_words)
 
 if TYPE_CHECKING:                    # pragma: no cover
     from .learned import CrossFitModel, _Route
@@ -163,10 +164,8 @@ SCREEN_NARROWER = True
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
 #: the scopes decision 040 screens under ``all``
-NARROWER_SCOPES = (tuple(f"type:{t}" for t in ("hip_rolls", "hip_pitches", "knees"))
-                   + ("side:left", "side:right")
-                   + tuple(f"leg:{g}" for g in ("front_left", "front_right", "back_left",
-                                                "back_right")))
+NARROWER_SCOPES = (tuple(f"type:{t}" for t in TYPE_SCOPES) + ("side:left", "side:right")
+                   + tuple(leg_scopes()))
 #: the families of the set-point's path: a change the reference's model can replay, given the
 #: set-point the servo would then act on
 SETPOINT_FAMILIES = ("command_delay", "command_filter", "backlash")
@@ -406,22 +405,23 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
     :func:`_drift_rate`, decision 038, and the correction's own figure is kept as
     ``model_rate_per_s``)."""
     hyp = model.hyp
-    k = {j: servo_slope(Xr, Dr, j) for j in model.joints}
     if hyp.family == "encoder_offset":
         # no angle without a twin (decision 039): each joint's constant in its rate's one-step
         # change [rad/s], as measured
         return {"offset_rad": None,
                 "per_joint": {str(j): round(model.raw_coef(j, 0), 5) for j in model.joints}}
-    if hyp.family == "servo_gain":
-        r = {j: servo_slope(X, D, j) / k[j] for j in model.joints if abs(k[j]) > 1e-12}
-        return {"gain_ratio": round(float(np.median(list(r.values()))), 3) if r else None,
-                "per_joint": {str(j): round(float(v), 3) for j, v in r.items()}}
     if hyp.family == "command_delay":
         return {"delay_ms": round(hyp.aug.lag * CONTROL_DT * 1000.0, 1)}
     if hyp.family == "command_filter":
         return {"time_constant_ms": float(hyp.aug.time_constant_ms)}
     if hyp.family == "backlash":
         return {"width_rad": float(hyp.aug.width)}
+    # the rest are read against the reference's servo slope
+    k = {j: servo_slope(Xr, Dr, j) for j in model.joints}
+    if hyp.family == "servo_gain":
+        r = {j: servo_slope(X, D, j) / k[j] for j in model.joints if abs(k[j]) > 1e-12}
+        return {"gain_ratio": round(float(np.median(list(r.values()))), 3) if r else None,
+                "per_joint": {str(j): round(float(v), 3) for j, v in r.items()}}
     if hyp.family == "time_drift":
         r = [model.raw_coef(j, 3) / k[j] for j in model.joints if abs(k[j]) > 1e-12]
         own = round(float(np.median(r)), 4) if r else None
