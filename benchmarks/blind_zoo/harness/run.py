@@ -15,7 +15,13 @@ against the truth:
   with an error is neither, and is counted apart;
 - where the effect was not found and the report names a recording that would settle it
   (``suspected[*].recording`` with ``--excitation``), that recording is made and diagnosed too
-  and scored in its own columns (the loop closed by the report's own advice).
+  and scored in its own columns (the loop closed by the report's own advice);
+- with ``--follow-recordings`` (an arm with a reference), where the effect was not found and the
+  learned route's report asks for a recording a ``record`` argument makes (the reference under
+  the data's command excitation, moves from spread starts, command excitation), that recording
+  is made with the reference and a clean seed under the same conditions, and the effect and the
+  clean seed are diagnosed against that reference: rows ``(recommended recording)``, and their
+  own clean rows and summary entries (``follow-up: ...``); the first pass's counts leave them out.
 
 The truth file is read by this script only; nothing of it is printed before every diagnosis of
 the run has finished. Example (the command of the committed run is in its ``results.json``)::
@@ -256,6 +262,47 @@ def recommended_excitation(report: dict[str, Any]) -> float | None:
     return None
 
 
+#: the ``record`` arguments a report's recommended recording may name, and their tags
+RECORD_ARGS = {"--excitation": "e", "--start-spread": "spread"}
+
+
+def _record_args(text: str) -> dict[str, float]:
+    """The ``record`` arguments of :data:`RECORD_ARGS` a recommendation's text names."""
+    out = {}
+    for arg in RECORD_ARGS:
+        m = re.search(re.escape(arg) + r"[ =]([0-9.eE+-]+)", text)
+        if m:
+            out[arg] = float(m.group(1).rstrip("."))
+    return out
+
+
+def recommended_recording(report: dict[str, Any]) -> dict[str, Any] | None:
+    """The recording a report of the learned route asks for, or None: ``{"what": "reference"
+    | "both", "args": {record argument: value}, "why": the report's words}``.
+
+    In this order: a reference recorded under other conditions than the data (the reference
+    again, under the data's: ``reference_conditions.recording``); else the first of the
+    rollout route's unexplained change, its suspected findings and the one-step loop's
+    suspected findings whose recording names a ``record`` argument (the data and the
+    reference again, both with it)."""
+    cond = (report.get("reference_conditions") or {}).get("recording")
+    if cond and _record_args(str(cond)):
+        return {"what": "reference", "args": _record_args(str(cond)), "why": str(cond)}
+    rr = report.get("rollout_route") or {}
+    texts = [(rr.get("unexplained_change") or {}).get("recording")]
+    texts += [s.get("recording") for s in rr.get("suspected") or [] if isinstance(s, dict)]
+    texts += [s.get("recording") for s in report.get("suspected") or [] if isinstance(s, dict)]
+    for t in texts:
+        if t and _record_args(str(t)):
+            return {"what": "both", "args": _record_args(str(t)), "why": str(t)}
+    return None
+
+
+def follow_up_tag(args: dict[str, float]) -> str:
+    """A dataset-name suffix for a recording made with ``args``: ``_e0.05``, ``_spread0.5``."""
+    return "".join(f"_{RECORD_ARGS[k]}{v:g}" for k, v in sorted(args.items()))
+
+
 def _fmt(x: Any, f: str = ".4g") -> str:
     if x is None:
         return "-"
@@ -400,6 +447,91 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
             "summary": f"{sum(r['inside'] for r in idf)} of {len(idf)}"}
 
 
+def follow_recordings(truth: list[dict[str, Any]], effect_sets: list[Dataset],
+                      a: argparse.Namespace, work: Path, logs: Path, robot: Path | None,
+                      reference: Dataset | None) -> tuple[list[dict[str, Any]], list[Dataset]]:
+    """The loop closed by the learned route's own advice (``--follow-recordings``): for each
+    effect not found whose report asks for a recording (:func:`recommended_recording`), record
+    it (the effect under the conditions asked for, the reference and the clean seed under the
+    same; each recording made once and shared), diagnose the effect and the clean seed against
+    that reference, and return the effect rows ``(recommended recording)`` and the clean
+    datasets diagnosed."""
+    if reference is None or not (a.arm or "").endswith("+reference"):
+        raise SystemExit("--follow-recordings needs an arm with a reference (--reference-seed)")
+
+    def at(stem: str, folder: Path, seed: int, cond: dict[str, float],
+           effects: Path | None) -> tuple[Dataset, list[str]]:
+        tag = follow_up_tag(cond)
+        spread = cond.get("--start-spread")
+        extra = list(a.record_arg) + (["--start-spread", f"{spread:g}"] if spread else [])
+        return (Dataset(stem + tag, folder / (stem + tag), seed,
+                        cond.get("--excitation", 0.0), effects, robot), extra)
+
+    plans = []
+    for t, ds in zip(truth, effect_sets):
+        if score(t, ds.report)["found"]:
+            continue
+        rec = recommended_recording(ds.report)
+        if rec is None:
+            continue
+        data = {"--excitation": ds.excitation} if ds.excitation else {}
+        if rec["what"] == "reference":
+            eff, ref = data, {k: v for k, v in {**data, **rec["args"]}.items() if v}
+        else:
+            eff = {k: v for k, v in {**data, **rec["args"]}.items() if v}
+            ref = eff
+        if eff == data and not ref:
+            continue                      # it asks for what the run already has
+        plans.append((t, ds, data, eff, ref, rec))
+    rows, cleans, made = [], [], set()
+    jobs: list[tuple[Dataset, list[str]]] = []
+    for t, ds, data, eff, ref, rec in plans:
+        if eff == data:                   # the data as they are (the reference again)
+            e_ds, e_rec = ds, list(a.record_arg)
+            made.add(ds.path)
+        else:
+            e_ds, e_rec = at(t["id"], work / "effects", ds.seed, eff, ds.effects)
+        r_ds, r_rec = at("reference", work, reference.seed, ref, None)
+        c_ds, c_rec = at(f"s{ds.seed}", work / "clean", ds.seed, eff, None)
+        for d, x in ((e_ds, e_rec), (r_ds, r_rec), (c_ds, c_rec)):
+            if d.path not in made:
+                print(f"record {d.path.name} (follow-up)", flush=True)
+                record(d, a.moves_per_type, 2, logs, x)
+                made.add(d.path)
+        ref_tag = follow_up_tag(ref) or "_plain"
+        extra = arm_arguments(a.arm, r_ds, work, logs)[0] + a.diagnose_arg
+        e_run = Dataset(f"{t['id']}{follow_up_tag(eff)}_ref{ref_tag}", e_ds.path, e_ds.seed, e_ds.excitation,
+                        e_ds.effects, robot)
+        c_run = Dataset(f"clean_{c_ds.name}_ref{ref_tag}", c_ds.path, c_ds.seed,
+                        c_ds.excitation, None, robot)
+        jobs.append((e_run, extra))
+        if c_run.name not in {c.name for c in cleans}:
+            jobs.append((c_run, extra))
+            cleans.append(c_run)
+        rows.append((t, ds, e_run, c_run, eff, ref, rec))
+    arm_tag = a.arm or ""
+
+    def run(job: tuple[Dataset, list[str]]) -> None:
+        d, extra = job
+        diagnose(d, work, extra, logs, arm_tag)
+        print(f"diagnosed {d.name} in {_fmt(d.diag_seconds, '.0f')} s", flush=True)
+
+    with ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        list(pool.map(run, jobs))
+    by_name = {c.name: c for c in cleans}
+    out = []
+    for t, ds, e_run, c_run, eff, ref, rec in rows:
+        out.append({"id": f"{t['id']} (recommended recording)",
+                    "truth": {k: t.get(k) for k in ("family", "scope", "params",
+                                                    "description")},
+                    "excitation": e_run.excitation, "score": score(t, e_run.report),
+                    "errors": errors(e_run.report), "clean": errors(by_name[c_run.name].report),
+                    "seconds": e_run.diag_seconds,
+                    "recording": {"asked": rec["why"], "data": eff, "reference": ref,
+                                  "dataset": e_run.path.name, "diagnosis": e_run.name}})
+    return out, cleans
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--zoo", required=True,
@@ -418,6 +550,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="only record the datasets (they are reused by a later run)")
     ap.add_argument("--no-follow-up", action="store_true",
                     help="do not make the recordings the reports recommend")
+    ap.add_argument("--follow-recordings", action="store_true",
+                    help="arm learned+reference: where an effect was not found and its report "
+                         "asks for a recording (the reference under the data's conditions, "
+                         "moves from spread starts, command excitation), make it, with the "
+                         "reference and a clean seed under the same conditions, and diagnose "
+                         "again (rows '(recommended recording)'); the first pass is unchanged")
     ap.add_argument("--record-arg", action="append", default=[],
                     help="an argument added to every `record` (repeat for each, e.g. "
                          "--record-arg=--start-spread --record-arg=0.5)")
@@ -512,7 +650,8 @@ def main(argv: list[str] | None = None) -> int:
         key = (ds.seed, ds.excitation)
         if key not in clean_by:
             cd = Dataset(f"clean_s{ds.seed}_e{ds.excitation:g}",
-                         work / "clean" / f"s{ds.seed}_e{ds.excitation:g}", ds.seed, ds.excitation)
+                         work / "clean" / f"s{ds.seed}_e{ds.excitation:g}", ds.seed, ds.excitation,
+                         robot=robot)
             record(cd, a.moves_per_type, 2, logs, a.record_arg)
             clean_by[key] = cd
             clean_sets.append(cd)
@@ -526,12 +665,22 @@ def main(argv: list[str] | None = None) -> int:
                      "excitation": ds.excitation, "score": s, "errors": errors(ds.report),
                      "clean": errors(clean_by[(ds.seed, ds.excitation)].report),
                      "seconds": ds.diag_seconds})
+    followed_clean: list[Dataset] = []
+    if a.follow_recordings:
+        rows_f, followed_clean = follow_recordings(
+            truth, effect_sets, a, work, logs, robot, reference)
+        rows += rows_f
 
     clean = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
               "significant": significant(d.report),
               "named": _named(score({"family": "", "scope": ""}, d.report)),
               "error": d.report.get("error"),
               "seconds": d.diag_seconds} for d in clean_sets]
+    clean_followed = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
+                       "significant": significant(d.report),
+                       "named": _named(score({"family": "", "scope": ""}, d.report)),
+                       "error": d.report.get("error"), "seconds": d.diag_seconds,
+                       "follow_up": True} for d in followed_clean]
     first = [r for r in rows if "(recommended" not in r["id"]]
     n = len(first)
     ratios = [r["errors"]["rollout_after"] / r["clean"]["rollout_before"] for r in first
@@ -555,6 +704,14 @@ def main(argv: list[str] | None = None) -> int:
             bool(c["error"]) for c in clean),
         "diagnose seconds max": max(times) if times else None,
     }
+    if a.follow_recordings:
+        summary.update({
+            "follow-up: effects re-diagnosed with the recording their report asked for": sum(
+                "(recommended" in r["id"] for r in rows),
+            "follow-up: found among them": sum(r["score"]["found"] for r in rows
+                                               if "(recommended" in r["id"]),
+            "follow-up: clean runs under those conditions": len(clean_followed),
+            "follow-up: false alarms among them": sum(c["significant"] for c in clean_followed)})
     out.mkdir(parents=True, exist_ok=True)
     doc = {"command": "OPENBLAS_NUM_THREADS=%s .venv/bin/python %s" % (
                os.environ.get("OPENBLAS_NUM_THREADS"), " ".join(sys.argv)), "started": time.strftime("%Y-%m-%d %H:%M:%S UTC",
@@ -564,7 +721,7 @@ def main(argv: list[str] | None = None) -> int:
            "moves_per_type": a.moves_per_type, "seed": a.seed, "clean_seeds": a.clean_seeds,
            "diagnose_args": extra, "record_args": a.record_arg, "arm": a.arm,
            "summary": summary, "rows": rows,
-           "clean": clean}
+           "clean": clean, "clean_follow_up": clean_followed}
     if (a.arm or "").startswith("learned"):
         summary.update(learned_summary(truth, first))
     if calibration is not None:
@@ -572,8 +729,8 @@ def main(argv: list[str] | None = None) -> int:
         summary["calibrate: inside the 95 % interval (identifiable)"] = \
             doc["calibration"]["summary"]
     (out / "results.json").write_text(json.dumps(doc, indent=1, default=str) + "\n")
-    (out / "table.md").write_text(markdown(rows, clean, summary))
-    print(markdown(rows, clean, summary))
+    (out / "table.md").write_text(markdown(rows, clean + clean_followed, summary))
+    print(markdown(rows, clean + clean_followed, summary))
     return 0
 
 

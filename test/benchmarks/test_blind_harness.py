@@ -1,0 +1,118 @@
+"""The blind zoo harness's loop closed by the learned route's advice (``--follow-recordings``):
+which recording a report asks for, and what the harness records and diagnoses for it. Fast:
+``record`` and ``diagnose`` are replaced by fakes that write nothing but a report."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pytest
+
+from benchmarks.blind_zoo.harness import run as harness
+
+CONDITIONS = ("record the reference the way the data were recorded: with command excitation "
+              "(record --excitation 0.05)")
+SPREAD = ("record the same move types started from several places on the floor and headings "
+          "(record --start-spread 0.5), so where the robot is, which way it faces and how far "
+          "into which move it is are not confounded")
+TIME = "record longer moves (8 s or more), or the same moves at different times since power-up"
+
+
+def test_a_reference_of_other_conditions_asks_for_the_reference_again():
+    rec = harness.recommended_recording({"reference_conditions": {"recording": CONDITIONS},
+                                         "rollout_route": {"unexplained_change":
+                                                           {"recording": SPREAD}}})
+    assert rec["what"] == "reference" and rec["args"] == {"--excitation": 0.05}
+
+
+def test_the_rollout_routes_unexplained_change_asks_for_both_recordings():
+    rec = harness.recommended_recording({"rollout_route": {
+        "unexplained_change": {"recording": SPREAD},
+        "suspected": [{"recording": "record with command excitation (record --excitation 0.05)"}]}})
+    assert rec["what"] == "both" and rec["args"] == {"--start-spread": 0.5}
+
+
+def test_a_recording_with_no_record_argument_is_not_followed():
+    assert harness.recommended_recording({"suspected": [{"recording": TIME}],
+                                          "rollout_route": {}}) is None
+    assert harness.recommended_recording({}) is None
+
+
+def test_the_tag_names_every_condition():
+    assert harness.follow_up_tag({}) == ""
+    assert harness.follow_up_tag({"--excitation": 0.05}) == "_e0.05"
+    assert harness.follow_up_tag({"--start-spread": 0.5, "--excitation": 0.05}) == \
+        "_e0.05_spread0.5"
+
+
+@pytest.fixture()
+def fakes(monkeypatch):
+    recorded: dict[str, tuple[float, list[str]]] = {}
+    diagnosed: dict[str, list[str]] = {}
+
+    def record(ds, moves, jobs, logs, extra=()):
+        recorded[str(ds.path)] = (ds.excitation, list(extra))
+
+    def diagnose(ds, work, extra, logs, arm=""):
+        diagnosed[ds.name] = list(extra)
+        ds.diag_seconds = 1.0
+        ds.report = {"significant": False, "effects": []}
+
+    monkeypatch.setattr(harness, "record", record)
+    monkeypatch.setattr(harness, "diagnose", diagnose)
+    return recorded, diagnosed
+
+
+def _args(**kw):
+    base = dict(arm="learned+reference", record_arg=[], diagnose_arg=[], moves_per_type=2,
+                jobs=1)
+    return argparse.Namespace(**{**base, **kw})
+
+
+def test_each_asked_recording_is_made_once_and_diagnosed_against_its_reference(tmp_path, fakes):
+    recorded, diagnosed = fakes
+    work = tmp_path
+    truth = [{"id": "z01", "family": "backlash", "scope": "type:knees"},
+             {"id": "z02", "family": "other", "scope": "body"},
+             {"id": "z03", "family": "other", "scope": "body"},
+             {"id": "z04", "family": "time_drift", "scope": "all"}]
+    eff = [harness.Dataset("z01", work / "effects" / "z01", 7, 0.05, Path("z01.yaml")),
+           harness.Dataset("z02", work / "effects" / "z02", 7, 0.0, Path("z02.yaml")),
+           harness.Dataset("z03", work / "effects" / "z03", 7, 0.0, Path("z03.yaml")),
+           harness.Dataset("z04", work / "effects" / "z04", 7, 0.0, Path("z04.yaml"))]
+    eff[0].report = {"reference_conditions": {"recording": CONDITIONS}, "effects": []}
+    eff[1].report = {"rollout_route": {"unexplained_change": {"recording": SPREAD}},
+                     "effects": []}
+    eff[2].report = {"rollout_route": {"unexplained_change": {"recording": SPREAD}},
+                     "effects": []}
+    eff[3].report = {"suspected": [{"recording": TIME}], "effects": []}
+    reference = harness.Dataset("reference", work / "reference", 13, 0.0)
+    rows, cleans = harness.follow_recordings(truth, eff, _args(), work, work / "logs", None,
+                                             reference)
+    # z01: only the reference again, under the data's excitation; z02 and z03 share the spread
+    # recordings; z04 asks for nothing a record argument gives
+    assert recorded == {
+        str(work / "reference_e0.05"): (0.05, []),
+        str(work / "clean" / "s7_e0.05"): (0.05, []),
+        str(work / "effects" / "z02_spread0.5"): (0.0, ["--start-spread", "0.5"]),
+        str(work / "reference_spread0.5"): (0.0, ["--start-spread", "0.5"]),
+        str(work / "clean" / "s7_spread0.5"): (0.0, ["--start-spread", "0.5"]),
+        str(work / "effects" / "z03_spread0.5"): (0.0, ["--start-spread", "0.5"])}
+    assert [r["id"] for r in rows] == ["z01 (recommended recording)",
+                                       "z02 (recommended recording)",
+                                       "z03 (recommended recording)"]
+    assert rows[0]["recording"]["reference"] == {"--excitation": 0.05}
+    assert rows[1]["recording"]["data"] == {"--start-spread": 0.5}
+    assert sorted(c.name for c in cleans) == ["clean_s7_e0.05_ref_e0.05",
+                                              "clean_s7_spread0.5_ref_spread0.5"]
+    ref_of = {name: extra[extra.index("--reference") + 1] for name, extra in diagnosed.items()}
+    assert ref_of == {"z01_e0.05_ref_e0.05": str(work / "reference_e0.05"),
+                      "clean_s7_e0.05_ref_e0.05": str(work / "reference_e0.05"),
+                      "z02_spread0.5_ref_spread0.5": str(work / "reference_spread0.5"),
+                      "clean_s7_spread0.5_ref_spread0.5": str(work / "reference_spread0.5"),
+                      "z03_spread0.5_ref_spread0.5": str(work / "reference_spread0.5")}
+
+
+def test_following_needs_an_arm_with_a_reference(tmp_path, fakes):
+    with pytest.raises(SystemExit, match="reference"):
+        harness.follow_recordings([], [], _args(arm="learned"), tmp_path, tmp_path, None, None)
