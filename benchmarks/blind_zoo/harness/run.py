@@ -285,9 +285,9 @@ def recommended_recording(report: dict[str, Any]) -> dict[str, Any] | None:
     rollout route's unexplained change, its suspected findings and the one-step loop's
     suspected findings whose recording names a ``record`` argument (the data and the
     reference again, both with it)."""
-    cond = (report.get("reference_conditions") or {}).get("recording")
-    if cond and _record_args(str(cond)):
-        return {"what": "reference", "args": _record_args(str(cond)), "why": str(cond)}
+    cond = str((report.get("reference_conditions") or {}).get("recording") or "")
+    if _record_args(cond):
+        return {"what": "reference", "args": _record_args(cond), "why": cond}
     rr = report.get("rollout_route") or {}
     texts = [(rr.get("unexplained_change") or {}).get("recording")]
     texts += [s.get("recording") for s in rr.get("suspected") or [] if isinstance(s, dict)]
@@ -447,6 +447,14 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
             "summary": f"{sum(r['inside'] for r in idf)} of {len(idf)}"}
 
 
+def clean_row(d: Dataset) -> dict[str, Any]:
+    """A clean dataset's row: whether its diagnosis raised an alarm, and what it named."""
+    return {"name": d.name, "seed": d.seed, "excitation": d.excitation,
+            "significant": significant(d.report),
+            "named": _named(score({"family": "", "scope": ""}, d.report)),
+            "error": d.report.get("error"), "seconds": d.diag_seconds}
+
+
 def follow_recordings(truth: list[dict[str, Any]], effect_sets: list[Dataset],
                       a: argparse.Namespace, work: Path, logs: Path, robot: Path | None,
                       reference: Dataset | None) -> tuple[list[dict[str, Any]], list[Dataset]]:
@@ -500,8 +508,8 @@ def follow_recordings(truth: list[dict[str, Any]], effect_sets: list[Dataset],
                 made.add(d.path)
         ref_tag = follow_up_tag(ref) or "_plain"
         extra = arm_arguments(a.arm, r_ds, work, logs)[0] + a.diagnose_arg
-        e_run = Dataset(f"{t['id']}{follow_up_tag(eff)}_ref{ref_tag}", e_ds.path, e_ds.seed, e_ds.excitation,
-                        e_ds.effects, robot)
+        e_run = Dataset(f"{t['id']}{follow_up_tag(eff)}_ref{ref_tag}", e_ds.path, e_ds.seed,
+                        e_ds.excitation, e_ds.effects, robot)
         c_run = Dataset(f"clean_{c_ds.name}_ref{ref_tag}", c_ds.path, c_ds.seed,
                         c_ds.excitation, None, robot)
         jobs.append((e_run, extra))
@@ -671,16 +679,8 @@ def main(argv: list[str] | None = None) -> int:
             truth, effect_sets, a, work, logs, robot, reference)
         rows += rows_f
 
-    clean = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
-              "significant": significant(d.report),
-              "named": _named(score({"family": "", "scope": ""}, d.report)),
-              "error": d.report.get("error"),
-              "seconds": d.diag_seconds} for d in clean_sets]
-    clean_followed = [{"name": d.name, "seed": d.seed, "excitation": d.excitation,
-                       "significant": significant(d.report),
-                       "named": _named(score({"family": "", "scope": ""}, d.report)),
-                       "error": d.report.get("error"), "seconds": d.diag_seconds,
-                       "follow_up": True} for d in followed_clean]
+    clean = [clean_row(d) for d in clean_sets]
+    clean_followed = [{**clean_row(d), "follow_up": True} for d in followed_clean]
     first = [r for r in rows if "(recommended" not in r["id"]]
     n = len(first)
     ratios = [r["errors"]["rollout_after"] / r["clean"]["rollout_before"] for r in first

@@ -8,7 +8,7 @@ its reading against the unexcited reference aside), and an `other` effect is spl
 words of its description (:data:`OTHER_CLASSES`, first match; the table lists each one so the
 split can be checked).
 
-    .venv/bin/python benchmarks/blind_zoo/misses/misses.py [--first 10] \
+    .venv/bin/python benchmarks/blind_zoo/misses/misses.py [--first 10] [--last 25] \
         [--out benchmarks/blind_zoo/misses/misses]
 """
 from __future__ import annotations
@@ -16,11 +16,12 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import subprocess
+import sys
 from collections import defaultdict
 from pathlib import Path
 
-import yaml
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))   # the repository root
+from benchmarks._common import git_state, zoo_effects  # noqa: E402
 
 ZOOS = Path(__file__).resolve().parents[1] / "zoos"
 ARM = "learned+reference"
@@ -31,15 +32,8 @@ OTHER_CLASSES = (
                               r"|are \d+ ms|delays every joint reading|publishes every"),
     ("other: lost set-point packets", r"packet|lossy|\blost\b"),
     ("other: floor that varies", r"slipp|\bwet\b|patch|\bice\b|\bgrip\b|carpet|\bbump|\bramp\b"
-                                 r"|\bmat\b|\btiles?\b|polish|board on|\bslab\b|terrain"),
+                                 r"|\bmat\b|\btiles?\b|polish|board on|\bslab\b|terrain|mopped"),
 )
-
-
-def truth_of(zoo: Path) -> dict[str, dict]:
-    t = yaml.safe_load((zoo / "truth.yaml").read_text())
-    if isinstance(t, dict):
-        t = t.get("effects", t)
-    return {e["id"]: e for e in t}
 
 
 def klass(truth: dict, excitation: float) -> str:
@@ -54,13 +48,14 @@ def klass(truth: dict, excitation: float) -> str:
     return "other: else"
 
 
-def rows(first: int) -> list[dict]:
+def rows(first: int, last: int | None = None) -> list[dict]:
     out = []
     for zoo in sorted(ZOOS.glob("zoo*"), key=lambda p: int(p.name[3:])):
         res = zoo / "runs" / "run1" / ARM / "results.json"
-        if int(zoo.name[3:]) < first or not res.is_file():
+        k = int(zoo.name[3:])
+        if k < first or (last is not None and k > last) or not res.is_file():
             continue
-        truth = truth_of(zoo)
+        truth = {e["id"]: e for e in zoo_effects(zoo / "truth.yaml")}
         doc = json.loads(res.read_text())
         for row in doc["rows"]:
             t = truth.get(row["id"])
@@ -79,18 +74,18 @@ def rows(first: int) -> list[dict]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--first", type=int, default=10, help="the first zoo counted")
+    ap.add_argument("--last", type=int, default=None, help="the last zoo counted (default: all)")
     ap.add_argument("--out", default=None, help="write OUT.md and OUT.json")
     a = ap.parse_args(argv)
-    rs = rows(a.first)
+    rs = rows(a.first, a.last)
     by = defaultdict(list)
     for r in rs:
         by[r["class"]].append(r)
     zoos = sorted({r["zoo"] for r in rs}, key=lambda z: int(z[3:]))
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, cwd=ZOOS).stdout.strip()
     lines = [f"# Blind misses by class, arm `{ARM}`, run1 of {zoos[0]}-{zoos[-1]}", "",
              f"Command: `.venv/bin/python benchmarks/blind_zoo/misses/misses.py --first "
-             f"{a.first}` (code {commit}). Effects outside a one-step model's inputs only "
+             f"{a.first}" + (f" --last {a.last}" if a.last is not None else "")
+             + f"` (code {git_state()}). Effects outside a one-step model's inputs only "
              "(`learned_inputs: false`).", "",
              "| class | effects | found | missed (zoo/effect) |", "|---|---|---|---|"]
     for k, v in sorted(by.items(), key=lambda kv: (-sum(not r["found"] for r in kv[1]), kv[0])):
