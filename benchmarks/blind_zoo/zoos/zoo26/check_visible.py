@@ -3,7 +3,7 @@ the same seed and recording condition (same commands, same noise draws: every di
 effect's), and that no move of any dataset falls.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo26/check_visible.py \
-        --work /tmp/s61/z26
+        --work WORK
 
 Reads WORK/effects/<id>, WORK/clean/s<seed>_e<exc> and WORK/reference (recorded by
 harness/run.py --record-only); writes check.md and check.json beside this file.
