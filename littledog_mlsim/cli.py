@@ -313,11 +313,13 @@ def print_diagnosis(r: dict, out: Path) -> None:
                   f"{', '.join(e['outputs'][:6])}{' ...' if len(e['outputs']) > 6 else ''}; "
                   f"TestPool nMSE of those {100 * sum(cut) / max(len(cut), 1):.1f} % lower")
     elif not (r.get("rollout_route") or {}).get("significant"):
-        nc = r.get("not_comparable") or []
-        print("nothing significant: no candidate effect explains the residual" if not nc else
-              f"nothing significant against the reference: {len(nc)} finding(s) of the joints' "
-              "command response cannot be compared with it (another command excitation; "
-              "listed as suspected)")
+        nc, own = r.get("not_comparable") or [], r.get("shared") or []
+        print("nothing significant: no candidate effect explains the residual" if not nc + own
+              else "nothing significant against the reference: " + "; ".join(
+                  ([f"{len(nc)} finding(s) of the joints' command response cannot be compared "
+                    "with it (another command excitation; listed as suspected)"] if nc else [])
+                  + ([f"{len(own)} finding(s) it shows as much (the robot's own: "
+                      + ", ".join(e["label"] for e in own) + ")"] if own else [])))
     t = r.get("timing") or {}
     if t.get("significant"):
         print(f"timing: {t['statement']}")

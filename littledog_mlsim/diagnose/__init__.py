@@ -6,7 +6,8 @@ Two routes share one statistics module and one report:
   family x scope x parameter by re-simulating the dataset's robot (the transducer), decided on
   held-out moves; each family is a class in :mod:`.families` (``docs/families.md``);
 - :mod:`.selection` (the learned route): cross-fitted residuals of a fast model, held-out
-  screening of candidate features (:mod:`.candidates`), forward selection;
+  screening of candidate features (:mod:`.candidates`), forward selection; with a reference,
+  its findings contrasted with the reference's (:mod:`.one_step_contrast`);
 - :mod:`.stats`: the move-grouped t-tests, the rank test and the decision both routes use;
 - :mod:`.run`: :func:`diagnose`, the loop end to end (the ``diagnose`` verb), with
   :class:`.options.DiagnoseOptions`;

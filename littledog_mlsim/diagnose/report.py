@@ -106,8 +106,12 @@ def learned_physical(aug: Any, floor: Mapping[str, Any] | None = None) -> dict[s
 def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> dict[str, Any]:
     """The report.json document (see module doc)."""
     floor = info.get("floor_plane")
+    contrasts = info.pop("one_step_contrasts", None)
     effects = [_effect(k, r, sel, stages[k], stages[k + 1], floor)
                for k, r in enumerate([r for r in sel.rounds if r.picked is not None])]
+    for e, c in zip(effects, contrasts or []):
+        if c is not None:
+            e["reference"] = c
     rounds = []
     for r in sel.rounds:
         best = sorted(r.scores, key=lambda c: -c.total_gain)[:10]
@@ -134,7 +138,20 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
     cond = info.get("reference_conditions")
     if cond is not None and not cond["comparable"]:
         _not_comparable(doc, cond)
+    if contrasts is not None:
+        _shared(doc)
     return _clean(doc)
+
+
+def _shared(doc: dict[str, Any]) -> None:
+    """Decision 041 on the one-step loop's effects: an effect the reference shows as much
+    (its ``reference.changed`` false, :mod:`.one_step_contrast`) moves from ``effects`` to
+    ``shared`` (the robot's own: the model keeps its columns, ``significant`` does not count
+    it)."""
+    moved = [e for e in doc["effects"] if not (e.get("reference") or {}).get("changed", True)]
+    doc["effects"] = [e for e in doc["effects"] if e not in moved]
+    doc["significant"] = bool(doc["effects"])
+    doc["shared"] = moved
 
 
 def _not_comparable(doc: dict[str, Any], cond: Mapping[str, Any]) -> None:
@@ -444,6 +461,14 @@ def _md_head(doc: dict) -> list[str]:
         add(f"- the reference cannot tell: {e['family']} `{e['label']}` (p = "
             f"{e['p_value']:.2g}; the model keeps it): {e['why']}")
     if doc.get("not_comparable"):
+        add("")
+    for e in doc.get("shared", []):
+        c = e["reference"]
+        add(f"- in the reference as well (the robot's own; the model keeps it): {e['family']} "
+            f"`{e['label']}` (gain {c['total_gain']:.3f} on the data, "
+            f"{c['reference_total_gain']:.3f} on the reference; p = {c['p_change']:.2g} that "
+            "it gains more on the data)")
+    if doc.get("shared"):
         add("")
     add(f"Method: residuals of a {srch.get('kind')} search model (M = "
         f"{srch.get('n_random_features')} random features, ARD length scales from a GP) "

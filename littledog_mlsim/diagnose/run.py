@@ -213,6 +213,7 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     for picked in sel.accepted:
         feature_sets.append(feature_sets[-1].with_augmentation(picked.augmentation))
     conditions = _conditions(run)
+    contrasts = _one_step_contrasts(run, sel, search, conditions)
     rollout = (None if route.rollout is None
                else _rollout_route(run, route, feature_sets[-1], conditions))
     for aug in ([] if rollout is None else _accepted(rollout, feature_sets[-1])):
@@ -226,6 +227,8 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
         keywords["rollout_route"] = rollout
     if conditions is not None:
         keywords["reference_conditions"] = conditions.to_dict()
+    if contrasts is not None:
+        keywords["one_step_contrasts"] = contrasts
     report = write_report(run.out, sel, stages, **keywords)
     change = (rollout or {}).get("unexplained_change") or {}
     carried = (rollout or {}).get("reference_change") or {}
@@ -250,6 +253,21 @@ def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet,
                             scheduler=route.scheduler, jobs=route.jobs,
                             reference=_reference_moves(run) if run.o.reference else None,
                             conditions=conditions)
+
+
+def _one_step_contrasts(run: _Run, sel: Any, search: SearchModel,
+                        conditions: "Conditions | None") -> list[dict[str, Any] | None] | None:
+    """Decision 041: each effect the one-step loop accepted, contrasted with the reference
+    (:mod:`.one_step_contrast`; aligned with ``sel.accepted``, None for one decision 031 does
+    not contrast); None without a reference."""
+    if run.o.reference is None or not sel.accepted:
+        return None
+    from .conditions import cannot_contrast
+    from .one_step_contrast import contrast_findings
+    found = contrast_findings(sel, _reference_moves(run), search,
+                              skip=lambda aug: cannot_contrast(aug, conditions),
+                              progress=run.say)
+    return [None if c is None else c.to_dict() for c in found]
 
 
 def _conditions(run: _Run) -> "Conditions | None":

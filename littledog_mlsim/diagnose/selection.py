@@ -235,6 +235,7 @@ class CandidateScore:
     total_gain: float         # sum of gain over all 33 elements (the pooled statistic's mean)
     p_value: float            # adjusted over the tests and the library: significant iff < alpha
     p_pooled: float           # unadjusted p of the pooled (all-element) test
+    d: np.ndarray | None = field(default=None, repr=False)  # (M, 33) per-move contributions
 
     @property
     def label(self) -> str:
@@ -261,7 +262,7 @@ def _score_from_sse(aug: Augmentation, S0: np.ndarray, S1: np.ndarray, n_library
     r = sse_decision(S0, S1, n_library, alpha, min_gain)
     p_adj = np.minimum(1.0, r.p_element * n_library * 2.0 * N_STATE)
     return CandidateScore(aug, r.gain, r.p_element, p_adj, (r.d > 0).sum(axis=0), r.significant,
-                          r.material, r.outputs, float(r.gain.sum()), r.p_value, r.p_pooled)
+                          r.material, r.outputs, float(r.gain.sum()), r.p_value, r.p_pooled, r.d)
 
 
 def candidate_columns(recs: Sequence[MoveRecording], library: Sequence[Augmentation]

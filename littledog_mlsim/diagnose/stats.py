@@ -27,7 +27,7 @@ from scipy import stats
 
 __all__ = ["t_greater", "move_cuts", "rank_max_p", "Decision", "decide", "decide_all",
            "SSEDecision", "sse_decision", "PathTest", "path_test", "focus_p", "contrast_test",
-           "contrast_focus_p", "RANK_FLIPS",
+           "contrast_focus_p", "welch_greater", "RANK_FLIPS",
            "N_TESTS"]
 
 RANK_FLIPS = 20000   # random sign flips of the moves for the pooled rank test's null
@@ -238,7 +238,7 @@ def contrast_test(cuts: np.ndarray, cuts_ref: np.ndarray, ratios: np.ndarray,
             return 1.0
         return float(stats.mannwhitneyu(a, b, alternative="greater").pvalue)
 
-    p_state = _welch_greater(np.asarray(cuts, float), np.asarray(cuts_ref, float))
+    p_state = welch_greater(np.asarray(cuts, float), np.asarray(cuts_ref, float))
     p_path = mwu(np.asarray(ratios, float), np.asarray(ratios_ref, float))
     p_focus = None if focus_cuts is None else contrast_focus_p(focus_cuts, focus_cuts_ref)
     return p_state, p_path, contrast_combined(p_state, p_path, p_focus, focus_choices)
@@ -257,10 +257,10 @@ def contrast_combined(p_state: float, p_path: float, p_focus: float | None = Non
 def contrast_focus_p(focus_cuts: np.ndarray, focus_cuts_ref: np.ndarray) -> float:
     """:func:`contrast_test`'s focus test: Welch's one-sided t-test that each move's cut summed
     over the focus channels is larger on the data than on the reference."""
-    return _welch_greater(np.asarray(focus_cuts, float), np.asarray(focus_cuts_ref, float))
+    return welch_greater(np.asarray(focus_cuts, float), np.asarray(focus_cuts_ref, float))
 
 
-def _welch_greater(a: np.ndarray, b: np.ndarray) -> float:
+def welch_greater(a: np.ndarray, b: np.ndarray) -> float:
     """Welch's one-sided p that ``a``'s mean exceeds ``b``'s (0 or 1 where neither varies or a
     side has fewer than two values)."""
     if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):

@@ -114,6 +114,12 @@ def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("nothing significant against the reference: 1 finding(s)")
     assert "cannot be compared" in out[0] and "no candidate" not in out[0]
+    # nor are findings the reference shows as much (decision 041)
+    print_diagnosis({**base, "shared": [{"label": "joint_rate_magnitude(kind=quadratic)"}]},
+                    tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == ("nothing significant against the reference: 1 finding(s) it shows as "
+                      "much (the robot's own: joint_rate_magnitude(kind=quadratic))")
     # a sensor-timing finding is printed
     timing = {"significant": True, "statement": "the pose lags the joint states by about 30 ms"}
     print_diagnosis({**base, "timing": timing}, tmp_path)
