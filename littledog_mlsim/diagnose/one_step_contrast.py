@@ -104,8 +104,7 @@ def contrast_one_step(label: str, aug: Augmentation, d: np.ndarray, d_ref: np.nd
                       min_gain: float = DEFAULT_MIN_GAIN) -> OneStepContrast:
     """The contrast of one effect from each dataset's per-move contributions (M, 33) ``d``
     (the data's, from the round that accepted it) and ``d_ref`` (``on_ref.d``, ``on_ref`` the
-    reference's :func:`screen_one`), see the module
-    doc."""
+    reference's :func:`screen_one`); see the module doc."""
     from .learned import SCOPES, scope_elements
     from .stats import welch_greater
     d, d_ref = np.asarray(d, float), np.asarray(d_ref, float)
@@ -148,8 +147,8 @@ def contrast_findings(sel: "SelectionResult", reference: Sequence[MoveRecording]
         c = contrast_one_step(s.label, s.augmentation, s.d, on_ref.d, on_ref, sum(todo), alpha,
                               sel.min_gain)
         say(f"one-step {s.label} against the reference: gain {c.total_gain:.3f} on the data, "
-            f"{c.reference_total_gain:.3f} on the reference, p = {c.p_change:.2g}, largest element "
-            f"excess {c.max_excess:.3f}: "
+            f"{c.reference_total_gain:.3f} on the reference, p = {c.p_change:.2g}, largest "
+            f"element excess {c.max_excess:.3f}: "
             + ("a change" if c.changed else "the robot's own (in the reference as well)"))
         out.append(c)
     return out

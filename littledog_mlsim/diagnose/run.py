@@ -260,7 +260,7 @@ def _one_step_contrasts(run: _Run, sel: Any, search: SearchModel,
     """Decision 041: each effect the one-step loop accepted, contrasted with the reference
     (:mod:`.one_step_contrast`; aligned with ``sel.accepted``, None for one decision 031 does
     not contrast); None without a reference."""
-    if run.o.reference is None or not sel.accepted:
+    if run.o.reference is None:
         return None
     from .conditions import cannot_contrast
     from .one_step_contrast import contrast_findings
