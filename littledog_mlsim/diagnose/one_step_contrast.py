@@ -1,4 +1,4 @@
-"""The one-step loop's findings contrasted with a reference (decision 041).
+"""The one-step loop's findings contrasted with a reference (decisions 041 and 042).
 
 With a reference (a recording of the same robot before the change), the rollout route
 (:func:`.learned.contrast`) keeps a finding only if it gains more on the data than on the
@@ -16,12 +16,15 @@ mean over moves is the held-out gain) is compared between the two datasets:
 - ``p_change``: ``p_state``, or with a focus test 2 min(``p_state``, ``focus_choices`` x
   ``p_focus``), capped at 1;
 - ``max_excess``: the largest difference over the 33 elements between the data's held-out
-  gain and the reference's;
+  gain and the reference's (reported);
 - ``changed``: ``p_change`` x ``n_contrasts`` (the loop's effects contrasted) < ``alpha``, and
-  ``max_excess`` at least ``min_gain`` (the one-step loop's materiality, 5 % of an element's
-  nMSE): significant is not enough, since with 77 moves a side a structure both recordings
-  share differs significantly between two recordings of the same robot (the data's gain is
-  also the largest of a library's, the reference's is not).
+  the reference's total gain less than ``NEW_SHARE`` (one half) of the data's: at least half of
+  what the effect gains on the data is new (decision 042). Significant is not enough, since
+  with 77 moves a side a structure both recordings share differs significantly between two
+  recordings of the same robot (the data's gain is also the largest of a library's, the
+  reference's is not). A share, not an element's excess (decision 041's first rule), since a
+  change spread thinly over the elements (a push's heading columns) exceeds the reference on
+  no element by much, and an excited recording's totals are 20 times an unexcited one's.
 
 Each dataset's contribution is relative to its own held-out error without the effect, so a
 robot's own structure, which cuts both datasets' error alike, reads as not changed whatever the
@@ -45,10 +48,10 @@ if TYPE_CHECKING:
     from .selection import SearchModel, SelectionResult
 
 __all__ = ["OneStepContrast", "contrast_one_step", "contrast_findings", "screen_one",
-           "CONTRAST_ALPHA"]
+           "CONTRAST_ALPHA", "NEW_SHARE"]
 
 CONTRAST_ALPHA = 0.01   # as the rollout route's ``LearnedOptions.contrast_alpha``
-DEFAULT_MIN_GAIN = 0.05  # as the one-step loop's ``selection.DEFAULT_MIN_GAIN``
+NEW_SHARE = 0.5   # changed only if the reference gains less than this share of the data's
 
 
 @dataclass(frozen=True)
@@ -101,7 +104,7 @@ def screen_one(recs: Sequence[MoveRecording], fs: FeatureSet, aug: Augmentation,
 
 def contrast_one_step(label: str, aug: Augmentation, d: np.ndarray, d_ref: np.ndarray,
                       on_ref: Any, n_contrasts: int, alpha: float = CONTRAST_ALPHA,
-                      min_gain: float = DEFAULT_MIN_GAIN) -> OneStepContrast:
+                      new_share: float = NEW_SHARE) -> OneStepContrast:
     """The contrast of one effect from each dataset's per-move contributions (M, 33) ``d``
     (the data's, from the round that accepted it) and ``d_ref`` (``on_ref.d``, ``on_ref`` the
     reference's :func:`screen_one`); see the module doc."""
@@ -117,11 +120,13 @@ def contrast_one_step(label: str, aug: Augmentation, d: np.ndarray, d_ref: np.nd
         p_focus = welch_greater(d[:, focus].sum(axis=1), d_ref[:, focus].sum(axis=1))
         p = min(1.0, 2.0 * min(p_state, min(1.0, choices * p_focus)))
     n = max(1, int(n_contrasts))
+    gain, gain_ref = float(d.mean(axis=0).sum()), float(np.sum(on_ref.gain))
     excess = float(np.max(d.mean(axis=0) - np.asarray(on_ref.gain, float)))
-    return OneStepContrast(label, float(d.mean(axis=0).sum()), float(on_ref.gain.sum()),
-                           float(on_ref.p_value), bool(on_ref.significant), float(p_state),
+    new = gain > 0 and gain_ref < new_share * gain
+    return OneStepContrast(label, gain, gain_ref, float(on_ref.p_value),
+                           bool(on_ref.significant), float(p_state),
                            None if p_focus is None else float(p_focus), choices, float(p), n,
-                           excess, bool(min(1.0, p * n) < alpha and excess >= min_gain))
+                           excess, bool(min(1.0, p * n) < alpha and new))
 
 
 def contrast_findings(sel: "SelectionResult", reference: Sequence[MoveRecording],
@@ -144,11 +149,9 @@ def contrast_findings(sel: "SelectionResult", reference: Sequence[MoveRecording]
             raise ValueError(f"{s.label}: the round kept no per-move contributions")
         on_ref, _ = screen_one(reference, r.feature_set, s.augmentation, search,
                                sel.alpha, sel.min_gain)
-        c = contrast_one_step(s.label, s.augmentation, s.d, on_ref.d, on_ref, sum(todo), alpha,
-                              sel.min_gain)
+        c = contrast_one_step(s.label, s.augmentation, s.d, on_ref.d, on_ref, sum(todo), alpha)
         say(f"one-step {s.label} against the reference: gain {c.total_gain:.3f} on the data, "
-            f"{c.reference_total_gain:.3f} on the reference, p = {c.p_change:.2g}, largest "
-            f"element excess {c.max_excess:.3f}: "
+            f"{c.reference_total_gain:.3f} on the reference, p = {c.p_change:.2g}: "
             + ("a change" if c.changed else "the robot's own (in the reference as well)"))
         out.append(c)
     return out

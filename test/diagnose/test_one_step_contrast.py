@@ -1,6 +1,7 @@
 """The one-step loop's findings read against a reference (``diagnose/one_step_contrast.py``,
-decision 041): the contrast of each move's held-out contribution, the report's ``shared``, and
-end to end on recordings whose robot has a set-point delay of its own, in the reference too."""
+decisions 041 and 042): the contrast of each move's held-out contribution, the report's
+``shared``, and end to end on recordings whose robot has a set-point delay of its own, in the
+reference too."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -39,22 +40,28 @@ def test_an_effect_the_reference_shows_as_much_is_not_a_change():
     # the same cuts on the data, none on the reference: a change
     d_none = _cuts(rng, 77, 0.0)
     c = contrast_one_step(aug.label(), aug, d, d_none, _OnRef(d_none), 1)
-    assert c.changed and c.p_change < 1e-6 and c.max_excess >= 0.05, c
+    assert c.changed and c.p_change < 1e-6, c
     assert set(c.to_dict()) == {"total_gain", "reference_total_gain", "reference_p_value",
                                 "reference_significant", "p_state", "p_change", "n_contrasts",
                                 "max_excess", "changed"}
 
 
-def test_a_significant_difference_that_is_not_material_is_not_a_change():
-    """Two recordings of one robot: the data gain 0.03 more on every element than the
-    reference, which 77 moves a side make significant, but no element by 5 % of its nMSE."""
+def test_a_change_must_be_at_least_half_new():
+    """Decision 042. Two recordings of one robot: the data gain 0.03 more on every element than
+    the reference (0.08 against 0.05), which 77 moves a side make significant, but the
+    reference gains more than half as much: not a change. A change spread thinly over every
+    element (0.02 each, none on the reference) is one, though no element gains 5 % more."""
     rng = np.random.default_rng(2)
     aug = JointRateMagnitude(kind="quadratic")
     d, d_ref = _cuts(rng, 77, 0.08), _cuts(rng, 77, 0.05)
     c = contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 1)
-    assert c.p_change < 1e-6 and c.max_excess < 0.05 and not c.changed, c
+    assert c.p_change < 1e-6 and c.reference_total_gain > 0.5 * c.total_gain, c
+    assert not c.changed
     assert contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 1,
-                             min_gain=0.02).changed
+                             new_share=0.7).changed
+    spread, none = _cuts(rng, 77, 0.02), _cuts(rng, 77, 0.0)
+    c = contrast_one_step(aug.label(), aug, spread, none, _OnRef(none), 1)
+    assert c.changed and c.max_excess < 0.05, c
 
 
 def test_a_one_leg_change_is_read_on_its_joints_and_pays_for_the_scopes():
@@ -65,8 +72,8 @@ def test_a_one_leg_change_is_read_on_its_joints_and_pays_for_the_scopes():
     focus = scope_elements(aug)
     others = [j for j in range(33) if j not in focus]
     d, d_ref = rng.normal(0.0, 0.05, (40, 33)), rng.normal(0.0, 0.05, (40, 33))
-    d[:, others] *= 10.0
-    d_ref[:, others] *= 10.0
+    d[:, others] *= 4.0
+    d_ref[:, others] *= 4.0
     d[:, focus] += 0.15
     c = contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 2)
     assert c.focus_choices == len(SCOPES) and c.p_focus is not None
