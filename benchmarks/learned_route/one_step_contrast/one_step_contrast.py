@@ -1,4 +1,4 @@
-"""Decision 041 on read zoos: the one-step loop's findings contrasted with the reference.
+"""Decisions 041 and 042 on read zoos: the one-step loop's findings contrasted with the reference.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python \
         benchmarks/learned_route/one_step_contrast/one_step_contrast.py --zoo-dir WORK_zooNN \
@@ -11,7 +11,8 @@ accepted there and contrasted against the reference (decision 031's ``not_compar
 the data and the reference are screened again at the round's feature set
 (:func:`littledog_mlsim.diagnose.one_step_contrast.screen_one`; the data with the length
 scales of the starting feature set, as the loop reuses them) and contrasted
-(``contrast_one_step``, as ``diagnose`` does since decision 041). Each row gives the data's
+(``contrast_one_step``, as ``diagnose`` does since decision 041, with the rule the code has).
+Each row gives the data's
 and the reference's held-out gain, the p of the contrast, and whether the effect stays a
 change; the truth of the dataset (an effect's, or clean) beside it. Writes OUT.md and
 OUT.json (appending rows where OUT.json exists).
@@ -94,7 +95,8 @@ def rows_of(report_path: Path, truth: dict, say) -> list[dict]:
 
 
 def write_md(doc: dict, path: Path) -> None:
-    lines = ["# Decision 041 on read zoos: the one-step loop's findings against the reference",
+    lines = ["# Decisions 041 and 042 on read zoos: the one-step loop's findings against the "
+             "reference",
              ""] + study_commands(doc)
     lines += ["", "| zoo | data | truth | round | one-step finding (named) | gain | gain on "
               "the reference | p_change (x contrasts) | largest element excess | a change |",
