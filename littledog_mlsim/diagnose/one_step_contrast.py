@@ -102,15 +102,15 @@ def screen_one(recs: Sequence[MoveRecording], fs: FeatureSet, aug: Augmentation,
     return sse_decision(m.sse_, S1, 1, alpha, min_gain), m.length_scales_
 
 
-def contrast_one_step(label: str, aug: Augmentation, d: np.ndarray, d_ref: np.ndarray,
-                      on_ref: Any, n_contrasts: int, alpha: float = CONTRAST_ALPHA,
-                      new_share: float = NEW_SHARE) -> OneStepContrast:
-    """The contrast of one effect from each dataset's per-move contributions (M, 33) ``d``
-    (the data's, from the round that accepted it) and ``d_ref`` (``on_ref.d``, ``on_ref`` the
-    reference's :func:`screen_one`); see the module doc."""
+def contrast_one_step(aug: Augmentation, d: np.ndarray, on_ref: Any, n_contrasts: int,
+                      alpha: float = CONTRAST_ALPHA, new_share: float = NEW_SHARE
+                      ) -> OneStepContrast:
+    """The contrast of one effect from the data's per-move contributions (M, 33) ``d`` (from
+    the round that accepted it) and the reference's screen ``on_ref`` (:func:`screen_one`,
+    its ``d`` and ``gain``); see the module doc."""
     from .learned import SCOPES, scope_elements
     from .stats import welch_greater
-    d, d_ref = np.asarray(d, float), np.asarray(d_ref, float)
+    d, d_ref = np.asarray(d, float), np.asarray(on_ref.d, float)
     p_state = welch_greater(d.sum(axis=1), d_ref.sum(axis=1))
     focus = scope_elements(aug)
     p_focus = choices = None
@@ -123,7 +123,7 @@ def contrast_one_step(label: str, aug: Augmentation, d: np.ndarray, d_ref: np.nd
     gain, gain_ref = float(d.mean(axis=0).sum()), float(np.sum(on_ref.gain))
     excess = float(np.max(d.mean(axis=0) - np.asarray(on_ref.gain, float)))
     new = gain > 0 and gain_ref < new_share * gain
-    return OneStepContrast(label, gain, gain_ref, float(on_ref.p_value),
+    return OneStepContrast(aug.label(), gain, gain_ref, float(on_ref.p_value),
                            bool(on_ref.significant), float(p_state),
                            None if p_focus is None else float(p_focus), choices, float(p), n,
                            excess, bool(min(1.0, p * n) < alpha and new))
@@ -149,7 +149,7 @@ def contrast_findings(sel: "SelectionResult", reference: Sequence[MoveRecording]
             raise ValueError(f"{s.label}: the round kept no per-move contributions")
         on_ref, _ = screen_one(reference, r.feature_set, s.augmentation, search,
                                sel.alpha, sel.min_gain)
-        c = contrast_one_step(s.label, s.augmentation, s.d, on_ref.d, on_ref, sum(todo), alpha)
+        c = contrast_one_step(s.augmentation, s.d, on_ref, sum(todo), alpha)
         say(f"one-step {s.label} against the reference: gain {c.total_gain:.3f} on the data, "
             f"{c.reference_total_gain:.3f} on the reference, p = {c.p_change:.2g}: "
             + ("a change" if c.changed else "the robot's own (in the reference as well)"))

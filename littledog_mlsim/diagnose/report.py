@@ -148,10 +148,10 @@ def _shared(doc: dict[str, Any]) -> None:
     (its ``reference.changed`` false, :mod:`.one_step_contrast`) moves from ``effects`` to
     ``shared`` (the robot's own: the model keeps its columns, ``significant`` does not count
     it)."""
-    moved = [e for e in doc["effects"] if not (e.get("reference") or {}).get("changed", True)]
-    doc["effects"] = [e for e in doc["effects"] if e not in moved]
+    own = [not (e.get("reference") or {}).get("changed", True) for e in doc["effects"]]
+    doc["shared"] = [e for e, o in zip(doc["effects"], own) if o]
+    doc["effects"] = [e for e, o in zip(doc["effects"], own) if not o]
     doc["significant"] = bool(doc["effects"])
-    doc["shared"] = moved
 
 
 def _not_comparable(doc: dict[str, Any], cond: Mapping[str, Any]) -> None:

@@ -33,13 +33,13 @@ def test_an_effect_the_reference_shows_as_much_is_not_a_change():
     rng = np.random.default_rng(0)
     aug = JointRateMagnitude(kind="quadratic")
     d, d_ref = _cuts(rng, 77, 0.08), _cuts(rng, 77, 0.08)
-    c = contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 1)
+    c = contrast_one_step(aug, d, _OnRef(d_ref), 1)
     assert not c.changed and c.p_focus is None and c.p_change == c.p_state > 0.01, c
     assert c.total_gain == pytest.approx(d.mean(axis=0).sum())
     assert c.reference_total_gain == pytest.approx(d_ref.mean(axis=0).sum())
     # the same cuts on the data, none on the reference: a change
     d_none = _cuts(rng, 77, 0.0)
-    c = contrast_one_step(aug.label(), aug, d, d_none, _OnRef(d_none), 1)
+    c = contrast_one_step(aug, d, _OnRef(d_none), 1)
     assert c.changed and c.p_change < 1e-6, c
     assert set(c.to_dict()) == {"total_gain", "reference_total_gain", "reference_p_value",
                                 "reference_significant", "p_state", "p_change", "n_contrasts",
@@ -54,13 +54,13 @@ def test_a_change_must_be_at_least_half_new():
     rng = np.random.default_rng(2)
     aug = JointRateMagnitude(kind="quadratic")
     d, d_ref = _cuts(rng, 77, 0.08), _cuts(rng, 77, 0.05)
-    c = contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 1)
+    c = contrast_one_step(aug, d, _OnRef(d_ref), 1)
     assert c.p_change < 1e-6 and c.reference_total_gain > 0.5 * c.total_gain, c
     assert not c.changed
-    assert contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 1,
+    assert contrast_one_step(aug, d, _OnRef(d_ref), 1,
                              new_share=0.7).changed
     spread, none = _cuts(rng, 77, 0.02), _cuts(rng, 77, 0.0)
-    c = contrast_one_step(aug.label(), aug, spread, none, _OnRef(none), 1)
+    c = contrast_one_step(aug, spread, _OnRef(none), 1)
     assert c.changed and c.max_excess < 0.05, c
 
 
@@ -75,7 +75,7 @@ def test_a_one_leg_change_is_read_on_its_joints_and_pays_for_the_scopes():
     d[:, others] *= 4.0
     d_ref[:, others] *= 4.0
     d[:, focus] += 0.15
-    c = contrast_one_step(aug.label(), aug, d, d_ref, _OnRef(d_ref), 2)
+    c = contrast_one_step(aug, d, _OnRef(d_ref), 2)
     assert c.focus_choices == len(SCOPES) and c.p_focus is not None
     assert c.p_change == pytest.approx(min(1.0, 2 * min(c.p_state, len(SCOPES) * c.p_focus)))
     assert c.changed and c.p_focus < c.p_state, c

@@ -82,7 +82,7 @@ def rows_of(report_path: Path, truth: dict, say) -> list[dict]:
             on_data, ls = screen_one(train, fs, aug, search, 0.01, 0.05, scales)
             scales = ls if scales is None else scales
             on_ref, _ = screen_one(ref, fs, aug, search, 0.01, 0.05)
-            c = contrast_one_step(aug.label(), aug, on_data.d, on_ref.d, on_ref, len(picks))
+            c = contrast_one_step(aug, on_data.d, on_ref, len(picks))
             ph = physical_reading(aug)
             rows.append({"data": name, "truth": _truth(name, truth), "round": e["round"],
                          "label": aug.label(), "named": f"{ph['family']} @ {ph['scope']}",
