@@ -14,7 +14,8 @@ on the measured pybullet robot's 60 s straight trot of each of ``--seeds`` (the 
 state, the predicted displacements and yaw changes integrated into a path.
 
 Per model and seed: the final yaw gap, the gap over the path, the signed d_yaw bias (mean
-predicted minus measured d_yaw per second), pybullet's own mean yaw rate and the model's. Per
+predicted minus measured d_yaw per second; also over the first 4 s, a recorded move's length,
+and over the rest), pybullet's own mean yaw rate and the model's. Per
 size: the medians and worst over seeds and replicates, the RMS bias, and the slope of the
 model's mean yaw rate against pybullet's over the seeds (1: the model reads each trot's turn;
 0: it predicts one turn whatever the set-points say).
@@ -51,6 +52,8 @@ from littledog_mlsim.rotations import quat_to_rpy  # noqa: E402
 #: the bias a 60 s straight trot of about 2.5 m may carry for a gap of 2 % of its path
 #: (theta L / 2 <= 0.02 L, so theta <= 0.04 rad over 60 s)
 TARGET_BIAS = 0.04 / 60.0
+#: a recorded move's length [s]: the bias is also split into the trot's first MOVE_S and the rest
+MOVE_S = 4.0
 
 
 def reference(args) -> str:
@@ -88,6 +91,9 @@ def teacher(model, ref: dict) -> dict:
     yaw = _unwrap_yaw(ori[1:])
     out["path_m"] = path
     out["dyaw_bias_per_s"] = float(err[:, F.S.dyaw].mean() / CONTROL_DT)
+    k = int(round(MOVE_S / CONTROL_DT))
+    out["dyaw_bias_first_per_s"] = float(err[:k, F.S.dyaw].mean() / CONTROL_DT)
+    out["dyaw_bias_after_per_s"] = float(err[k:, F.S.dyaw].mean() / CONTROL_DT)
     out["pybullet_yaw_rate"] = float((yaw[-1] - yaw[0]) / duration)
     out["model_yaw_rate"] = float(pred[:, F.S.dyaw].sum() / duration)
     return out
@@ -190,6 +196,17 @@ def main(argv=None) -> int:
             f"{100 * r['gap_median']:.1f} % ({100 * r['gap_worst']:.1f} %) | "
             f"{r['yaw_median_rad']:.3f} | {r['slope_median']:.2f} "
             f"({', '.join(f'{s:.2f}' for s in r['slopes'])}) |")
+    k_max = max(a.sizes)
+    lines += ["", f"Per seed at {k_max} moves, median over the shuffles [mrad/s]: the d_yaw bias "
+              f"(over the first {MOVE_S:g} s / after them).", "",
+              "| seed | bias | first | after | gap / path |", "|---|---|---|---|---|"]
+    for seed in a.seeds:
+        rr = [r for f in fits if f["moves"] == k_max for r in f["runs"] if r["seed"] == seed]
+        med = lambda key: float(np.median([r[key] for r in rr]))  # noqa: E731
+        lines.append(f"| {seed} | {1e3 * med('dyaw_bias_per_s'):.1f} | "
+                     f"{1e3 * med('dyaw_bias_first_per_s'):.1f} | "
+                     f"{1e3 * med('dyaw_bias_after_per_s'):.1f} | "
+                     f"{100 * med('err_per_m'):.1f} % |")
     pyb = {run["seed"]: run["pybullet_yaw_rate"] for run in fits[0]["runs"]}
     lines += ["", "Pybullet's mean yaw rate per seed [mrad/s]: "
               + ", ".join(f"{s}: {1e3 * v:.1f}" for s, v in sorted(pyb.items())) + "."]
