@@ -103,13 +103,9 @@ def teacher(model, ref: dict) -> dict:
     return out
 
 
-def fit_and_force(args) -> dict:
-    """Fit LGPR on the first ``k`` moves of replicate ``r``'s order; teacher-force every seed."""
-    data, k, r, refs = args
+def _fit_and_force(chosen: list, kind: str, k: int, r: int, refs) -> dict:
+    """Fit LGPR on the moves ``chosen``; teacher-force it on every seed's pybullet run."""
     from littledog_mlsim.models.train import fit_onestep
-    moves = load_moves(data, "all")
-    order = np.random.default_rng(r).permutation(len(moves))
-    chosen = [moves[i] for i in order[:k]]
     t0 = time.perf_counter()
     model = fit_onestep(chosen, "lgpr", random_state=0, gate=False)
     fit_s = time.perf_counter() - t0
@@ -118,33 +114,30 @@ def fit_and_force(args) -> dict:
         with np.load(p) as z:
             ref = {name: z[name] for name in z.files}
         runs.append({"seed": seed, **teacher(model, ref)})
-    return {"kind": "4 s moves", "moves": k, "replicate": r,
+    return {"kind": kind, "moves": k, "replicate": r,
             "samples": int(sum(m.n_steps - 1 for m in chosen)), "fit_s": round(fit_s, 1),
             "runs": runs}
+
+
+def fit_and_force(args) -> dict:
+    """Fit LGPR on the first ``k`` moves of replicate ``r``'s order; teacher-force every seed."""
+    data, k, r, refs = args
+    moves = load_moves(data, "all")
+    order = np.random.default_rng(r).permutation(len(moves))
+    return _fit_and_force([moves[i] for i in order[:k]], "4 s moves", k, r, refs)
 
 
 def long_fit_and_force(args) -> dict:
     """Fit LGPR on ``k`` straight trots of ``duration`` s walked by pybullet (seeds
     ``LONG_SEED + 100 r`` on, none of them a test seed); teacher-force every seed."""
     k, r, duration, refs = args
-    from littledog_mlsim.models.train import fit_onestep
     chosen = []
     for i in range(k):
         seed = LONG_SEED + 100 * r + i
         sched = straight_trot_schedule(duration, np.random.default_rng(seed))
         chosen.append(FL._pybullet_run(seed, StreamingTrot(phase=sched.phase).commands(
             sched.commands), None))
-    t0 = time.perf_counter()
-    model = fit_onestep(chosen, "lgpr", random_state=0, gate=False)
-    fit_s = time.perf_counter() - t0
-    runs = []
-    for seed, p in refs:
-        with np.load(p) as z:
-            ref = {name: z[name] for name in z.files}
-        runs.append({"seed": seed, **teacher(model, ref)})
-    return {"kind": f"{duration:g} s trots", "moves": k, "replicate": r,
-            "samples": int(sum(m.n_steps - 1 for m in chosen)), "fit_s": round(fit_s, 1),
-            "runs": runs}
+    return _fit_and_force(chosen, f"{duration:g} s trots", k, r, refs)
 
 
 def _slope(x: list[float], y: list[float]) -> float:
