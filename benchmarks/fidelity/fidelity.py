@@ -769,6 +769,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     name = a.what.replace("-", "_")
     a.out = a.out or HERE / name
+    a.out.parent.mkdir(parents=True, exist_ok=True)      # the figures are written first
     if a.duration is None:
         a.duration = {"open-loop": 60.0, "soak": 600.0, "closed-loop": 40.0}[a.what]
     if a.what == "soak" and a.seeds == [0, 1, 2, 3, 4]:
