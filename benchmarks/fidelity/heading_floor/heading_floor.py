@@ -20,7 +20,9 @@ size: the medians and worst over seeds and replicates, the RMS bias, and the slo
 model's mean yaw rate against pybullet's over the seeds (1: the model reads each trot's turn;
 0: it predicts one turn whatever the set-points say). ``--long N``: also models fitted on N
 straight trots of the test's length that pybullet walks from other seeds (1000 on), per
-replicate: data of the test's own kind and length.
+replicate: data of the test's own kind and length. ``--settled N``: N forward trots of 4 s
+each kept after ``--warmup`` s of the same trot (seeds 2000 on), per replicate: the recorded
+moves' number and length, started from a settled trot.
 
 Writes ``--out``.json / .md. The pybullet runs are made once per seed and kept in
 ``--work`` (``ref_sSEED.npz``).
@@ -28,6 +30,7 @@ Writes ``--out``.json / .md. The pybullet runs are made once per seed and kept i
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -58,6 +61,8 @@ TARGET_BIAS = 0.04 / 60.0
 MOVE_S = 4.0
 #: the first seed of the long trots a model may be trained on (``--long``)
 LONG_SEED = 1000
+#: the first seed of the settled trots a model may be trained on (``--settled``)
+SETTLED_SEED = 2000
 
 
 def reference(args) -> str:
@@ -140,6 +145,28 @@ def long_fit_and_force(args) -> dict:
     return _fit_and_force(chosen, f"{duration:g} s trots", k, r, refs)
 
 
+def _cut(rec, k: int):
+    """The recording ``rec`` from its sample ``k`` on (its stamps from zero)."""
+    fields = ("q", "dq", "position", "orientation", "linear_velocity", "angular_velocity")
+    return dataclasses.replace(rec, stamps_ns=rec.stamps_ns[k:] - rec.stamps_ns[k],
+                               cmd=rec.cmd[k:], **{f: getattr(rec, f)[k:] for f in fields})
+
+
+def settled_fit_and_force(args) -> dict:
+    """Fit LGPR on ``k`` forward trots of ``MOVE_S`` s, each kept after ``warmup`` s of the
+    same trot (pybullet, seeds ``SETTLED_SEED + 100 r`` on): moves as many and as short as the
+    recorded ones, but starting from a settled trot; teacher-force every seed."""
+    k, r, warmup, refs = args
+    chosen = []
+    for i in range(k):
+        seed = SETTLED_SEED + 100 * r + i
+        sched = straight_trot_schedule(warmup + MOVE_S, np.random.default_rng(seed))
+        rec = FL._pybullet_run(seed, StreamingTrot(phase=sched.phase).commands(
+            sched.commands), None)
+        chosen.append(_cut(rec, int(round(warmup / CONTROL_DT))))
+    return _fit_and_force(chosen, f"{MOVE_S:g} s after {warmup:g} s", k, r, refs)
+
+
 def _slope(x: list[float], y: list[float]) -> float:
     x, y = np.asarray(x), np.asarray(y)
     xc = x - x.mean()
@@ -182,6 +209,10 @@ def main(argv=None) -> int:
     ap.add_argument("--long", nargs="*", type=int, default=[],
                     help="also fit on this many straight trots of --duration each (pybullet, "
                          "seeds from 1000), per replicate")
+    ap.add_argument("--settled", nargs="*", type=int, default=[],
+                    help="also fit on this many 4 s forward trots each cut after --warmup s of "
+                         "the same trot (pybullet, seeds from 2000), per replicate")
+    ap.add_argument("--warmup", type=float, default=10.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE / "heading_floor")
     a = ap.parse_args(argv)
@@ -200,6 +231,8 @@ def main(argv=None) -> int:
         fits = list(ex.map(fit_and_force, jobs))
         fits += list(ex.map(long_fit_and_force, [(k, r, a.duration, refs) for k in a.long
                                                  for r in range(a.replicates)]))
+        fits += list(ex.map(settled_fit_and_force, [(k, r, a.warmup, refs) for k in a.settled
+                                                    for r in range(a.replicates)]))
     wall = time.time() - t0
     rows = summarise(fits)
     doc = {**run_record("fidelity/heading_floor/heading_floor.py", sys.argv[1:]),
