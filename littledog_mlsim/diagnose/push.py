@@ -28,8 +28,8 @@ from ..layout import CONTROL_DT
 from ..rotations import quat_to_rpy
 
 __all__ = ["Drift", "PushSimulator", "PybulletPushes", "drift_against_reference",
-           "push_mobility", "push_reading", "PROBE_N", "MOBILITY_MOVES_PER_TYPE",
-           "MIN_MOVES"]
+           "first_per_type", "push_mobility", "push_reading", "PROBE_N",
+           "MOBILITY_MOVES_PER_TYPE", "MIN_MOVES"]
 
 #: the probe push [N] whose drift measures the physics robot's response
 PROBE_N = 1.0
@@ -143,17 +143,23 @@ class PybulletPushes:
         return P[-1, :2] - P[0, :2]
 
 
+def first_per_type(recs: Sequence[Any], per_type: int) -> list[Any]:
+    """The first ``per_type`` moves of each move type of ``recs``, types in order of first
+    appearance (the moves :func:`push_mobility` walks)."""
+    chosen: dict[str, list[Any]] = {}
+    for r in recs:
+        if len(chosen.setdefault(r.move_type, [])) < per_type:
+            chosen[r.move_type].append(r)
+    return [r for rs in chosen.values() for r in rs]
+
+
 def push_mobility(recs: Sequence[Any], sim: PushSimulator,
                   per_type: int = MOBILITY_MOVES_PER_TYPE, probe_N: float = PROBE_N
                   ) -> tuple[np.ndarray, int]:
     """(M, n_moves): the simulated robot's drift per newton of a push fixed in odom, (2, 2) in
     (m/s)/N, column k for a push along odom axis k, over the first ``per_type`` moves of each
     type of ``recs`` (each walked three times: no push, ``probe_N`` along x, along y)."""
-    chosen: dict[str, list[Any]] = {}
-    for r in recs:
-        if len(chosen.setdefault(r.move_type, [])) < per_type:
-            chosen[r.move_type].append(r)
-    moves = [r for rs in chosen.values() for r in rs]
+    moves = first_per_type(recs, per_type)
     if not moves:
         raise ValueError("push_mobility: no moves to walk")
     cols = np.zeros((2, 2))

@@ -33,25 +33,17 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._common import git_state  # noqa: E402
 from littledog_mlsim.data.dataset import load_moves  # noqa: E402
-from littledog_mlsim.diagnose.push import (PybulletPushes, _start_and_displacement,  # noqa: E402
-                                           push_mobility)
+from littledog_mlsim.diagnose.push import (MOBILITY_MOVES_PER_TYPE,  # noqa: E402
+                                           PybulletPushes, _start_and_displacement,
+                                           first_per_type, push_mobility)
 
 ZOOS = ROOT / "benchmarks" / "blind_zoo" / "zoos"
 ROBOTS = ("gap", "nominal", "measured")
 
 
-def chosen_moves(recs, per_type: int = 2):
-    """The moves ``push_mobility`` walks: the first ``per_type`` of each type."""
-    chosen: dict[str, list] = {}
-    for r in recs:
-        if len(chosen.setdefault(r.move_type, [])) < per_type:
-            chosen[r.move_type].append(r)
-    return [r for rs in chosen.values() for r in rs]
-
-
 def measure(zoo: str, work: Path) -> dict:
     ref = load_moves(work / "reference", "train")
-    moves = chosen_moves(ref)
+    moves = first_per_type(ref, MOBILITY_MOVES_PER_TYPE)
     recorded = np.array([_start_and_displacement(r)[1] for r in moves])
     row = {}
     for name in ROBOTS:
