@@ -120,8 +120,9 @@ def contrast_one_step(aug: Augmentation, d: np.ndarray, on_ref: Any, n_contrasts
         p_focus = welch_greater(d[:, focus].sum(axis=1), d_ref[:, focus].sum(axis=1))
         p = min(1.0, 2.0 * min(p_state, min(1.0, choices * p_focus)))
     n = max(1, int(n_contrasts))
-    gain, gain_ref = float(d.mean(axis=0).sum()), float(np.sum(on_ref.gain))
-    excess = float(np.max(d.mean(axis=0) - np.asarray(on_ref.gain, float)))
+    per_element = d.mean(axis=0)
+    gain, gain_ref = float(per_element.sum()), float(np.sum(on_ref.gain))
+    excess = float(np.max(per_element - np.asarray(on_ref.gain, float)))
     new = gain > 0 and gain_ref < new_share * gain
     return OneStepContrast(aug.label(), gain, gain_ref, float(on_ref.p_value),
                            bool(on_ref.significant), float(p_state),
