@@ -175,8 +175,8 @@ def _slope(x: list[float], y: list[float]) -> float:
 
 def summarise(fits: list[dict]) -> list[dict]:
     rows = []
-    for kind, k in sorted({(f.get("kind", "4 s moves"), f["moves"]) for f in fits}):
-        group = [f for f in fits if f.get("kind", "4 s moves") == kind and f["moves"] == k]
+    for kind, k in sorted({(f["kind"], f["moves"]) for f in fits}):
+        group = [f for f in fits if f["kind"] == kind and f["moves"] == k]
         runs = [(f["replicate"], r) for f in group for r in f["runs"]]
         bias = np.array([r["dyaw_bias_per_s"] for _, r in runs])
         gap = np.array([r["err_per_m"] for _, r in runs])
