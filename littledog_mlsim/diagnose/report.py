@@ -107,7 +107,8 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
     """The report.json document (see module doc)."""
     floor = info.get("floor_plane")
     contrasts = info.pop("one_step_contrasts", None)
-    effects = [_effect(k, r, sel, stages[k], stages[k + 1], floor)
+    off = 1 if info.get("sensor_correction") else 0    # decision 043's stage as recorded
+    effects = [_effect(k, r, sel, stages[k + off], stages[k + off + 1], floor)
                for k, r in enumerate([r for r in sel.rounds if r.picked is not None])]
     for e, c in zip(effects, contrasts or []):
         if c is not None:

@@ -100,6 +100,10 @@ class _Run:
     say: Callable[[str], None]
     t_start: float
     loaded_once: dict[str, Any] = field(default_factory=dict)   # e.g. the reference's moves
+    # decision 043: the TrainPool and TestPool as recorded, where a late sensor stream was
+    # re-stamped (``train``/``test`` are then the re-stamped ones), and the correction
+    as_recorded: tuple[Sequence[MoveRecording], Sequence[MoveRecording]] | None = None
+    correction: dict[str, Any] | None = None
 
 
 def diagnose(data: str | os.PathLike, out: str | os.PathLike,
@@ -131,8 +135,8 @@ def diagnose(data: str | os.PathLike, out: str | os.PathLike,
     test = load_moves(data, "test")
     say(f"{len(train)} TrainPool and {len(test)} TestPool moves from {data}")
     start, loaded, method, model_options, target, baseline_desc = _starting_model(o)
-    run = _Run(data, Path(out), index, train, test, start, loaded, method, model_options,
-               target, baseline_desc, o, say, t_start)
+    run = _sensor_corrected(_Run(data, Path(out), index, train, test, start, loaded, method,
+                                 model_options, target, baseline_desc, o, say, t_start))
     route, robot, why = choose_route(o, index.info)
     run.say(f"{route.name} route: {why}")
     if isinstance(route, PhysicalRoute):
@@ -303,6 +307,7 @@ def _report_keywords(run: _Run, last_model: Any) -> dict[str, Any]:
     if run.o.save_model and last_model is not None:   # None if the last stage's fit failed
         model_path = last_model.save(run.out / "model")
     return dict(data=os.fspath(run.data), dataset_info=run.index.info, timing=_timing(run),
+                sensor_correction=run.correction,
                 baseline=run.baseline_desc, method=run.method, options=run.model_options,
                 model_path=None if model_path is None else os.fspath(model_path),
                 n_train=len(run.train), n_test=len(run.test), figures=run.o.figures,
@@ -331,7 +336,7 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
         else:
             aug = None
         effect_augs.append(aug)
-        effect_stage.append(len(feature_sets) - 1)
+        effect_stage.append(len(feature_sets) - 1 + (run.as_recorded is not None))
     stages, last_model = _stages(run, feature_sets, 1 if popts.scheduler else popts.jobs)
     keywords = _report_keywords(run, last_model)
     keywords["route"] = {"name": "physical", "why": why, "robot": config.name,
@@ -373,43 +378,80 @@ def _reference_moves(run: _Run) -> list[MoveRecording]:
 
 
 def _timing(run: _Run) -> dict[str, Any]:
-    """The sensor-timing check (:mod:`.timing`) of the TrainPool, against the reference's where
-    given; a recording it cannot read (a move too short) gives an ``error`` entry instead."""
+    """The sensor-timing check (:mod:`.timing`) of the TrainPool as recorded, against the
+    reference's where given (run once, first); a recording it cannot read (a move too short)
+    gives an ``error`` entry instead."""
+    if "timing" in run.loaded_once:
+        return run.loaded_once["timing"]
     from .timing import TIMING_ALPHA, sensor_timing
     reference = _reference_moves(run) or None    # a bad reference is refused, not skipped
+    train = run.train if run.as_recorded is None else run.as_recorded[0]
     try:
-        t = sensor_timing(run.train, reference, alpha=TIMING_ALPHA)
+        t = sensor_timing(train, reference, alpha=TIMING_ALPHA)
     except ValueError as exc:
         run.say(f"timing: not checked: {exc}")
-        return {"error": str(exc), "significant": False}
-    run.say("timing: " + (t["statement"] if t["significant"] else
-                          f"the joint states and the pose agree (shift {t['shift_ms']:+.1f} ms, "
-                          f"p = {t['p_value']:.2g})"))
+        t = {"error": str(exc), "significant": False}
+    else:
+        run.say("timing: " + (t["statement"] if t["significant"] else
+                              "the joint states and the pose agree (shift "
+                              f"{t['shift_ms']:+.1f} ms, p = {t['p_value']:.2g})"))
+    run.loaded_once["timing"] = t
     return t
+
+
+def _sensor_corrected(run: _Run) -> _Run:
+    """Decision 043 (:mod:`.restamp`): where the timing check finds a late sensor stream, the
+    run with its TrainPool and TestPool re-stamped (the data as recorded kept for the report's
+    ``before``); else ``run`` itself."""
+    from dataclasses import replace
+    from .restamp import correction_from_timing, restamp
+    correction = correction_from_timing(_timing(run))
+    if correction is None:
+        return run
+    try:
+        train, test = restamp(run.train, correction), restamp(run.test, correction)
+    except ValueError as exc:
+        run.say(f"timing: not re-stamped: {exc}")
+        return run
+    run.say(f"timing: {correction['statement']}")
+    run.loaded_once["timing"]["recording"] += ("; this diagnosis re-stamped the data before its "
+                                               "search (sensor_correction)")
+    return replace(run, train=train, test=test, as_recorded=(run.train, run.test),
+                   correction={**correction, "stage_as_recorded": 0})
 
 
 def _stages(run: _Run, feature_sets: Sequence[FeatureSet], jobs: int = 1
             ) -> tuple[list[dict[str, Any]], Any]:
     """Fit and score the report model for every feature set (the loop's stages); an LGPR's
-    clusters fit in ``jobs`` local processes (:func:`fit_options`)."""
+    clusters fit in ``jobs`` local processes (:func:`fit_options`). Where a sensor stream was
+    re-stamped (decision 043), a first stage fits the starting feature set on the data as
+    recorded and scores it on the TestPool as recorded (the report's ``before``); every stage
+    then has ``data``: "as recorded" or "re-stamped"."""
     o = run.o
     stages: list[dict[str, Any]] = []
     last_model = None
-    for k, fs_k in enumerate(feature_sets):
+    plan = [(fs_k, run.train, run.test, k == 0 and run.loaded is not None)
+            for k, fs_k in enumerate(feature_sets)]
+    if run.as_recorded is not None:
+        plan = [(feature_sets[0], *run.as_recorded, run.loaded is not None)] + [
+            (fs_k, tr, te, False) for fs_k, tr, te, _ in plan]
+    for k, (fs_k, train, test, use_loaded) in enumerate(plan):
         t0 = time.perf_counter()
-        if k == 0 and run.loaded is not None:
+        if use_loaded:
             m, note = run.loaded, None
         else:
             info = {"diagnosis_stage": k, "data_dir": os.fspath(run.data)}
             m, note = _fit_with_fallback(fs_k, run.method,
                                          fit_options(run.method, run.model_options, jobs),
-                                         run.train, run.target, o.seed, info, run.say)
+                                         train, run.target, o.seed, info, run.say)
         if m is None:
             scores = _failed_stage(note, o.projections, o.projection_alpha)
         else:
-            scores = score_on_test(m, run.test, o.projections, o.projection_alpha)
+            scores = score_on_test(m, test, o.projections, o.projection_alpha)
             if note:
                 scores["note"] = note
+        if run.as_recorded is not None:
+            scores["data"] = "as recorded" if k == 0 else "re-stamped"
         scores["feature_set"] = fs_k.to_dict()
         scores["feature_set_description"] = fs_k.describe()
         scores["fit_and_score_seconds"] = time.perf_counter() - t0

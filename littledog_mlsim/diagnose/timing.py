@@ -69,7 +69,8 @@ p_value}]``, ``late`` (the legs found, possibly empty) and where some are ``scop
 ``vocabulary`` (``{family: "other", scope: "all" for the joint states, "body" for the pose, or
 the late legs' scope, params: {latency_ms, stream, legs (the legs' finding only)},
 statement}``, the vocabulary has no sensor-latency family), and ``recording`` (what to do
-about it).
+about it). Where it names a late stream, the diagnosis re-stamps the data before its search
+(:mod:`.restamp`, decision 043).
 """
 from __future__ import annotations
 
@@ -316,8 +317,7 @@ def sensor_timing(moves: Sequence[MoveRecording],
                        "legs": list(lg["late"])},
             "statement": what + " (no sensor-latency family in the vocabulary: named as other)"},
             recording=(f"re-stamp {which}'s joint states about {ms:.0f} ms earlier or more (or "
-                       "fix that publisher's stamps) and record or import again; the served "
-                       "model is not changed by this finding"))
+                       "fix that publisher's stamps) and record or import again"))
     elif whole:
         late = "joint_states" if shift > 0 else "pose"
         ms = abs(shift)
@@ -340,5 +340,5 @@ def sensor_timing(moves: Sequence[MoveRecording],
                              "vocabulary: named as other)"}
         out["recording"] = (f"re-stamp the {'joint states' if late == 'joint_states' else 'pose'}"
                             f" {ms:.0f} ms earlier (or fix the publisher's stamps) and record or "
-                            "import again; the served model is not changed by this finding")
+                            "import again")
     return out

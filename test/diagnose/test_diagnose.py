@@ -293,6 +293,49 @@ def test_command_delay_is_found_with_its_delay(delay_report):
     assert first["after"]["nmse_mean"] < first["before"]["nmse_mean"]
 
 
+def _pose_late(src: Path, dst: Path, steps: int) -> Path:
+    """A copy of the dataset ``src`` whose pose is that of ``steps`` steps before its stamp (a
+    late odometry message; each move's first ``steps`` rows dropped)."""
+    from littledog_mlsim.data.bags import read_bag, write_bag
+    from littledog_mlsim.data.dataset import read_index, write_index
+    from littledog_mlsim.data.recording import MoveRecording
+    index = read_index(src)
+    dst.mkdir()
+    for e in index.entries:
+        m = read_bag(src / e.name, e.move_type)
+        write_bag(dst / e.name, MoveRecording(
+            m.name, m.move_type, m.stamps_ns[steps:], m.cmd[steps:], m.q[steps:], m.dq[steps:],
+            m.position[:-steps], m.orientation[:-steps], m.linear_velocity[:-steps],
+            m.angular_velocity[:-steps]))
+    write_index(dst, index.entries, index.info)
+    return dst
+
+
+def test_a_late_pose_is_re_stamped_before_the_search(delay_report, recorded):
+    """Decision 043: the delay data with the pose 30 ms late. The timing check reads it, the data
+    are re-stamped before the search, which finds the command delay as on the data on time; the
+    report's ``before`` is the model on the data as recorded."""
+    data = _pose_late(recorded / "delay", recorded / "delay_pose_late", 3)
+    report = _diagnose(data, recorded / "delay_pose_late_out")
+    c = report["sensor_correction"]
+    # without a reference the shift also holds the check's own lead on clean data (about 2 ms)
+    assert c["stream"] == "pose" and abs(c["shift_ms"] - 30.0) <= 3.0
+    assert c["rows_dropped"] == int(np.ceil(c["shift_steps"]))
+    assert report["timing"]["vocabulary"]["scope"] == "body"
+    assert "re-stamped the data" in report["timing"]["recording"]
+    data_of = [s["data"] for s in report["stages"]]
+    assert data_of == ["as recorded"] + ["re-stamped"] * (len(data_of) - 1)
+    assert report["before"]["data"] == "as recorded" and report["after"]["data"] == "re-stamped"
+    first = report["effects"][0]
+    assert first["name"] == "command_lag" and first["params"]["lag"] == 2
+    assert first["before"]["data"] == "re-stamped"
+    assert report["stages"][1]["n_samples"] < report["stages"][0]["n_samples"]
+    # the streams agreeing, the same model predicts one step better
+    assert report["stages"][1]["nmse_mean"] < report["stages"][0]["nmse_mean"]
+    on_time = delay_report[0]
+    assert "sensor_correction" in on_time and on_time["sensor_correction"] is None
+
+
 # White noise of this size [rad] on every command (record --excitation): the system-identification
 # regime in which a command delay is identifiable from one-step data (benchmarks/diagnose/diagnose.md).
 EXCITATION = 0.03
@@ -410,7 +453,8 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
     pid = PhysIdResult([finding], [finding], [], "measured", 6, 12, 100, 1.0, 0.01, 0.05, 200,
                        (0.1, 1.0), {})
     info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
-                                "n_train_moves", "n_test_moves", "model", "seconds", "timing")}
+                                "n_train_moves", "n_test_moves", "model", "seconds", "timing",
+                                "sensor_correction")}
     info["route"] = {"name": "physical", "why": "given", "robot": "measured", "twin": None,
                      "reference": "/data/ref"}
     pid.reference = {"n_moves": 2, "moves": ["F_00", "B_00"], "twin_errors": [],
