@@ -241,7 +241,9 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
                       + ([f"an unexplained change at {change['scope']}"]
                          if change.get("significant") else [])
                       + ([f"a change since the reference: {carried['family']} at "
-                          f"{carried['kept_scope']}"] if carried.get("named") else []))
+                          f"{carried['kept_scope']}"] if carried.get("named") else [])
+                      + ([f"a late {run.correction['stream']} stream (re-stamped)"]
+                         if run.correction else []))
     run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
             f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
