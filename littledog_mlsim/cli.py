@@ -44,9 +44,11 @@ def cmd_record(a: argparse.Namespace) -> int:
     s = record_dataset(a.out, moves_per_type=a.moves_per_type, types=a.types, seed=a.seed,
                        robot=a.robot, effects_file=a.effects, storage=a.storage, jobs=a.jobs,
                        overwrite=a.overwrite, progress=not a.quiet, excitation=a.excitation,
-                       extra=dict(a.extra or []), start_spread=a.start_spread)
-    print(f"recorded {s.n_bags} bags ({s.n_steps} steps, {s.n_steps * 0.01:.0f} s of robot time) "
-          f"into {s.out} in {s.wall_s:.1f} s wall with {s.jobs} process(es); "
+                       extra=dict(a.extra or []), start_spread=a.start_spread,
+                       warmup=a.warmup)
+    warm = f", each after {a.warmup:g} s of warm-up not kept" if a.warmup else ""
+    print(f"recorded {s.n_bags} bags ({s.n_steps} steps, {s.n_steps * 0.01:.0f} s of robot time "
+          f"simulated{warm}) into {s.out} in {s.wall_s:.1f} s wall with {s.jobs} process(es); "
           f"{s.realtime_factor_per_core:.1f}x real time per core (CPU time)")
     return 0
 
@@ -531,6 +533,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="start each move from its own place, up to M metres from the origin in x "
                         "and y, and its own heading (default 0: every move at the origin facing "
                         "+x; at most 5)")
+    r.add_argument("--warmup", type=float, default=0.0, metavar="S",
+                   help="walk each move for S seconds more before its recorded 4 s (the same "
+                        "move continued), so that it starts from a settled gait instead of "
+                        "standing (default 0; at most 60, whole 10 ms steps)")
     r.add_argument("--extra", type=_extra_moves, action="append", metavar="KIND=N",
                    help="N more TrainPool moves of KIND: trot (constant trots), switch (a "
                         "transition to another type within the move), varied (continuously "

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
@@ -27,7 +27,8 @@ from tqdm import tqdm
 from .. import __version__
 from ..fileio import atomic_directory
 from ..control.moves import CLOSED_LOOP_KINDS, MOVE_KINDS
-from ..layout import (CONTROL_DT_NS, DATASET_MOVE_TYPES, MOVE_TYPES, STEPS_PER_MOVE,
+from ..data.recording import MoveRecording
+from ..layout import (CONTROL_DT, CONTROL_DT_NS, DATASET_MOVE_TYPES, MOVE_TYPES, STEPS_PER_MOVE,
                       UNKNOWN_MOVE_TYPE, bag_name)
 
 if TYPE_CHECKING:
@@ -81,6 +82,8 @@ class RecordSummary:
 
 #: the largest ``start_spread`` [m] that ``record`` takes
 MAX_START_SPREAD_M = 5.0
+#: the longest warm-up [s] that ``record`` takes
+MAX_WARMUP_S = 60.0
 
 
 class StartSpread:
@@ -109,6 +112,28 @@ class StartSpread:
         p.resetBaseVelocity(sim.robot, [0, 0, 0], [0, 0, 0], physicsClientId=c)
 
 
+def after_warmup(rec: MoveRecording, k: int) -> MoveRecording:
+    """The recording ``rec`` from its measurement ``k`` on, its stamps from zero (``k`` = 0:
+    ``rec`` itself)."""
+    if k == 0:
+        return rec
+    fields = ("q", "dq", "position", "orientation", "linear_velocity", "angular_velocity")
+    return replace(rec, stamps_ns=rec.stamps_ns[k:] - rec.stamps_ns[k], cmd=rec.cmd[k:],
+                   **{f: getattr(rec, f)[k:] for f in fields})
+
+
+def check_warmup(warmup_s: float) -> float:
+    """``warmup_s`` [s] as a float; ValueError (one line) outside [0, MAX_WARMUP_S] or not a
+    whole number of control steps."""
+    v = float(warmup_s)
+    if not np.isfinite(v) or not 0.0 <= v <= MAX_WARMUP_S:
+        raise ValueError(f"--warmup must be between 0 and {MAX_WARMUP_S:g} s, got {warmup_s}")
+    if abs(v / CONTROL_DT - round(v / CONTROL_DT)) > 1e-6:
+        raise ValueError(f"--warmup must be a whole number of {CONTROL_DT * 1e3:g} ms steps, got "
+                         f"{warmup_s}")
+    return v
+
+
 def check_start_spread(start_spread: float) -> float:
     """``start_spread`` [m] as a float; ValueError (one line) outside [0, MAX_START_SPREAD_M]."""
     v = float(start_spread)
@@ -119,9 +144,10 @@ def check_start_spread(start_spread: float) -> float:
 
 
 def _record_one(job: MoveJob, bag_path: str, robot: "RobotConfig", effects_file: str | None,
-                storage: str, excitation: float = 0.0, start_spread: float = 0.0
-                ) -> tuple[str, int, float]:
-    """Worker: simulate one move and write its bag. Returns (name, n_steps, CPU seconds)."""
+                storage: str, excitation: float = 0.0, start_spread: float = 0.0,
+                warmup_s: float = 0.0) -> tuple[str, int, float]:
+    """Worker: simulate one move (after ``warmup_s`` of the same move, cut off) and write its
+    bag. Returns (name, n_steps, CPU seconds)."""
     from ..control.moves import closed_loop_policy, open_loop_commands
     from ..data.bags import write_bag
     from ..gait.trot import excite_commands
@@ -134,19 +160,22 @@ def _record_one(job: MoveJob, bag_path: str, robot: "RobotConfig", effects_file:
     effects = list(load_effects(effects_file)) if effects_file else []
     if start_spread:           # first: the effects' reset hooks see the robot where it starts
         effects.insert(0, StartSpread(start_spread, robot_seed))
+    warm = int(round(warmup_s / CONTROL_DT))
+    n_steps = warm + STEPS_PER_MOVE
     if job.kind in CLOSED_LOOP_KINDS:
-        policy = closed_loop_policy(job.kind, gait_rng)
+        policy = closed_loop_policy(job.kind, gait_rng, n_steps=n_steps)
 
         def excited(obs):
             return excite_commands(policy(obs)[None], excitation, gait_rng)[0]
 
-        rec = simulate_closed_loop(excited, STEPS_PER_MOVE, robot=robot, effects=effects,
+        rec = simulate_closed_loop(excited, n_steps, robot=robot, effects=effects,
                                    seed=robot_seed, name=job.name, move_type=job.move_type)
     else:
-        commands = open_loop_commands(job.kind, job.move_type, gait_rng, excitation)
+        commands = open_loop_commands(job.kind, job.move_type, gait_rng, excitation,
+                                      n_steps=n_steps)
         rec = simulate_move(commands, robot=robot, effects=effects, seed=robot_seed,
                             name=job.name, move_type=job.move_type)
-    write_bag(bag_path, rec, storage=storage)
+    write_bag(bag_path, after_warmup(rec, warm), storage=storage)
     return job.name, rec.n_steps, time.process_time() - t0
 
 
@@ -222,7 +251,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
                    jobs: int | None = None, overwrite: bool = False,
                    progress: bool = True, excitation: float = 0.0,
                    extra: Mapping[str, int] | None = None,
-                   start_spread: float = 0.0) -> RecordSummary:
+                   start_spread: float = 0.0, warmup: float = 0.0) -> RecordSummary:
     """Record ``moves_per_type`` moves of each type into the dataset directory ``out``.
 
     ``extra``: {kind: count} of TrainPool moves of other kinds (``control.moves.MOVE_KINDS``):
@@ -236,6 +265,12 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     ``start_spread`` [m]: each move starts from its own place, up to this far from the origin
     in x and y, and its own heading (:class:`StartSpread`); 0 starts every move at the origin
     facing +x. ``dataset.yaml`` records it as ``info.start_spread_m``.
+    ``warmup`` [s]: each move is walked for this long before its recorded part, the same move
+    continued (the same trot, schedule or controller, over ``warmup`` more seconds), and the
+    bag keeps the last ``STEPS_PER_MOVE`` steps, its stamps from zero: moves that start from a
+    settled gait instead of standing, as a robot's logs cut from a long walk do. Effects see
+    the whole walk (a drift with time has run for ``warmup`` s when the bag starts).
+    ``dataset.yaml`` records it as ``info.warmup_s``.
     """
     from ..data.dataset import BagEntry, dataset_entries, write_index
     from ..robot.effects import load_effects
@@ -247,6 +282,7 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     if not np.isfinite(excitation) or not 0.0 <= excitation <= 0.2:
         raise ValueError(f"--excitation must be between 0 and 0.2 rad, got {excitation}")
     start_spread = check_start_spread(start_spread)
+    warmup = check_warmup(warmup)
     if storage not in ("mcap", "sqlite3"):
         raise ValueError(f"--storage must be mcap or sqlite3, got {storage!r}")
     config = robot_config_from(robot)        # fails early on an unknown robot or a bad twin
@@ -259,8 +295,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
     t0 = time.perf_counter()
     with atomic_directory(out, replace=overwrite) as tmp:  # swapped in only after success
         results = []
-        args = [(j, str(tmp / j.name), config, effects_file, storage, excitation, start_spread)
-                for j in plan]
+        args = [(j, str(tmp / j.name), config, effects_file, storage, excitation, start_spread,
+                 warmup) for j in plan]
         # no tqdm object at all without progress: even a disabled one starts tqdm's monitor
         # thread, which then outlives the call
         bar = (tqdm(total=len(plan), desc=f"record {out.name}", unit="move") if progress
@@ -288,6 +324,8 @@ def record_dataset(out: str | os.PathLike, *, moves_per_type: int = 20,
             info["command_excitation_rad"] = float(excitation)
         if start_spread:
             info["start_spread_m"] = start_spread
+        if warmup:
+            info["warmup_s"] = warmup
         if extras:
             info["extra_moves"] = {k: [j.name for j in extras if j.kind == k]
                                    for k in dict.fromkeys(j.kind for j in extras)}

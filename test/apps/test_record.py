@@ -123,6 +123,9 @@ def test_bad_move_type_is_a_usage_error(capsys):
     (["record", "--out", "X", "--excitation", "0.5"], "--excitation"),
     (["record", "--out", "X", "--start-spread", "nan"], "--start-spread"),
     (["record", "--out", "X", "--start-spread", "-1"], "--start-spread"),
+    (["record", "--out", "X", "--warmup", "-1"], "--warmup"),
+    (["record", "--out", "X", "--warmup", "0.005"], "--warmup"),
+    (["record", "--out", "X", "--warmup", "nan"], "--warmup"),
     (["info", "--data", "/nonexistent/ds"], "/nonexistent/ds"),
 ])
 def test_bad_input_gives_one_line_and_writes_nothing(tmp_path: Path, argv, fragment, capsys,
@@ -201,6 +204,26 @@ def test_start_spread_starts_each_move_at_its_own_place_and_heading(tmp_path: Pa
         assert move_problems(m) == [], m.name       # upright, and goes where its type says
     assert read_index(out).info["start_spread_m"] == 0.5
     assert "start_spread_m" not in read_index(dataset).info
+
+
+def test_warmup_starts_each_move_from_a_settled_gait(tmp_path: Path, dataset: Path):
+    """``--warmup``: each move walked 2 s before the 4 s its bag keeps (stamps from zero): it
+    starts walking, away from where the plain move starts standing, still goes where its type
+    says, and dataset.yaml notes the warm-up."""
+    out = tmp_path / "warm"
+    assert main(["record", "--out", str(out), "--moves-per-type", "2", "--types", "F",
+                 "--warmup", "2", "--jobs", "1", "--quiet"]) == 0
+    warm = load_moves(out, split="all")
+    plain = {m.name: m for m in load_moves(dataset, split="all")}
+    for m in warm:
+        p = plain[m.name]
+        assert m.n_steps == STEPS_PER_MOVE and m.stamps_ns[0] == 0
+        moving, standing = np.abs(m.dq[:20]).mean(), np.abs(p.dq[:20]).mean()
+        assert moving > 3 * standing, (moving, standing)
+        assert m.position[0, 0] - p.position[0, 0] > 0.05          # walked forward 2 s
+        assert move_problems(m) == [], m.name
+    assert read_index(out).info["warmup_s"] == 2.0
+    assert "warmup_s" not in read_index(dataset).info
 
 
 def test_start_spread_on_a_tilted_floor_stands_on_the_floor_where_it_starts(tmp_path: Path,

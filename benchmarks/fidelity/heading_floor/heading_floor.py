@@ -22,7 +22,10 @@ model's mean yaw rate against pybullet's over the seeds (1: the model reads each
 straight trots of the test's length that pybullet walks from other seeds (1000 on), per
 replicate: data of the test's own kind and length. ``--settled N``: N forward trots of 4 s
 each kept after ``--warmup`` s of the same trot (seeds 2000 on), per replicate: the recorded
-moves' number and length, started from a settled trot.
+moves' number and length, started from a settled trot. ``--warm DIR``: a forward-trot dataset
+recorded with ``record --types F --warmup S`` (each move after S s of the same trot);
+``--warm-sizes N``: models fitted on N of its moves, and ``--mixed N``: on N/2 moves of
+``--data`` (from standing) and N/2 of ``--warm`` (settled), per replicate.
 
 Writes ``--out``.json / .md. The pybullet runs are made once per seed and kept in
 ``--work`` (``ref_sSEED.npz``).
@@ -132,6 +135,18 @@ def fit_and_force(args) -> dict:
     return _fit_and_force([moves[i] for i in order[:k]], "4 s moves", k, r, refs)
 
 
+def datasets_fit_and_force(args) -> dict:
+    """Fit LGPR on the first ``k // len(datas)`` moves of replicate ``r``'s order of each
+    dataset of ``datas``; teacher-force every seed."""
+    datas, k, r, refs, kind = args
+    chosen = []
+    for data in datas:
+        moves = load_moves(data, "all")
+        order = np.random.default_rng(r).permutation(len(moves))
+        chosen += [moves[i] for i in order[:k // len(datas)]]
+    return _fit_and_force(chosen, kind, k, r, refs)
+
+
 def long_fit_and_force(args) -> dict:
     """Fit LGPR on ``k`` straight trots of ``duration`` s walked by pybullet (seeds
     ``LONG_SEED + 100 r`` on, none of them a test seed); teacher-force every seed."""
@@ -213,6 +228,12 @@ def main(argv=None) -> int:
                     help="also fit on this many 4 s forward trots each cut after --warmup s of "
                          "the same trot (pybullet, seeds from 2000), per replicate")
     ap.add_argument("--warmup", type=float, default=10.0)
+    ap.add_argument("--warm", type=Path, default=None,
+                    help="a forward-trot dataset recorded with record --warmup")
+    ap.add_argument("--warm-sizes", nargs="*", type=int, default=[],
+                    help="also fit on this many moves of --warm, per replicate")
+    ap.add_argument("--mixed", nargs="*", type=int, default=[],
+                    help="also fit on half this many moves of --data and half of --warm")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE / "heading_floor")
     a = ap.parse_args(argv)
@@ -222,6 +243,16 @@ def main(argv=None) -> int:
         print(f"error: --sizes asks for {max(a.sizes)} moves; {a.data} holds {n_moves}",
               file=sys.stderr)
         return 2
+    if (a.warm_sizes or a.mixed) and a.warm is None:
+        print("error: --warm-sizes and --mixed need --warm", file=sys.stderr)
+        return 2
+    if a.warm is not None:
+        n_warm = len(load_moves(a.warm, "all"))
+        need = max(a.warm_sizes + [k // 2 for k in a.mixed], default=0)
+        if need > n_warm or max([k // 2 for k in a.mixed], default=0) > n_moves:
+            print(f"error: --warm-sizes/--mixed ask for more moves than {a.warm} ({n_warm}) "
+                  f"or {a.data} ({n_moves}) hold", file=sys.stderr)
+            return 2
     load_before, t0 = uptime(), time.time()
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
         paths = list(ex.map(reference, [(s, a.duration, str(a.work)) for s in a.seeds]))
@@ -233,6 +264,11 @@ def main(argv=None) -> int:
                                                  for r in range(a.replicates)]))
         fits += list(ex.map(settled_fit_and_force, [(k, r, a.warmup, refs) for k in a.settled
                                                     for r in range(a.replicates)]))
+        fits += list(ex.map(datasets_fit_and_force, [
+            ([str(a.warm)], k, r, refs, "4 s moves after record --warmup")
+            for k in a.warm_sizes for r in range(a.replicates)] + [
+            ([str(a.data), str(a.warm)], k, r, refs, "half from standing, half after --warmup")
+            for k in a.mixed for r in range(a.replicates)]))
     wall = time.time() - t0
     rows = summarise(fits)
     doc = {**run_record("fidelity/heading_floor/heading_floor.py", sys.argv[1:]),
