@@ -33,7 +33,6 @@ Writes ``--out``.json / .md. The pybullet runs are made once per seed and kept i
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import os
 import sys
@@ -50,6 +49,7 @@ import fidelity as F  # noqa: E402
 import floor as FL  # noqa: E402
 
 from _common import command_line, run_record, uptime, write_results  # noqa: E402
+from littledog_mlsim.apps.record import after_warmup  # noqa: E402
 from littledog_mlsim.control.gait import StreamingTrot  # noqa: E402
 from littledog_mlsim.control.schedule import straight_trot_schedule  # noqa: E402
 from littledog_mlsim.data.dataset import (integrate_path, load_moves,  # noqa: E402
@@ -160,13 +160,6 @@ def long_fit_and_force(args) -> dict:
     return _fit_and_force(chosen, f"{duration:g} s trots", k, r, refs)
 
 
-def _cut(rec, k: int):
-    """The recording ``rec`` from its sample ``k`` on (its stamps from zero)."""
-    fields = ("q", "dq", "position", "orientation", "linear_velocity", "angular_velocity")
-    return dataclasses.replace(rec, stamps_ns=rec.stamps_ns[k:] - rec.stamps_ns[k],
-                               cmd=rec.cmd[k:], **{f: getattr(rec, f)[k:] for f in fields})
-
-
 def settled_fit_and_force(args) -> dict:
     """Fit LGPR on ``k`` forward trots of ``MOVE_S`` s, each kept after ``warmup`` s of the
     same trot (pybullet, seeds ``SETTLED_SEED + 100 r`` on): moves as many and as short as the
@@ -178,7 +171,7 @@ def settled_fit_and_force(args) -> dict:
         sched = straight_trot_schedule(warmup + MOVE_S, np.random.default_rng(seed))
         rec = FL._pybullet_run(seed, StreamingTrot(phase=sched.phase).commands(
             sched.commands), None)
-        chosen.append(_cut(rec, int(round(warmup / CONTROL_DT))))
+        chosen.append(after_warmup(rec, int(round(warmup / CONTROL_DT))))
     return _fit_and_force(chosen, f"{MOVE_S:g} s after {warmup:g} s", k, r, refs)
 
 
