@@ -107,7 +107,8 @@ def build_report(sel: SelectionResult, stages: Sequence[dict], **info: Any) -> d
     """The report.json document (see module doc)."""
     floor = info.get("floor_plane")
     contrasts = info.pop("one_step_contrasts", None)
-    off = 1 if info.get("sensor_correction") else 0    # decision 043's stage as recorded
+    # decisions 043 and 044: a first stage on the data as recorded
+    off = 1 if info.get("sensor_correction") or info.get("frame_repair") else 0
     effects = [_effect(k, r, sel, stages[k + off], stages[k + off + 1], floor)
                for k, r in enumerate([r for r in sel.rounds if r.picked is not None])]
     for e, c in zip(effects, contrasts or []):
@@ -358,6 +359,7 @@ def _markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
     L += _md_rounds(doc)
     L += _md_rollout_route(doc.get("rollout_route"))
     L += _md_timing(doc.get("timing"))
+    L += _md_held_frames(doc.get("held_frames"), doc.get("frame_repair"))
     add(f"Final model: `{doc.get('model')}`. Schema of report.json: "
         f"`littledog_mlsim/diagnose/report.py`.")
     return "\n".join(L) + "\n"
@@ -387,6 +389,27 @@ def _md_timing(t: Mapping[str, Any] | None) -> list[str]:
         L.append(f"**Found:** {t['statement']}. What to do: {t['recording']}.\n")
     else:
         L.append(f"No shift of at least {t['min_shift_ms']:g} ms at p < {t['alpha']:g}.\n")
+    return L
+
+
+def _md_held_frames(h: Mapping[str, Any] | None, fix: Mapping[str, Any] | None) -> list[str]:
+    """The held-frame check's section (:mod:`.held_frames`), either route."""
+    if not h:
+        return []
+    L = ["## Held frames (a sensor stream repeating its last frame)\n"]
+    for r in h.get("streams", []):
+        ref = (f", the reference {100 * r['reference_held_fraction']:.2f} %"
+               if "reference_held_fraction" in r else "")
+        L.append(f"- {r['stream']}: held on {100 * r['held_fraction']:.2f} % of the rows where "
+                 f"the other stream moves{ref} (p = {r['p_value']:.2g}, {r['test']}).")
+    L.append("")
+    if h.get("significant"):
+        L.append(f"**Found:** {h['statement']}. What to do: {h['recording']}.\n")
+    else:
+        L.append(f"No stream held on {100 * h['min_held_fraction']:g} % of its rows or more at "
+                 f"p < {h['alpha']:g}.\n")
+    if fix:
+        L.append(f"Repair: {fix['statement']}.\n")
     return L
 
 
@@ -755,6 +778,7 @@ def _physical_markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
     for f in figs.get("summary", []):
         add(f"![{f}]({f})\n")
     L += _md_timing(doc.get("timing"))
+    L += _md_held_frames(doc.get("held_frames"), doc.get("frame_repair"))
     add(f"Final model: `{doc.get('model')}`. Schema of report.json: docs/diagnosis.md.")
     return "\n".join(L) + "\n"
 

@@ -100,10 +100,12 @@ class _Run:
     say: Callable[[str], None]
     t_start: float
     loaded_once: dict[str, Any] = field(default_factory=dict)   # e.g. the reference's moves
-    # decision 043: the TrainPool and TestPool as recorded, where a late sensor stream was
-    # re-stamped (``train``/``test`` are then the re-stamped ones), and the correction
+    # decisions 043 and 044: the TrainPool and TestPool as recorded, where held frames were
+    # filled in or a late sensor stream was re-stamped (``train``/``test`` are then the
+    # corrected ones), the re-stamp and the repair
     as_recorded: tuple[Sequence[MoveRecording], Sequence[MoveRecording]] | None = None
     correction: dict[str, Any] | None = None
+    repair: dict[str, Any] | None = None
 
 
 def diagnose(data: str | os.PathLike, out: str | os.PathLike,
@@ -243,7 +245,10 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
                       + ([f"a change since the reference: {carried['family']} at "
                           f"{carried['kept_scope']}"] if carried.get("named") else [])
                       + ([f"a late {run.correction['stream']} stream (re-stamped)"]
-                         if run.correction else []))
+                         if run.correction else [])
+                      + ([f"held {' and '.join(run.repair['streams'])} frames (filled in)"]
+                         if run.repair and (_held_frames(run) or {}).get("significant")
+                         else []))
     run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
             f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
@@ -309,7 +314,8 @@ def _report_keywords(run: _Run, last_model: Any) -> dict[str, Any]:
     if run.o.save_model and last_model is not None:   # None if the last stage's fit failed
         model_path = last_model.save(run.out / "model")
     return dict(data=os.fspath(run.data), dataset_info=run.index.info, timing=_timing(run),
-                sensor_correction=run.correction,
+                sensor_correction=run.correction, held_frames=_held_frames(run),
+                frame_repair=run.repair,
                 baseline=run.baseline_desc, method=run.method, options=run.model_options,
                 model_path=None if model_path is None else os.fspath(model_path),
                 n_train=len(run.train), n_test=len(run.test), figures=run.o.figures,
@@ -375,19 +381,50 @@ def _reference_moves(run: _Run) -> list[MoveRecording]:
     if not moves:
         raise ValueError(f"reference {run.o.reference}: no TrainPool moves")
     run.say(f"reference: {len(moves)} TrainPool moves from {run.o.reference}")
+    run.loaded_once["reference_as_recorded"] = moves
+    from .held_frames import reference_streams, repair
+    streams = reference_streams(moves)
+    if streams:                          # decision 044: a reference with held frames is made whole
+        try:
+            moves, filled, dropped = repair(moves, streams)
+        except ValueError as exc:
+            run.say(f"held frames: the reference not repaired: {exc}")
+        else:
+            run.say(f"held frames: the reference's {' and '.join(streams)} held on {filled} rows, "
+                    f"filled in ({dropped} rows dropped at moves' ends)")
+            run.loaded_once["reference_repaired"] = streams
     run.loaded_once["reference_moves"] = moves
     return moves
 
 
-def _timing(run: _Run) -> dict[str, Any]:
-    """The sensor-timing check (:mod:`.timing`) of the TrainPool as recorded, against the
-    reference's where given (run once, first); a recording it cannot read (a move too short)
-    gives an ``error`` entry instead."""
+def _held_frames(run: _Run) -> dict[str, Any]:
+    """The held-frame check (:mod:`.held_frames`) of the TrainPool as recorded, against the
+    reference's as recorded where given (run once, first)."""
+    if "held_frames" in run.loaded_once:
+        return run.loaded_once["held_frames"]
+    from .held_frames import HELD_ALPHA, held_frames
+    _reference_moves(run)                        # a bad reference is refused, not skipped
+    reference = run.loaded_once.get("reference_as_recorded")
+    train = run.train if run.as_recorded is None else run.as_recorded[0]
+    h = held_frames(train, reference, alpha=HELD_ALPHA)
+    pose = next(r for r in h["streams"] if r["stream"] == "pose")
+    run.say("held frames: " + (h["statement"] if h["significant"] else
+                               f"none to speak of (the pose held on "
+                               f"{100 * pose['held_fraction']:.2f} % of the moving rows)"))
+    run.loaded_once["held_frames"] = h
+    return h
+
+
+def _timing(run: _Run, train: Sequence[MoveRecording] | None = None) -> dict[str, Any]:
+    """The sensor-timing check (:mod:`.timing`) of the TrainPool (``train``: as recorded, or
+    with its held frames filled in), against the reference's where given (run once, first); a
+    recording it cannot read (a move too short) gives an ``error`` entry instead."""
     if "timing" in run.loaded_once:
         return run.loaded_once["timing"]
     from .timing import TIMING_ALPHA, sensor_timing
     reference = _reference_moves(run) or None    # a bad reference is refused, not skipped
-    train = run.train if run.as_recorded is None else run.as_recorded[0]
+    if train is None:
+        train = run.train if run.as_recorded is None else run.as_recorded[0]
     try:
         t = sensor_timing(train, reference, alpha=TIMING_ALPHA)
     except ValueError as exc:
@@ -402,24 +439,62 @@ def _timing(run: _Run) -> dict[str, Any]:
 
 
 def _sensor_corrected(run: _Run) -> _Run:
-    """Decision 043 (:mod:`.restamp`): where the timing check finds a late sensor stream, the
-    run with its TrainPool and TestPool re-stamped (the data as recorded kept for the report's
-    ``before``); else ``run`` itself."""
+    """Decisions 044 and 043: where a sensor stream holds frames (:mod:`.held_frames`), they
+    are filled in; then where the timing check (on those data) finds a late sensor stream, it
+    is re-stamped (:mod:`.restamp`). Returns the run with its TrainPool and TestPool corrected
+    (the data as recorded kept for the report's ``before``), or ``run`` itself."""
     from dataclasses import replace
+    from .held_frames import repair, repair_plan
     from .restamp import correction_from_timing, restamp
-    correction = correction_from_timing(_timing(run))
-    if correction is None:
+    train, test = run.train, run.test
+    fixed = None
+    plan = repair_plan(_held_frames(run))
+    if plan is not None:
+        try:
+            train, f_tr, d_tr = repair(run.train, plan["streams"], plan["velocity"])
+            test, f_te, d_te = repair(run.test, plan["streams"], plan["velocity"])
+        except ValueError as exc:
+            run.say(f"held frames: not filled in: {exc}")
+            train, test = run.train, run.test
+        else:
+            what = " and ".join("the pose" if s_ == "pose" else "the joint states"
+                                for s_ in plan["streams"])
+            fixed = {"streams": plan["streams"], "velocity": plan["velocity"],
+                     "rows_filled": f_tr + f_te, "rows_dropped": d_tr + d_te,
+                     "reference_repaired": run.loaded_once.get("reference_repaired", []),
+                     "statement": (f"{what}'s held frames filled in by interpolation before the "
+                                   f"search ({f_tr + f_te} rows; {d_tr + d_te} rows held to a "
+                                   "move's end dropped); the search, the model after and its "
+                                   "TestPool scores use the repaired data")}
+            run.say(f"held frames: {fixed['statement']}")
+            h = run.loaded_once["held_frames"]
+            if h.get("significant"):
+                h["recording"] += ("; this diagnosis filled them in before its search "
+                                   "(frame_repair)")
+    correction = correction_from_timing(_timing(run, train))
+    if correction is not None:
+        try:
+            train, test = restamp(train, correction), restamp(test, correction)
+        except ValueError as exc:
+            run.say(f"timing: not re-stamped: {exc}")
+            correction = None
+        else:
+            run.say(f"timing: {correction['statement']}")
+            run.loaded_once["timing"]["recording"] += ("; this diagnosis re-stamped the data "
+                                                       "before its search (sensor_correction)")
+    if fixed is None and correction is None:
         return run
-    try:
-        train, test = restamp(run.train, correction), restamp(run.test, correction)
-    except ValueError as exc:
-        run.say(f"timing: not re-stamped: {exc}")
-        return run
-    run.say(f"timing: {correction['statement']}")
-    run.loaded_once["timing"]["recording"] += ("; this diagnosis re-stamped the data before its "
-                                               "search (sensor_correction)")
     return replace(run, train=train, test=test, as_recorded=(run.train, run.test),
-                   correction={**correction, "stage_as_recorded": 0})
+                   correction=None if correction is None else {**correction,
+                                                               "stage_as_recorded": 0},
+                   repair=None if fixed is None else {**fixed, "stage_as_recorded": 0})
+
+
+def _corrected_label(run: _Run) -> str:
+    """A stage's ``data`` on the corrected data: "re-stamped" (decision 043), "held frames
+    filled in" (decision 044) or both."""
+    return " and ".join((["held frames filled in"] if run.repair else [])
+                        + (["re-stamped"] if run.correction else []))
 
 
 def _stages(run: _Run, feature_sets: Sequence[FeatureSet], jobs: int = 1
@@ -453,7 +528,7 @@ def _stages(run: _Run, feature_sets: Sequence[FeatureSet], jobs: int = 1
             if note:
                 scores["note"] = note
         if run.as_recorded is not None:
-            scores["data"] = "as recorded" if k == 0 else "re-stamped"
+            scores["data"] = "as recorded" if k == 0 else _corrected_label(run)
         scores["feature_set"] = fs_k.to_dict()
         scores["feature_set_description"] = fs_k.describe()
         scores["fit_and_score_seconds"] = time.perf_counter() - t0

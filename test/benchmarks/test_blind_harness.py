@@ -38,6 +38,19 @@ def test_a_recording_with_no_record_argument_is_not_followed():
     assert harness.recommended_recording({}) is None
 
 
+def test_a_held_frame_finding_is_named_and_scored_like_the_timing_checks():
+    """Decision 044: the held-frame check's vocabulary counts as the timing check's does."""
+    voc = {"family": "other", "scope": "body", "params": {"held_fraction": 0.23}}
+    report = {"significant": False, "effects": [],
+              "timing": {"significant": False},
+              "held_frames": {"significant": True, "vocabulary": voc}}
+    assert harness.named_effects(report) == [voc] and harness.significant(report)
+    s = harness.score({"family": "other", "scope": "body", "params": {}}, report)
+    assert s["found"] and s["family_right"] and s["scope_right"]
+    quiet = {**report, "held_frames": {"significant": False}}
+    assert harness.named_effects(quiet) == [] and not harness.significant(quiet)
+
+
 def test_the_tag_names_every_condition():
     assert harness.follow_up_tag({}) == ""
     assert harness.follow_up_tag({"--excitation": 0.05}) == "_e0.05"

@@ -229,6 +229,7 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, p
     assert "Against the reference: an unexplained change since the reference" in md
 
 
+@pytest.mark.slow   # make test keeps decision 031's parts: test/diagnose/test_conditions.py
 def test_against_a_reference_of_another_excitation_a_command_response_is_no_change(
         data, tmp_path, monkeypatch):
     """Decision 031 end to end: the push against the clean recording whose ``dataset.yaml``

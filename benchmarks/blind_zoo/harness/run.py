@@ -205,16 +205,18 @@ def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     pushed = (report.get("rollout_route") or {}).get("drift_change") or {}
     if pushed.get("named"):
         out.append(pushed.get("vocabulary") or {})
-    timing = report.get("timing") or {}
-    if timing.get("significant"):
-        out.append(timing.get("vocabulary") or {})
+    for check in ("timing", "held_frames"):
+        c = report.get(check) or {}
+        if c.get("significant"):
+            out.append(c.get("vocabulary") or {})
     return [p for p in out if p]
 
 
 def significant(report: dict[str, Any]) -> bool:
     return bool(report.get("significant")
                 or (report.get("rollout_route") or {}).get("significant")
-                or (report.get("timing") or {}).get("significant"))
+                or (report.get("timing") or {}).get("significant")
+                or (report.get("held_frames") or {}).get("significant"))
 
 
 def score(truth: dict[str, Any], report: dict[str, Any]) -> dict[str, Any]:
