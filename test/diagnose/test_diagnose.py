@@ -495,7 +495,7 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
                        (0.1, 1.0), {})
     info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
                                 "n_train_moves", "n_test_moves", "model", "seconds", "timing",
-                                "sensor_correction")}
+                                "sensor_correction", "held_frames", "frame_repair")}
     info["route"] = {"name": "physical", "why": "given", "robot": "measured", "twin": None,
                      "reference": "/data/ref"}
     pid.reference = {"n_moves": 2, "moves": ["F_00", "B_00"], "twin_errors": [],
