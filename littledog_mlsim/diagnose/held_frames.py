@@ -17,11 +17,17 @@ Method
 ------
 1. A row of a stream is *held* where every number of its frame equals the previous row's
    (within :data:`EXACT`) while the other stream's frame changed: the pose (position and
-   orientation) against the joint angles, the joint angles (all twelve) against the pose.
-   A single leg's angles are not checked: a leg standing still repeats its reading on a
-   robot whose encoders count in steps, and on this project's clean recordings a leg's three
-   angles repeat on 0.1-0.3 % of the rows; twelve angles repeating while the body moves do
-   not.
+   orientation) against the joint angles, the joint angles (all twelve) against the pose. A
+   run held to a move's end has no good frame after it and does not count. The joint angles
+   must also be caught up on: a run of k such rows counts only where the next frame jumps
+   from the last one before the run by at least :data:`CATCH_UP` times (k + 1) typical steps
+   (the motion per row over the gaps just before and just after the run). A lost frame's
+   motion is caught up at once; a robot at rest, whose encoders count in steps while the
+   motion capture's noise moves the pose, moves on by one step. The pose needs no such test:
+   a motion capture's noise never repeats a pose to the last bit while the joints move, and
+   at slow motion its steps are the noise's size, so that a catch-up cannot be read. A single
+   leg's angles are not checked: on this project's clean recordings a leg's three angles
+   repeat on 0.1-0.3 % of the rows.
 2. Per move, the held fraction: held rows over the rows where the other stream changed.
 3. A stream's finding: its pooled held fraction at least :data:`MIN_HELD_FRACTION`, and its
    per-move fractions above zero (Wilcoxon signed-rank, one-sided) or, with a reference, above
@@ -34,9 +40,9 @@ Method
    (in the data, whether or not more than in the reference: a held frame is the
    measurement's fault either way): a held frame's values are interpolated linearly
    between the good frames around it (the quaternion's sign kept continuous, then
-   normalised); a held or zeroed velocity likewise, on the held rows and, where zeroed, on the
-   good row after each run. Rows held to a move's end have no good frame after them and are
-   dropped, with their commands. A reference whose own held fraction reaches
+   normalised, with the recorded sign of the row before it); a held or zeroed velocity
+   likewise, on the held rows and, where zeroed, on the good row after each run. No row is
+   dropped and no other row changes. A reference whose own held fraction reaches
    :data:`MIN_HELD_FRACTION` is repaired the same way, so that both are whole.
 
 Report (report.json's ``held_frames``; ``frame_repair`` where the data were repaired)
@@ -48,8 +54,9 @@ velocity ("held", "zeroed" or "measured"), p_value, test, significant}]``, ``alp
 "joint_states"), ``statement``, ``vocabulary`` (``{family: "other", scope: "body" for the pose,
 "all" for the joint states, params: {held_fraction, mean_run_frames, stream},
 statement}``; the vocabulary has no sensor family) and ``recording`` (what to do about it).
-``frame_repair``: ``streams`` (the streams repaired), ``rows_filled``, ``rows_dropped``,
-``reference_repaired``, ``statement``.
+``held_frames`` also has ``reference_repaired`` (the reference's streams filled in, possibly
+none) where a reference is given. ``frame_repair``: ``streams`` (the streams repaired),
+``velocity``, ``rows_filled``, ``reference_repaired``, ``statement``, ``stage_as_recorded``.
 """
 from __future__ import annotations
 
@@ -60,7 +67,7 @@ import numpy as np
 
 from ..data.recording import MoveRecording
 
-__all__ = ["EXACT", "MIN_HELD_FRACTION", "HELD_ALPHA", "held_rows", "held_frames",
+__all__ = ["EXACT", "MIN_HELD_FRACTION", "HELD_ALPHA", "CATCH_UP", "held_rows", "held_frames",
            "repair_move", "repair", "repair_plan", "reference_streams"]
 
 #: two numbers of a frame are the same within this (a held frame repeats them to the bit)
@@ -72,6 +79,12 @@ MIN_HELD_FRACTION = 0.01
 HELD_ALPHA = 1e-3
 #: on more than this fraction of the held rows, the velocity is held or zeroed with the frame
 VELOCITY_SHARE = 0.5
+#: the streams whose runs must be caught up on (module doc, 1)
+CATCH_UP_STREAMS = ("joint_states",)
+#: a run of k held rows counts where the next frame jumps at least this times (k + 1) typical
+#: steps (the mean of the steps just before and just after the run): a lost frame's motion is
+#: caught up at once, a stream standing still moves on by one step
+CATCH_UP = 0.75
 
 
 def _changed(x: np.ndarray) -> np.ndarray:
@@ -79,20 +92,52 @@ def _changed(x: np.ndarray) -> np.ndarray:
     return np.any(np.abs(np.diff(x, axis=0)) > EXACT, axis=1)
 
 
+def _continuous(quat: np.ndarray) -> np.ndarray:
+    """The quaternions' signs made continuous (a repeated row keeps its sign)."""
+    flip = np.cumsum(np.r_[0, (np.sum(quat[1:] * quat[:-1], axis=1) < 0)]) % 2 == 1
+    return np.where(flip[:, None], -quat, quat)
+
+
 def _streams(move: MoveRecording) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per stream: (its frame (n, k), the other stream's frame, its velocity (n, v))."""
-    pose = np.hstack([move.position, move.orientation])
+    """Per stream: (its frame (n, k), the other stream's frame, its velocity (n, v)); the
+    pose's quaternion with its sign made continuous, so that a step is the motion's."""
+    pose = np.hstack([move.position, _continuous(move.orientation)])
     return {"pose": (pose, move.q, np.hstack([move.linear_velocity, move.angular_velocity])),
             "joint_states": (move.q, pose, move.dq)}
 
 
-def held_rows(frame: np.ndarray, other: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(held (n,) bool: row equals the previous row while ``other`` changed; moving (n,) bool:
-    rows where ``other`` changed). Row 0 is neither."""
-    held = np.zeros(frame.shape[0], bool)
-    moving = np.zeros(frame.shape[0], bool)
+def held_rows(frame: np.ndarray, other: np.ndarray, catch_up: bool = True
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """(held (n,) bool, moving (n,) bool: rows where ``other`` changed). A row is held where it
+    equals the previous row while ``other`` changed, in a run not held to the end and, with
+    ``catch_up``, one the stream then catches up on (module doc, 1). Row 0 is neither."""
+    n = frame.shape[0]
+    held = np.zeros(n, bool)
+    moving = np.zeros(n, bool)
     moving[1:] = _changed(other)
     held[1:] = ~_changed(frame) & moving[1:]
+    idx = np.arange(n)
+    last_good = np.maximum.accumulate(np.where(held, -1, idx))
+    next_good = np.minimum.accumulate(np.where(held, n, idx)[::-1])[::-1]
+
+    def rate(t0: int, t1: int) -> float:        # motion per row from good row t0 to good t1
+        return float(np.linalg.norm(frame[t1] - frame[t0])) / (t1 - t0)
+
+    for f, last in _runs(held):
+        a, b = f - 1, last + 1                 # the last frame before the run, the next after
+        if b >= n:                             # held to the move's end: no catch-up to see
+            held[f:] = False
+            continue
+        if not catch_up:
+            continue
+        around = []
+        if a >= 1:                             # over the gap before a (another run, perhaps)
+            around.append(rate(last_good[a - 1], a))
+        if b + 1 < n and next_good[b + 1] < n:
+            around.append(rate(b, next_good[b + 1]))
+        typical = float(np.mean(around)) if around else 0.0
+        if typical <= 0.0 or rate(a, b) * (b - a) < CATCH_UP * (b - a) * typical:
+            held[f:last + 1] = False           # no catch-up: a stream standing still
     return held, moving
 
 
@@ -121,7 +166,7 @@ def _stream_stats(moves: Sequence[MoveRecording]) -> dict[str, dict[str, Any]]:
     acc: dict[str, dict[str, Any]] = {}
     for m in moves:
         for name, (frame, other, vel) in _streams(m).items():
-            held, moving = held_rows(frame, other)
+            held, moving = held_rows(frame, other, name in CATCH_UP_STREAMS)
             a = acc.setdefault(name, {"fractions": [], "held": 0, "moving": 0, "runs": [],
                                       "kinds": []})
             a["fractions"].append(held.sum() / max(int(moving.sum()), 1))
@@ -181,9 +226,11 @@ def held_frames(moves: Sequence[MoveRecording],
     for r in rows:
         if not r["significant"]:
             continue
-        vel = {"zeroed": " is zero on a held frame and carries the whole jump at the next good "
-                         "one (a difference of the published frames)",
-               "held": " is held with it"}.get(r["velocity"])
+        plural = r["stream"] != "pose"              # "the joint rates are", "its twist is"
+        vel = {"zeroed": f" {'are' if plural else 'is'} zero on a held frame and carr"
+                         f"{'y' if plural else 'ies'} the whole jump at the next good one (a "
+                         "difference of the published frames)",
+               "held": f" {'are' if plural else 'is'} held with it"}.get(r["velocity"])
         if r["stream"] == "pose":
             what = (f"the pose repeats its last frame on {100 * r['held_fraction']:.1f} % of the "
                     f"rows where the joints move{since} (runs of {r['mean_run_frames']:.1f} "
@@ -219,80 +266,66 @@ def held_frames(moves: Sequence[MoveRecording],
 
 def _fill(x: np.ndarray, bad: np.ndarray, quaternion: bool = False) -> np.ndarray:
     """``x`` with the rows ``bad`` interpolated linearly (by row) between the good rows around
-    them (a quaternion's sign made continuous first, then normalised)."""
+    them; only those rows change. A quaternion is interpolated with its sign made continuous,
+    normalised, and given the sign of the recorded row before it."""
     good = np.flatnonzero(~bad)
     rows = np.flatnonzero(bad)
+    out = x.copy()
     if len(rows) == 0:
-        return x.copy()
-    y = x.copy()
-    if quaternion:
-        flip = np.cumsum(np.r_[0, (np.sum(y[1:] * y[:-1], axis=1) < 0)]) % 2 == 1
-        y[flip] *= -1.0
+        return out
+    y = _continuous(x) if quaternion else x
     for c in range(y.shape[1]):
-        y[rows, c] = np.interp(rows, good, y[good, c])
+        out[rows, c] = np.interp(rows, good, y[good, c])
     if quaternion:
-        y[rows] /= np.linalg.norm(y[rows], axis=1, keepdims=True)
-    return y
+        out[rows] /= np.linalg.norm(out[rows], axis=1, keepdims=True)
+        prev = x[rows - 1]
+        out[rows] *= np.where(np.sum(out[rows] * prev, axis=1) < 0, -1.0, 1.0)[:, None]
+    return out
 
 
 def repair_move(move: MoveRecording, streams: Sequence[str],
-                velocity: Mapping[str, str] | None = None) -> tuple[MoveRecording, int, int]:
+                velocity: Mapping[str, str] | None = None) -> tuple[MoveRecording, int]:
     """(``move`` with the held frames of ``streams`` ("pose", "joint_states") filled in
-    (module doc, 5), rows filled, rows dropped). ``velocity``: per stream, how its velocity
-    goes with a held frame ("held", "zeroed" or "measured"; default: read from the move)."""
+    (module doc, 5), rows filled). ``velocity``: per stream, how its velocity goes with a held
+    frame ("held", "zeroed" or "measured"; default: read from the move)."""
     velocity = velocity or {}
-    n = move.stamps_ns.shape[0]
     parts = _streams(move)
-    bad = {s: held_rows(parts[s][0], parts[s][1])[0] for s in streams}
-    any_bad = np.zeros(n, bool)
-    for b in bad.values():
-        any_bad |= b
-    keep = n                                 # drop rows held to the move's end
-    while keep > 1 and any_bad[keep - 1]:
-        keep -= 1
-    if keep < 2:
-        raise ValueError(f"{move.name}: every row but the first is held; nothing to repair from")
-    new: dict[str, np.ndarray] = {f: getattr(move, f)[:keep].copy() for f in
-                                  ("stamps_ns", "q", "dq", "position", "orientation",
-                                   "linear_velocity", "angular_velocity")}
-    new["cmd"] = move.cmd[:keep - 1].copy()
+    new: dict[str, np.ndarray] = {}
     filled = 0
     for s in streams:
-        b = bad[s][:keep]
+        frame, other, vel = parts[s]
+        b = held_rows(frame, other, s in CATCH_UP_STREAMS)[0]
         if not b.any():
             continue
         filled += int(b.sum())
-        kind = velocity.get(s) or _velocity_kind(parts[s][2], bad[s])
+        kind = velocity.get(s) or _velocity_kind(vel, b)
         vb = b.copy()
         if kind == "zeroed":                 # the good row after a run carries the whole jump
-            after = np.flatnonzero(b[:-1] & ~b[1:]) + 1
-            vb[after] = True
+            vb[np.flatnonzero(b[:-1] & ~b[1:]) + 1] = True
         if s == "pose":
-            new["position"] = _fill(new["position"], b)
-            new["orientation"] = _fill(new["orientation"], b, quaternion=True)
+            new["position"] = _fill(move.position, b)
+            new["orientation"] = _fill(move.orientation, b, quaternion=True)
             if kind != "measured":
-                new["linear_velocity"] = _fill(new["linear_velocity"], vb)
-                new["angular_velocity"] = _fill(new["angular_velocity"], vb)
+                new["linear_velocity"] = _fill(move.linear_velocity, vb)
+                new["angular_velocity"] = _fill(move.angular_velocity, vb)
         else:
-            new["q"] = _fill(new["q"], b)
+            new["q"] = _fill(move.q, b)
             if kind != "measured":
-                new["dq"] = _fill(new["dq"], vb)
+                new["dq"] = _fill(move.dq, vb)
     out = replace(move, **new)
     out.validate()
-    return out, filled, n - keep
+    return out, filled
 
 
 def repair(moves: Sequence[MoveRecording], streams: Sequence[str],
-           velocity: Mapping[str, str] | None = None
-           ) -> tuple[list[MoveRecording], int, int]:
-    """(every move repaired (:func:`repair_move`), rows filled, rows dropped in all)."""
-    out, filled, dropped = [], 0, 0
+           velocity: Mapping[str, str] | None = None) -> tuple[list[MoveRecording], int]:
+    """(every move repaired (:func:`repair_move`), rows filled in all)."""
+    out, filled = [], 0
     for m in moves:
-        r, f, d = repair_move(m, streams, velocity)
+        r, f = repair_move(m, streams, velocity)
         out.append(r)
         filled += f
-        dropped += d
-    return out, filled, dropped
+    return out, filled
 
 
 def repair_plan(check: Mapping[str, Any]) -> dict[str, Any] | None:

@@ -385,21 +385,17 @@ def _reference_moves(run: _Run) -> list[MoveRecording]:
     from .held_frames import reference_streams, repair
     streams = reference_streams(moves)
     if streams:                          # decision 044: a reference with held frames is made whole
-        try:
-            moves, filled, dropped = repair(moves, streams)
-        except ValueError as exc:
-            run.say(f"held frames: the reference not repaired: {exc}")
-        else:
-            run.say(f"held frames: the reference's {' and '.join(streams)} held on {filled} rows, "
-                    f"filled in ({dropped} rows dropped at moves' ends)")
-            run.loaded_once["reference_repaired"] = streams
+        moves, filled = repair(moves, streams)
+        run.say(f"held frames: the reference's {' and '.join(streams)} held on {filled} rows, "
+                "filled in")
+        run.loaded_once["reference_repaired"] = streams
     run.loaded_once["reference_moves"] = moves
     return moves
 
 
 def _held_frames(run: _Run) -> dict[str, Any]:
     """The held-frame check (:mod:`.held_frames`) of the TrainPool as recorded, against the
-    reference's as recorded where given (run once, first)."""
+    reference's as recorded where given (run once, before the timing check)."""
     if "held_frames" in run.loaded_once:
         return run.loaded_once["held_frames"]
     from .held_frames import HELD_ALPHA, held_frames
@@ -407,6 +403,8 @@ def _held_frames(run: _Run) -> dict[str, Any]:
     reference = run.loaded_once.get("reference_as_recorded")
     train = run.train if run.as_recorded is None else run.as_recorded[0]
     h = held_frames(train, reference, alpha=HELD_ALPHA)
+    if reference is not None:
+        h["reference_repaired"] = list(run.loaded_once.get("reference_repaired", []))
     pose = next(r for r in h["streams"] if r["stream"] == "pose")
     run.say("held frames: " + (h["statement"] if h["significant"] else
                                f"none to speak of (the pose held on "
@@ -417,7 +415,8 @@ def _held_frames(run: _Run) -> dict[str, Any]:
 
 def _timing(run: _Run, train: Sequence[MoveRecording] | None = None) -> dict[str, Any]:
     """The sensor-timing check (:mod:`.timing`) of the TrainPool (``train``: as recorded, or
-    with its held frames filled in), against the reference's where given (run once, first); a
+    with its held frames filled in), against the reference's where given (run once, after the
+    held-frame check); a
     recording it cannot read (a move too short) gives an ``error`` entry instead."""
     if "timing" in run.loaded_once:
         return run.loaded_once["timing"]
@@ -450,27 +449,21 @@ def _sensor_corrected(run: _Run) -> _Run:
     fixed = None
     plan = repair_plan(_held_frames(run))
     if plan is not None:
-        try:
-            train, f_tr, d_tr = repair(run.train, plan["streams"], plan["velocity"])
-            test, f_te, d_te = repair(run.test, plan["streams"], plan["velocity"])
-        except ValueError as exc:
-            run.say(f"held frames: not filled in: {exc}")
-            train, test = run.train, run.test
-        else:
-            what = " and ".join("the pose" if s_ == "pose" else "the joint states"
-                                for s_ in plan["streams"])
-            fixed = {"streams": plan["streams"], "velocity": plan["velocity"],
-                     "rows_filled": f_tr + f_te, "rows_dropped": d_tr + d_te,
-                     "reference_repaired": run.loaded_once.get("reference_repaired", []),
-                     "statement": (f"{what}'s held frames filled in by interpolation before the "
-                                   f"search ({f_tr + f_te} rows; {d_tr + d_te} rows held to a "
-                                   "move's end dropped); the search, the model after and its "
-                                   "TestPool scores use the repaired data")}
-            run.say(f"held frames: {fixed['statement']}")
-            h = run.loaded_once["held_frames"]
-            if h.get("significant"):
-                h["recording"] += ("; this diagnosis filled them in before its search "
-                                   "(frame_repair)")
+        train, f_tr = repair(run.train, plan["streams"], plan["velocity"])
+        test, f_te = repair(run.test, plan["streams"], plan["velocity"])
+        what = " and ".join("the pose" if s_ == "pose" else "the joint states"
+                            for s_ in plan["streams"])
+        fixed = {"streams": plan["streams"], "velocity": plan["velocity"],
+                 "rows_filled": f_tr + f_te,
+                 "reference_repaired": run.loaded_once.get("reference_repaired", []),
+                 "statement": (f"{what}'s held frames filled in by interpolation before the "
+                               f"search ({f_tr + f_te} rows); the search, the model after and "
+                               "its TestPool scores use the repaired data")}
+        run.say(f"held frames: {fixed['statement']}")
+        h = run.loaded_once["held_frames"]
+        if h.get("significant"):
+            h["recording"] += ("; this diagnosis filled them in before its search "
+                               "(frame_repair)")
     correction = correction_from_timing(_timing(run, train))
     if correction is not None:
         try:
