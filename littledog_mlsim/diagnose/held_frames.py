@@ -66,6 +66,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..data.recording import MoveRecording
+from .restamp import continuous_quaternions
 
 __all__ = ["EXACT", "MIN_HELD_FRACTION", "HELD_ALPHA", "CATCH_UP", "held_rows", "held_frames",
            "repair_move", "repair", "repair_plan", "reference_streams"]
@@ -92,16 +93,10 @@ def _changed(x: np.ndarray) -> np.ndarray:
     return np.any(np.abs(np.diff(x, axis=0)) > EXACT, axis=1)
 
 
-def _continuous(quat: np.ndarray) -> np.ndarray:
-    """The quaternions' signs made continuous (a repeated row keeps its sign)."""
-    flip = np.cumsum(np.r_[0, (np.sum(quat[1:] * quat[:-1], axis=1) < 0)]) % 2 == 1
-    return np.where(flip[:, None], -quat, quat)
-
-
 def _streams(move: MoveRecording) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per stream: (its frame (n, k), the other stream's frame, its velocity (n, v)); the
     pose's quaternion with its sign made continuous, so that a step is the motion's."""
-    pose = np.hstack([move.position, _continuous(move.orientation)])
+    pose = np.hstack([move.position, continuous_quaternions(move.orientation)])
     return {"pose": (pose, move.q, np.hstack([move.linear_velocity, move.angular_velocity])),
             "joint_states": (move.q, pose, move.dq)}
 
@@ -136,7 +131,8 @@ def held_rows(frame: np.ndarray, other: np.ndarray, catch_up: bool = True
         if b + 1 < n and next_good[b + 1] < n:
             around.append(rate(b, next_good[b + 1]))
         typical = float(np.mean(around)) if around else 0.0
-        if typical <= 0.0 or rate(a, b) * (b - a) < CATCH_UP * (b - a) * typical:
+        jump = float(np.linalg.norm(frame[b] - frame[a]))
+        if typical <= 0.0 or jump < CATCH_UP * (b - a) * typical:
             held[f:last + 1] = False           # no catch-up: a stream standing still
     return held, moving
 
@@ -273,7 +269,7 @@ def _fill(x: np.ndarray, bad: np.ndarray, quaternion: bool = False) -> np.ndarra
     out = x.copy()
     if len(rows) == 0:
         return out
-    y = _continuous(x) if quaternion else x
+    y = continuous_quaternions(x) if quaternion else x
     for c in range(y.shape[1]):
         out[rows, c] = np.interp(rows, good, y[good, c])
     if quaternion:

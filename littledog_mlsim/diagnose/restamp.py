@@ -46,7 +46,8 @@ import numpy as np
 from ..data.recording import MoveRecording
 from ..layout import CONTROL_DT, JOINT_NAMES, LEG_JOINTS, LEGS
 
-__all__ = ["POSE_FIELDS", "JOINT_FIELDS", "correction_from_timing", "restamp_move", "restamp"]
+__all__ = ["POSE_FIELDS", "JOINT_FIELDS", "continuous_quaternions", "correction_from_timing",
+           "restamp_move", "restamp"]
 
 #: the fields of one odometry message
 POSE_FIELDS = ("position", "orientation", "linear_velocity", "angular_velocity")
@@ -84,13 +85,18 @@ def correction_from_timing(timing: Mapping[str, Any], dt: float = CONTROL_DT
                           "model after and its TestPool scores use the re-stamped data")}
 
 
+def continuous_quaternions(quat: np.ndarray) -> np.ndarray:
+    """(n, 4) quaternions with their signs made continuous (each row's sign flipped where its
+    dot product with the row before, as flipped, is negative); a repeated row keeps its sign."""
+    flip = np.cumsum(np.r_[0, (np.sum(quat[1:] * quat[:-1], axis=1) < 0)]) % 2 == 1
+    return np.where(flip[:, None], -quat, quat)
+
+
 def _read_later(x: np.ndarray, s: float, n: int, quaternion: bool = False) -> np.ndarray:
     """Rows ``t + s`` of ``x`` for t < n, linearly interpolated (a quaternion normalised, its
     sign made continuous first)."""
     if quaternion:
-        x = x.copy()
-        flip = np.cumsum(np.r_[0, (np.sum(x[1:] * x[:-1], axis=1) < 0)]) % 2 == 1
-        x[flip] *= -1.0
+        x = continuous_quaternions(x)
     pos = np.arange(n) + s
     i0 = np.minimum(np.floor(pos).astype(int), len(x) - 1)
     i1 = np.minimum(i0 + 1, len(x) - 1)
