@@ -342,11 +342,12 @@ def _pose_held(src: Path, dst: Path, seed: int = 0, p: float = 0.03) -> Path:
 def test_held_frames_are_filled_in_and_a_late_pose_re_stamped_before_the_search(delay_report,
                                                                                  recorded):
     """Decisions 044 and 043: the delay data with the pose 30 ms late, and about 5 % of its
-    frames held as a motion-capture driver holds lost frames (with a sixth held, this fixture's
-    small TrainPool no longer shows the delay at its level after the repair: decision 044). The held frames are found and filled
-    in, then the timing check reads the latency on the repaired data, the data are re-stamped
-    before the search, which finds the command delay as on the data on time; the report's
-    ``before`` is the model on the data as recorded."""
+    frames held as a motion-capture driver holds lost frames (with a sixth held, this
+    fixture's small TrainPool no longer shows the delay at its level after the repair:
+    decision 044). The held frames are found and filled in, then the timing check reads the
+    latency on the repaired data, the data are re-stamped before the search, which finds the
+    command delay as on the data on time; the report's ``before`` is the model on the data as
+    recorded."""
     late = _pose_late(recorded / "delay", recorded / "delay_pose_late", 3)
     data = _pose_held(late, recorded / "delay_pose_late_held")
     report = _diagnose(data, recorded / "delay_pose_late_held_out")
