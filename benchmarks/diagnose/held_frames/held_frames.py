@@ -10,7 +10,8 @@ WORK29 holds a zoo's recordings as the blind-zoo harness writes them (``referenc
 stream's held fraction and p against the reference's moves and against zero
 (:func:`littledog_mlsim.diagnose.held_frames.held_frames` on the TrainPool) and what the check
 names. A follow-up recording of an effect (``zNN_e0.05``: the same effect under another
-condition) has that effect's truth. Writes OUT.md and OUT.json (appending rows where OUT.json exists).
+condition) has that effect's truth. Writes OUT.md and OUT.json (appending rows where OUT.json
+exists).
 """
 from __future__ import annotations
 
