@@ -22,7 +22,7 @@ SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30,
                        horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3)
 
 
-def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int = 5) -> Path:
+def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int = 4) -> Path:
     from littledog_mlsim.apps.record import record_dataset
     effects_file = None
     if effects is not None:
