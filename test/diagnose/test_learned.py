@@ -49,7 +49,7 @@ def _record(root: Path, name: str, effects: str | None, per_type: int) -> Path:
 def data(tmp_path_factory):
     root = tmp_path_factory.mktemp("learned_route")
     return {"push": _record(root, "push", "- class: littledog_mlsim.robot.effects:ConstantWind\n"
-                                          "  params: {force_xy: [0.0, 1.5]}\n", 6),
+                                          "  params: {force_xy: [0.0, 1.5]}\n", 5),
             "clean": _record(root, "clean", None, 4)}
 
 
