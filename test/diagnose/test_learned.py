@@ -1,6 +1,6 @@
 """The learned route of the diagnosis (``diagnose/learned.py``): no twin, k-step rollouts.
 
-Two small pybullet datasets of the same seed (6 and 4 moves per type): one with a steady 1.5 N
+Two small pybullet datasets of the same seed (5 and 4 moves per type): one with a steady 1.5 N
 push fixed in odom toward +y (a cause the learned model cannot see: it acts through the
 heading, which the state drops), one clean. At this size the route runs at alpha = 1e-3 (its
 default, 1e-4, is set for 88-move datasets: ``benchmarks/learned_route``). The push, diagnosed
