@@ -273,9 +273,17 @@ def recorded(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def delay_report(recorded):
+    """A 2-step command delay, recorded with the pose 30 ms late and about 5 % of its frames
+    held as a motion-capture driver holds lost frames (``_pose_late``, ``_pose_held``): one
+    diagnosis serves the delay's finding, the report's files and keys, and the repair before
+    the search (with a sixth held, this fixture's small TrainPool no longer shows the delay at
+    its level after the repair: decision 044). Data on time with no frame held are the clean
+    case's (``test_clean_data_raises_no_alarm``)."""
     data = _record(recorded, "delay", 103, "- class: littledog_mlsim.robot.effects:CommandDelay\n"
                                             "  params: {steps: 2}\n")
-    return _diagnose(data, recorded / "delay_out", figures=True), recorded / "delay_out"
+    late = _pose_late(data, recorded / "delay_pose_late", 3)
+    held = _pose_held(late, recorded / "delay_pose_late_held")
+    return _diagnose(held, recorded / "delay_out", figures=True), recorded / "delay_out"
 
 
 def test_command_delay_is_found_with_its_delay(delay_report):
@@ -339,18 +347,14 @@ def _pose_held(src: Path, dst: Path, seed: int = 0, p: float = 0.03) -> Path:
     return dst
 
 
-def test_held_frames_are_filled_in_and_a_late_pose_re_stamped_before_the_search(delay_report,
-                                                                                 recorded):
-    """Decisions 044 and 043: the delay data with the pose 30 ms late, and about 5 % of its
-    frames held as a motion-capture driver holds lost frames (with a sixth held, this
-    fixture's small TrainPool no longer shows the delay at its level after the repair:
-    decision 044). The held frames are found and filled in, then the timing check reads the
-    latency on the repaired data, the data are re-stamped before the search, which finds the
-    command delay as on the data on time; the report's ``before`` is the model on the data as
-    recorded."""
-    late = _pose_late(recorded / "delay", recorded / "delay_pose_late", 3)
-    data = _pose_held(late, recorded / "delay_pose_late_held")
-    report = _diagnose(data, recorded / "delay_pose_late_held_out")
+def test_held_frames_are_filled_in_and_a_late_pose_re_stamped_before_the_search(delay_report):
+    """Decisions 044 and 043 on ``delay_report``'s data: the held frames are found and filled
+    in, then the timing check reads the latency on the repaired data, the data are re-stamped
+    before the search, which finds the command delay (``test_command_delay_is_found_with_its_
+    delay``); the report's ``before`` is the model on the data as recorded. The timing check
+    reads the pose's 30 ms and not the command delay, which moves the joints and the body
+    together."""
+    report = delay_report[0]
     h = report["held_frames"]
     assert h["significant"] and h["stream"] == "pose" and h["vocabulary"]["scope"] == "body"
     assert "filled them in" in h["recording"]
@@ -373,9 +377,6 @@ def test_held_frames_are_filled_in_and_a_late_pose_re_stamped_before_the_search(
     assert report["stages"][1]["n_samples"] < report["stages"][0]["n_samples"]
     # the streams whole and agreeing, the same model predicts one step better
     assert report["stages"][1]["nmse_mean"] < report["stages"][0]["nmse_mean"]
-    on_time = delay_report[0]
-    assert on_time["sensor_correction"] is None and on_time["frame_repair"] is None
-    assert not on_time["held_frames"]["significant"]
 
 
 # White noise of this size [rad] on every command (record --excitation): the system-identification
@@ -507,8 +508,6 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
     assert undocumented_report_keys(physical) == []
     assert set(physical) == (set(doc) - {"floor_plane"}) | {"physics"}   # floor: learned only
     assert doc["floor_plane"]["r2"] < 0.5                  # a flat floor: no slope to read
-    # a command delay moves the joints and the body together: no sensor-timing finding
-    assert doc["timing"]["significant"] is False and abs(doc["timing"]["shift_ms"]) < 5.0
 
 
 @pytest.mark.slow   # the one-step loop's further effect case; CI keeps its delay and clean checks
@@ -536,6 +535,10 @@ def test_clean_data_raises_no_alarm(recorded, seed):
     assert report["effects"] == []
     assert report["after"]["feature_set"] == measured_robot_features().to_dict()
     assert len(report["rounds"]) == 1
+    # streams on time and whole: no sensor-timing finding, no frame held, nothing repaired
+    assert report["timing"]["significant"] is False and abs(report["timing"]["shift_ms"]) < 5.0
+    assert not report["held_frames"]["significant"]
+    assert report["sensor_correction"] is None and report["frame_repair"] is None
 
 
 def test_cli_diagnose_help_and_bad_input(tmp_path):
