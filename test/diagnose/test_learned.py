@@ -344,6 +344,73 @@ def test_a_shared_finding_is_carried_by_the_model_and_reported_as_no_change():
             "a change 0.6)") in md
 
 
+def _one_blas_thread_or_skip() -> None:
+    from threadpoolctl import threadpool_info
+    if any(p["internal_api"] in ("openblas", "mkl", "blis") and p["num_threads"] != 1
+           for p in threadpool_info()):
+        pytest.skip("compares with this process's probes at one BLAS thread: run with "
+                    "OPENBLAS_NUM_THREADS=1 (make test sets it)")
+
+
+@pytest.fixture(scope="module")
+def probed_here(data):
+    """The clean data's route, its start's evidence and two candidates' probes in this
+    process (a route's probes are what ``jobs`` and ``scheduler`` send out)."""
+    from littledog_mlsim.diagnose.candidates import measured_robot_features
+    from littledog_mlsim.diagnose.learned import _Route
+    _one_blas_thread_or_skip()
+    fs = measured_robot_features()
+    route = _Route(load_moves(data["clean"], "train"), fs, SMALL, lambda s: None)
+    _, ev0 = route.fit(fs)
+    here = route.probes(fs, ev0, LIBRARY[:2], len(LIBRARY))
+    return route, fs, ev0, json.dumps([p.to_dict() for p in here], sort_keys=True, default=str)
+
+
+def test_a_routes_probes_in_worker_processes_and_on_a_dask_cluster_are_its_own(probed_here):
+    """``_Route.local`` (two spawned processes, one BLAS thread each) and ``_Route.remote`` (a
+    real scheduler and two worker processes) give the probes this process gives."""
+    distributed = pytest.importorskip("distributed")
+    route, fs, ev0, here = probed_here
+    try:
+        route.local(2)
+        pool = route.probes(fs, ev0, LIBRARY[:2], len(LIBRARY))
+    finally:
+        route.close()
+    assert json.dumps([p.to_dict() for p in pool], sort_keys=True, default=str) == here
+    with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=2,
+                                  threads_per_worker=1, processes=True) as cluster:
+        try:
+            route.remote(distributed.Client(cluster.scheduler_address))
+            remote = route.probes(fs, ev0, LIBRARY[:2], len(LIBRARY))
+        finally:
+            route.close()
+    assert json.dumps([p.to_dict() for p in remote], sort_keys=True, default=str) == here
+
+
+def test_jobs_and_scheduler_send_the_routes_probes_out(data, monkeypatch):
+    """``diagnose_learned``'s ``jobs`` starts the route's worker processes and ``scheduler``
+    connects it to the cluster, before the search (replaced here: it reports where the probes
+    would run)."""
+    distributed = pytest.importorskip("distributed")
+    from littledog_mlsim.diagnose import learned
+
+    def where(route, *args):
+        return {"pool": route.pool is not None, "client": route.client is not None}
+    monkeypatch.setattr(learned, "_search", where)
+    moves = load_moves(data["clean"], "train"), load_moves(data["clean"], "test")
+    assert diagnose_learned(*moves, options=SMALL, library=LIBRARY, jobs=2) == \
+        {"pool": True, "client": False}
+    with pytest.raises(ValueError, match="jobs must be >= 1"):
+        diagnose_learned(*moves, options=SMALL, library=LIBRARY, jobs=0)
+    with distributed.LocalCluster(host="127.0.0.1", dashboard_address=None, n_workers=1,
+                                  threads_per_worker=1, processes=True) as cluster:
+        assert diagnose_learned(*moves, options=SMALL, library=LIBRARY, jobs=2,
+                                scheduler=cluster.scheduler_address) == \
+            {"pool": False, "client": True}
+
+
+# make test keeps the two above: a route's probes out and in, and the options that send them
+@pytest.mark.slow
 def test_probes_on_a_dask_cluster_give_the_local_report(data, clean_report):
     """``scheduler``: the probes (cross-fits and their rollouts) on a real scheduler and two
     worker processes; the report is the local one (wall time aside). On the clean data (the
@@ -362,6 +429,7 @@ def test_probes_on_a_dask_cluster_give_the_local_report(data, clean_report):
         json.dumps(local, sort_keys=True, default=str)
 
 
+@pytest.mark.slow
 def test_probes_in_local_worker_processes_give_the_one_job_report(data, clean_report,
                                                                  monkeypatch):
     """``jobs`` 2: the probes in two spawned worker processes (the route sent to each once);
