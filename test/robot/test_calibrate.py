@@ -44,7 +44,7 @@ def delayed_data():
 
 def test_finds_and_calibrates_command_delay(delayed_data):
     train, test = delayed_data
-    rep = diagnose_physics(train, test, robot_config("nominal"), stride=10, test_stride=10,
+    rep = diagnose_physics(train, test, robot_config("nominal"), stride=20, test_stride=20,
                            params=("command_delay", "coulomb_friction"), max_rounds=2,
                            n_folds=2, jobs=1)
     found = rep["found"]
