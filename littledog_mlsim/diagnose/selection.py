@@ -165,16 +165,20 @@ class SearchModel:
         B[:, :M] = np.sqrt(2.0 / M) * np.cos(Xb @ W + b)
         B[:, M:M + X.shape[1]] = Xn
         B[:, -1] = 1.0
-        self.B_ = B
         self.Dn_ = Dn
         self.fold_of_move_ = move_folds(move_types, self.n_folds, self.seed)
         self.fold_ = self.fold_of_move_[self.move_index_]
         K = self.n_folds
         self.rows_ = [np.flatnonzero(self.fold_ == f) for f in range(K)]
+        # B[r] twice, two operands: the general product (one array times its own transpose
+        # takes the symmetric one, whose sums differ in the last bits)
         G_f = [B[r].T @ B[r] for r in self.rows_]
         b_f = [B[r].T @ Dn[r] for r in self.rows_]
+        # each fold's rows of the design, copied once: every candidate's fit reads them
+        self.B_f_ = [B[r] for r in self.rows_]
+        del B
         G_all, b_all = sum(G_f), sum(b_f)
-        eye = self.ridge * np.eye(B.shape[1])
+        eye = self.ridge * np.eye(G_all.shape[0])
         self.chol_, self.W0_ = [], []
         res = np.empty_like(Dn)
         for f in range(K):
@@ -183,10 +187,18 @@ class SearchModel:
             self.chol_.append(c)
             self.W0_.append(W0)
             r = self.rows_[f]
-            res[r] = Dn[r] - B[r] @ W0
+            res[r] = Dn[r] - self.B_f_[f] @ W0
         self.residual_ = res
         self.sse_ = self._per_move_sse(res)
         return self
+
+    @property
+    def B_(self) -> np.ndarray:
+        """The design (n, M + 46): random features, the standardised inputs and a constant."""
+        out = np.empty((len(self.fold_), self.B_f_[0].shape[1]))
+        for r, Bf in zip(self.rows_, self.B_f_):
+            out[r] = Bf
+        return out
 
     def _per_move_sse(self, res: np.ndarray) -> np.ndarray:
         out = np.zeros((self.n_moves_, res.shape[1]))
@@ -197,10 +209,10 @@ class SearchModel:
         """Cross-fit with the columns Z (n, q) added linearly: (held-out residual (n, 33),
         held-out correction Z~ beta (n, 33), i.e. residual = residual_ - correction)."""
         Zs, _, _ = _standardise(np.asarray(Z, dtype=np.float64))
-        B, Dn = self.B_, self.Dn_
+        Dn = self.Dn_
         q = Zs.shape[1]
         # fold pieces of B'Z, Z'Z, Z'D
-        BZ_f = [B[r].T @ Zs[r] for r in self.rows_]
+        BZ_f = [Bf.T @ Zs[r] for Bf, r in zip(self.B_f_, self.rows_)]
         ZZ_f = [Zs[r].T @ Zs[r] for r in self.rows_]
         ZD_f = [Zs[r].T @ Dn[r] for r in self.rows_]
         BZ, ZZ, ZD = sum(BZ_f), sum(ZZ_f), sum(ZD_f)
@@ -211,7 +223,7 @@ class SearchModel:
             Szz = ZZ - ZZ_f[f] - BZt.T @ GiBZ + self.ridge * np.eye(q)
             Szd = ZD - ZD_f[f] - BZt.T @ self.W0_[f]
             beta = np.linalg.solve(Szz, Szd)
-            corr[r] = (Zs[r] - B[r] @ GiBZ) @ beta
+            corr[r] = (Zs[r] - self.B_f_[f] @ GiBZ) @ beta
         return self.residual_ - corr, corr
 
     def score(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
