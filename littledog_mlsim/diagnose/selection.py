@@ -170,13 +170,14 @@ class SearchModel:
         self.fold_ = self.fold_of_move_[self.move_index_]
         K = self.n_folds
         self.rows_ = [np.flatnonzero(self.fold_ == f) for f in range(K)]
-        # B[r] twice, two operands: the general product (one array times its own transpose
-        # takes the symmetric one, whose sums differ in the last bits)
-        G_f = [B[r].T @ B[r] for r in self.rows_]
-        b_f = [B[r].T @ Dn[r] for r in self.rows_]
-        # each fold's rows of the design, copied once: every candidate's fit reads them
+        # each fold's rows of the design, copied once: every candidate's fit reads them (the
+        # whole design is dropped, so it is held once)
         self.B_f_ = [B[r] for r in self.rows_]
         del B
+        # a fold's rows times a copy of them, two operands: the general product (one array
+        # times its own transpose takes the symmetric one, whose sums differ in the last bits)
+        G_f = [Bf.T @ Bf.copy() for Bf in self.B_f_]
+        b_f = [Bf.T @ Dn[r] for Bf, r in zip(self.B_f_, self.rows_)]
         G_all, b_all = sum(G_f), sum(b_f)
         eye = self.ridge * np.eye(G_all.shape[0])
         self.chol_, self.W0_ = [], []
