@@ -238,6 +238,48 @@ def test_extra_topics_ignored(tmp_path, short_rec):
     assert_same(short_rec, read_bag(bag))
 
 
+def _spy_layout(monkeypatch) -> dict:
+    """Record, per topic, whether ``read_bag`` read it as arrays (the same-layout path)."""
+    seen: dict = {}
+    real = bags_mod._same_layout_columns
+
+    def spy(raws, topic, *args):
+        out = real(raws, topic, *args)
+        seen[topic] = out is not None
+        return out
+    monkeypatch.setattr(bags_mod, "_same_layout_columns", spy)
+    return seen
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_messages_of_one_layout_read_as_arrays_equal_the_per_message_decode(
+        tmp_path, storage, monkeypatch):
+    rec = synthetic_recording("FL_03")
+    bag = tmp_path / "FL_03"
+    write_bag(bag, rec, storage=storage)
+    seen = _spy_layout(monkeypatch)
+    fast = read_bag(bag)
+    assert seen == {TOPIC_JOINT_STATES: True, TOPIC_ODOM: True, TOPIC_CMD: True}
+    monkeypatch.setattr(bags_mod, "_same_layout_columns", lambda *a: None)
+    assert_same(read_bag(bag), fast)
+    assert_same(rec, fast)
+
+
+def test_names_reordered_within_a_bag_are_decoded_message_by_message(tmp_path, short_rec,
+                                                                    monkeypatch):
+    items = raw_items(short_rec)
+    names = JOINT_NAMES[6:] + JOINT_NAMES[:6]       # same bytes in all, another order
+    perm = [JOINT_NAMES.index(nm) for nm in names]
+    i = nth(items, TOPIC_CMD, 5)
+    msg = copy.deepcopy(items[i][2])
+    msg.name, msg.position = list(names), msg.position[perm].copy()
+    items[i] = (*items[i][:2], msg)
+    bag = write_raw(tmp_path / "F_01", items)
+    seen = _spy_layout(monkeypatch)
+    assert_same(short_rec, read_bag(bag))
+    assert seen == {TOPIC_JOINT_STATES: True, TOPIC_ODOM: True, TOPIC_CMD: False}
+
+
 # --- every bad input: one-line BagError naming bag and topic -------------------------------------
 
 def _set(items, topic, k, fn):

@@ -1,0 +1,128 @@
+"""Reading a dataset's bags: ``read_bag`` per bag, with and without its two speed-ups.
+
+Usage (from the repo root, in the venv):
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bag_read/bag_read.py \
+        [--data DATA] [--moves-per-type 2] [--repeats 5] [--out benchmarks/bag_read/result]
+
+Without ``--data`` it records ``--moves-per-type`` moves of every type (``record``, seed 0)
+into a temporary directory first. Every bag of DATA's splits is then read in four modes, in
+turn, ``--repeats`` times (the order rotates each repeat):
+
+- ``per message, Python YAML``: every message decoded by ``rosbags`` on its own
+  (``_same_layout_columns`` off) and the bag's metadata parsed by ruamel.yaml's pure-Python
+  parser (its C parser hidden);
+- ``per message, C YAML``: the metadata by ruamel.yaml.clib's parser;
+- ``arrays, Python YAML``: a topic whose messages share one layout read as arrays;
+- ``arrays, C YAML``: both (what ``read_bag`` does where ruamel.yaml.clib is installed).
+
+Each mode's every read is checked to give the same ``MoveRecording`` as the first mode's, bit
+for bit. Reported: the median over the repeats of the milliseconds per bag (wall and this
+process's CPU), and the ratio to the first mode.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from _common import command_line, run_record, uptime, write_results  # noqa: E402
+
+FIELDS = ("stamps_ns", "cmd", "q", "dq", "position", "orientation", "linear_velocity",
+          "angular_velocity")
+MODES = ("per message, Python YAML", "per message, C YAML", "arrays, Python YAML",
+         "arrays, C YAML")
+
+
+def _bags(data: Path) -> list[Path]:
+    return sorted(p.parent for p in data.glob("*/*/metadata.yaml"))
+
+
+def _read_all(bags, mode: str) -> tuple[float, float, list]:
+    import ruamel.yaml.main as yaml_main
+
+    from littledog_mlsim.data import bags as bags_mod
+    real_parser, real_columns = yaml_main.CParser, bags_mod._same_layout_columns
+    if "Python YAML" in mode:
+        yaml_main.CParser = None
+    if mode.startswith("per message"):
+        bags_mod._same_layout_columns = lambda *a: None
+    try:
+        c0, t0 = time.process_time(), time.perf_counter()
+        recs = [bags_mod.read_bag(b) for b in bags]
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    finally:
+        yaml_main.CParser, bags_mod._same_layout_columns = real_parser, real_columns
+    return wall, cpu, recs
+
+
+def _same(a, b) -> bool:
+    return all(getattr(x, f).dtype == getattr(y, f).dtype
+               and np.array_equal(getattr(x, f), getattr(y, f)) for x, y in zip(a, b)
+               for f in FIELDS)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=None)
+    ap.add_argument("--moves-per-type", type=int, default=2)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    import ruamel.yaml.main as yaml_main
+    if yaml_main.CParser is None:
+        sys.exit("bag_read: ruamel.yaml.clib is not installed (make venv installs it)")
+    doc = run_record("bag_read/bag_read.py", argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        data = a.data
+        if data is None:
+            from littledog_mlsim.apps.record import record_dataset
+            data = Path(tmp) / "data"
+            record_dataset(data, moves_per_type=a.moves_per_type, seed=0, jobs=1,
+                           progress=False)
+        bags = _bags(data)
+        if not bags:
+            sys.exit(f"bag_read: no bags under {data}")
+        doc["bags"] = len(bags)
+        doc["load_before"] = uptime()
+        _read_all(bags[:2], MODES[-1])                    # imports, type store
+        ref = None
+        times: dict[str, dict[str, list]] = {m: {"wall": [], "cpu": []} for m in MODES}
+        for r in range(a.repeats):
+            for mode in MODES[r % len(MODES):] + MODES[:r % len(MODES)]:
+                wall, cpu, recs = _read_all(bags, mode)
+                if ref is None:
+                    ref = recs
+                elif not _same(ref, recs):
+                    sys.exit(f"bag_read: {mode} read another recording than the first mode")
+                times[mode]["wall"].append(wall)
+                times[mode]["cpu"].append(cpu)
+        doc["load_after"] = uptime()
+    n = len(bags)
+    base = statistics.median(times[MODES[0]]["wall"])
+    doc["modes"] = {m: {"wall_ms_per_bag": 1e3 * statistics.median(t["wall"]) / n,
+                        "cpu_ms_per_bag": 1e3 * statistics.median(t["cpu"]) / n,
+                        "speed_up": base / statistics.median(t["wall"]),
+                        "wall_s": t["wall"], "cpu_s": t["cpu"]} for m, t in times.items()}
+    lines = ["# Reading a dataset's bags (`read_bag`)", "",
+             command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; "
+             f"{n} bags; {a.repeats} repeats, medians", "",
+             f"Load before: `{doc['load_before']}`  ", f"after: `{doc['load_after']}`", "",
+             "| mode | wall [ms per bag] | CPU [ms per bag] | speed-up (wall) |",
+             "|---|---|---|---|"]
+    for m, r in doc["modes"].items():
+        lines.append(f"| {m} | {r['wall_ms_per_bag']:.1f} | {r['cpu_ms_per_bag']:.1f} | "
+                     f"{r['speed_up']:.2f}x |")
+    lines += ["", "Every mode read the same recordings as the first, bit for bit."]
+    write_results(a.out, doc, lines)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
