@@ -5,8 +5,9 @@ Usage (from the repo root, in the venv):
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bag_read/bag_read.py \
         [--data DATA] [--moves-per-type 2] [--repeats 5] [--out benchmarks/bag_read/result]
 
-Without ``--data`` it records ``--moves-per-type`` moves of every type (``record``, seed 0)
-into a temporary directory first. Every bag of DATA's splits is then read in four modes, in
+Every bag under DATA (any depth) is read. Without ``--data`` it records ``--moves-per-type``
+moves of every type (``record``, seed 0)
+into a temporary directory first. The bags are read in four modes, in
 turn, ``--repeats`` times (the order rotates each repeat):
 
 - ``per message, Python YAML``: every message decoded by ``rosbags`` on its own
@@ -41,7 +42,7 @@ MODES = ("per message, Python YAML", "per message, C YAML", "arrays, Python YAML
 
 
 def _bags(data: Path) -> list[Path]:
-    return sorted(p.parent for p in data.glob("*/*/metadata.yaml"))
+    return sorted(p.parent for p in data.rglob("metadata.yaml"))
 
 
 def _read_all(bags, mode: str) -> tuple[float, float, list]:
