@@ -417,102 +417,44 @@ def _decode_odom(msg, bag: str, topic: str, k: int) -> tuple:
 # ---------------------------------------------------------------------------------------------
 # reading many messages of one layout at once
 
-def _align(p: int, n: int) -> int:
-    """Offset p rounded up to n bytes, counted from the end of the 4-byte CDR header."""
-    return 4 + -(-(p - 4) // n) * n
-
-
-def _u32(raw, p: int) -> int:
-    return int.from_bytes(bytes(raw[p:p + 4]), "little")
-
-
-def _skip_string(raw, p: int) -> int:
-    p = _align(p, 4)
-    return p + 4 + _u32(raw, p)
-
-
-def _float_layout(raw, topic: str) -> dict[str, tuple[int, int]] | None:
-    """{field: (offset, count)} of the float64 fields ``_FIELDS[topic]`` in one little-endian
-    CDR message (XCDR1, as ROS 2 writes it), found by walking its strings and sequences; None
-    where the message is too short for the walk."""
-    try:
-        p = _skip_string(raw, 12)                     # header: stamp (8 bytes), frame_id
-        if topic == TOPIC_ODOM:
-            p = _align(_skip_string(raw, p), 8)       # child_frame_id; then pose, twist
-            out = {"position": (p, 3), "orientation": (p + 24, 4),
-                   "linear_velocity": (p + 344, 3), "angular_velocity": (p + 368, 3)}
-            end = p + 8 * (7 + 36 + 6 + 36)
-        else:
-            p = _align(p, 4)                          # name: a sequence of strings
-            count = _u32(raw, p)
-            p += 4
-            for _ in range(count):
-                p = _skip_string(raw, p)
-            out = {}
-            for key in ("position", "velocity")[:len(_FIELDS[topic])]:
-                p = _align(p, 4)
-                count = _u32(raw, p)
-                p += 4
-                if count:
-                    p = _align(p, 8)
-                out[key] = (p, count)
-                p += 8 * count
-            end = p
-    except (ValueError, IndexError):
-        return None
-    return out if end <= len(raw) else None
-
-
 def _same_layout_columns(raws: list, topic: str, ts, msgtype: str, bag: str
                          ) -> tuple[np.ndarray, list[np.ndarray]] | None:
     """Header stamps (n,) and ``_FIELDS[topic]``'s columns (n, k) of messages that differ only
-    in their stamps and float values, read as arrays straight from the CDR bytes; None where
-    they do not (then every message is decoded on its own, with its own checks).
+    in their stamps and numbers (``decode.one_layout``), read as arrays straight from the CDR
+    bytes; None where they do not (then every message is decoded on its own, with its own
+    checks).
 
-    The first message is decoded and checked as the per-message path checks it (names, frames,
-    sizes); every other message must have its length and every byte outside the stamp and the
-    float fields, so its names, frames and sizes are the first's. The first and last messages'
-    floats read here must equal the decoder's, bit for bit, or the walk is not trusted.
+    The first and last messages are decoded and checked as the per-message path checks them
+    (names, frames, sizes; every other message has their structural bytes, so the same names,
+    frames and sizes), and their numbers read here must equal the decoder's bit for bit, or the
+    arrays are not used.
     """
+    from .decode import one_layout
     n = len(raws)
     if n < 2:
         return None
-    first = bytes(raws[0])
-    size = len(first)
-    if size < 16 or first[:2] != b"\x00\x01":       # little-endian plain CDR only
+    shared = one_layout(raws, msgtype)
+    if shared is None:
         return None
-    if any(len(r) != size for r in raws):
-        return None
-    layout = _float_layout(first, topic)
-    if layout is None:
-        return None
+    stamps, f, _ = shared
     try:
-        msgs = [ts.deserialize_cdr(first, msgtype), ts.deserialize_cdr(bytes(raws[-1]), msgtype)]
+        msgs = [ts.deserialize_cdr(bytes(raws[0]), msgtype),
+                ts.deserialize_cdr(bytes(raws[-1]), msgtype)]
     except Exception:
         return None
     decode = _decode_odom if topic == TOPIC_ODOM else _decode_joint_state
     rows = [decode(m, bag, topic, k) for m, k in zip(msgs, (0, n - 1))]   # BagError as usual
-    buf = np.frombuffer(b"".join(bytes(r) for r in raws), dtype=np.uint8).reshape(n, size)
-    varying = np.zeros(size, dtype=bool)
-    varying[4:12] = True
-    for off, count in layout.values():
-        varying[off:off + 8 * count] = True
-    fixed = ~varying
-    if not np.array_equal(buf[:, fixed], np.broadcast_to(buf[0, fixed], (n, int(fixed.sum())))):
-        return None
-    sec = np.ascontiguousarray(buf[:, 4:8]).view("<i4")[:, 0].astype(np.int64)
-    nanosec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
-    stamps = sec * 1_000_000_000 + nanosec
-    cols = {key: np.ascontiguousarray(buf[:, off:off + 8 * count]).view("<f8").astype(np.float64)
-            for key, (off, count) in layout.items()}
-    if topic != TOPIC_ODOM:
+    if topic == TOPIC_ODOM:
+        fields = [np.ascontiguousarray(c) for c in (f["pose"][:, :3], f["pose"][:, 3:7],
+                                                    f["twist"][:, :3], f["twist"][:, 3:])]
+    else:
         perm = joint_permutation(tuple(msgs[0].name))
-        cols = {key: c[:, perm] for key, c in cols.items()}
-    fields = [cols[key] for key in _FIELDS[topic]]
-    for k, (m, row) in zip((0, n - 1), zip(msgs, rows)):
+        fields = [np.ascontiguousarray(f[key][:, perm]) for key in _FIELDS[topic]]
+    for k, m, row in zip((0, n - 1), msgs, rows):
         h = int(m.header.stamp.sec) * 1_000_000_000 + int(m.header.stamp.nanosec)
         if h != stamps[k] or not all(
                 np.array_equal(np.asarray(v, dtype=np.float64).view(np.int64),
-                               f[k].view(np.int64)) for v, f in zip(row, fields)):
+                               c[k].view(np.int64))
+                for v, c in zip(row, fields)):
             return None
     return stamps, fields

@@ -9,7 +9,8 @@ sequence lengths, padding: everything except the numbers) are identical to it, a
 numbers of a whole group out with one NumPy view. Anything it does not know (big-endian CDR,
 ROS 1 messages, a message type other than the five below, a layout that differs) goes through
 ``rosbags``' deserializer with the bag's own type definitions, field by field; the result is
-the same (``test/data/test_import.py`` compares both paths).
+the same (``test/data/test_import.py`` compares both paths). ``one_layout`` reads a topic
+whose every message shares the first one's layout in one view (``data.bags.read_bag``).
 
 Decoded per message (``Decoded`` fields; NaN where a message lacks a value):
 
@@ -28,7 +29,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-__all__ = ["Decoded", "decode_topic", "SUPPORTED_TYPES", "DecodeError",
+__all__ = ["Decoded", "decode_topic", "one_layout", "SUPPORTED_TYPES", "DecodeError",
            "JOINT_STATE", "FLOAT64_ARRAY", "ODOMETRY", "POSE_STAMPED", "JOINT_TRAJECTORY",
            "ros2_name"]
 
@@ -271,6 +272,37 @@ def decode_topic(raws: Sequence[bytes], msgtype: str,
     if out.name_index is not None and isinstance(out.position, list):
         _pack_ragged(out)
     return out
+
+
+def one_layout(raws: Sequence[bytes], msgtype: str
+               ) -> tuple[np.ndarray, dict[str, np.ndarray], dict] | None:
+    """The numbers of messages that all share the first one's layout, read with one NumPy view:
+    (header stamps (n,) int64, {field: (n, count) float64}, the first message's ``names``,
+    ``frame`` and ``child``), or None where a message's length or structural bytes differ from
+    the first's or the first's layout is not known (then decode message by message).
+
+    Fields: JointState ``position``, ``velocity``, ``effort``; Odometry ``pose`` (position and
+    xyzw orientation), ``pose_cov``, ``twist`` (linear and angular), ``twist_cov``; PoseStamped
+    ``pose``; Float64MultiArray ``position``.
+    """
+    if not raws or msgtype not in _WALKERS:
+        return None
+    first = bytes(raws[0])
+    lay = _layout(first, msgtype)
+    if lay is None or any(len(r) != lay.length for r in raws):
+        return None
+    n = len(raws)
+    buf = np.frombuffer(b"".join(bytes(r) for r in raws), dtype=np.uint8).reshape(n, lay.length)
+    fixed = np.zeros(lay.length, dtype=bool)
+    for a, b in lay.struct:
+        fixed[a:b] = True
+    if not np.array_equal(buf[:, fixed], np.broadcast_to(buf[0, fixed], (n, int(fixed.sum())))):
+        return None
+    stamps = (_stamps(buf, lay.fields["stamp"][0]) if "stamp" in lay.fields
+              else np.zeros(n, dtype=np.int64))
+    fields = {k: _columns(buf, off, count) for k, (off, count) in lay.fields.items()
+              if k != "stamp"}
+    return stamps, fields, lay.info
 
 
 def _empty(msgtype: str, n: int) -> Decoded:
