@@ -31,10 +31,10 @@ sensor model that perturbs orientation must renormalise.
 
 Speed: where every message of a topic has the first's length and the first's bytes outside its
 stamp and its float fields (one layout: the same names, frames and sizes, as a recorder writes
-them), the topic's floats and stamps are read as arrays straight from the CDR bytes; the first
-message is decoded and checked as usual, and the first and last messages' arrays must equal the
-decoder's bit for bit. Otherwise every message is decoded on its own. The values are the same
-either way (``benchmarks/bag_read``).
+them), the topic's floats and stamps are read as arrays straight from the CDR bytes
+(``decode.one_layout``); the first and last messages are decoded and checked as usual, and
+their arrays must equal the decoder's bit for bit. Otherwise every message is decoded on its
+own. The arrays are the same either way (``benchmarks/bag_read``).
 """
 from __future__ import annotations
 
