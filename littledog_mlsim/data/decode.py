@@ -85,7 +85,8 @@ class _Walk:
         if raw[:4] != _CDR_LE:
             raise ValueError("not little-endian CDR")
         self.raw, self.pos = raw, 4
-        self.struct: list[tuple[int, int]] = []   # ranges that must match between messages
+        # ranges that must match between messages: the encapsulation header first
+        self.struct: list[tuple[int, int]] = [(0, 4)]
         self.fields: dict[str, tuple[int, int]] = {}   # name -> (offset, count of float64)
 
     def _align(self, n: int) -> None:
