@@ -8,10 +8,10 @@ Usage (from the repo root):
 ``OLD_CHECKOUT`` is a checkout of earlier code with its own ``.venv`` (``make venv`` there); the
 repository this script lives in is "after". Each runs ``littledog-mlsim diagnose --data DATA
 --out WORK/<side> DIAGNOSE_ARGS`` with its own interpreter and its own package first on the
-path (``python -P``), "after" first, then "before", one at a time. Written: ``OUT.json`` and
+path (``python -P``), one at a time, "after" first unless ``--before-first``. Written: ``OUT.json`` and
 ``OUT.md``: each side's wall time, the time its report gives, the load before and after, and
 the fields of the two ``report.json`` files that differ, leaving out timings (keys with
-``seconds`` in their name) and the output paths; the ``model`` directories are compared file
+``seconds`` in their name or ending in ``wall_s``) and the output paths; the ``model`` directories are compared file
 by file too (size only: the model file holds its paths).
 """
 from __future__ import annotations
@@ -47,7 +47,7 @@ def _differences(a, b, where: str = "") -> list[str]:
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in sorted(set(a) | set(b)):
-            if "seconds" in str(k):
+            if "seconds" in str(k) or str(k).endswith("wall_s"):
                 continue
             if k not in a or k not in b:
                 out.append(f"{where}/{k}: only in {'after' if k in a else 'before'}")
@@ -69,6 +69,8 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--work", type=Path, required=True)
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--before-first", action="store_true",
+                    help="run the before side first (to alternate the order between runs)")
     ap.add_argument("diagnose_args", nargs=argparse.REMAINDER)
     a = ap.parse_args(argv)
     extra = [x for x in a.diagnose_args if x != "--"]
@@ -78,7 +80,8 @@ def main(argv=None) -> int:
     doc["before"] = before_head
     a.work.mkdir(parents=True, exist_ok=True)
     sides = {}
-    for side, tree in (("after", ROOT), ("before", a.before.resolve())):
+    order = [("after", ROOT), ("before", a.before.resolve())]
+    for side, tree in (order[::-1] if a.before_first else order):
         out = a.work / side
         if out.exists():
             sys.exit(f"compare: {out} exists; give a new --work")
@@ -103,7 +106,7 @@ def main(argv=None) -> int:
              f"Command: `OPENBLAS_NUM_THREADS=1 .venv/bin/python {doc['command']}`  ",
              f"After: {doc['git']}; before: {before_head}; date {doc['date']}", "",
              "| side | wall [s] | load before | load after |", "|---|---|---|---|"]
-    for k, s in sides.items():
+    for k, s in sides.items():   # in the order they ran
         lines.append(f"| {k} | {s['wall_s']:.1f} | `{s['load_before']}` | `{s['load_after']}` |")
     lines += ["", f"After / before: {r:.3f}.", "",
               f"report.json, timings and output paths left out: "
