@@ -30,8 +30,8 @@ The odometry quaternion must be unit length to 1e-6 (both when writing and when 
 sensor model that perturbs orientation must renormalise.
 
 Speed: where every message of a topic has the first's length and the first's bytes outside its
-stamp and its float fields (one layout: the same names, frames and sizes, as a recorder writes
-them), the topic's floats and stamps are read as arrays straight from the CDR bytes
+stamp, its float fields and its alignment padding (one layout: the same names, frames and
+sizes, as a recorder writes them), the topic's floats and stamps are read as arrays straight from the CDR bytes
 (``decode.one_layout``); the first and last messages are decoded and checked as usual, and
 their arrays must equal the decoder's bit for bit. Otherwise every message is decoded on its
 own. The arrays are the same either way (``benchmarks/bag_read``).

@@ -87,12 +87,14 @@ class _Walk:
         self.raw, self.pos = raw, 4
         # ranges that must match between messages: the encapsulation header first
         self.struct: list[tuple[int, int]] = [(0, 4)]
+        self.pad: list[tuple[int, int]] = []      # alignment padding (in struct too)
         self.fields: dict[str, tuple[int, int]] = {}   # name -> (offset, count of float64)
 
     def _align(self, n: int) -> None:
         pad = (-(self.pos - 4)) % n
         if pad:
             self.struct.append((self.pos, self.pos + pad))
+            self.pad.append((self.pos, self.pos + pad))
         self.pos += pad
 
     def u32(self) -> int:
@@ -135,6 +137,7 @@ class _Walk:
             raise ValueError(f"{len(self.raw) - self.pos} trailing bytes")
         if self.pos < len(self.raw):
             self.struct.append((self.pos, len(self.raw)))
+            self.pad.append((self.pos, len(self.raw)))
 
 
 def _walk_joint_state(w: _Walk) -> dict:
@@ -188,6 +191,7 @@ class _Layout:
     key: bytes
     fields: dict[str, tuple[int, int]]
     info: dict
+    pad: list[tuple[int, int]]
 
 
 def _layout(raw: bytes, msgtype: str) -> _Layout | None:
@@ -204,7 +208,7 @@ def _layout(raw: bytes, msgtype: str) -> _Layout | None:
         else:
             blocks.append((a, b))
     key = b"".join(raw[a:b] for a, b in blocks)
-    return _Layout(len(raw), blocks, key, w.fields, info)
+    return _Layout(len(raw), blocks, key, w.fields, info, w.pad)
 
 
 def _columns(buf: np.ndarray, off: int, count: int) -> np.ndarray:
@@ -280,7 +284,9 @@ def one_layout(raws: Sequence[bytes], msgtype: str
     """The numbers of messages that all share the first one's layout, read with one NumPy view:
     (header stamps (n,) int64, {field: (n, count) float64}, the first message's ``names``,
     ``frame`` and ``child``), or None where a message's length or structural bytes differ from
-    the first's or the first's layout is not known (then decode message by message).
+    the first's or the first's layout is not known (then decode message by message). The
+    alignment padding may differ (a serializer may leave any bytes there; no decoder reads
+    them).
 
     Fields: JointState ``position``, ``velocity``, ``effort``; Odometry ``pose`` (position and
     xyzw orientation), ``pose_cov``, ``twist`` (linear and angular), ``twist_cov``; PoseStamped
@@ -297,6 +303,8 @@ def one_layout(raws: Sequence[bytes], msgtype: str
     fixed = np.zeros(lay.length, dtype=bool)
     for a, b in lay.struct:
         fixed[a:b] = True
+    for a, b in lay.pad:
+        fixed[a:b] = False
     if not np.array_equal(buf[:, fixed], np.broadcast_to(buf[0, fixed], (n, int(fixed.sum())))):
         return None
     stamps = (_stamps(buf, lay.fields["stamp"][0]) if "stamp" in lay.fields

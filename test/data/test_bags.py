@@ -283,6 +283,22 @@ def test_a_message_of_another_encoding_within_a_bag_is_decoded_on_its_own(tmp_pa
     assert_bag_error(exc, bag, TOPIC_JOINT_STATES)
 
 
+def test_messages_that_differ_only_in_their_padding_are_read_as_arrays(tmp_path, short_rec,
+                                                                     monkeypatch):
+    """A serializer may leave any bytes in the alignment padding (rclpy does): no decoder reads
+    them, so they do not split a topic's layout."""
+    items = raw_items(short_rec)
+    i = nth(items, TOPIC_JOINT_STATES, 5)
+    raw = bytearray(TS.serialize_cdr(items[i][2], MSGTYPES[TOPIC_JOINT_STATES]))
+    assert raw[12:17] == b"\x01\x00\x00\x00\x00"   # frame_id "": its length, its NUL, padding
+    raw[17:20] = b"\xab\xcd\xef"
+    items[i] = (*items[i][:2], bytes(raw))
+    bag = write_raw(tmp_path / "F_01", items)
+    seen = _spy_layout(monkeypatch)
+    assert_same(short_rec, read_bag(bag))
+    assert seen[TOPIC_JOINT_STATES]
+
+
 def test_a_damaged_message_is_named_by_its_own_number(tmp_path, short_rec):
     items = raw_items(short_rec)
     for k in (3, 15):
