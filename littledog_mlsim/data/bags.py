@@ -58,6 +58,7 @@ from ..layout import (
     TOPIC_ODOM,
     joint_permutation,
 )
+from .decode import one_layout
 from .recording import MoveRecording
 
 __all__ = ["BagError", "read_bag", "write_bag", "move_type_from_name", "STORAGES"]
@@ -323,7 +324,6 @@ def _read_topic(reader, bag: str, topic: str) -> dict[str, np.ndarray]:
     columns = _same_layout_columns(raws, topic, ts, expected, bag)
     if columns is not None:
         header_times, fields = columns
-        rows = raws
     else:
         header_times, rows = [], []
         try:
@@ -339,10 +339,10 @@ def _read_topic(reader, bag: str, topic: str) -> dict[str, np.ndarray]:
                                        f"{type(exc).__name__}: {exc}") from exc
         fields = list(zip(*rows))
     expected_count = sum(int(getattr(c, "msgcount", 0) or 0) for c in conns)
-    if expected_count and expected_count != len(rows):
+    if expected_count and expected_count != len(raws):
         raise BagError(bag, topic, f"truncated: metadata lists {expected_count} messages, "
-                                   f"read {len(rows)}")
-    if not rows:
+                                   f"read {len(raws)}")
+    if not raws:
         raise BagError(bag, topic, "no messages")
 
     t = np.asarray(bag_times, dtype=np.int64)
@@ -370,7 +370,7 @@ def _read_topic(reader, bag: str, topic: str) -> dict[str, np.ndarray]:
     for key, col in zip(keys, fields):
         arr = np.asarray(col, dtype=np.float64)
         if not np.all(np.isfinite(arr)):
-            k = int(np.flatnonzero(~np.all(np.isfinite(arr.reshape(len(rows), -1)), axis=1))[0])
+            k = int(np.flatnonzero(~np.all(np.isfinite(arr.reshape(len(raws), -1)), axis=1))[0])
             raise BagError(bag, topic, f"NaN or inf in {key} of message {k}")
         out[key] = arr
     if topic == TOPIC_ODOM:
@@ -429,7 +429,6 @@ def _same_layout_columns(raws: list, topic: str, ts, msgtype: str, bag: str
     frames and sizes), and their numbers read here must equal the decoder's bit for bit, or the
     arrays are not used.
     """
-    from .decode import one_layout
     n = len(raws)
     if n < 2:
         return None

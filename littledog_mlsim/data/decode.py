@@ -299,7 +299,7 @@ def one_layout(raws: Sequence[bytes], msgtype: str
     if lay is None or any(len(r) != lay.length for r in raws):
         return None
     n = len(raws)
-    buf = np.frombuffer(b"".join(bytes(r) for r in raws), dtype=np.uint8).reshape(n, lay.length)
+    buf = np.frombuffer(b"".join(raws), dtype=np.uint8).reshape(n, lay.length)
     fixed = np.zeros(lay.length, dtype=bool)
     for a, b in lay.struct:
         fixed[a:b] = True
