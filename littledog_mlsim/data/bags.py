@@ -58,7 +58,7 @@ from ..layout import (
     TOPIC_ODOM,
     joint_permutation,
 )
-from .decode import one_layout
+from .decode import like_first, one_layout
 from .recording import MoveRecording
 
 __all__ = ["BagError", "read_bag", "write_bag", "move_type_from_name", "STORAGES"]
@@ -196,18 +196,17 @@ def _write_messages(writer, rec: MoveRecording, stamps: np.ndarray) -> None:
     lin, ang = f64(rec.linear_velocity), f64(rec.angular_velocity)
     n = rec.n_steps
 
-    def write(topic: str, t: int, msg) -> None:
-        writer.write(conns[topic], t, ts.serialize_cdr(msg, EXPECTED_MSGTYPES[topic]))
-
-    # Messages in time order, commands after the measurement they were computed from.
-    for k in range(n + 1):
+    def stamp(k: int):
         t = int(stamps[k])
-        stamp = Time(sec=t // 1_000_000_000, nanosec=t % 1_000_000_000)
-        write(TOPIC_JOINT_STATES, t, JointState(
-            header=Header(stamp=stamp, frame_id=""), name=names,
-            position=q[k].copy(), velocity=dq[k].copy(), effort=empty))
-        write(TOPIC_ODOM, t, Odometry(
-            header=Header(stamp=stamp, frame_id=ODOM_FRAME), child_frame_id=BASE_FRAME,
+        return Time(sec=t // 1_000_000_000, nanosec=t % 1_000_000_000)
+
+    def joint_state(k: int):
+        return JointState(header=Header(stamp=stamp(k), frame_id=""), name=names,
+                          position=q[k].copy(), velocity=dq[k].copy(), effort=empty)
+
+    def odometry(k: int):
+        return Odometry(
+            header=Header(stamp=stamp(k), frame_id=ODOM_FRAME), child_frame_id=BASE_FRAME,
             pose=PoseCov(
                 pose=Pose(position=Point(x=pos[k, 0], y=pos[k, 1], z=pos[k, 2]),
                           orientation=Quat(x=ori[k, 0], y=ori[k, 1], z=ori[k, 2], w=ori[k, 3])),
@@ -215,11 +214,42 @@ def _write_messages(writer, rec: MoveRecording, stamps: np.ndarray) -> None:
             twist=TwistCov(
                 twist=Twist(linear=Vector3(x=lin[k, 0], y=lin[k, 1], z=lin[k, 2]),
                             angular=Vector3(x=ang[k, 0], y=ang[k, 1], z=ang[k, 2])),
-                covariance=unknown_cov)))
+                covariance=unknown_cov))
+
+    def command(k: int):
+        return JointState(header=Header(stamp=stamp(k), frame_id=""), name=names,
+                          position=cmd[k].copy(), velocity=empty, effort=empty)
+
+    raws = {
+        TOPIC_JOINT_STATES: _serialized(ts, MSGTYPE_JOINT_STATE, joint_state, stamps,
+                                        {"position": q, "velocity": dq}),
+        TOPIC_ODOM: _serialized(ts, MSGTYPE_ODOMETRY, odometry, stamps,
+                                {"pose": np.hstack([pos, ori]), "twist": np.hstack([lin, ang])}),
+        TOPIC_CMD: _serialized(ts, MSGTYPE_JOINT_STATE, command, stamps[:n],
+                               {"position": cmd[:n]}),
+    }
+    # Messages in time order, commands after the measurement they were computed from.
+    for k in range(n + 1):
+        t = int(stamps[k])
+        writer.write(conns[TOPIC_JOINT_STATES], t, raws[TOPIC_JOINT_STATES][k])
+        writer.write(conns[TOPIC_ODOM], t, raws[TOPIC_ODOM][k])
         if k < n:
-            write(TOPIC_CMD, t, JointState(
-                header=Header(stamp=stamp, frame_id=""), name=names,
-                position=cmd[k].copy(), velocity=empty, effort=empty))
+            writer.write(conns[TOPIC_CMD], t, raws[TOPIC_CMD][k])
+
+
+def _serialized(ts, msgtype: str, message, stamps: np.ndarray,
+                fields: dict[str, np.ndarray]) -> list:
+    """The CDR bytes of ``message(k)`` for every k of ``stamps``: the first message serialized,
+    the others laid out as it with their own stamps and numbers (``decode.like_first``), used
+    only where the last message, serialized on its own, comes out the same byte for byte;
+    otherwise every message serialized on its own."""
+    n = stamps.shape[0]
+    first = ts.serialize_cdr(message(0), msgtype)
+    buf = like_first(first, msgtype, stamps, fields)
+    if (buf is not None and buf[0].tobytes() == bytes(first)
+            and buf[-1].tobytes() == bytes(ts.serialize_cdr(message(n - 1), msgtype))):
+        return [row.tobytes() for row in buf]
+    return [first] + [ts.serialize_cdr(message(k), msgtype) for k in range(1, n)]
 
 
 # ---------------------------------------------------------------------------------------------

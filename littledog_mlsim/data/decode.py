@@ -10,7 +10,9 @@ numbers of a whole group out with one NumPy view. Anything it does not know (big
 ROS 1 messages, a message type other than the five below, a layout that differs) goes through
 ``rosbags``' deserializer with the bag's own type definitions, field by field; the result is
 the same (``test/data/test_import.py`` compares both paths). ``one_layout`` reads a topic
-whose every message shares the first one's layout in one view (``data.bags.read_bag``).
+whose every message shares the first one's layout in one view (``data.bags.read_bag``);
+``like_first`` is its inverse: the bytes of many messages laid out as one serialized message,
+with their own stamps and numbers (``data.bags.write_bag``).
 
 Decoded per message (``Decoded`` fields; NaN where a message lacks a value):
 
@@ -29,7 +31,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-__all__ = ["Decoded", "decode_topic", "one_layout", "SUPPORTED_TYPES", "DecodeError",
+__all__ = ["Decoded", "decode_topic", "one_layout", "like_first", "SUPPORTED_TYPES", "DecodeError",
            "JOINT_STATE", "FLOAT64_ARRAY", "ODOMETRY", "POSE_STAMPED", "JOINT_TRAJECTORY",
            "ros2_name"]
 
@@ -312,6 +314,43 @@ def one_layout(raws: Sequence[bytes], msgtype: str
     fields = {k: _columns(buf, off, count) for k, (off, count) in lay.fields.items()
               if k != "stamp"}
     return stamps, fields, lay.info
+
+
+def like_first(first: bytes, msgtype: str, stamps_ns: np.ndarray,
+               fields: dict[str, np.ndarray]) -> np.ndarray | None:
+    """The CDR bytes of ``len(stamps_ns)`` messages laid out as the serialized message
+    ``first``, as an (n, len(first)) uint8 array (row k: message k): every byte of ``first``
+    except its header stamp and the float fields named in ``fields``, which take row k of
+    ``stamps_ns`` (int64 ns, non-negative) and of each ``fields[name]`` ((n, count) float64,
+    ``count`` as in ``first``). The numbers are written bit for bit, as a serializer writes a
+    little-endian float64. None if ``first``'s layout is not known or a field does not fit it
+    (then serialize message by message). Field names as in :func:`one_layout`.
+    """
+    if msgtype not in _WALKERS:
+        return None
+    first = bytes(first)
+    lay = _layout(first, msgtype)
+    stamps_ns = np.asarray(stamps_ns)
+    n = stamps_ns.shape[0]
+    if lay is None or stamps_ns.ndim != 1 or ("stamp" not in lay.fields) or n == 0:
+        return None
+    if np.any(stamps_ns < 0) or np.any(stamps_ns // 1_000_000_000 > np.iinfo(np.int32).max):
+        return None
+    buf = np.tile(np.frombuffer(first, dtype=np.uint8), (n, 1))
+    off = lay.fields["stamp"][0]
+    buf[:, off:off + 4] = (stamps_ns // 1_000_000_000).astype("<i4").view(np.uint8).reshape(n, 4)
+    buf[:, off + 4:off + 8] = (stamps_ns % 1_000_000_000).astype("<u4").view(
+        np.uint8).reshape(n, 4)
+    for name, values in fields.items():
+        if name == "stamp" or name not in lay.fields:
+            return None
+        off, count = lay.fields[name]
+        values = np.ascontiguousarray(values, dtype="<f8")
+        if values.shape != (n, count):
+            return None
+        if count:
+            buf[:, off:off + 8 * count] = values.view(np.uint8).reshape(n, 8 * count)
+    return buf
 
 
 def _empty(msgtype: str, n: int) -> Decoded:

@@ -205,16 +205,16 @@ def test_write_leaves_nothing_on_bad_input(tmp_path, short_rec):
 
 @pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
 def test_write_leaves_nothing_on_failure_midway(tmp_path, short_rec, monkeypatch, storage):
-    real_serialize = bags_mod._typestore().serialize_cdr
+    real_write = Writer.write
     calls = {"n": 0}
 
-    def failing(msg, typename, **kw):
+    def failing(self, *args, **kw):
         calls["n"] += 1
         if calls["n"] > 25:
             raise RuntimeError("disk full (simulated)")
-        return real_serialize(msg, typename, **kw)
+        return real_write(self, *args, **kw)
 
-    monkeypatch.setattr(bags_mod._typestore(), "serialize_cdr", failing)
+    monkeypatch.setattr(Writer, "write", failing)
     with pytest.raises(RuntimeError, match="simulated"):
         write_bag(tmp_path / "F_01", short_rec, storage=storage)
     assert calls["n"] > 25
@@ -267,6 +267,74 @@ def test_messages_of_one_layout_read_as_arrays_equal_the_per_message_decode(
     for f in FIELDS:   # bit for bit (-0.0 is not 0.0) and the same memory layout: BLAS may
         a, b = getattr(fast, f), getattr(slow, f)    # round C and Fortran order apart
         assert a.strides == b.strides and a.tobytes() == b.tobytes(), f
+
+
+def _stored(bag: Path) -> list:
+    """[(topic, bag_time, raw CDR bytes)] of ``bag`` in storage order."""
+    from rosbags.rosbag2 import Reader
+    with Reader(bag) as r:
+        return [(c.topic, t, bytes(raw)) for c, t, raw in r.messages()]
+
+
+def _awkward_recording() -> MoveRecording:
+    """A move whose numbers a byte-level writer could get wrong: -0.0, subnormals, huge and
+    tiny magnitudes, and stamps that cross whole seconds late in the int32 range."""
+    rec = synthetic_recording("FL_03", n=250, t0_ns=2_000_000_000 * 10**9 + 995_000_000)
+    rec.q[3, 2], rec.dq[7, 0], rec.cmd[9, 11] = -0.0, 5e-324, -1.7976931348623157e308
+    rec.linear_velocity[4, 1], rec.angular_velocity[2, 2] = -0.0, 2.2250738585072014e-308
+    rec.position[5, 0] = -1e-300
+    return rec
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_written_messages_equal_each_message_serialized_on_its_own(tmp_path, storage,
+                                                                   monkeypatch):
+    """``write_bag`` lays every message out as the first one serialized (``like_first``):
+    the bytes stored are those of each message built and serialized on its own
+    (``raw_items``), in the same order; without the layout the bag is the same."""
+    rec = _awkward_recording()
+    ts, calls = bags_mod._typestore(), []
+    real = ts.serialize_cdr
+    monkeypatch.setattr(ts, "serialize_cdr", lambda *a, **k: calls.append(1) or real(*a, **k))
+    write_bag(tmp_path / "FL_03", rec, storage=storage)
+    assert len(calls) == 6          # the first and last message of each topic: laid out
+    monkeypatch.undo()
+    want = [(topic, t, bytes(TS.serialize_cdr(msg, MSGTYPES[topic])))
+            for topic, t, msg in raw_items(rec)]
+    assert _stored(tmp_path / "FL_03") == want
+    monkeypatch.setattr(bags_mod, "like_first", lambda *a: None)
+    write_bag(tmp_path / "FL_04", rec, storage=storage)
+    assert _stored(tmp_path / "FL_04") == want
+    assert_same(rec, read_bag(tmp_path / "FL_03"))
+
+
+def test_a_layout_whose_last_message_disagrees_is_not_used(tmp_path, short_rec, monkeypatch):
+    """The laid-out messages are kept only where the last one equals that message serialized
+    on its own: a layout that gets a number wrong falls back to serializing each message."""
+    real = bags_mod.like_first
+
+    def wrong(*args):
+        buf = real(*args)
+        buf[-1, -1] ^= 0x01
+        return buf
+    monkeypatch.setattr(bags_mod, "like_first", wrong)
+    write_bag(tmp_path / "F_01", short_rec)
+    want = [(topic, t, bytes(TS.serialize_cdr(msg, MSGTYPES[topic])))
+            for topic, t, msg in raw_items(short_rec)]
+    assert _stored(tmp_path / "F_01") == want
+
+
+def test_like_first_refuses_what_does_not_fit_the_first_message():
+    from littledog_mlsim.data.decode import JOINT_STATE, like_first
+    items = raw_items(synthetic_recording("F_01", n=3))
+    first = TS.serialize_cdr(items[0][2], MSGTYPES[TOPIC_JOINT_STATES])
+    stamps = np.array([0, 10**7, 2 * 10**7])
+    assert like_first(first, JOINT_STATE, stamps, {"position": np.zeros((3, 12))}) is not None
+    assert like_first(first, JOINT_STATE, stamps, {"position": np.zeros((3, 11))}) is None
+    assert like_first(first, JOINT_STATE, stamps, {"twist": np.zeros((3, 6))}) is None
+    assert like_first(first, JOINT_STATE, -stamps, {}) is None
+    assert like_first(first, "std_msgs/msg/String", stamps, {}) is None
+    assert like_first(first[:-8], JOINT_STATE, stamps, {}) is None
 
 
 def test_a_message_of_another_encoding_within_a_bag_is_decoded_on_its_own(tmp_path, short_rec):
