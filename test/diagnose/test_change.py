@@ -22,7 +22,10 @@ SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30,
                        horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3)
 
 
-def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int = 4) -> Path:
+def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int = 3) -> Path:
+    """Moves 0-2 of each type: the TrainPool of 4 moves per type (the routes read only the
+    TrainPool; a move's recording depends only on its type, number, seed and effects, so the
+    TestPool move is not recorded)."""
     from littledog_mlsim.apps.record import record_dataset
     effects_file = None
     if effects is not None:
@@ -49,7 +52,7 @@ def routes(tmp_path_factory):
                              "- class: littledog_mlsim.robot.effects:SwingDrag\n"
                              "  params: {force_N: 3.0, legs: back_left, speed_m_s: 0.1}\n", 8)}
     start, quiet = measured_robot_features(), (lambda s: None)
-    return {k: _Route(load_moves(p, "train"), start, SMALL, quiet) for k, p in paths.items()}
+    return {k: _Route(load_moves(p, "all"), start, SMALL, quiet) for k, p in paths.items()}
 
 
 def test_a_one_leg_delay_is_a_change_at_the_leg_named_a_delay(routes):

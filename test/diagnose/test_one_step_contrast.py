@@ -101,11 +101,14 @@ def test_the_report_moves_what_the_reference_shows_as_much_to_shared():
 
 
 def _record(root: Path, name: str, seed: int, effects: str) -> Path:
+    """Moves 0-3 of each type: the TrainPool of 6 moves per type (the test reads only the
+    TrainPool; a move's recording depends only on its type, number, seed and effects, so the
+    TestPool moves are not recorded)."""
     from littledog_mlsim.apps.record import record_dataset
     f = root / f"{name}.yaml"
     f.write_text(effects)
     out = root / name
-    record_dataset(out, moves_per_type=6, seed=seed, types=["F", "L", "R", "DL", "S"], jobs=2,
+    record_dataset(out, moves_per_type=4, seed=seed, types=["F", "L", "R", "DL", "S"], jobs=2,
                    progress=False, effects_file=str(f))
     return out
 
@@ -128,15 +131,15 @@ def test_the_robots_own_delay_is_shared_and_a_new_one_is_a_change(delayed):
     from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.diagnose import SearchModel, select_effects
     search = SearchModel(n_random_features=300, n_gp_points=300, gp_max_iter=30)
-    train = load_moves(delayed["data"], "train")
+    train = load_moves(delayed["data"], "all")
     library = [CommandLag(lag=k) for k in (1, 2, 3, 4)] + [JointRateMagnitude(kind="abs")]
     sel = select_effects(train, library=library, search=search, max_rounds=1)
     (picked,) = sel.accepted
     assert picked.augmentation.family == "command delay", picked.label
-    (own,) = contrast_findings(sel, load_moves(delayed["reference"], "train"), search)
+    (own,) = contrast_findings(sel, load_moves(delayed["reference"], "all"), search)
     assert not own.changed and own.reference_total_gain > 0.5 * own.total_gain, own
     clean = _record(delayed["root"], "clean", 437, "[]\n")
-    (new,) = contrast_findings(sel, load_moves(clean, "train"), search)
+    (new,) = contrast_findings(sel, load_moves(clean, "all"), search)
     assert new.changed and new.reference_total_gain < 0.5 * new.total_gain, new
     (skipped,) = contrast_findings(sel, [], search, skip=lambda aug: True)
     assert skipped is None
