@@ -34,7 +34,11 @@ stamp, its float fields and its alignment padding (one layout: the same names, f
 sizes, as a recorder writes them), the topic's floats and stamps are read as arrays straight from the CDR bytes
 (``decode.one_layout``); the first and last messages are decoded and checked as usual, and
 their arrays must equal the decoder's bit for bit. Otherwise every message is decoded on its
-own. The arrays are the same either way (``benchmarks/bag_read``).
+own. The arrays are the same either way (``benchmarks/bag_read``). Writing is the mirror image:
+the first message of each topic is serialized, every message is laid out as it with its own
+stamp and numbers (``decode.like_first``), and the layout is used where the last message,
+serialized on its own, comes out the same byte for byte; otherwise each message is serialized on
+its own. The bytes stored are the same either way.
 """
 from __future__ import annotations
 
