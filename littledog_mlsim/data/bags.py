@@ -31,14 +31,15 @@ sensor model that perturbs orientation must renormalise.
 
 Speed: where every message of a topic has the first's length and the first's bytes outside its
 stamp, its float fields and its alignment padding (one layout: the same names, frames and
-sizes, as a recorder writes them), the topic's floats and stamps are read as arrays straight from the CDR bytes
-(``decode.one_layout``); the first and last messages are decoded and checked as usual, and
-their arrays must equal the decoder's bit for bit. Otherwise every message is decoded on its
-own. The arrays are the same either way (``benchmarks/bag_read``). Writing is the mirror image:
-the first message of each topic is serialized, every message is laid out as it with its own
-stamp and numbers (``decode.like_first``), and the layout is used where the last message,
-serialized on its own, comes out the same byte for byte; otherwise each message is serialized on
-its own. The bytes stored are the same either way.
+sizes, as a recorder writes them), the topic's floats and stamps are read as arrays straight
+from the CDR bytes (``decode.one_layout``); the first and last messages are decoded and checked
+as usual, and their arrays must equal the decoder's bit for bit. Otherwise every message is decoded on its
+own. The arrays are the same either way (``benchmarks/bag_read``). Writing is the mirror image,
+a block of messages at a time: the block's first message of a topic is serialized, the block's
+messages are laid out as it with their own stamps and numbers (``decode.like_first``), and the
+layout is used where the block's first and last messages, serialized on their own, come out the
+same byte for byte; otherwise each message is serialized on its own. The bytes stored are the
+same either way (``benchmarks/bag_write``).
 """
 from __future__ import annotations
 
@@ -46,6 +47,7 @@ import os
 import re
 from functools import lru_cache
 from pathlib import Path
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -224,7 +226,7 @@ def _write_messages(writer, rec: MoveRecording, stamps: np.ndarray) -> None:
         return JointState(header=Header(stamp=stamp(k), frame_id=""), name=names,
                           position=cmd[k].copy(), velocity=empty, effort=empty)
 
-    raws = {
+    topics = {
         TOPIC_JOINT_STATES: _serialized(ts, MSGTYPE_JOINT_STATE, joint_state, stamps,
                                         {"position": q, "velocity": dq}),
         TOPIC_ODOM: _serialized(ts, MSGTYPE_ODOMETRY, odometry, stamps,
@@ -235,25 +237,43 @@ def _write_messages(writer, rec: MoveRecording, stamps: np.ndarray) -> None:
     # Messages in time order, commands after the measurement they were computed from.
     for k in range(n + 1):
         t = int(stamps[k])
-        writer.write(conns[TOPIC_JOINT_STATES], t, raws[TOPIC_JOINT_STATES][k])
-        writer.write(conns[TOPIC_ODOM], t, raws[TOPIC_ODOM][k])
+        writer.write(conns[TOPIC_JOINT_STATES], t, next(topics[TOPIC_JOINT_STATES]))
+        writer.write(conns[TOPIC_ODOM], t, next(topics[TOPIC_ODOM]))
         if k < n:
-            writer.write(conns[TOPIC_CMD], t, raws[TOPIC_CMD][k])
+            writer.write(conns[TOPIC_CMD], t, next(topics[TOPIC_CMD]))
 
 
-def _serialized(ts, msgtype: str, message, stamps: np.ndarray,
-                fields: dict[str, np.ndarray]) -> list:
-    """The CDR bytes of ``message(k)`` for every k of ``stamps``: the first message serialized,
-    the others laid out as it with their own stamps and numbers (``decode.like_first``), used
-    only where the last message, serialized on its own, comes out the same byte for byte;
-    otherwise every message serialized on its own."""
+#: messages laid out at a time (``_serialized``): bounds the memory of a long bag's write
+LAYOUT_BLOCK = 2048
+
+
+def _serialized(ts, msgtype: str, message: Callable[[int], Any], stamps: np.ndarray,
+                fields: dict[str, np.ndarray]) -> Iterator[bytes]:
+    """The CDR bytes of ``message(k)`` for every k of ``stamps``, in order, ``LAYOUT_BLOCK``
+    messages at a time: each block's first message serialized, the block's messages laid out as
+    it with their own header stamps and float fields (``decode.like_first``), kept where the
+    block's first and last rows equal those messages serialized on their own, byte for byte;
+    otherwise the block's every message serialized on its own.
+
+    The layout holds only where the messages differ in nothing but their header stamp and the
+    float fields given: ``_write_messages`` builds every message of a topic with the same
+    frames, joint names, constant covariances and sequence lengths. The first-and-last check
+    guards the layout's offsets, not that precondition.
+    """
     n = stamps.shape[0]
-    first = ts.serialize_cdr(message(0), msgtype)
-    buf = like_first(first, msgtype, stamps, fields)
-    if (buf is not None and buf[0].tobytes() == bytes(first)
-            and buf[-1].tobytes() == bytes(ts.serialize_cdr(message(n - 1), msgtype))):
-        return [row.tobytes() for row in buf]
-    return [first] + [ts.serialize_cdr(message(k), msgtype) for k in range(1, n)]
+    for a in range(0, n, LAYOUT_BLOCK):
+        b = min(a + LAYOUT_BLOCK, n)
+        first = bytes(ts.serialize_cdr(message(a), msgtype))
+        buf = like_first(first, msgtype, stamps[a:b],
+                         {k: v[a:b] for k, v in fields.items()})
+        if (buf is not None and buf[0].tobytes() == first
+                and buf[-1].tobytes() == bytes(ts.serialize_cdr(message(b - 1), msgtype))):
+            for row in buf:
+                yield row.tobytes()
+        else:
+            yield first
+            for k in range(a + 1, b):
+                yield ts.serialize_cdr(message(k), msgtype)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -11,8 +11,8 @@ ROS 1 messages, a message type other than the five below, a layout that differs)
 ``rosbags``' deserializer with the bag's own type definitions, field by field; the result is
 the same (``test/data/test_import.py`` compares both paths). ``one_layout`` reads a topic
 whose every message shares the first one's layout in one view (``data.bags.read_bag``);
-``like_first`` is its inverse: the bytes of many messages laid out as one serialized message,
-with their own stamps and numbers (``data.bags.write_bag``).
+``like_first`` goes the other way: the bytes of many messages laid out as one serialized
+message, with their own stamps and numbers (``data.bags.write_bag``).
 
 Decoded per message (``Decoded`` fields; NaN where a message lacks a value):
 
@@ -321,19 +321,22 @@ def like_first(first: bytes, msgtype: str, stamps_ns: np.ndarray,
     """The CDR bytes of ``len(stamps_ns)`` messages laid out as the serialized message
     ``first``, as an (n, len(first)) uint8 array (row k: message k): every byte of ``first``
     except its header stamp and the float fields named in ``fields``, which take row k of
-    ``stamps_ns`` (int64 ns, non-negative) and of each ``fields[name]`` ((n, count) float64,
-    ``count`` as in ``first``). The numbers are written bit for bit, as a serializer writes a
-    little-endian float64. None if ``first``'s layout is not known or a field does not fit it
-    (then serialize message by message). Field names as in :func:`one_layout`.
+    ``stamps_ns`` (integer ns, from 0 to the int32 seconds' end) and of each ``fields[name]``
+    ((n, count) float64, ``count`` as in ``first``). The numbers are written bit for bit, as a
+    serializer writes a little-endian float64. None if ``first``'s layout is not known, a stamp
+    is not such an integer or a field does not fit the layout (then serialize message by
+    message). Field names as in :func:`one_layout`.
     """
     if msgtype not in _WALKERS:
         return None
     first = bytes(first)
     lay = _layout(first, msgtype)
     stamps_ns = np.asarray(stamps_ns)
-    n = stamps_ns.shape[0]
-    if lay is None or stamps_ns.ndim != 1 or ("stamp" not in lay.fields) or n == 0:
+    if (lay is None or stamps_ns.ndim != 1 or "stamp" not in lay.fields
+            or stamps_ns.shape[0] == 0 or not np.issubdtype(stamps_ns.dtype, np.integer)):
         return None
+    n = stamps_ns.shape[0]
+    stamps_ns = stamps_ns.astype(np.int64)
     if np.any(stamps_ns < 0) or np.any(stamps_ns // 1_000_000_000 > np.iinfo(np.int32).max):
         return None
     buf = np.tile(np.frombuffer(first, dtype=np.uint8), (n, 1))

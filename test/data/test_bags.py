@@ -221,6 +221,22 @@ def test_write_leaves_nothing_on_failure_midway(tmp_path, short_rec, monkeypatch
     assert list(tmp_path.iterdir()) == []
 
 
+def test_write_leaves_nothing_when_serializing_fails_midway(tmp_path, short_rec, monkeypatch):
+    real_serialize = bags_mod._typestore().serialize_cdr
+    calls = {"n": 0}
+
+    def failing(msg, typename, **kw):
+        calls["n"] += 1
+        if calls["n"] > 3:     # in the odometry's first block, a joint state written before it
+            raise RuntimeError("serializer failed (simulated)")
+        return real_serialize(msg, typename, **kw)
+
+    monkeypatch.setattr(bags_mod._typestore(), "serialize_cdr", failing)
+    with pytest.raises(RuntimeError, match="simulated"):
+        write_bag(tmp_path / "F_01", short_rec)
+    assert list(tmp_path.iterdir()) == []
+
+
 # --- reader leniency the contract allows -------------------------------------------------------
 
 def test_cmd_names_any_order_and_n_plus_one(tmp_path, short_rec):
@@ -308,14 +324,34 @@ def test_written_messages_equal_each_message_serialized_on_its_own(tmp_path, sto
     assert_same(rec, read_bag(tmp_path / "FL_03"))
 
 
-def test_a_layout_whose_last_message_disagrees_is_not_used(tmp_path, short_rec, monkeypatch):
-    """The laid-out messages are kept only where the last one equals that message serialized
-    on its own: a layout that gets a number wrong falls back to serializing each message."""
+def test_a_long_bag_is_laid_out_a_block_at_a_time(tmp_path, monkeypatch):
+    """Blocks of ``LAYOUT_BLOCK`` messages (a long bag's write holds one block per topic):
+    each block's first and last messages are serialized on their own, and the bag is the same."""
+    rec = _awkward_recording()
+    monkeypatch.setattr(bags_mod, "LAYOUT_BLOCK", 16)
+    ts, calls = bags_mod._typestore(), []
+    real = ts.serialize_cdr
+    monkeypatch.setattr(ts, "serialize_cdr", lambda *a, **k: calls.append(1) or real(*a, **k))
+    write_bag(tmp_path / "FL_03", rec)
+    blocks = -(-(rec.n_steps + 1) // 16) * 2 + -(-rec.n_steps // 16)
+    assert len(calls) == 2 * blocks
+    monkeypatch.undo()
+    want = [(topic, t, bytes(TS.serialize_cdr(msg, MSGTYPES[topic])))
+            for topic, t, msg in raw_items(rec)]
+    assert _stored(tmp_path / "FL_03") == want
+
+
+@pytest.mark.parametrize("row", [0, -1])
+def test_a_layout_whose_first_or_last_message_disagrees_is_not_used(tmp_path, short_rec,
+                                                                     monkeypatch, row):
+    """The laid-out messages are kept only where the first and last equal those messages
+    serialized on their own: a layout that gets a byte wrong falls back to serializing each
+    message."""
     real = bags_mod.like_first
 
     def wrong(*args):
         buf = real(*args)
-        buf[-1, -1] ^= 0x01
+        buf[row, -1] ^= 0x01
         return buf
     monkeypatch.setattr(bags_mod, "like_first", wrong)
     write_bag(tmp_path / "F_01", short_rec)
@@ -333,6 +369,9 @@ def test_like_first_refuses_what_does_not_fit_the_first_message():
     assert like_first(first, JOINT_STATE, stamps, {"position": np.zeros((3, 11))}) is None
     assert like_first(first, JOINT_STATE, stamps, {"twist": np.zeros((3, 6))}) is None
     assert like_first(first, JOINT_STATE, -stamps, {}) is None
+    assert like_first(first, JOINT_STATE, stamps + 2**31 * 10**9, {}) is None   # int32 seconds
+    assert like_first(first, JOINT_STATE, stamps.astype(float), {}) is None
+    assert like_first(first, JOINT_STATE, stamps, {"position": np.zeros((2, 12))}) is None
     assert like_first(first, "std_msgs/msg/String", stamps, {}) is None
     assert like_first(first[:-8], JOINT_STATE, stamps, {}) is None
 
