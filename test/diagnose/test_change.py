@@ -22,7 +22,7 @@ SMALL = LearnedOptions(n_random_features=300, n_gp_points=200, gp_max_iter=30,
                        horizons_s=(0.01, 0.5, 1.0, 4.0), start_every=25, alpha=1e-3)
 
 
-def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int = 3) -> Path:
+def _record(root: Path, name: str, effects: str | None, seed: int) -> Path:
     """Moves 0-2 of each type: the TrainPool of 4 moves per type (the routes read only the
     TrainPool; a move's recording depends only on its type, number, seed and effects, so the
     TestPool move is not recorded)."""
@@ -32,7 +32,7 @@ def _record(root: Path, name: str, effects: str | None, seed: int, per_type: int
         effects_file = root / f"{name}.yaml"
         effects_file.write_text(effects)
     out = root / name
-    record_dataset(out, moves_per_type=per_type, seed=seed, jobs=2, progress=False,
+    record_dataset(out, moves_per_type=3, seed=seed, jobs=2, progress=False,
                    effects_file=None if effects_file is None else str(effects_file))
     return out
 
