@@ -33,13 +33,14 @@ Speed: where every message of a topic has the first's length and the first's byt
 stamp, its float fields and its alignment padding (one layout: the same names, frames and
 sizes, as a recorder writes them), the topic's floats and stamps are read as arrays straight
 from the CDR bytes (``decode.one_layout``); the first and last messages are decoded and checked
-as usual, and their arrays must equal the decoder's bit for bit. Otherwise every message is decoded on its
-own. The arrays are the same either way (``benchmarks/bag_read``). Writing is the mirror image,
-a block of messages at a time: the block's first message of a topic is serialized, the block's
-messages are laid out as it with their own stamps and numbers (``decode.like_first``), and the
-layout is used where the block's first and last messages, serialized on their own, come out the
-same byte for byte; otherwise each message is serialized on its own. The bytes stored are the
-same either way (``benchmarks/bag_write``).
+as usual, and their arrays must equal the decoder's bit for bit. Otherwise every message is
+decoded on its own. The arrays are the same either way (``benchmarks/bag_read``).
+
+Writing is the mirror image, a block of messages at a time: the block's first message of a
+topic is serialized, the block's messages are laid out as it with their own stamps and numbers
+(``decode.like_first``), and the layout is used where the block's first and last messages,
+serialized on their own, come out the same byte for byte; otherwise each message is serialized
+on its own. The bytes stored are the same either way (``benchmarks/bag_write``).
 """
 from __future__ import annotations
 

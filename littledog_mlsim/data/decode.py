@@ -31,9 +31,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-__all__ = ["Decoded", "decode_topic", "one_layout", "like_first", "SUPPORTED_TYPES", "DecodeError",
-           "JOINT_STATE", "FLOAT64_ARRAY", "ODOMETRY", "POSE_STAMPED", "JOINT_TRAJECTORY",
-           "ros2_name"]
+__all__ = ["Decoded", "decode_topic", "one_layout", "like_first", "SUPPORTED_TYPES",
+           "DecodeError", "JOINT_STATE", "FLOAT64_ARRAY", "ODOMETRY", "POSE_STAMPED",
+           "JOINT_TRAJECTORY", "ros2_name"]
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64_ARRAY = "std_msgs/msg/Float64MultiArray"
