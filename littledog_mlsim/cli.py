@@ -388,6 +388,14 @@ def format_calibration(report: dict) -> str:
         lines.append(f"TestPool rollout final (x, y) error: {num(b['final_xy_error_m'])} m -> "
                      f"{num(f['final_xy_error_m'])} m over "
                      f"{len(report['rollout']['test_moves'])} moves")
+        if (b["final_xy_error_m"] is not None and f["final_xy_error_m"] is not None
+                and f["final_xy_error_m"] > b["final_xy_error_m"]):
+            lines.append("the calibrated twin ends its TestPool moves further off than the robot "
+                         "it started from: its parameters absorb what its structure cannot "
+                         "express, and its intervals then measure the fit, not the robot; "
+                         + ("try --servo auto, and add the parameters the residual asks for"
+                            if "structure" not in report else
+                            "add the parameters the residual asks for, or fit more of them"))
     return "\n".join(lines)
 
 

@@ -107,6 +107,27 @@ def test_a_good_file_is_never_replaced_by_a_failed_fit(reference, tmp_path, caps
     assert good.read_bytes() == before
 
 
+def test_a_twin_that_rolls_out_worse_after_calibration_is_called_out():
+    """``calibrate`` says so where the calibrated twin ends the TestPool moves further off than
+    the robot it started from (zoo30's gap robot against the nominal position servo: 0.158 m
+    -> 0.195 m), and points at the servo structure where it was not tested."""
+    from littledog_mlsim.cli import format_calibration
+
+    def report(before, after, **extra):
+        return {"params": [], "weak_directions": [], "settings": {"weak_halfwidth": 0.25},
+                "rollout": {"before": {"final_xy_error_m": before},
+                            "after": {"final_xy_error_m": after}, "test_moves": ["F_01"]},
+                **extra}
+    worse = format_calibration(report(0.158, 0.195))
+    assert "further off than the robot it started from" in worse and "--servo auto" in worse
+    structure = {"chosen": "pd_torque", "candidates": [{"servo": "position", "cost": 2.0},
+                                                       {"servo": "pd_torque", "cost": 1.0}]}
+    tested = format_calibration(report(0.158, 0.195, structure=structure))
+    assert "further off" in tested and "--servo auto" not in tested
+    assert "further off" not in format_calibration(report(0.158, 0.03))
+    assert "further off" not in format_calibration(report(None, 0.03))
+
+
 def test_weak_directions_name_the_combination_the_data_cannot_see():
     """Bullet multiplies foot and ground friction, so residuals see only their product: two
     equal Jacobian columns. The one weak direction is their difference, with no bound; a
