@@ -169,7 +169,7 @@ def choose_route(o: DiagnoseOptions, info: Mapping[str, Any]
             robot, whose = "nominal", "the nominal robot (the dataset names no known robot)"
         why = f"re-simulation with {whose}" + (
             f", its own errors cancelled against the reference {o.reference}"
-            if o.reference is not None else " (given)")
+            if o.reference is not None else " (given)" + _no_reference_words(o.twin))
         return route, robot, why
     if isinstance(o.route, AutoRoute):
         route = o.route.resolve(named)
@@ -182,6 +182,23 @@ def choose_route(o: DiagnoseOptions, info: Mapping[str, Any]
         robot = named if named in ROBOT_NAMES else "measured"
         return o.route, robot, f"asked for (--physics on), re-simulation with '{robot}'"
     return o.route, None, "asked for (--physics off): the learned model's own residual"
+
+
+def _no_reference_words(twin: Any) -> str:
+    """What a twin without a reference cannot tell: its own errors from the data's effects;
+    the recording a calibrated twin file was fitted on is named as the reference to give."""
+    from ..robot.config import RobotConfig
+    text = ("; with no reference, what the twin gets wrong is found as an effect of the data "
+            "(--reference RECORDING cancels it")
+    if twin is not None and not isinstance(twin, RobotConfig) and str(twin).endswith(".json"):
+        try:
+            from ..robot.twin import load_twin
+            data = (load_twin(twin).provenance.get("calibrated_from") or {}).get("data")
+        except (OSError, ValueError):
+            data = None
+        if data:
+            return text + f"; this twin was calibrated on {data})"
+    return text + ")"
 
 
 def _twin_words(twin: Any) -> str:

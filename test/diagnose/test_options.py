@@ -54,6 +54,16 @@ def test_twin_and_reference_take_the_physical_route_and_say_why(tmp_path):
     assert isinstance(route, PhysicalRoute) and robot == "measured"
     route, robot, why = choose_route(DiagnoseOptions(twin="nominal"), imported)
     assert isinstance(route, PhysicalRoute) and robot == "nominal" and "twin 'nominal'" in why
+    assert "with no reference, what the twin gets wrong is found as an effect" in why
+    # a calibrated twin file names the recording it was fitted on as the reference to give
+    from littledog_mlsim.robot.config import robot_config
+    from littledog_mlsim.robot.twin import Twin, save_twin
+    twin = save_twin(Twin(robot_config("nominal"), {"calibrated_from": {"data": "/data/ref"}}),
+                     tmp_path / "twin.json")
+    route, robot, why = choose_route(DiagnoseOptions(twin=twin), imported)
+    assert "this twin was calibrated on /data/ref" in why
+    route, robot, why = choose_route(DiagnoseOptions(twin=twin, reference=tmp_path), imported)
+    assert "with no reference" not in why and "cancelled against the reference" in why
     route, robot, why = choose_route(DiagnoseOptions(reference=tmp_path), imported)
     assert isinstance(route, PhysicalRoute) and robot == "nominal"
     assert "names no known robot" in why and str(tmp_path) in why
