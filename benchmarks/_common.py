@@ -212,3 +212,74 @@ def save_study(doc: dict, out: Path, write_md) -> None:
     import json
     out.with_suffix(".json").write_text(json.dumps(doc, indent=1))
     write_md(doc, out.with_suffix(".md"))
+
+
+def per_bag_modes(doc: dict, times: dict, n: int, title: str, repeats: int) -> list:
+    """Store in ``doc["modes"]`` each mode's median milliseconds per bag (wall and CPU) over the
+    repeats and its wall-time speed-up over the first mode (``times``: mode -> {"wall": [s],
+    "cpu": [s]}, in order), and return the Markdown result's lines up to its table's rows
+    (``bag_read``, ``bag_write``)."""
+    import statistics
+    first = next(iter(times.values()))
+    base = statistics.median(first["wall"])
+    doc["modes"] = {m: {"wall_ms_per_bag": 1e3 * statistics.median(t["wall"]) / n,
+                        "cpu_ms_per_bag": 1e3 * statistics.median(t["cpu"]) / n,
+                        "speed_up": base / statistics.median(t["wall"]),
+                        "wall_s": t["wall"], "cpu_s": t["cpu"]} for m, t in times.items()}
+    lines = [f"# {title}", "",
+             command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; "
+             f"{n} bags; {repeats} repeats, medians", "",
+             f"Load before: `{doc['load_before']}`  ", f"after: `{doc['load_after']}`", "",
+             "| mode | wall [ms per bag] | CPU [ms per bag] | speed-up (wall) |",
+             "|---|---|---|---|"]
+    for m, r in doc["modes"].items():
+        lines.append(f"| {m} | {r['wall_ms_per_bag']:.1f} | {r['cpu_ms_per_bag']:.1f} | "
+                     f"{r['speed_up']:.2f}x |")
+    return lines
+
+
+def timed_modes(modes: tuple, repeats: int, run, same, name: str) -> dict:
+    """Run ``run(mode)`` -> (wall s, CPU s, result) for every mode, ``repeats`` times, the order
+    rotating by one mode each repeat; every result must satisfy ``same(first result, result)``
+    (else exit naming the mode). Returns mode -> {"wall": [s], "cpu": [s]}, in ``modes``'
+    order (``bag_read``, ``bag_write``)."""
+    import sys
+    ref = None
+    times: dict[str, dict[str, list]] = {m: {"wall": [], "cpu": []} for m in modes}
+    for r in range(repeats):
+        for mode in modes[r % len(modes):] + modes[:r % len(modes)]:
+            wall, cpu, result = run(mode)
+            if ref is None:
+                ref = result
+            elif not same(ref, result):
+                sys.exit(f"{name}: {mode} gave another result than the first mode")
+            times[mode]["wall"].append(wall)
+            times[mode]["cpu"].append(cpu)
+    return times
+
+
+def bag_benchmark_args(description: str, argv) -> "argparse.Namespace":
+    """``--data``, ``--moves-per-type``, ``--repeats`` and ``--out`` of the bag benchmarks
+    (``bag_read``, ``bag_write``)."""
+    import argparse
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--data", type=Path, default=None)
+    ap.add_argument("--moves-per-type", type=int, default=2)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--out", type=Path, default=None)
+    return ap.parse_args(argv)
+
+
+def bags_to_time(data: Path | None, moves_per_type: int, tmp: str, name: str) -> list:
+    """Every bag directory under ``data`` (any depth), sorted; without ``data``,
+    ``moves_per_type`` moves of every type recorded (``record``, seed 0) into ``tmp`` first.
+    Exits naming the benchmark where there is none."""
+    import sys
+    if data is None:
+        from littledog_mlsim.apps.record import record_dataset
+        data = Path(tmp) / "data"
+        record_dataset(data, moves_per_type=moves_per_type, seed=0, jobs=1, progress=False)
+    bags = sorted(p.parent for p in data.rglob("metadata.yaml"))
+    if not bags:
+        sys.exit(f"{name}: no bags under {data}")
+    return bags

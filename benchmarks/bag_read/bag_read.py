@@ -23,8 +23,6 @@ process's CPU), and the ratio to the first mode.
 """
 from __future__ import annotations
 
-import argparse
-import statistics
 import sys
 import tempfile
 import time
@@ -32,16 +30,13 @@ from pathlib import Path
 
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from _common import command_line, run_record, uptime, write_results  # noqa: E402
+from _common import (bag_benchmark_args, bags_to_time, per_bag_modes,  # noqa: E402
+                     run_record, timed_modes, uptime, write_results)
 
 FIELDS = ("stamps_ns", "cmd", "q", "dq", "position", "orientation", "linear_velocity",
           "angular_velocity")
 MODES = ("per message, Python YAML", "per message, C YAML", "arrays, Python YAML",
          "arrays, C YAML")
-
-
-def _bags(data: Path) -> list[Path]:
-    return sorted(p.parent for p in data.rglob("metadata.yaml"))
 
 
 def _read_all(bags, mode: str) -> tuple[float, float, list]:
@@ -71,58 +66,23 @@ def _same(a, b) -> bool:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=None)
-    ap.add_argument("--moves-per-type", type=int, default=2)
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--out", type=Path, default=None)
-    a = ap.parse_args(argv)
+    a = bag_benchmark_args(__doc__.splitlines()[0], argv)
     import ruamel.yaml.main as yaml_main
     if yaml_main.CParser is None:
         sys.exit("bag_read: ruamel.yaml.clib is not installed (make venv installs it)")
     doc = run_record("bag_read/bag_read.py", argv)
     with tempfile.TemporaryDirectory() as tmp:
-        data = a.data
-        if data is None:
-            from littledog_mlsim.apps.record import record_dataset
-            data = Path(tmp) / "data"
-            record_dataset(data, moves_per_type=a.moves_per_type, seed=0, jobs=1,
-                           progress=False)
-        bags = _bags(data)
-        if not bags:
-            sys.exit(f"bag_read: no bags under {data}")
+        bags = bags_to_time(a.data, a.moves_per_type, tmp, "bag_read")
         doc["bags"] = len(bags)
         doc["load_before"] = uptime()
         _read_all(bags[:2], MODES[-1])                    # imports, type store
-        ref = None
-        times: dict[str, dict[str, list]] = {m: {"wall": [], "cpu": []} for m in MODES}
-        for r in range(a.repeats):
-            for mode in MODES[r % len(MODES):] + MODES[:r % len(MODES)]:
-                wall, cpu, recs = _read_all(bags, mode)
-                if ref is None:
-                    ref = recs
-                elif not _same(ref, recs):
-                    sys.exit(f"bag_read: {mode} read another recording than the first mode")
-                times[mode]["wall"].append(wall)
-                times[mode]["cpu"].append(cpu)
+        times = timed_modes(MODES, a.repeats, lambda mode: _read_all(bags, mode), _same,
+                            "bag_read")
         doc["load_after"] = uptime()
-    n = len(bags)
-    base = statistics.median(times[MODES[0]]["wall"])
-    doc["modes"] = {m: {"wall_ms_per_bag": 1e3 * statistics.median(t["wall"]) / n,
-                        "cpu_ms_per_bag": 1e3 * statistics.median(t["cpu"]) / n,
-                        "speed_up": base / statistics.median(t["wall"]),
-                        "wall_s": t["wall"], "cpu_s": t["cpu"]} for m, t in times.items()}
-    lines = ["# Reading a dataset's bags (`read_bag`)", "",
-             command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; "
-             f"{n} bags; {a.repeats} repeats, medians", "",
-             f"Load before: `{doc['load_before']}`  ", f"after: `{doc['load_after']}`", "",
-             "| mode | wall [ms per bag] | CPU [ms per bag] | speed-up (wall) |",
-             "|---|---|---|---|"]
-    for m, r in doc["modes"].items():
-        lines.append(f"| {m} | {r['wall_ms_per_bag']:.1f} | {r['cpu_ms_per_bag']:.1f} | "
-                     f"{r['speed_up']:.2f}x |")
-    lines += ["", "Every mode read the same recordings as the first, bit for bit and in the same memory "
-              "layout."]
+    lines = per_bag_modes(doc, times, len(bags), "Reading a dataset's bags (`read_bag`)",
+                          a.repeats)
+    lines += ["", "Every mode read the same recordings as the first, bit for bit and in the same "
+              "memory layout."]
     write_results(a.out, doc, lines)
     return 0
 

@@ -22,22 +22,17 @@ process's CPU), and the ratio to the first mode.
 """
 from __future__ import annotations
 
-import argparse
 import shutil
-import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from _common import command_line, run_record, uptime, write_results  # noqa: E402
+from _common import (bag_benchmark_args, bags_to_time, per_bag_modes,  # noqa: E402
+                     run_record, timed_modes, uptime, write_results)
 
 MODES = ("per message", "one layout")
-
-
-def _bags(data: Path) -> list[Path]:
-    return sorted(p.parent for p in data.rglob("metadata.yaml"))
 
 
 def _stored(bag: Path) -> list:
@@ -66,58 +61,25 @@ def _write_all(recs, names, root: Path, mode: str) -> tuple[float, float, list[P
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=None)
-    ap.add_argument("--moves-per-type", type=int, default=2)
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--out", type=Path, default=None)
-    a = ap.parse_args(argv)
+    a = bag_benchmark_args(__doc__.splitlines()[0], argv)
     from littledog_mlsim.data.bags import read_bag
     doc = run_record("bag_write/bag_write.py", argv)
     with tempfile.TemporaryDirectory() as tmp:
-        data = a.data
-        if data is None:
-            from littledog_mlsim.apps.record import record_dataset
-            data = Path(tmp) / "data"
-            record_dataset(data, moves_per_type=a.moves_per_type, seed=0, jobs=1,
-                           progress=False)
-        bags = _bags(data)
-        if not bags:
-            sys.exit(f"bag_write: no bags under {data}")
+        bags = bags_to_time(a.data, a.moves_per_type, tmp, "bag_write")
         recs = [read_bag(b) for b in bags]
         names = [f"{i:04d}_{b.name}" for i, b in enumerate(bags)]   # unique under any DATA
         doc["bags"] = len(bags)
         work = Path(tmp) / "written"
         _write_all(recs[:2], names[:2], work, MODES[-1])     # imports, type store
         doc["load_before"] = uptime()
-        ref = None
-        times: dict[str, dict[str, list]] = {m: {"wall": [], "cpu": []} for m in MODES}
-        for r in range(a.repeats):
-            for mode in (MODES if r % 2 == 0 else MODES[::-1]):
-                wall, cpu, paths = _write_all(recs, names, work, mode)
-                stored = [_stored(p) for p in paths]
-                if ref is None:
-                    ref = stored
-                elif stored != ref:
-                    sys.exit(f"bag_write: {mode} stored other messages than the first mode")
-                times[mode]["wall"].append(wall)
-                times[mode]["cpu"].append(cpu)
+
+        def run(mode: str):
+            wall, cpu, paths = _write_all(recs, names, work, mode)
+            return wall, cpu, [_stored(p) for p in paths]
+        times = timed_modes(MODES, a.repeats, run, lambda x, y: x == y, "bag_write")
         doc["load_after"] = uptime()
-    n = len(bags)
-    base = statistics.median(times[MODES[0]]["wall"])
-    doc["modes"] = {m: {"wall_ms_per_bag": 1e3 * statistics.median(t["wall"]) / n,
-                        "cpu_ms_per_bag": 1e3 * statistics.median(t["cpu"]) / n,
-                        "speed_up": base / statistics.median(t["wall"]),
-                        "wall_s": t["wall"], "cpu_s": t["cpu"]} for m, t in times.items()}
-    lines = ["# Writing a dataset's bags (`write_bag`)", "",
-             command_line(doc) + "  ", f"Code: {doc['git']}; date {doc['date']}; "
-             f"{n} bags; {a.repeats} repeats, medians", "",
-             f"Load before: `{doc['load_before']}`  ", f"after: `{doc['load_after']}`", "",
-             "| mode | wall [ms per bag] | CPU [ms per bag] | speed-up (wall) |",
-             "|---|---|---|---|"]
-    for m, r in doc["modes"].items():
-        lines.append(f"| {m} | {r['wall_ms_per_bag']:.1f} | {r['cpu_ms_per_bag']:.1f} | "
-                     f"{r['speed_up']:.2f}x |")
+    lines = per_bag_modes(doc, times, len(bags), "Writing a dataset's bags (`write_bag`)",
+                          a.repeats)
     lines += ["", "Every bag written in either mode stored the same messages (topics, bag times "
               "and CDR bytes, in order) as in the first mode."]
     write_results(a.out, doc, lines)
