@@ -193,10 +193,11 @@ def _no_reference_words(twin: Any) -> str:
     if twin is not None and not isinstance(twin, RobotConfig) and str(twin).endswith(".json"):
         try:
             from ..robot.twin import load_twin
-            data = (load_twin(twin).provenance.get("calibrated_from") or {}).get("data")
+            source = load_twin(twin).provenance.get("calibrated_from")
         except (OSError, ValueError):
-            data = None
-        if data:
+            source = None
+        data = source.get("data") if isinstance(source, Mapping) else None
+        if isinstance(data, str) and data:
             return text + f"; this twin was calibrated on {data})"
     return text + ")"
 

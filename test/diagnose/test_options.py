@@ -62,6 +62,10 @@ def test_twin_and_reference_take_the_physical_route_and_say_why(tmp_path):
                      tmp_path / "twin.json")
     route, robot, why = choose_route(DiagnoseOptions(twin=twin), imported)
     assert "this twin was calibrated on /data/ref" in why
+    odd = save_twin(Twin(robot_config("nominal"), {"calibrated_from": "by hand"}),
+                    tmp_path / "odd.json")               # a provenance edited by hand
+    route, robot, why = choose_route(DiagnoseOptions(twin=odd), imported)
+    assert "with no reference" in why and "calibrated on" not in why
     route, robot, why = choose_route(DiagnoseOptions(twin=twin, reference=tmp_path), imported)
     assert "with no reference" not in why and "cancelled against the reference" in why
     route, robot, why = choose_route(DiagnoseOptions(reference=tmp_path), imported)
