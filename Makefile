@@ -1,6 +1,6 @@
 # littledog_mlsim — one-command set-up and jobs. Every target creates .venv from the pinned
 # requirements first if it is missing (or if the pins changed). Packages are byte-compiled as
-# pip installs them: where PYTHONDONTWRITEBYTECODE is set, Python never writes what it compiles
+# they are installed: where PYTHONDONTWRITEBYTECODE is set, Python never writes what it compiles
 # on import, so every process would compile them again (benchmarks/ci_time/).
 PYTHON ?= python3
 VENV := .venv
@@ -20,9 +20,14 @@ export MKL_NUM_THREADS := 1
 
 venv: $(STAMP)
 
+# The pins are installed by uv (pinned in constraints.txt), byte-compiled as pip would: a third of
+# pip's time from an empty cache (benchmarks/ci_time/install_uv.txt). Where uv cannot be had or
+# fails, pip installs them instead.
 $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
+	($(PY) -m pip install --quiet uv -c constraints.txt \
+		&& $(VENV)/bin/uv pip install --quiet --python $(PY) --compile-bytecode -r requirements.txt -c constraints.txt) \
+		|| (echo "uv failed: installing the pins with pip" && $(PY) -m pip install --quiet -r requirements.txt -c constraints.txt)
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	# setup.cfg puts console scripts in lib/littledog_mlsim (where `ros2 run` looks); link them into bin
 	for f in $(VENV)/lib/littledog_mlsim/*; do ln -sf ../lib/littledog_mlsim/$$(basename $$f) $(VENV)/bin/; done

@@ -866,6 +866,51 @@ def test_segments_mode_equals_the_full_runs_segments():
     np.testing.assert_array_equal(segs["seg_idx"], full["seg_idx"])
 
 
+def test_memo_runs_each_task_once_and_serves_repeats_from_memory():
+    """``Memo`` sends each distinct task to the transducer once, keyed by its exact parameters
+    (an int and a float of one value, 0.0 and -0.0, stay apart), serves repeats read-only, and
+    runs an evicted task again."""
+    from littledog_mlsim.diagnose.physical import Memo
+
+    class Counting:
+        config = "stand-in"
+
+        def __init__(self):
+            self.n_sims, self.seen, self.closed = 0, [], False
+
+        def map(self, tasks):
+            self.n_sims += len(tasks)
+            self.seen += tasks
+            return [{"segs": np.full((4, 100, 18), float(i) + sum(
+                        float(np.sum(par["v"])) for _, _, par in h)), "seg_idx": np.arange(4)}
+                    for i, h, _ in tasks]
+
+        def close(self):
+            self.closed = True
+
+    inner = Counting()
+    memo = Memo(inner)
+    h = [("f", "all", {"v": 1.5})]
+    a = memo.map([(0, h, "segs"), (1, h, "segs"), (0, h, "segs")])
+    assert inner.n_sims == memo.n_sims == 2 and memo.n_served == 1 and memo.config == "stand-in"
+    assert a[0] is a[2] and a[0]["segs"][0, 0, 0] == 1.5 and a[1]["segs"][0, 0, 0] == 2.5
+    with pytest.raises(ValueError):
+        a[0]["segs"][0, 0, 0] = 0.0
+    b = memo.map([(1, [("f", "all", {"v": 1.5})], "segs"), (1, h, "full")])
+    assert b[0] is a[1] and inner.n_sims == 3 and inner.seen[-1][2] == "full"
+    for twin in ({"v": 1}, {"v": 1.0}, {"v": 0.0}, {"v": -0.0}, {"v": np.array([0.0, 1.0])},
+                 {"v": [0.0, 1.0]}):
+        memo.map([(5, [("f", "all", twin)], "segs")])
+    # 1 and 1.0, 0.0 and -0.0 are apart; an array and a list of the same floats are one task
+    assert inner.n_sims == 3 + 5
+    small = Memo(Counting(), max_bytes=2 * 4 * 100 * 18 * 8 + 200)
+    small.map([(0, h, "segs")]); small.map([(1, h, "segs")]); small.map([(2, h, "segs")])
+    small.map([(2, h, "segs")]); small.map([(0, h, "segs")])   # 2 kept, 0 evicted
+    assert small.n_sims == 4 and small.n_served == 1
+    memo.close()
+    assert inner.closed
+
+
 def test_threshold_family_is_screened_at_its_deep_probe_too():
     """A torque limit does nothing until it is low: a stand-in robot whose hip rolls change
     the outputs only below 30 % of their limit. The screen's first probe (50 %) sees nothing;

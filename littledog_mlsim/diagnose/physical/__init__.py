@@ -63,12 +63,12 @@ from .driver import PhysicalOptions, identify, pick_moves
 from .fit import (fit, fit_magnitude, refine_direction, refine_position, refine_wide,
                   scope_variants, start_side, wide_magnitude)
 from .records import Candidate, Finding, HeldOutDecision, Hypothesis, PhysIdResult
-from .resim import Move, Runner, Transducer, build_effects, simulate, true_start
+from .resim import Memo, Move, Runner, Transducer, build_effects, simulate, true_start
 from .screen import screen, shortlist
 from .validate import push_twin, validate
 
 __all__ = ["identify", "PhysicalOptions", "PhysIdResult", "Finding", "Candidate", "Hypothesis",
-           "SearchContext", "Objective", "Transducer", "Runner", "Move", "simulate",
+           "SearchContext", "Objective", "Transducer", "Runner", "Memo", "Move", "simulate",
            "true_start", "build_effects", "screen", "shortlist", "fit", "fit_magnitude",
            "refine_direction", "refine_position", "refine_wide", "wide_magnitude",
            "start_side", "scope_variants", "validate", "push_twin", "physical_params",

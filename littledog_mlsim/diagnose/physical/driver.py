@@ -21,7 +21,7 @@ from .channels import (DEFAULT_HORIZONS_S, MIN_STEPS, errors, horizon_errors, me
 from .context import SearchContext
 from .fit import fit, scope_variants, segments_only, wide_magnitude
 from .records import Candidate, Finding, HeldOutDecision, PhysIdResult
-from .resim import DaskRunner, Move, Runner
+from .resim import DaskRunner, Memo, Move, Runner
 from .screen import screen, shortlist
 from .validate import push_twin, validate
 
@@ -142,7 +142,8 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
     moves = [Move(r.name, r.move_type, np.asarray(r.cmd, dtype=np.float64),
                   {k: InitialState.at(r, k, o.initial_state) for k in seg_starts(r.n_steps)},
                   seg_starts(r.n_steps)) for r in sp.recs]
-    runner = DaskRunner(cfg, moves, o.scheduler) if o.scheduler else Runner(cfg, moves, o.jobs)
+    runner = Memo(DaskRunner(cfg, moves, o.scheduler) if o.scheduler
+                  else Runner(cfg, moves, o.jobs))
     robot_mass = get_sim(cfg).total_mass()
     try:
         ctx = _rebase(SearchContext(runner, (), [], [measured(r) for r in sp.recs]), ())

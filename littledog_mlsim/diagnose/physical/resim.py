@@ -5,12 +5,16 @@ tuples (picklable for the worker processes); :class:`Runner` maps tasks to simul
 (:func:`simulate`), in worker processes if ``jobs > 1``; :class:`DaskRunner` maps them on the
 workers of a Dask cluster (``diagnose --scheduler``), with the same outputs: a re-simulation is
 deterministic (seed 0), wherever it runs. Anything with the same ``map`` (and ``config``) can
-stand in for either (:class:`Transducer`).
+stand in for either (:class:`Transducer`). :class:`Memo` wraps a transducer and serves a task it
+has run before from memory: the search asks again for runs it has made (a held-out decision's
+full runs of the finding are the next base's), and a re-simulation is a pure function of its
+task, so the answer is the same.
 """
 from __future__ import annotations
 
 import multiprocessing as mp
 import threading
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 from typing import Any, Mapping, Protocol, Sequence
 
@@ -19,8 +23,8 @@ import numpy as np
 from ..families import FAMILIES
 from .channels import SCREEN_SEGMENTS, SEG_LEN, SEG_STARTS, rpy
 
-__all__ = ["Move", "Task", "Transducer", "Runner", "DaskRunner", "simulate", "init_worker", "true_start",
-           "build_effects"]
+__all__ = ["Move", "Task", "Transducer", "Runner", "DaskRunner", "Memo", "task_key", "simulate",
+           "init_worker", "true_start", "build_effects"]
 
 Task = tuple[int, list[tuple[str, str, dict]], str]
 
@@ -179,3 +183,83 @@ class DaskRunner:
         if self.client is not None:
             self.client.close()
             self.client = None
+
+
+def _frozen(v: Any) -> Any:
+    """A hashable, exact stand-in for a hypothesis parameter: numbers keep their type (an int
+    and a float of one value stay apart), sequences and arrays become tuples."""
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, Mapping):
+        return ("map",) + tuple(sorted((str(k), _frozen(x)) for k, x in v.items()))
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return ("seq",) + tuple(_frozen(x) for x in (v.tolist() if isinstance(v, np.ndarray) else v))
+    if isinstance(v, (bool, int, float, str)) or v is None:
+        return (type(v).__name__, v)
+    raise TypeError(f"a hypothesis parameter of type {type(v).__name__} cannot be a task key")
+
+
+def task_key(task: Task) -> tuple:
+    """The task's identity: move index, mode and each hypothesis's (family, scope, params)
+    exactly (a float parameter by its value, bit for bit, so 0.0 and -0.0 differ)."""
+    i, hyps, mode = task
+    return (int(i), str(mode), tuple((str(f), str(sc), _frozen(par)) for f, sc, par in hyps),
+            tuple(np.signbit(float(x)) for _, _, par in hyps for x in _floats(par)))
+
+
+def _floats(v: Any) -> list[float]:
+    if isinstance(v, Mapping):
+        return [x for k in sorted(v, key=str) for x in _floats(v[k])]
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [x for e in (v.tolist() if isinstance(v, np.ndarray) else v) for x in _floats(e)]
+    return [float(v)] if isinstance(v, (float, np.floating)) else []
+
+
+class Memo:
+    """A transducer that runs each distinct task once (:func:`task_key`) and serves repeats from
+    memory, least recently used first out past ``max_bytes``. ``n_sims`` counts the
+    re-simulations the wrapped transducer ran; ``n_served`` the tasks answered from memory.
+    Outputs are read-only arrays, shared by every caller that asks for the same task."""
+
+    def __init__(self, inner: Any, max_bytes: int = 256 << 20) -> None:
+        self.inner = inner
+        self.config = getattr(inner, "config", None)
+        self.max_bytes = int(max_bytes)
+        self.n_served = 0
+        self._store: OrderedDict[tuple, dict[str, np.ndarray]] = OrderedDict()
+        self._bytes = 0
+
+    @property
+    def n_sims(self) -> int:
+        return self.inner.n_sims
+
+    def map(self, tasks: list[Task]) -> list[dict[str, np.ndarray]]:
+        keys = [task_key(t) for t in tasks]
+        todo: dict[tuple, Task] = {}
+        for k, t in zip(keys, tasks):
+            if k not in self._store and k not in todo:
+                todo[k] = t
+        fresh = dict(zip(todo, self.inner.map(list(todo.values())))) if todo else {}
+        self.n_served += len(tasks) - len(todo)
+        out = []
+        for k in keys:
+            if k in fresh:
+                r = fresh[k]
+            else:
+                r = self._store[k]
+                self._store.move_to_end(k)
+            out.append(r)
+        for k, r in fresh.items():
+            for a in r.values():
+                a.setflags(write=False)
+            self._store[k] = r
+            self._bytes += sum(a.nbytes for a in r.values())
+        while self._bytes > self.max_bytes and self._store:
+            _, old = self._store.popitem(last=False)
+            self._bytes -= sum(a.nbytes for a in old.values())
+        return out
+
+    def close(self) -> None:
+        self._store.clear()
+        self._bytes = 0
+        self.inner.close()
