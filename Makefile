@@ -20,14 +20,17 @@ export MKL_NUM_THREADS := 1
 
 venv: $(STAMP)
 
-# The pins are installed by uv (pinned in constraints.txt), byte-compiled as pip would: a third of
-# pip's time from an empty cache (benchmarks/ci_time/install_uv.txt). Where uv cannot be had or
-# fails, pip installs them instead.
+# The pins are installed by uv (pinned in constraints.txt), byte-compiled as pip would, in about
+# 40 % of pip's time from an empty cache (benchmarks/ci_time/install_uv.txt). Where uv cannot be
+# had or fails, pip installs them instead. uv reads its own settings (UV_INDEX_URL, ...), not
+# pip's: with a pip index or no index set (PIP_INDEX_URL, PIP_NO_INDEX), or `make USE_UV=0`, pip
+# installs them.
+USE_UV ?= $(if $(PIP_INDEX_URL)$(PIP_NO_INDEX),0,1)
 $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	($(PY) -m pip install --quiet uv -c constraints.txt \
+	([ "$(USE_UV)" = 1 ] && $(PY) -m pip install --quiet uv -c constraints.txt \
 		&& $(VENV)/bin/uv pip install --quiet --python $(PY) --compile-bytecode -r requirements.txt -c constraints.txt) \
-		|| (echo "uv failed: installing the pins with pip" && $(PY) -m pip install --quiet -r requirements.txt -c constraints.txt)
+		|| (echo "installing the pins with pip" && $(PY) -m pip install --quiet -r requirements.txt -c constraints.txt)
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	# setup.cfg puts console scripts in lib/littledog_mlsim (where `ros2 run` looks); link them into bin
 	for f in $(VENV)/lib/littledog_mlsim/*; do ln -sf ../lib/littledog_mlsim/$$(basename $$f) $(VENV)/bin/; done

@@ -898,17 +898,26 @@ def test_memo_runs_each_task_once_and_serves_repeats_from_memory():
         a[0]["segs"][0, 0, 0] = 0.0
     b = memo.map([(1, [("f", "all", {"v": 1.5})], "segs"), (1, h, "full")])
     assert b[0] is a[1] and inner.n_sims == 3 and inner.seen[-1][2] == "full"
-    for twin in ({"v": 1}, {"v": 1.0}, {"v": 0.0}, {"v": -0.0}, {"v": np.array([0.0, 1.0])},
-                 {"v": [0.0, 1.0]}):
+    assert memo.n_served == 2
+    # each new key runs once: 1 and 1.0 apart, 0.0 and -0.0 apart, a float32 apart from the
+    # float of its value; an array and a list of the same floats are one task
+    for twin, runs in (({"v": 1}, 1), ({"v": 1.0}, 1), ({"v": 0.0}, 1), ({"v": -0.0}, 1),
+                       ({"v": np.float32(1.0)}, 1), ({"v": np.array([0.0, 1.0])}, 1),
+                       ({"v": [0.0, 1.0]}, 0), ({"v": np.array(-0.0)}, 0)):
+        n = inner.n_sims
         memo.map([(5, [("f", "all", twin)], "segs")])
-    # 1 and 1.0, 0.0 and -0.0 are apart; an array and a list of the same floats are one task
-    assert inner.n_sims == 3 + 5
-    small = Memo(Counting(), max_bytes=2 * 4 * 100 * 18 * 8 + 200)
-    small.map([(0, h, "segs")]); small.map([(1, h, "segs")]); small.map([(2, h, "segs")])
-    small.map([(2, h, "segs")]); small.map([(0, h, "segs")])   # 2 kept, 0 evicted
-    assert small.n_sims == 4 and small.n_served == 1
+        assert inner.n_sims - n == runs, twin
+    # least recently used out: 0, 1, 0 (served), 2 evicts 1, not 0
+    small = Memo(Counting(), max_bytes=2 * (4 * 100 * 18 * 8 + 4 * 8))
+    for i in (0, 1, 0, 2):
+        small.map([(i, h, "segs")])
+    assert small.n_sims == 3 and small.n_served == 1
+    small.map([(0, h, "segs")])
+    assert small.n_sims == 3 and small.n_served == 2
+    small.map([(1, h, "segs")])
+    assert small.n_sims == 4
     memo.close()
-    assert inner.closed
+    assert inner.closed and memo.map([(0, h, "segs")])[0] is not a[0]
 
 
 def test_threshold_family_is_screened_at_its_deep_probe_too():

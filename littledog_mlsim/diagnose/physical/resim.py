@@ -187,9 +187,16 @@ class DaskRunner:
 
 def _frozen(v: Any) -> Any:
     """A hashable, exact stand-in for a hypothesis parameter: numbers keep their type (an int
-    and a float of one value stay apart), sequences and arrays become tuples."""
-    if isinstance(v, np.generic):
-        v = v.item()
+    and a float of one value stay apart), lists, tuples and arrays become one kind of tuple (the
+    families build the same effects from any of them)."""
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        v = v[()]
+    if isinstance(v, np.generic) and not isinstance(v, float):
+        return (type(v).__name__, v.item())   # a float32 is not the float of its value
+    if isinstance(v, float):   # numpy's float64 is a float, with the same arithmetic
+        return ("float", float(v))
+    if isinstance(v, np.ndarray) and v.dtype != np.float64:
+        return ("array", str(v.dtype), v.shape) + tuple(_frozen(x) for x in v.ravel())
     if isinstance(v, Mapping):
         return ("map",) + tuple(sorted((str(k), _frozen(x)) for k, x in v.items()))
     if isinstance(v, (list, tuple, np.ndarray)):
@@ -208,6 +215,8 @@ def task_key(task: Task) -> tuple:
 
 
 def _floats(v: Any) -> list[float]:
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        v = v[()]
     if isinstance(v, Mapping):
         return [x for k in sorted(v, key=str) for x in _floats(v[k])]
     if isinstance(v, (list, tuple, np.ndarray)):
@@ -216,10 +225,11 @@ def _floats(v: Any) -> list[float]:
 
 
 class Memo:
-    """A transducer that runs each distinct task once (:func:`task_key`) and serves repeats from
-    memory, least recently used first out past ``max_bytes``. ``n_sims`` counts the
-    re-simulations the wrapped transducer ran; ``n_served`` the tasks answered from memory.
-    Outputs are read-only arrays, shared by every caller that asks for the same task."""
+    """A transducer that runs each distinct task once (:func:`task_key`) and serves repeats
+    from memory, least recently used first out past ``max_bytes`` (default 256 MiB).
+    ``n_sims`` counts the re-simulations the wrapped transducer ran; ``n_served`` the tasks
+    answered from memory. Outputs are read-only arrays, shared by every caller that asks for
+    the same task."""
 
     def __init__(self, inner: Any, max_bytes: int = 256 << 20) -> None:
         self.inner = inner
@@ -239,7 +249,7 @@ class Memo:
         for k, t in zip(keys, tasks):
             if k not in self._store and k not in todo:
                 todo[k] = t
-        fresh = dict(zip(todo, self.inner.map(list(todo.values())))) if todo else {}
+        fresh = dict(zip(todo, self.inner.map(list(todo.values())), strict=True)) if todo else {}
         self.n_served += len(tasks) - len(todo)
         out = []
         for k in keys:
