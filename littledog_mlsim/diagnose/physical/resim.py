@@ -12,6 +12,7 @@ task, so the answer is the same.
 """
 from __future__ import annotations
 
+import math
 import multiprocessing as mp
 import threading
 from collections import OrderedDict
@@ -187,41 +188,32 @@ class DaskRunner:
 
 def _frozen(v: Any) -> Any:
     """A hashable, exact stand-in for a hypothesis parameter: numbers keep their type (an int
-    and a float of one value stay apart), lists, tuples and arrays become one kind of tuple (the
-    families build the same effects from any of them)."""
+    and a float of one value stay apart; numpy's float64 is a float, with the same arithmetic, a
+    float32 is not), a float its sign too (0.0 and -0.0 stay apart), lists, tuples and arrays
+    become one kind of tuple (the families build the same effects from any of them)."""
     if isinstance(v, np.ndarray) and v.ndim == 0:
         v = v[()]
-    if isinstance(v, np.generic) and not isinstance(v, float):
-        return (type(v).__name__, v.item())   # a float32 is not the float of its value
-    if isinstance(v, float):   # numpy's float64 is a float, with the same arithmetic
-        return ("float", float(v))
+    if isinstance(v, (float, np.floating)):
+        x = float(v)
+        return ("float" if isinstance(v, float) else type(v).__name__, x, math.copysign(1.0, x))
+    if isinstance(v, np.generic):
+        return (type(v).__name__, v.item())
     if isinstance(v, np.ndarray) and v.dtype != np.float64:
         return ("array", str(v.dtype), v.shape) + tuple(_frozen(x) for x in v.ravel())
     if isinstance(v, Mapping):
         return ("map",) + tuple(sorted((str(k), _frozen(x)) for k, x in v.items()))
     if isinstance(v, (list, tuple, np.ndarray)):
-        return ("seq",) + tuple(_frozen(x) for x in (v.tolist() if isinstance(v, np.ndarray) else v))
-    if isinstance(v, (bool, int, float, str)) or v is None:
+        return ("seq",) + tuple(_frozen(x) for x in v)
+    if isinstance(v, (bool, int, str)) or v is None:
         return (type(v).__name__, v)
     raise TypeError(f"a hypothesis parameter of type {type(v).__name__} cannot be a task key")
 
 
 def task_key(task: Task) -> tuple:
     """The task's identity: move index, mode and each hypothesis's (family, scope, params)
-    exactly (a float parameter by its value, bit for bit, so 0.0 and -0.0 differ)."""
+    exactly (:func:`_frozen`)."""
     i, hyps, mode = task
-    return (int(i), str(mode), tuple((str(f), str(sc), _frozen(par)) for f, sc, par in hyps),
-            tuple(np.signbit(float(x)) for _, _, par in hyps for x in _floats(par)))
-
-
-def _floats(v: Any) -> list[float]:
-    if isinstance(v, np.ndarray) and v.ndim == 0:
-        v = v[()]
-    if isinstance(v, Mapping):
-        return [x for k in sorted(v, key=str) for x in _floats(v[k])]
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [x for e in (v.tolist() if isinstance(v, np.ndarray) else v) for x in _floats(e)]
-    return [float(v)] if isinstance(v, (float, np.floating)) else []
+    return (int(i), str(mode), tuple((str(f), str(sc), _frozen(par)) for f, sc, par in hyps))
 
 
 class Memo:
