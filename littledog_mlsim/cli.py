@@ -343,7 +343,7 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  max_evals=a.max_evals, jobs=a.jobs, name=a.name,
                                  scheduler=a.scheduler, servo=a.servo,
                                  test_missing=not a.no_missing_test,
-                                 initial_state=a.initial_state)
+                                 initial_state=a.initial_state, add_asked=a.add_asked)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -369,6 +369,10 @@ def format_calibration(report: dict) -> str:
     if not report["weak_directions"]:
         lines.append("every parameter direction identified (95 % half-width <= "
                      f"{report['settings']['weak_halfwidth']:g})")
+    for k, rnd in enumerate(report.get("added") or [], 1):
+        lines.append(f"round {k}: added {', '.join(rnd['added'])} to the fit; " + (
+            f"the refit failed: {rnd['error']}" if "error" in rnd else
+            f"k-step cost {num(rnd['k_step_cost_before'])} -> {num(rnd['k_step_cost_after'])}"))
     for m in report.get("missing") or []:
         if "error" in m:
             lines.append(f"the test of the parameters not fitted failed: {m['error']}")
@@ -760,6 +764,10 @@ def build_parser() -> argparse.ArgumentParser:
     cb.add_argument("--no-missing-test", action="store_true",
                     help="skip the score test of the parameters not fitted (one re-simulation "
                          "each) that names what else the residual asks for")
+    cb.add_argument("--add-asked", type=int, default=0, metavar="N",
+                    help="after the fit, up to N times: add the parameters the score test asks "
+                         "for and fit all again from the optimum (default 0; each round costs "
+                         "up to --max-evals more re-simulations)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "

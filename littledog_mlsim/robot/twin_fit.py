@@ -77,6 +77,16 @@ Method
    first stage's objective with the starting robot's weights (the same residuals and the same
    weights for both, so their costs compare; the TestPool is not used to choose). The report's
    ``structure`` gives both fits.
+9. **Adding what the residual asks for** (``add_asked``, ``--add-asked N``). The fitted
+   parameters absorb what a parameter left out would explain (a short set-point delay shows
+   as stiffer gains), and a diagnosis against that twin then names the left-out parameter as
+   an effect of clean data. With ``add_asked`` N > 0, the fit (in the structure ``servo``
+   chooses) is followed by up to N rounds: the parameters the score test asks for are added
+   and all are fitted again from the optimum, each round with its own ``max_evals``, until the
+   test asks for nothing new. The report's ``added`` lists each round: what was added, the
+   fit before it (convergence, evaluations, estimates) and the k-step cost before and after
+   (the measure of 8, with the weights of the robot as given, so that rounds compare); the
+   estimates' ``start`` is then the previous round's optimum. A refit that fails keeps the fit before it, and says why.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -128,6 +138,7 @@ class CalibrationOptions:
     ask_share: float = 0.01                 # cost share a missing parameter must remove (doc, 7)
     test_missing: bool = True               # score-test the parameters not fitted (doc, 7)
     initial_state: str = "auto"             # auto | smoothed | measured starting states (doc, 1)
+    add_asked: int = 0                      # rounds adding what the residual asks for (doc, 9)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -147,6 +158,11 @@ class CalibrationOptions:
             raise ValueError(f"diff_step must be in [1e-4, 0.5], got {self.diff_step}")
         if self.jobs < 1:
             raise ValueError(f"jobs must be >= 1, got {self.jobs}")
+        if int(self.add_asked) != self.add_asked or not 0 <= self.add_asked <= 5:
+            raise ValueError(f"add_asked must be an integer in 0..5, got {self.add_asked!r}")
+        if self.add_asked and not self.test_missing:
+            raise ValueError("add_asked needs the score test of the parameters not fitted "
+                             "(test_missing)")
         if self.initial_state not in ("auto",) + _bl.INITIAL_STATES:
             raise ValueError("initial_state must be one of auto, "
                              f"{', '.join(_bl.INITIAL_STATES)}, got {self.initial_state!r}")
@@ -499,6 +515,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     options.check()
     say = progress or (lambda s: None)
     options = _resolve_initial_state(options, train_recs, say)
+    if options.add_asked:
+        return _calibrate_adding_asked(train_recs, test_recs, base, options, say, t0)
     if options.servo == "auto":
         if options.params:          # valid for both structures, or refused before any fit
             for servo in ("position", "pd_torque"):
@@ -614,6 +632,57 @@ def _calibrate_structures(train_recs: Sequence[MoveRecording],
         say(f"rolling out {len(test_recs)} TestPool moves before and after")
         start = replace(base, sensor_noise=False)
         report["rollout"] = _rollouts(test_recs, start, cal.config, options.jobs)
+    report["wall_s"] = round(time.perf_counter() - t0, 1)
+    return Calibration(cal.config, cal.estimates, cal.weak, report)
+
+
+def asked_for(report: dict[str, Any]) -> list[str]:
+    """The parameters a calibration's score test asks for (module doc, 7), most asked first."""
+    return [m["name"] for m in report.get("missing") or [] if m.get("asks")]
+
+
+def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
+                            test_recs: Sequence[MoveRecording], base: RobotConfig,
+                            options: CalibrationOptions, say: Callable[[str], None],
+                            t0: float) -> Calibration:
+    """``add_asked`` (module doc, 9): fit as asked, then, up to ``add_asked`` times, add the
+    parameters the score test asks for and fit all again from the optimum, in the structure
+    chosen; roll out the TestPool before (the robot as given) and after (the last fit) once."""
+    name = options.name or f"{base.name}-calibrated"
+    inner = replace(options, add_asked=0, name=name)
+    cal = calibrate_twin(train_recs, [], base, inner, say)
+    structure = cal.report.get("structure")        # servo="auto": the choice, made once
+    weights = cal.report["residual_rms"]["start"]  # one yardstick for every round
+    rounds = []
+    for _ in range(options.add_asked):
+        asked = [n for n in asked_for(cal.report) if n not in {e.name for e in cal.estimates}]
+        if not asked:
+            break
+        params = tuple(e.name for e in cal.estimates) + tuple(asked)
+        say(f"the residual asks for {', '.join(asked)}: fitting {len(params)} parameters "
+            "again from the optimum")
+        first = {"added": asked, "k_step_cost_before": _structure_cost(cal, weights),
+                 "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
+                 "wall_s": cal.report.get("wall_s"),
+                 "params": [_estimate_dict(e) for e in cal.estimates]}
+        try:
+            cal = calibrate_twin(train_recs, [], cal.config,
+                                 replace(inner, params=params, servo="keep"), say)
+        except ValueError as e:       # the first fit stands; say why the refit did not
+            first["error"] = f"{e}"
+            rounds.append(first)
+            say(f"the refit with {', '.join(asked)} failed ({e}); keeping the fit before it")
+            break
+        first["k_step_cost_after"] = _structure_cost(cal, weights)
+        rounds.append(first)
+    report = dict(cal.report)
+    report["added"] = rounds
+    if structure is not None:
+        report["structure"] = structure
+    if test_recs:
+        say(f"rolling out {len(test_recs)} TestPool moves before and after")
+        report["rollout"] = _rollouts(test_recs, replace(base, sensor_noise=False),
+                                      cal.config, options.jobs)
     report["wall_s"] = round(time.perf_counter() - t0, 1)
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 

@@ -305,6 +305,51 @@ def test_missing_parameters_reads_a_linear_residual():
         assert with_zero_column["foot_friction"][k] == pytest.approx(friction[k], rel=1e-9)
 
 
+def test_add_asked_refits_with_what_the_score_test_asks_for(monkeypatch):
+    """``add_asked`` (module doc, 9) on the linear stand-in: a fit of the body mass alone
+    leaves the foot friction's share in the residual; the score test asks for it, the refit
+    adds it, starts from the first optimum and recovers both; the round is reported; a second
+    round finds nothing new to add and stops; the CLI prints the round."""
+    import contextlib
+    import math
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_fit
+
+    pool = _LinearPool()
+    monkeypatch.setattr(twin_fit._bl, "move_pool",
+                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
+            for i in range(3)]
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0)
+    opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
+                                       initial_state="measured", add_asked=2)
+    said = []
+    cal = twin_fit.calibrate_twin(recs, [], base, opts, said.append)
+    got = {e.name: e for e in cal.estimates}
+    assert list(got) == ["body_mass", "foot_friction"]
+    assert got["foot_friction"].value == pytest.approx(0.5, abs=0.02)
+    assert got["body_mass"].value == pytest.approx(2.0, rel=0.02)
+    rounds = cal.report["added"]
+    assert len(rounds) == 1 and rounds[0]["added"] == ["foot_friction"], rounds
+    first_mass = rounds[0]["params"][0]["value"]
+    assert got["body_mass"].start == pytest.approx(first_mass)        # from the first optimum
+    assert rounds[0]["k_step_cost_after"] < 0.1 * rounds[0]["k_step_cost_before"], rounds
+    assert twin_fit.asked_for(cal.report) == []
+    assert cal.config.name == "nominal-calibrated" and cal.config.body_mass == got[
+        "body_mass"].value
+    assert any("asks for foot_friction" in s for s in said)
+    text = format_calibration({**cal.report, "params": [twin_fit._estimate_dict(e)
+                                                        for e in cal.estimates]})
+    assert "round 1: added foot_friction" in text
+    with pytest.raises(ValueError, match="add_asked needs the score test"):
+        twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, test_missing=False))
+    with pytest.raises(ValueError, match="add_asked must be an integer in 0..5"):
+        twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, add_asked=-1))
+    assert math.isfinite(cal.report["cost_end"])
+
+
 def test_move_clustered_sandwich_widens_when_a_move_repeats_its_error():
     """The per-move sandwich (module doc, 4): with every cluster one sampled state it is the
     per-state one; with an error that repeats along each move (a twin's systematic miss) it is
