@@ -52,8 +52,12 @@ live: $(STAMP)
 # The suite runs in TEST_WORKERS pytest-xdist worker processes (CI has 2 cores; 0: in this
 # process), a test module at a time per worker (`--dist loadfile`: a module's fixtures and its
 # leak check stay in one process).
+# The package's own modules are byte-compiled first: the suite starts many Python processes (CLI,
+# nodes, Dask workers), and where PYTHONDONTWRITEBYTECODE is set each would compile them again
+# (benchmarks/ci_time/pyc/).
 TEST_WORKERS ?= 2
 test: $(STAMP) $(CHROMIUM_STAMP)
+	$(PY) -m compileall -q littledog_mlsim > /dev/null
 	$(PY) -m pytest -q --durations=15 -n $(TEST_WORKERS) --dist loadfile test
 
 # Headless Chromium for the view's browser tests (test/viewer/test_viewer_browser.py), from Debian's
