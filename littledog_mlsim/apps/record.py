@@ -93,6 +93,8 @@ class StartSpread:
     Each move then starts from its own place and heading, so that where the robot is on the
     floor, and which way it faces, no longer follow from the move's type and elapsed time."""
 
+    changes_world = False     # it moves the robot only (LittleDogSim.reset)
+
     def __init__(self, half_span_m: float, seed: int) -> None:
         self.half_span_m = float(half_span_m)
         self.rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x5E7A]))

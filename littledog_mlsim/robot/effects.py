@@ -90,6 +90,8 @@ class CommandDelay:
     was standing still holding it).
     """
 
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+
     def __init__(self, steps: int, joints: str | list[str] | None = None) -> None:
         if int(steps) != steps or steps < 0:
             raise ValueError(f"CommandDelay: steps must be a non-negative integer, got {steps!r}")
@@ -119,6 +121,8 @@ class JointFriction:
         joints: joint names/groups (None = all).
         smoothing: velocity [rad/s] over which the Coulomb term goes smoothly through zero.
     """
+
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, coulomb: float | list[float] = 0.05, viscous: float | list[float] = 0.0,
                  joints: str | list[str] | None = None, smoothing: float = 0.05) -> None:
@@ -204,6 +208,8 @@ class SetpointDelay:
     the linear interpolation of the two neighbouring commands (a sub-step delay of a
     zero-order-held command, averaged over the step)."""
 
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+
     def __init__(self, delay_ms: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(delay_ms) and delay_ms >= 0):
             raise ValueError(f"SetpointDelay: delay_ms must be >= 0, got {delay_ms!r}")
@@ -235,6 +241,8 @@ class SetpointFilter:
     """Set-points of some joints pass a first-order low-pass of ``time_constant_ms`` (updated
     at the 100 Hz control rate, starting at the first command)."""
 
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+
     def __init__(self, time_constant_ms: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(time_constant_ms) and time_constant_ms >= 0):
             raise ValueError(f"SetpointFilter: time_constant_ms must be >= 0, "
@@ -262,6 +270,8 @@ class _ServoTorque:
     set-point is captured as the servo receives it, :meth:`extra` gives the torque to add from
     the joint state (the servo's gains, ``_kp``, ``_kd``, and torque limit, ``_lim0``, are the
     robot config's)."""
+
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, joints: str | list[str] | None) -> None:
         self.joints = resolve_joints(joints)
@@ -334,6 +344,8 @@ class TorqueLimit(_ServoTorque):
 class SetpointBacklash:
     """Play of ``width_rad`` between the set-point and the joint: the set-point passes a play
     (backlash) operator y = clip(y, u - width/2, u + width/2), started at the first command."""
+
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, width_rad: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(width_rad) and width_rad >= 0):
@@ -543,6 +555,8 @@ class FootAdhesion:
     """A foot that sticks to the ground (mud, tape, a suction cup): from touch-down until the
     foot has risen ``height_m`` above where it touched down, a downward force ``force_N`` pulls
     it (it loads the stance foot and holds it back at lift-off); none higher up in swing."""
+
+    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, force_N: float, legs: str | list[str] = "front_left",
                  height_m: float = 0.01) -> None:

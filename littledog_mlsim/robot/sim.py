@@ -184,6 +184,8 @@ class LittleDogSim:
         self._step_count = 0
         self._obs: dict[str, np.ndarray] = {}
         self._prev_pose: tuple[np.ndarray, np.ndarray] = (np.zeros(3), np.array([0, 0, 0, 1.0]))
+        self._snapshot = -1              # pybullet state saved as the world was built
+        self._world_as_built = False     # only poses, velocities and contacts changed since
         self._build_world()
         self._home = self._stand_up()
 
@@ -196,6 +198,9 @@ class LittleDogSim:
     def _build_world(self) -> None:
         """(Re)create ground and robot in this client with the config's dynamics."""
         c, cfg = self.client, self.config
+        if self._snapshot >= 0:
+            p.removeState(self._snapshot, physicsClientId=c)
+            self._snapshot = -1
         p.resetSimulation(physicsClientId=c)
         p.setGravity(0, 0, -GRAVITY, physicsClientId=c)
         p.setPhysicsEngineParameter(fixedTimeStep=self.physics_dt, numSubSteps=0,
@@ -214,6 +219,21 @@ class LittleDogSim:
         for link in self.foot_links:
             p.changeDynamics(self.robot, link, lateralFriction=cfg.foot_friction, physicsClientId=c)
         self._servo.start(c, self.robot, self.joint_indices)
+        self._snapshot = p.saveState(physicsClientId=c)
+        self._world_as_built = True
+
+    def _restore_world(self) -> None:
+        """The world as :meth:`_build_world` left it, for a new move: restored from its
+        snapshot (poses, velocities, contact points) where nothing else changed since, rebuilt
+        otherwise (an effect's reset that is not declared ``changes_world = False``)."""
+        if self._world_as_built and self._snapshot >= 0:
+            p.restoreState(self._snapshot, physicsClientId=self.client)
+            # the robot is back in the air where it was built: a collision pass drops the
+            # contact points the last move left (their impulses would warm-start the solver)
+            p.performCollisionDetection(physicsClientId=self.client)
+            self._servo.start(self.client, self.robot, self.joint_indices)
+        else:
+            self._build_world()
 
     def _apply_mass_model(self, by_name: dict[str, int]) -> None:
         """Scale link masses/inertias to the config's masses and add the armature."""
@@ -290,7 +310,8 @@ class LittleDogSim:
     # ----------------------------------------------------------------------------- a move
     def reset(self, *, initial: InitialState | None = None, seed: int = 0,
               effects: Sequence[Any] = ()) -> dict[str, np.ndarray]:
-        """Start a move: rebuild the world, set the state, reset the effects; return obs at t=0.
+        """Start a move: the world as built (:meth:`_restore_world`), the state set, the
+        effects reset; return obs at t=0.
 
         Args:
             initial: state to start from; None = the settled home stance.
@@ -301,7 +322,7 @@ class LittleDogSim:
         sensor_seed, effect_seed = np.random.SeedSequence(seed).spawn(2)
         self.rng = np.random.default_rng(effect_seed)
         self._mocap.rng = np.random.default_rng(sensor_seed)
-        self._build_world()
+        self._restore_world()
         self._write_state(state)
         self._step_count = 0
         self._encoders.reset(state.q, state.dq, state.reported_dq)
@@ -310,6 +331,10 @@ class LittleDogSim:
         self._substep_hooks = [e.substep for e in effects if hasattr(e, "substep")]
         self._measure_hooks = [e.measure for e in effects if hasattr(e, "measure")]
         resets = [e.reset for e in effects if hasattr(e, "reset")]
+        # an effect's reset may change the world (a body, a mass, the gravity): the next move
+        # then builds it again; effects that only keep their own state say so
+        self._world_as_built = not any(getattr(e, "changes_world", True) for e in effects
+                                       if hasattr(e, "reset"))
         for hook in resets:
             hook(self)
         if resets:   # a reset hook may have moved the body (e.g. onto a floor it has tilted)
