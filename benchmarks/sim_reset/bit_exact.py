@@ -6,8 +6,9 @@ version on the path (README.md) and compare the outputs with ``diff``:
 1. **Moves in one process, effects interleaved.** One LittleDogSim per robot (measured,
    nominal, a torque-mode gap robot) simulates a sequence of 4 s moves in one process; the
    effects change from move to move, so that each kind of reset follows each other kind:
-   none, a command-path effect (its reset keeps its own state), and effects whose reset changes
-   the world (a leg's mass, the gravity, a payload body, a foot's friction, the floor's pose).
+   none, a command-path effect (it keeps its own state), effects whose reset changes the world
+   (a leg's mass, the gravity, a payload body, a foot's friction, the floor's pose), and a
+   plug-in that changes a friction in a substep hook without saying so.
 2. **Re-simulated segments.** As the physical diagnosis re-simulates: 1 s segments, each
    starting from the true state where the previous segment of the same move ended.
 3. **record end to end.** ``record_dataset`` with two worker processes, with and without an
@@ -30,10 +31,22 @@ def digest(*arrays: np.ndarray) -> str:
     return h.hexdigest()[:16]
 
 
+class SoftFloorPatch:
+    """A plug-in that changes the world in a substep hook and says nothing of it (no
+    ``changes_world``): the front-left foot's friction is 0.3 from its first physics step on.
+    The next move must start in the world as built again."""
+
+    def substep(self, sim, t: float) -> None:
+        import pybullet as p
+        if t == 0.0:
+            p.changeDynamics(sim.robot, sim.foot_links[0], lateralFriction=0.3,
+                             physicsClientId=sim.client)
+
+
 def effects_sequence():
     from littledog_mlsim.robot import effects as E
     from littledog_mlsim.apps.record import StartSpread
-    return [("none", []), ("leg_mass", [E.LegMass(1.3, "front_left")]), ("none", []),
+    return [("none", []), ("soft_floor_patch", [SoftFloorPatch()]), ("none", []), ("leg_mass", [E.LegMass(1.3, "front_left")]), ("none", []),
             ("setpoint_delay", [E.SetpointDelay(12.0)]), ("slope", [E.GroundSlope(3.0, 90.0)]),
             ("servo_gain", [E.ServoGain(0.7, joints="front_left_knee")]), ("none", []),
             ("payload", [E.Payload(0.3, [0.05, 0.0, 0.02])]), ("none", []),
@@ -66,7 +79,7 @@ def main() -> None:
             print(f"move {name} {k:02d} {label}",
                   digest(*[np.array([o[f] for o in obs]) for f in sorted(obs[0])]))
         # segments, as the physical diagnosis re-simulates them
-        for k, (label, effects) in enumerate(effects_sequence()[:8]):
+        for k, (label, effects) in enumerate(effects_sequence()[:10]):
             cmd = q0[None] + 0.25 * np.sin(np.arange(400) * 0.09 + k)[:, None] \
                 * rng.normal(size=12)[None]
             start = None

@@ -90,7 +90,7 @@ class CommandDelay:
     was standing still holding it).
     """
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, steps: int, joints: str | list[str] | None = None) -> None:
         if int(steps) != steps or steps < 0:
@@ -122,7 +122,7 @@ class JointFriction:
         smoothing: velocity [rad/s] over which the Coulomb term goes smoothly through zero.
     """
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, coulomb: float | list[float] = 0.05, viscous: float | list[float] = 0.0,
                  joints: str | list[str] | None = None, smoothing: float = 0.05) -> None:
@@ -181,6 +181,8 @@ class ConstantWind:
     Being fixed in the world, its effect in the body frame depends on the robot's heading.
     """
 
+    changes_world = False     # forces or readings only, each step (LittleDogSim.reset)
+
     def __init__(self, force_xy: list[float] | tuple[float, float]) -> None:
         f = _values(force_xy, 2, "ConstantWind.force_xy")
         self.force = np.array([f[0], f[1], 0.0])
@@ -208,7 +210,7 @@ class SetpointDelay:
     the linear interpolation of the two neighbouring commands (a sub-step delay of a
     zero-order-held command, averaged over the step)."""
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, delay_ms: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(delay_ms) and delay_ms >= 0):
@@ -241,7 +243,7 @@ class SetpointFilter:
     """Set-points of some joints pass a first-order low-pass of ``time_constant_ms`` (updated
     at the 100 Hz control rate, starting at the first command)."""
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, time_constant_ms: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(time_constant_ms) and time_constant_ms >= 0):
@@ -271,7 +273,7 @@ class _ServoTorque:
     the joint state (the servo's gains, ``_kp``, ``_kd``, and torque limit, ``_lim0``, are the
     robot config's)."""
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, joints: str | list[str] | None) -> None:
         self.joints = resolve_joints(joints)
@@ -345,7 +347,7 @@ class SetpointBacklash:
     """Play of ``width_rad`` between the set-point and the joint: the set-point passes a play
     (backlash) operator y = clip(y, u - width/2, u + width/2), started at the first command."""
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, width_rad: float, joints: str | list[str] | None = None) -> None:
         if not (np.isfinite(width_rad) and width_rad >= 0):
@@ -375,6 +377,8 @@ class EncoderOffset:
     joint angles.
     """
 
+    changes_world = False     # forces or readings only, each step (LittleDogSim.reset)
+
     def __init__(self, offset_rad: float, joints: str | list[str] | None = None,
                  servo_loop: bool = False) -> None:
         if not np.isfinite(offset_rad):
@@ -400,6 +404,8 @@ class EncoderOffset:
 class BodyWrench:
     """A constant force [N] and torque [N m] fixed in the body frame (base_link), at the base's
     centre of mass."""
+
+    changes_world = False     # forces or readings only, each step (LittleDogSim.reset)
 
     def __init__(self, force: list[float] | tuple[float, float, float] = (0.0, 0.0, 0.0),
                  torque: list[float] | tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
@@ -522,6 +528,8 @@ class SwingDrag:
     velocity (grass, a cable, a snag): F = -force_N tanh(|v| / speed_m_s) v / |v| at the foot,
     with v the foot's horizontal velocity in odom. No force while the foot touches the ground."""
 
+    changes_world = False     # forces or readings only, each step (LittleDogSim.reset)
+
     def __init__(self, force_N: float, legs: str | list[str] = "front_left",
                  speed_m_s: float = 0.1) -> None:
         if not (np.isfinite(force_N) and force_N >= 0):
@@ -556,7 +564,7 @@ class FootAdhesion:
     foot has risen ``height_m`` above where it touched down, a downward force ``force_N`` pulls
     it (it loads the stance foot and holds it back at lift-off); none higher up in swing."""
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, force_N: float, legs: str | list[str] = "front_left",
                  height_m: float = 0.01) -> None:

@@ -225,7 +225,7 @@ class LittleDogSim:
     def _restore_world(self) -> None:
         """The world as :meth:`_build_world` left it, for a new move: restored from its
         snapshot (poses, velocities, contact points) where nothing else changed since, rebuilt
-        otherwise (an effect's reset that is not declared ``changes_world = False``)."""
+        otherwise (after a move with an effect not declared ``changes_world = False``)."""
         if self._world_as_built and self._snapshot >= 0:
             p.restoreState(self._snapshot, physicsClientId=self.client)
             # the robot is back in the air where it was built: a collision pass drops the
@@ -331,10 +331,9 @@ class LittleDogSim:
         self._substep_hooks = [e.substep for e in effects if hasattr(e, "substep")]
         self._measure_hooks = [e.measure for e in effects if hasattr(e, "measure")]
         resets = [e.reset for e in effects if hasattr(e, "reset")]
-        # an effect's reset may change the world (a body, a mass, the gravity): the next move
-        # then builds it again; effects that only keep their own state say so
-        self._world_as_built = not any(getattr(e, "changes_world", True) for e in effects
-                                       if hasattr(e, "reset"))
+        # an effect may change the world (a body, a mass, the gravity, a friction), at reset or
+        # later: the next move then builds it again; effects that do not say so
+        self._world_as_built = all(getattr(e, "changes_world", True) is False for e in effects)
         for hook in resets:
             hook(self)
         if resets:   # a reset hook may have moved the body (e.g. onto a floor it has tilted)

@@ -191,7 +191,7 @@ class SetpointBacklash(_Play):
 class TorqueRatio:
     """TorqueLimit with the limit given relative to each joint's normal one."""
 
-    changes_world = False     # its reset keeps its own state only (LittleDogSim.reset)
+    changes_world = False     # it keeps its own state only (LittleDogSim.reset)
 
     def __init__(self, ratio: float, joints: list[str] | None) -> None:
         from ...robot.effects import TorqueLimit
