@@ -57,7 +57,7 @@ live: $(STAMP)
 # (benchmarks/ci_time/pyc/).
 TEST_WORKERS ?= 2
 test: $(STAMP) $(CHROMIUM_STAMP)
-	$(PY) -m compileall -q littledog_mlsim > /dev/null
+	$(PY) -m compileall -q littledog_mlsim
 	$(PY) -m pytest -q --durations=15 -n $(TEST_WORKERS) --dist loadfile test
 
 # Headless Chromium for the view's browser tests (test/viewer/test_viewer_browser.py), from Debian's

@@ -176,7 +176,8 @@ def one_step_predictions(rec: MoveRecording, config: RobotConfig, stride: int = 
 
     For t = 1, 1 + stride, ... <= N - 1 (the samples of ``features_responses``): the robot is put
     in the state measured at t, applies u_t, and its s_{t+1} is compared with the recorded one.
-    Each sample rebuilds the pybullet world (~10 ms), hence ``stride``.
+    Each sample starts a move in the pybullet world as built (``LittleDogSim.reset``), hence
+    ``stride``.
     """
     sim = _sim_for(_replay_config(config))
     s = states_from_recording(rec)              # row j = s_{j+1}

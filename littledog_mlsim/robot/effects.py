@@ -4,8 +4,11 @@ An effect is any object implementing some of
 
 - ``reset(sim)`` at the start of a move; ``sim`` exposes ``client`` (pybullet client id),
   ``robot`` (body id), ``joint_indices`` (12, contract order), ``physics_dt``, ``control_dt`` and
-  ``rng`` (the move's numpy Generator). The world is rebuilt before every move, so an effect may
-  add bodies/constraints or change dynamics here without undoing it.
+  ``rng`` (the move's numpy Generator). Each move starts in the world as built, so an effect may
+  add bodies/constraints or change dynamics here without undoing it: after it, the next move
+  builds the world again. An effect that changes nothing of the world (its own state, forces
+  or torques for one physics step, readings) declares ``changes_world = False``, and the next
+  move then restores the world from a snapshot instead (``sim.py``'s module doc).
 - ``command(u, t) -> u``: the 12 desired angles (contract order) as the servo will receive them;
   t = k * control_dt [s since the move started].
 - ``substep(sim, t)``: before every physics step (forces, torques, terrain). Joint torques sent with

@@ -6,11 +6,14 @@ servo update, ``stepSimulation``, one encoder sample.
 
 World reuse and determinism: the robot stands up once per :class:`LittleDogSim` (``settle_time``
 of holding HOME_POSE from a pose with the feet just touching the ground) and that settled state is
-stored. Each :meth:`LittleDogSim.reset` rebuilds the pybullet world in the same client
-(``resetSimulation`` + reload, ~8 ms) and writes the stored (or a given :class:`InitialState`)
-state into it, so every move is a pure function of (config, initial state, commands, effects,
-seed), whatever ran before in that process; effects may add bodies or constraints in their
-``reset`` without cleaning up.
+stored. Each :meth:`LittleDogSim.reset` starts from the world as it was built: restored from a
+pybullet snapshot taken when it was built (``restoreState`` and a collision pass that drops the
+last move's contact points), or built again (``resetSimulation`` and a reload) after a move that
+may have changed it: one with an effect that does not declare ``changes_world = False``
+(docs/interface.md §5), one cut short inside a step, or one whose state became non-finite. It
+then writes the stored (or a given :class:`InitialState`) state into it, so every move is a pure
+function of (config, initial state, commands, effects, seed), whatever ran before in that
+process; effects may add bodies or constraints in their ``reset`` without cleaning up.
 """
 from __future__ import annotations
 
@@ -225,7 +228,7 @@ class LittleDogSim:
     def _restore_world(self) -> None:
         """The world as :meth:`_build_world` left it, for a new move: restored from its
         snapshot (poses, velocities, contact points) where nothing else changed since, rebuilt
-        otherwise (after a move with an effect not declared ``changes_world = False``)."""
+        otherwise (module doc)."""
         if self._world_as_built and self._snapshot >= 0:
             p.restoreState(self._snapshot, physicsClientId=self.client)
             # the robot is back in the air where it was built: a collision pass drops the
@@ -370,11 +373,17 @@ class LittleDogSim:
         for hook in self._command_hooks:
             u = np.asarray(hook(u.copy(), t), dtype=float)
         q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
+        # a step cut short (a hook raising, an interrupt) leaves forces and torques applied in
+        # the world: until the step ends, the next move builds the world again
+        as_built, self._world_as_built = self._world_as_built, False
         for s in range(self.substeps):
             for hook in self._substep_hooks:
                 hook(self, t + s * self.physics_dt)
             self._physics_step(q_des)
         self._obs = self._measure()
+        # a state gone non-finite leaves state a snapshot does not restore: build it again
+        self._world_as_built = as_built and all(
+            np.isfinite(self._obs[k]).all() for k in ("q", "dq", "position", "orientation"))
         return self.observe()
 
     def _physics_step(self, q_des: np.ndarray) -> None:

@@ -83,10 +83,16 @@ Method
    an effect of clean data. With ``add_asked`` N > 0, the fit (in the structure ``servo``
    chooses) is followed by up to N rounds: the parameters the score test asks for are added
    and all are fitted again from the optimum, each round with its own ``max_evals``, until the
-   test asks for nothing new. The report's ``added`` lists each round: what was added, the
-   fit before it (convergence, evaluations, estimates) and the k-step cost before and after
-   (the measure of 8, with the weights of the robot as given, so that rounds compare); the
-   estimates' ``start`` is then the previous round's optimum. A refit that fails keeps the fit before it, and says why.
+   test asks for nothing new. Every parameter asked for is added at once: rivals that act
+   alike are then fitted together, and the refit's weak directions name what the data cannot
+   tell apart. The report's ``added`` lists each round: what was added, the fit before it
+   (convergence, evaluations, estimates) and the k-step cost before and after (the measure of
+   8, with the weights of the first fit's starting robot, in the structure ``servo`` chose, so
+   that rounds compare); ``n_evals_total`` counts the re-simulations of every fit that
+   finished (both structures' with ``auto``), and
+   ``settings`` records ``add_asked`` and ``servo``. The top-level estimates, costs and
+   ``stop`` are the last fit's; its estimates' ``start`` is the previous round's optimum. A
+   refit that fails, for any reason, keeps the fit before it, and says why.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -653,6 +659,8 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     cal = calibrate_twin(train_recs, [], base, inner, say)
     structure = cal.report.get("structure")        # servo="auto": the choice, made once
     weights = cal.report["residual_rms"]["start"]  # one yardstick for every round
+    total_evals = (sum(c.get("n_evals") or 0 for c in structure["candidates"]) if structure
+                   else cal.report.get("n_evals") or 0)
     rounds = []
     for _ in range(options.add_asked):
         asked = [n for n in asked_for(cal.report) if n not in {e.name for e in cal.estimates}]
@@ -668,15 +676,19 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
         try:
             cal = calibrate_twin(train_recs, [], cal.config,
                                  replace(inner, params=params, servo="keep"), say)
-        except ValueError as e:       # the first fit stands; say why the refit did not
-            first["error"] = f"{e}"
+        except Exception as e:        # the fit before it stands; say why the refit did not
+            first["error"] = f"{type(e).__name__}: {e}"
             rounds.append(first)
             say(f"the refit with {', '.join(asked)} failed ({e}); keeping the fit before it")
             break
         first["k_step_cost_after"] = _structure_cost(cal, weights)
+        total_evals += cal.report.get("n_evals") or 0
         rounds.append(first)
     report = dict(cal.report)
     report["added"] = rounds
+    report["n_evals_total"] = total_evals
+    report["settings"] = {**report.get("settings", {}), "add_asked": options.add_asked,
+                          "servo": options.servo}
     if structure is not None:
         report["structure"] = structure
     if test_recs:

@@ -345,6 +345,24 @@ def test_add_asked_refits_with_what_the_score_test_asks_for(monkeypatch):
     text = format_calibration({**cal.report, "params": [twin_fit._estimate_dict(e)
                                                         for e in cal.estimates]})
     assert "round 1: added foot_friction" in text
+    assert cal.report["settings"]["add_asked"] == 2 and cal.report["settings"]["servo"] == "keep"
+    assert cal.report["n_evals_total"] == rounds[0]["n_evals"] + cal.report["n_evals"]
+    # a refit that fails, for any reason, keeps the fit before it and says why
+    real, calls = twin_fit.calibrate_twin, []
+
+    def second_fails(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise RuntimeError("a worker was lost")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(twin_fit, "calibrate_twin", second_fails)
+    kept = real(recs, [], base, opts)
+    assert [e.name for e in kept.estimates] == ["body_mass"]
+    assert kept.report["added"][0]["error"] == "RuntimeError: a worker was lost"
+    assert "the refit failed: RuntimeError" in format_calibration(
+        {**kept.report, "params": [twin_fit._estimate_dict(e) for e in kept.estimates]})
+    monkeypatch.setattr(twin_fit, "calibrate_twin", real)
     with pytest.raises(ValueError, match="add_asked needs the score test"):
         twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, test_missing=False))
     with pytest.raises(ValueError, match="add_asked must be an integer in 0..5"):
