@@ -130,7 +130,8 @@ def _threads() -> dict[int, str]:
 # - distributed's module-level offload executor (one idle thread, "Dask-Offload_0");
 # - multiprocessing's resource tracker (one process per parent, started by the first spawn).
 LIFETIME_THREADS = ("Dask-Offload_",)
-LIFETIME_CHILDREN = ("multiprocessing.resource_tracker", "loky.backend.resource_tracker")
+LIFETIME_CHILDREN = ("multiprocessing.resource_tracker", "loky.backend.resource_tracker",
+                     "multiprocessing.forkserver")
 
 
 def _release_idle_pools() -> None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import csv
 import json
-import multiprocessing as mp
 import os
 import logging
 import resource
@@ -289,7 +288,8 @@ def _reproduce(data, out, scale, methods, seed, fig4, rollouts, jobs, physics_co
     sizes = _cache_dataset(data, cache)
     say(f"TrainPool {sizes['n_train_pool']} samples ({sizes['n_train_moves']} moves), "
         f"TestPool {sizes['n_test']} samples ({sizes['n_test_moves']} moves)")
-    ctx = mp.get_context("spawn")
+    from ..workers import worker_context
+    ctx = worker_context()
     rows = []
     try:
         for m in methods:

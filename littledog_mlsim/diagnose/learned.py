@@ -736,12 +736,14 @@ class _Route:
             raise
 
     def local(self, jobs: int) -> None:
-        """Run the probes in ``jobs`` local worker processes (spawned, one BLAS thread each;
-        closed by ``close``): the route goes to each once, the current evidence with each
-        probe. The same results as here when this process runs one BLAS thread too."""
-        import multiprocessing
+        """Run the probes in ``jobs`` local worker processes (forked from the fork server,
+        ``workers.worker_context``; one BLAS thread each; closed by ``close``): the route goes
+        to each once, the current evidence with each probe. The same results as here when this
+        process runs one BLAS thread too."""
         from concurrent.futures import ProcessPoolExecutor
-        self.pool = ProcessPoolExecutor(int(jobs), multiprocessing.get_context("spawn"),
+
+        from ..workers import worker_context
+        self.pool = ProcessPoolExecutor(int(jobs), worker_context(),
                                         initializer=_start_worker, initargs=(self,))
 
     def close(self) -> None:

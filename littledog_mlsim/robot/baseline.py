@@ -52,7 +52,6 @@ import dataclasses
 import itertools
 import json
 import math
-import multiprocessing as mp
 import os
 import threading
 import time
@@ -244,7 +243,8 @@ class _MovePool:
 
     def __enter__(self) -> "_MovePool":
         if self.jobs > 1:
-            self._pool = ProcessPoolExecutor(self.jobs, mp_context=mp.get_context("spawn"),
+            from ..workers import worker_context
+            self._pool = ProcessPoolExecutor(self.jobs, mp_context=worker_context(),
                                              initializer=_init_worker, initargs=(self.recs,))
         return self
 
