@@ -1,5 +1,7 @@
 """A pytest plugin: each test's CPU seconds (setup, call and teardown), its own process's and
 those of the children it reaped (worker pools, subprocesses, Dask processes), and its wall time.
+Workers forked from Python's fork server (``littledog_mlsim.workers``) are the server's
+children, not the test process's: their CPU is not counted here (only the wall time shows it).
 Each pytest(-xdist) process writes ``cpu_per_test_<worker>.json`` into ``CPU_PER_TEST_DIR``
 (default: the current directory) at the end of the session:
 
