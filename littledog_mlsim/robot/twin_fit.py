@@ -572,11 +572,19 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                            "initial_state": options.initial_state,
                            "pose_noise_m": pose_noise(train_recs)},
               "residual_rms": _rms_report(prob, x0, x), "missing": missing}
+    _finish(report, test_recs, original, calibrated, options, say, t0)
+    return Calibration(calibrated, estimates, weak, report)
+
+
+def _finish(report: dict[str, Any], test_recs: Sequence[MoveRecording], before: RobotConfig,
+            after: RobotConfig, options: CalibrationOptions, say: Callable[[str], None],
+            t0: float) -> None:
+    """Into ``report``: the TestPool rollouts of ``before`` and ``after`` (if there is a
+    TestPool) and the wall time since ``t0``."""
     if test_recs:
         say(f"rolling out {len(test_recs)} TestPool moves before and after")
-        report["rollout"] = _rollouts(test_recs, original, calibrated, options.jobs)
+        report["rollout"] = _rollouts(test_recs, before, after, options.jobs)
     report["wall_s"] = round(time.perf_counter() - t0, 1)
-    return Calibration(calibrated, estimates, weak, report)
 
 
 def with_servo(config: RobotConfig, servo: str) -> RobotConfig:
@@ -634,11 +642,7 @@ def _calibrate_structures(train_recs: Sequence[MoveRecording],
                         "n_evals": c.report.get("n_evals"), "wall_s": c.report.get("wall_s"),
                         "params": [_estimate_dict(e) for e in c.estimates]}
                        for s, c in fits.items()]}
-    if test_recs:
-        say(f"rolling out {len(test_recs)} TestPool moves before and after")
-        start = replace(base, sensor_noise=False)
-        report["rollout"] = _rollouts(test_recs, start, cal.config, options.jobs)
-    report["wall_s"] = round(time.perf_counter() - t0, 1)
+    _finish(report, test_recs, replace(base, sensor_noise=False), cal.config, options, say, t0)
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
@@ -663,13 +667,14 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
                    else cal.report.get("n_evals") or 0)
     rounds = []
     for _ in range(options.add_asked):
-        asked = [n for n in asked_for(cal.report) if n not in {e.name for e in cal.estimates}]
+        fitted = tuple(e.name for e in cal.estimates)
+        asked = [n for n in asked_for(cal.report) if n not in fitted]
         if not asked:
             break
-        params = tuple(e.name for e in cal.estimates) + tuple(asked)
+        params = fitted + tuple(asked)
         say(f"the residual asks for {', '.join(asked)}: fitting {len(params)} parameters "
             "again from the optimum")
-        first = {"added": asked, "k_step_cost_before": _structure_cost(cal, weights),
+        rnd = {"added": asked, "k_step_cost_before": _structure_cost(cal, weights),
                  "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
                  "wall_s": cal.report.get("wall_s"),
                  "params": [_estimate_dict(e) for e in cal.estimates]}
@@ -677,13 +682,13 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
             cal = calibrate_twin(train_recs, [], cal.config,
                                  replace(inner, params=params, servo="keep"), say)
         except Exception as e:        # the fit before it stands; say why the refit did not
-            first["error"] = f"{type(e).__name__}: {e}"
-            rounds.append(first)
+            rnd["error"] = f"{type(e).__name__}: {e}"
+            rounds.append(rnd)
             say(f"the refit with {', '.join(asked)} failed ({e}); keeping the fit before it")
             break
-        first["k_step_cost_after"] = _structure_cost(cal, weights)
+        rnd["k_step_cost_after"] = _structure_cost(cal, weights)
         total_evals += cal.report.get("n_evals") or 0
-        rounds.append(first)
+        rounds.append(rnd)
     report = dict(cal.report)
     report["added"] = rounds
     report["n_evals_total"] = total_evals
@@ -691,11 +696,7 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
                           "servo": options.servo}
     if structure is not None:
         report["structure"] = structure
-    if test_recs:
-        say(f"rolling out {len(test_recs)} TestPool moves before and after")
-        report["rollout"] = _rollouts(test_recs, replace(base, sensor_noise=False),
-                                      cal.config, options.jobs)
-    report["wall_s"] = round(time.perf_counter() - t0, 1)
+    _finish(report, test_recs, replace(base, sensor_noise=False), cal.config, options, say, t0)
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
