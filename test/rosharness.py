@@ -161,7 +161,7 @@ class Probe:
     """Subscribes to a simulator's topics and records what arrives (with receive times)."""
 
     def __init__(self, ros: Ros, sim: str = "sim_node", name: str = "probe",
-                 light: bool = False) -> None:
+                 light: bool = False, cmd_depth: int = 100) -> None:
         self.ros = ros
         self.node = ros.node(f"{name}_{time.monotonic_ns()}")
         self.cond = threading.Condition()
@@ -184,9 +184,10 @@ class Probe:
             self.subs += [
                 n.create_subscription(JointState, f"/{sim}/state", self._state, QOS),
                 n.create_subscription(ClockMsg, "/clock", self._clock, QOS)]
-        # depth 100: a burst of 20 bad commands must not overwrite itself in the writer's history
+        # cmd_depth: a burst of commands must not overwrite itself in the writer's history
         self.cmd = n.create_publisher(JointState, "/littledog/cmd", QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE))
+            history=HistoryPolicy.KEEP_LAST, depth=cmd_depth,
+            reliability=ReliabilityPolicy.RELIABLE))
         self.reset_client = n.create_client(Trigger, f"/{sim}/reset")
         self.pause_client = n.create_client(SetBool, f"/{sim}/pause")
 
@@ -241,8 +242,20 @@ class Probe:
             return int(self.stats[-1][key]) if self.stats else 0
 
     def wait_counter(self, key: str, at_least: int) -> dict[str, str]:
-        self.wait(lambda: bool(self.stats) and int(self.stats[-1][key]) >= at_least,
-                  what=f"stats {key} >= {at_least}")
+        """Wait until the simulator's ``~/stats`` counts ``key`` at least ``at_least``; on a
+        timeout the message gives the last counts the node sent and the machine's load."""
+        def seen() -> str:
+            with self.cond:
+                st = self.stats[-1] if self.stats else {}
+            keys = dict.fromkeys((key, "cmd_received", "cmd_accepted", "steps_skipped"))
+            return (f"stats {key} >= {at_least} (last stats: "
+                    f"{', '.join(f'{k}={st.get(k)}' for k in keys)}; {len(self.stats)} "
+                    f"received; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs)")
+        try:
+            self.wait(lambda: bool(self.stats) and int(self.stats[-1][key]) >= at_least,
+                      what=f"stats {key} >= {at_least}")
+        except AssertionError:
+            raise AssertionError(f"timed out after {TIMEOUT} s waiting for {seen()}") from None
         with self.cond:
             return dict(self.stats[-1])
 

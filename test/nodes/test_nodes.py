@@ -305,10 +305,14 @@ BAD_COMMANDS = {
 
 @pytest.fixture(scope="class")
 def timer_sim(ros, work, model_path, dataset):
+    # queues of 10 s of commands at both ends: the bad-command cases count every command of a
+    # burst sent beside a 100 Hz stream, which a keep-last queue of 100 loses where the node's
+    # executor stalls for about a second on a loaded machine (the queue is not what they test)
     proc = Proc("sim_node", {"model_path": model_path, "step_mode": "timer",
                              "cmd_timeout": 0.3, "cmd_timeout_action": "stand",
-                             "stats_period": 0.25, "log_throttle": 0.5}, work)
-    probe = Probe(ros, light=True)
+                             "stats_period": 0.25, "log_throttle": 0.5,
+                             "cmd_queue_depth": 1000}, work)
+    probe = Probe(ros, light=True, cmd_depth=1000)
     probe.connect(proc)
     commands = load_moves(dataset, split="train", types=["F"])[0].cmd
     yield proc, probe, commands
