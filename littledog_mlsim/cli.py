@@ -373,13 +373,16 @@ def format_calibration(report: dict) -> str:
         lines.append(f"round {k}: added {', '.join(rnd['added'])} to the fit; " + (
             f"the refit failed: {rnd['error']}" if "error" in rnd else
             f"k-step cost {num(rnd['k_step_cost_before'])} -> {num(rnd['k_step_cost_after'])}"))
+    rounds = int((report.get("settings") or {}).get("add_asked") or 0)
+    hint = ("add it to --params" if not rounds or len(report.get("added") or []) < rounds else
+            f"raise --add-asked above {rounds}, or add it to --params")
     for m in report.get("missing") or []:
         if "error" in m:
             lines.append(f"the test of the parameters not fitted failed: {m['error']}")
         elif m["asks"]:
             lines.append(f"the residual asks for {m['name']}: about {num(m['suggested'])} "
                          f"{m['unit']} (now {num(m['value'])}; p = {m['p']:.2g}, would remove "
-                         f"{100 * m['cost_share']:.1f} % of the cost): add it to --params")
+                         f"{100 * m['cost_share']:.1f} % of the cost): {hint}")
     if "structure" in report:
         st = report["structure"]
         costs = ", ".join(f"{c['servo']} {c['cost']:.4g}" for c in st["candidates"])

@@ -368,6 +368,16 @@ def test_add_asked_refits_with_what_the_score_test_asks_for(monkeypatch):
     with pytest.raises(ValueError, match="add_asked must be an integer in 0..5"):
         twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, add_asked=-1))
     assert math.isfinite(cal.report["cost_end"])
+    # what the last test still asks for: after rounds used up, the hint is another round
+    asks = [{"name": "kd_hip_roll", "asks": True, "suggested": 0.35, "unit": "N m s/rad",
+             "value": 0.32, "p": 1e-3, "cost_share": 0.05}]
+    shown = {**cal.report, "params": [twin_fit._estimate_dict(e) for e in cal.estimates],
+             "missing": asks}
+    used_up = {**shown, "settings": {**shown["settings"], "add_asked": 1}}
+    assert "(now 0.32; p = 0.001, would remove 5.0 % of the cost): raise --add-asked above 1, " \
+           "or add it to --params" in format_calibration(used_up)
+    none = {**shown, "settings": {**shown["settings"], "add_asked": 0}, "added": []}
+    assert "of the cost): add it to --params" in format_calibration(none)
 
 
 def test_move_clustered_sandwich_widens_when_a_move_repeats_its_error():
