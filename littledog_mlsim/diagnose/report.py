@@ -637,6 +637,11 @@ def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dic
     for name in STATE_NAMES:
         b, a = before["nmse"].get(name), after["nmse"].get(name)
         cut[name] = _f(1.0 - a / b) if (a is not None and b) else None
+    rem = getattr(f, "remainder", None)
+    statement = f.statement if rem is None else f.statement + "; " + remainder_words(rem)
+    extra = {} if rem is None else {"remainder": {k: (_f(v) if isinstance(v, float) else v)
+                                                  for k, v in rem.items()},
+                                    "stand_in": rem["reading"] == "stand-in"}
     return {
         "round": k + 1,
         "name": None if aug is None else aug.name,
@@ -646,7 +651,7 @@ def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dic
         "outputs": outputs, "p_value": f.p_value,
         "physical": {"family": vocabulary_family(f.family), "scope": f.scope,
                      "params": dict(f.params),
-                     "statement": f.statement},
+                     "statement": statement},
         "augmentation": None if aug is None else aug.to_dict(),
         "augmentation_note": (
             "added to the learned model (computed online by sim_node, rollout, evaluate)"
@@ -654,8 +659,24 @@ def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dic
             "no feature added: a constant change of the robot is a function of the learned "
             "model's inputs, so the model trained on these data already carries it "
             "(before = after)"),
-        "evidence": ev, "before": before, "after": after, "nmse_cut": cut,
+        "evidence": ev, "before": before, "after": after, "nmse_cut": cut, **extra,
     }
+
+
+def remainder_words(rem: dict[str, Any]) -> str:
+    """The clause a physical finding's statement gets where, with a reference, it leaves a
+    significant and material excess (``physical.driver.remainder``, decision 045)."""
+    share = rem["share_of_excess_removed"]
+    took = ("" if share is None else
+            f"; it removed {100 * max(share, 0.0):.0f} % of the excess over the reference")
+    where = ", ".join(rem["channels"][:3])
+    if rem["reading"] == "stand-in":
+        return (f"a stand-in: the data's error stays {rem['ratio_after']:.2f}x the reference's "
+                f"(p = {rem['p_value']:.2g}, most on {where}){took}, so the change is mostly "
+                "something the library does not hold")
+    return (f"only part of the change: the data's error stays {rem['ratio_after']:.2f}x the "
+            f"reference's (p = {rem['p_value']:.2g}, most on {where}){took}; its size, or a "
+            "second effect, is not settled")
 
 
 def build_physical_report(pid: Any, effect_augs: Sequence[Any], effect_stage: Sequence[int],

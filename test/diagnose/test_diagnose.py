@@ -492,7 +492,10 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
                         "first_order_magnitude": 25.0}],
                       [{"magnitude": 30.0, "J_relative": 0.5}], {}, {}, hyp, [],
                       {"changed": True, "p_value": 1e-3, "data_move_cut": 2.0,
-                       "reference_move_cut": 0.1, "n_data_moves": 12, "n_reference_moves": 12})
+                       "reference_move_cut": 0.1, "n_data_moves": 12, "n_reference_moves": 12},
+                      {"ratio_before": 2.2, "ratio_after": 1.9, "p_value": 1e-4,
+                       "share_of_excess_removed": 0.25, "reading": "stand-in",
+                       "channels": ["short:q_back_left_knee"]})
     pid = PhysIdResult([finding], [finding], [], "measured", 6, 12, 100, 1.0, 0.01, 0.05, 200,
                        (0.1, 1.0), {})
     info = {k: doc[k] for k in ("baseline", "method", "options", "data", "dataset_info",
@@ -505,6 +508,8 @@ def test_every_report_key_of_either_route_is_documented(delay_report):
     physical = build_physical_report(pid, [CommandLag(lag=3, joints="back_left")], [1],
                                      doc["stages"], **info)
     assert physical["physics"] and physical["effects"][0]["augmentation"]
+    assert physical["effects"][0]["stand_in"] and "a stand-in" in physical["effects"][0][
+        "physical"]["statement"]
     assert undocumented_report_keys(physical) == []
     assert set(physical) == (set(doc) - {"floor_plane"}) | {"physics"}   # floor: learned only
     assert doc["floor_plane"]["r2"] < 0.5                  # a flat floor: no slope to read

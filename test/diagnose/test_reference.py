@@ -109,6 +109,7 @@ def _shared_absorbed_and_knee_named(data: dict, twin_family: str, scope: str, pa
     check = report["effects"][0]["evidence"]["reference_check"]
     assert check["changed"] and check["data_move_cut"] > 2 * check["reference_move_cut"]
     assert not (ref["unexplained"]["significant"] and ref["unexplained"]["material"]), ref
+    assert "remainder" not in report["effects"][0] and "stand_in" not in report["effects"][0]
 
 
 def test_a_shared_delay_is_absorbed_and_the_soft_knee_is_named(delayed):
@@ -326,3 +327,47 @@ def test_what_is_left_in_a_few_channels_is_reported_as_unexplained():
     pooled = left_suspicion({**base, "significant": True, "material": True,
                              "pooled_ratio": 1.8, "channel_significant": False}, False)
     assert "1.80x the reference's" in pooled[0]["why"] and "no family" in pooled[0]["why"]
+
+
+def test_a_finding_that_leaves_a_material_excess_is_read_as_partial_or_a_stand_in():
+    """Decision 045: where the findings leave the data's error significantly and materially
+    above the reference's, the share of the excess they removed reads them as part of the
+    change (at least half) or a stand-in for it; the effect's statement says so and the
+    entry carries ``remainder`` and ``stand_in``."""
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.diagnose.physical.driver import STAND_IN_SHARE, remainder, unexplained
+    from littledog_mlsim.diagnose.report import _physical_effect
+    V, R = list(range(8)), list(range(8, 16))
+    rng = np.random.default_rng(3)
+    ref = {i: 1.0 + 0.1 * rng.random() for i in R}
+
+    def left(level):
+        return unexplained(_Ctx({**{i: level + 0.1 * rng.random() for i in V}, **ref}, {}),
+                           V, R, 0.01)
+    most = remainder(left(4.0), left(1.6))          # 3.0 of excess, 0.6 left: partial
+    assert most["reading"] == "partial" and most["share_of_excess_removed"] > STAND_IN_SHARE
+    assert 1.4 < most["ratio_after"] < 1.8 and len(most["channels"]) == 4
+    little = remainder(left(2.2), left(1.9))        # 1.2 of excess, 0.9 left: a stand-in
+    assert little["reading"] == "stand-in", little
+    assert 0.0 < little["share_of_excess_removed"] < STAND_IN_SHARE
+    worse = remainder(left(1.6), left(2.0))         # the finding made it worse
+    assert worse["reading"] == "stand-in" and worse["share_of_excess_removed"] < 0
+    assert remainder({**left(1.6), "pooled_ratio": 0.9}, left(2.0))["reading"] == "stand-in"
+
+    def finding(rem):
+        return SimpleNamespace(family="command_filter", scope="all", params={"time_constant_ms": 6},
+                               statement="All joints: set-points low-passed, 6 ms", p_value=1e-4,
+                               gain=np.full(36, 0.05), p_channel=np.full(36, 1e-3),
+                               evidence=lambda: {}, remainder=rem)
+    nums = {"nmse": {}}
+    e = _physical_effect(0, finding(little), None, nums, nums)
+    assert e["stand_in"] is True and e["remainder"]["reading"] == "stand-in"
+    assert e["physical"]["family"] == "command_filter"          # the name is kept
+    assert "; a stand-in: the data's error stays 1." in e["physical"]["statement"]
+    assert "does not hold" in e["physical"]["statement"]
+    e = _physical_effect(0, finding(most), None, nums, nums)
+    assert e["stand_in"] is False and "only part of the change" in e["physical"]["statement"]
+    e = _physical_effect(0, finding(None), None, nums, nums)
+    assert "stand_in" not in e and "remainder" not in e
+    assert e["physical"]["statement"] == "All joints: set-points low-passed, 6 ms"

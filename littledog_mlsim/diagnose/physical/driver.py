@@ -25,7 +25,7 @@ from .resim import DaskRunner, Memo, Move, Runner
 from .screen import screen, shortlist
 from .validate import push_twin, validate
 
-__all__ = ["PhysicalOptions", "identify", "pick_moves"]
+__all__ = ["PhysicalOptions", "identify", "pick_moves", "remainder"]
 
 
 @dataclass(frozen=True)
@@ -159,6 +159,15 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
             if findings and findings[-1].hyp not in ctx.base:
                 ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
             left = unexplained(ctx, sp.V, sp.R, o.alpha)
+            if findings and left["significant"] and left["material"]:
+                # the same without the findings (the twin errors kept): how much they removed
+                found = [f.hyp for f in findings]
+                without = _rebase(ctx, tuple(h for h in ctx.base if h not in found))
+                rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
+                findings = [replace(f, remainder=rem) for f in findings]
+                say(f"physics: the findings leave the data's error {rem['ratio_after']:.2f}x the "
+                    f"reference's (p = {rem['p_value']:.2g}; {rem['ratio_before']:.2f}x without "
+                    f"them): {rem['reading']}")
         n_sims = runner.n_sims
     finally:
         runner.close()
@@ -340,6 +349,26 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
 #: the data's re-simulation error against the reference's above which the difference is
 #: material (the blind benchmark's "within 1.25x of clean")
 UNEXPLAINED_RATIO = 1.25
+
+#: the share of the excess over the reference (pooled ratio minus 1) that findings must remove
+#: to be read as part of the change rather than a stand-in for it (decision 045)
+STAND_IN_SHARE = 0.5
+
+
+def remainder(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
+    """What accepted findings leave against the reference where :func:`unexplained`, with
+    them in the twin (``after``), is still significant and material: the pooled ratio without
+    them (``before``, the twin errors kept) and with them, the share of the excess over the
+    reference they removed, and the reading (decision 045): ``"partial"`` where they removed
+    at least :data:`STAND_IN_SHARE` of it (the change is theirs in part: a size, or a second
+    effect), ``"stand-in"`` where they removed less (the best of the library for a change it
+    does not hold). ``channels``: where the rest lives."""
+    r0, r1 = float(before["pooled_ratio"]), float(after["pooled_ratio"])
+    share = (r0 - r1) / (r0 - 1.0) if r0 > 1.0 else None
+    return {"ratio_before": r0, "ratio_after": r1, "p_value": float(after["p_value"]),
+            "share_of_excess_removed": share,
+            "reading": "partial" if share is not None and share >= STAND_IN_SHARE else "stand-in",
+            "channels": [c["channel"] for c in after["channels"][:4]]}
 
 
 def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: float

@@ -85,6 +85,7 @@ class Finding:
     hyp: Hypothesis
     alternatives: list[dict[str, Any]]
     reference_check: dict[str, Any] | None = None   # with a reference: its comparison
+    remainder: dict[str, Any] | None = None   # with a reference: what it leaves (driver.remainder)
 
     @property
     def accepted(self) -> bool:
