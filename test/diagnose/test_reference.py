@@ -371,3 +371,51 @@ def test_a_finding_that_leaves_a_material_excess_is_read_as_partial_or_a_stand_i
     e = _physical_effect(0, finding(None), None, nums, nums)
     assert "stand_in" not in e and "remainder" not in e
     assert e["physical"]["statement"] == "All joints: set-points low-passed, 6 ms"
+
+
+def test_the_findings_are_read_against_the_reference_without_them(monkeypatch):
+    """``driver._left_against_reference``: what is left is measured with the last finding in
+    the twin; where it is significant and material, again without the findings but with the
+    twin errors, and each finding carries the reading; where it is not, nothing is added."""
+    import numpy as np
+    from littledog_mlsim.diagnose.physical import driver
+    from littledog_mlsim.diagnose.physical.channels import N_CH
+    from littledog_mlsim.diagnose.physical.records import Finding, Hypothesis
+    V, R = list(range(8)), list(range(8, 16))
+    twin_error = Hypothesis("command_delay", "all", {"delay_ms": 5.0})
+    found = Hypothesis("command_filter", "all", {"time_constant_ms": 6.0})
+    finding = Finding("command_filter", "all", {"time_constant_ms": 6.0}, "low-passed", True,
+                      True, 1e-4, np.full(N_CH, 0.1), np.full(N_CH, 1e-3), [], [], {}, {},
+                      found, [])
+    rng = np.random.default_rng(4)
+
+    class Ctx:
+        def __init__(self, base, level):
+            self.base = tuple(base)
+            self.levels = {**{i: level + 0.1 * rng.random() for i in V},
+                           **{i: 1.0 + 0.1 * rng.random() for i in R}}
+
+        def sse(self, hyp, moves):
+            return np.array([np.full(N_CH, self.levels[i]) for i in moves])
+
+    rebased, said = [], []
+    sp = driver._Split([], [], V, [], R)
+    for levels, reading in (({True: 1.9, False: 2.2}, "stand-in"),
+                            ({True: 1.6, False: 4.0}, "partial"),
+                            ({True: 1.05, False: 2.2}, None)):
+        rebased.clear()
+
+        def rebase(ctx, base, levels=levels):
+            rebased.append(tuple(base))
+            return Ctx(base, levels[found in base])
+        monkeypatch.setattr(driver, "_rebase", rebase)
+        out, left = driver._left_against_reference(Ctx((twin_error,), 9.0), [finding], sp,
+                                                   driver.PhysicalOptions(), said.append)
+        assert rebased[0] == (twin_error, found)            # the last finding joins the twin
+        if reading is None:
+            assert not left["material"] and out[0].remainder is None and len(rebased) == 1
+            continue
+        assert rebased[1] == (twin_error,)                  # without it, the twin error kept
+        rem = out[0].remainder
+        assert rem["reading"] == reading and rem["ratio_after"] == left["pooled_ratio"]
+        assert said[-1].endswith(reading) and finding.remainder is None

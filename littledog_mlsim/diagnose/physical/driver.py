@@ -155,19 +155,8 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         findings, rejected, twin_errors, ctx = _rounds(
             ctx, sp, o, robot_mass, cfg.foot_friction * cfg.ground_friction, say)
         left = None
-        if sp.R:   # what is left against the reference, with every finding in the twin
-            if findings and findings[-1].hyp not in ctx.base:
-                ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
-            left = unexplained(ctx, sp.V, sp.R, o.alpha)
-            if findings and left["significant"] and left["material"]:
-                # the same without the findings (the twin errors kept): how much they removed
-                found = [f.hyp for f in findings]
-                without = _rebase(ctx, tuple(h for h in ctx.base if h not in found))
-                rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
-                findings = [replace(f, remainder=rem) for f in findings]
-                say(f"physics: the findings leave the data's error {rem['ratio_after']:.2f}x the "
-                    f"reference's (p = {rem['p_value']:.2g}; {rem['ratio_before']:.2f}x without "
-                    f"them): {rem['reading']}")
+        if sp.R:
+            findings, left = _left_against_reference(ctx, findings, sp, o, say)
         n_sims = runner.n_sims
     finally:
         runner.close()
@@ -181,6 +170,26 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         res.reference = {"n_moves": len(sp.R), "moves": [sp.recs[i].name for i in sp.R],
                          "twin_errors": twin_errors, "unexplained": left}
     return res
+
+
+def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Split,
+                            o: PhysicalOptions, say: Callable[[str], None]
+                            ) -> tuple[list[Finding], dict[str, Any]]:
+    """(the findings, what is left): :func:`unexplained` with every finding in the twin; where
+    that is significant and material, the same without the findings (the twin errors kept)
+    reads them (:func:`remainder`, decision 045) and each finding carries it."""
+    if findings and findings[-1].hyp not in ctx.base:
+        ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
+    left = unexplained(ctx, sp.V, sp.R, o.alpha)
+    if findings and left["significant"] and left["material"]:
+        found = [f.hyp for f in findings]
+        without = _rebase(ctx, tuple(h for h in ctx.base if h not in found))
+        rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
+        findings = [replace(f, remainder=rem) for f in findings]
+        say(f"physics: the findings leave the data's error {rem['ratio_after']:.2f}x the "
+            f"reference's (p = {rem['p_value']:.2g}; {rem['ratio_before']:.2f}x without "
+            f"them): {rem['reading']}")
+    return findings, left
 
 
 def _long_enough(*groups: Sequence[MoveRecording]) -> tuple:
