@@ -637,7 +637,7 @@ def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dic
     for name in STATE_NAMES:
         b, a = before["nmse"].get(name), after["nmse"].get(name)
         cut[name] = _f(1.0 - a / b) if (a is not None and b) else None
-    rem = getattr(f, "remainder", None)
+    rem = f.remainder
     statement = f.statement if rem is None else f.statement + "; " + remainder_words(rem)
     extra = {} if rem is None else {"remainder": {k: (_f(v) if isinstance(v, float) else v)
                                                   for k, v in rem.items()},
