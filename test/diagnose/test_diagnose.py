@@ -663,7 +663,7 @@ def test_physical_scopes_and_shortlist():
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             same_leg = r.startswith("joint:") and r.split("_")[:2] == scope.split("_")[:2]
             assert a < b or b < a or (len(a) == len(b) == 1 and same_leg), (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 9 * 22 + 8 + 4 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 10 * 22 + 8 + 4 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
@@ -707,6 +707,26 @@ def test_physical_mass_com_position_and_servo_saturation():
     play = ServoDeadband(0.1, "knees")
     play._kp, play._kd, play._lim0 = weak._kp, weak._kd, weak._lim0
     assert play.extra(e, dq, 0.0) == pytest.approx([-0.01, -0.3, 0.0, 0.0])
+
+
+def test_a_supply_sag_scales_the_whole_servo_output():
+    """A sagging supply scales the PD torque and its limit together (a gain drift scales the
+    P gain only): saturated joints lose torque too, and the damping shrinks."""
+    from littledog_mlsim.robot.effects import ServoGain, SupplySag
+    sag = SupplySag(-0.1, "knees", time_offset_s=3.0)
+    sag._kp, sag._kd, sag._lim0 = np.full(4, 10.0), np.full(4, 0.1), np.full(4, 0.6)
+    e, dq = np.array([0.001, 0.03, 0.2, -0.2]), np.array([0.0, 0.0, 0.0, 2.0])
+    normal = np.clip(10 * e - 0.1 * dq, -0.6, 0.6)
+    assert sag.extra(e, dq, 1.0) == pytest.approx(0.6 * normal - normal)   # 1 s in, at 3 s
+    drift = ServoGain(1.0, "knees", drift_per_s=-0.1, time_offset_s=3.0)
+    drift._kp, drift._kd, drift._lim0 = sag._kp, sag._kd, sag._lim0
+    # the saturated knees: the gain drift changes nothing, the sag takes 40 % off
+    assert drift.extra(e, dq, 1.0)[2] == 0.0 and sag.extra(e, dq, 1.0)[2] == pytest.approx(-0.24)
+    flat = SupplySag(-0.5, "knees")           # floored at zero: a flat supply drives nothing
+    flat._kp, flat._kd, flat._lim0 = sag._kp, sag._kd, sag._lim0
+    assert flat.servo(e, dq, 3.0) == pytest.approx(np.zeros(4))
+    with pytest.raises(ValueError, match="SupplySag"):
+        SupplySag(float("nan"))
 
 
 class FakeObjective:
@@ -828,6 +848,38 @@ def test_signed_family_starts_its_scope_fit_on_the_better_side():
         f = fit_magnitude(fitter, v, [0], known=side if known else None)
         fits.append((f.fitted, f.J, fitter.n_evaluated()))
     assert fits[0][:2] == fits[1][:2] and fits[1][2] == fits[0][2] - 1
+
+
+def test_a_drift_is_fitted_in_its_other_form_and_the_held_out_moves_choose():
+    """A gain drift's other form, a supply sag, is not screened; it is fitted at the drift's
+    scope from the drift's rate and joins the shortlist when it fits about as well (within
+    10 %), so the held-out decision chooses the form; a form that fits far worse stays out."""
+    from littledog_mlsim.diagnose.families import FAMILIES
+    from littledog_mlsim.diagnose.physical import Candidate, fit_magnitude, form_variants
+
+    assert not FAMILIES["supply_sag"].screened and FAMILIES["supply_sag"].vocabulary == \
+        "time_drift"
+    assert FAMILIES["time_drift"].other_forms == ("supply_sag",)
+
+    def J_sag_truth(hyp):   # the data hold a -9 %/s sag; a gain drift of -5 %/s imitates it
+        r = hyp[2]["rate_per_s"]
+        return 1.0 + ((r + 0.09) ** 2 if hyp[0] == "supply_sag" else 0.2 + (r + 0.05) ** 2)
+
+    obj = FakeObjective(J_sag_truth)
+    drift = fit_magnitude(obj, Candidate("time_drift", "all", 1.0, -0.08), [0, 1])
+    other = Candidate("joint_friction", "all", 1.0, 0.05, fitted=0.05, J=1.5)
+    (sag,) = form_variants(obj, [drift, other], [0, 1])
+    assert sag.family == "supply_sag" and sag.scope == "all"
+    assert sag.fitted == pytest.approx(-0.09, abs=0.005) and sag.J < drift.J
+    assert {h.family for hs, _, _ in obj.calls for h in hs} == {"time_drift", "supply_sag"}
+    # already in the shortlist at that scope: not fitted again
+    assert form_variants(obj, [drift, sag], [0, 1]) == []
+    far = FakeObjective(lambda h: 1.0 + (5.0 if h[0] == "supply_sag" else 0.0)
+                        + (h[2]["rate_per_s"] + 0.05) ** 2)
+    assert form_variants(far, [replace(drift, J=1.0)], [0, 1]) == []
+    r = FAMILIES["supply_sag"].physical_params(sag, 0.8)
+    assert r["form"] == "servo output (P, D and torque limit)"
+    assert "per second" in FAMILIES["supply_sag"].statement("all joints", r)
 
 
 def test_joint_magnitude_refit_on_every_fit_move_uses_the_segments():

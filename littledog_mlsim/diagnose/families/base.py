@@ -77,7 +77,10 @@ class Family:
     force's ``fx``, ``fy``; one-parameter families have ``("value",)``); ``deep_probe``: a
     joint family's second screening probe, for a threshold effect that does nothing until it
     is strong; ``command_path``: acts on the set-points (identifiable with excitation);
-    ``reported_as``: the vocabulary's family if the search splits one into several.
+    ``reported_as``: the vocabulary's family if the search splits one into several;
+    ``other_forms``: families that are another physical form of the same effect (a gain drift
+    and a supply sag), not screened themselves (``screened`` False): each is fitted at the
+    scope this family's screen chose, and the held-out moves decide between the forms.
     """
 
     name: ClassVar[str]
@@ -96,6 +99,8 @@ class Family:
     searches_position: ClassVar[bool] = False   # the fit also searches where it acts (a mass)
     twin_family: ClassVar[str] = ""          # the family that pushes alike, fitted beside it
     yields_to_twin: ClassVar[bool] = False   # its twin is the finding where both push alike
+    screened: ClassVar[bool] = True          # the screen simulates it (False: a form only)
+    other_forms: ClassVar[tuple[str, ...]] = ()   # unscreened families fitted at its scope
 
     # -- what it is
     @property

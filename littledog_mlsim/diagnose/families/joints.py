@@ -7,11 +7,13 @@ import numpy as np
 
 from ...layout import JOINT_NAMES, LEG_JOINTS
 from ...robot.config import robot_config
-from .base import Family, FittedEffect, _cap, _magnitude, register_family
+from .base import (EXCITED_MOVES, Family, FittedEffect, Separation, _cap, _magnitude,
+                   register_family)
 from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
            "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily", "TimeDrift",
+           "SupplySagDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
 _MEASURED = robot_config("measured")
@@ -280,17 +282,43 @@ class EncoderOffsetFamily(Family):
         return out
 
 
-@register_family
-class TimeDrift(Family):
-    """The servo gain drifts over a move (grows over 4 s: screened on the replay too)."""
+class _Drift(Family):
+    """A drift's two forms share the parameter, the range, the feature and the reading."""
 
-    name: ClassVar[str] = "time_drift"
     kind: ClassVar[str] = "joints"
     primary: ClassVar[str] = "rate_per_s"
     unit: ClassVar[str] = "1/s"
     probe: ClassVar[float] = -0.08
     bounds: ClassVar[tuple[float, float]] = (-0.24, 0.24)
     long_screen: ClassVar[bool] = True   # type: ignore[assignment]
+    form: ClassVar[str] = ""
+
+    @property
+    def shortlist_class(self) -> str:
+        return "time_drift"
+
+    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
+        return {self.primary: float(_magnitude(c)), "form": self.form}
+
+    def augmentation(self, scope: str, params: Mapping[str, Any]) -> Any:
+        from ...models.features import ElapsedTime
+        return ElapsedTime()
+
+    def separation(self, other: Family) -> Separation | None:
+        if not isinstance(other, _Drift) or other.name == self.name:
+            return None
+        return Separation(2, "a drifting P gain leaves the servo's damping and torque limit as "
+                             "they were, a sagging supply shrinks them too: they differ where "
+                             "a servo moves fast or saturates", EXCITED_MOVES)
+
+
+@register_family
+class TimeDrift(_Drift):
+    """The servo's P gain drifts over a move (grows over 4 s: screened on the replay too)."""
+
+    name: ClassVar[str] = "time_drift"
+    form: ClassVar[str] = "servo P gain"
+    other_forms: ClassVar[tuple[str, ...]] = ("supply_sag",)
 
     def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
         from ...robot.effects import ServoGain
@@ -301,6 +329,23 @@ class TimeDrift(Family):
         return (f"{_cap(where)}: servo gain drifts by about {100 * params[self.primary]:+.1f} % "
                 f"per second since the start of a move")
 
-    def augmentation(self, scope: str, params: Mapping[str, Any]) -> Any:
-        from ...models.features import ElapsedTime
-        return ElapsedTime()
+
+@register_family
+class SupplySagDrift(_Drift):
+    """The servo's whole output (P and D torque and its limit) drifts over a move: the supply
+    voltage sags. Not screened: fitted where the gain drift's screen points."""
+
+    name: ClassVar[str] = "supply_sag"
+    reported_as: ClassVar[str] = "time_drift"
+    form: ClassVar[str] = "servo output (P, D and torque limit)"
+    screened: ClassVar[bool] = False
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import SupplySag
+        return [SupplySag(params[self.primary], _joints(scope),
+                          time_offset_s=params.get("t0_s", 0.0))]
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        return (f"{_cap(where)}: servo output (torque and its limit) drifts by about "
+                f"{100 * params[self.primary]:+.1f} % per second since the start of a move "
+                f"(a sagging supply)")

@@ -41,6 +41,8 @@ Method
    1 s segments' channels only); vector families then search their direction around the
    first-order one and refit the magnitude (:func:`.fit.refine_direction`).
    This is the transducer: the parameter is the plug-in's value that reproduces the data.
+   A family with other physical forms (a gain drift and a supply sag) has each form fitted at
+   the scope its screen chose (:func:`.fit.form_variants`); step 5 chooses the form.
 5. **Decision on held-out moves.** The fitted shortlist is re-simulated on other TrainPool moves
    (not used to screen or fit): the hypothesis with the largest mean per-move cut
    (:func:`..stats.move_cuts`, bounded per move and channel) is the finding (the 4 s replays are
@@ -61,7 +63,7 @@ from .channels import CHANNELS, DEFAULT_HORIZONS_S, N_CH, horizon_errors
 from .context import Objective, SearchContext
 from .driver import PhysicalOptions, identify, pick_moves
 from .fit import (fit, fit_magnitude, refine_direction, refine_position, refine_wide,
-                  scope_variants, start_side, wide_magnitude)
+                  scope_variants, form_variants, start_side, wide_magnitude)
 from .records import Candidate, Finding, HeldOutDecision, Hypothesis, PhysIdResult
 from .resim import Memo, Move, Runner, Transducer, build_effects, simulate, true_start
 from .screen import screen, shortlist
@@ -71,6 +73,6 @@ __all__ = ["identify", "PhysicalOptions", "PhysIdResult", "Finding", "Candidate"
            "SearchContext", "Objective", "Transducer", "Runner", "Memo", "Move", "simulate",
            "true_start", "build_effects", "screen", "shortlist", "fit", "fit_magnitude",
            "refine_direction", "refine_position", "refine_wide", "wide_magnitude",
-           "start_side", "scope_variants", "validate", "push_twin", "physical_params",
+           "start_side", "scope_variants", "form_variants", "validate", "push_twin", "physical_params",
            "statement", "inseparable", "suspicions", "INSEPARABLE_SHARE", "horizon_errors",
            "CHANNELS", "N_CH", "DEFAULT_HORIZONS_S", "pick_moves", "HeldOutDecision"]

@@ -19,7 +19,7 @@ from .advice import suspicions
 from .channels import (DEFAULT_HORIZONS_S, MIN_STEPS, errors, horizon_errors, measured,
                        seg_starts)
 from .context import SearchContext
-from .fit import fit, scope_variants, segments_only, wide_magnitude
+from .fit import fit, form_variants, scope_variants, segments_only, wide_magnitude
 from .records import Candidate, Finding, HeldOutDecision, PhysIdResult
 from .resim import DaskRunner, Memo, Move, Runner
 from .screen import screen, shortlist
@@ -465,7 +465,8 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
     screen's candidates)."""
     F = sp.F
     FS = _screen_moves(F, o.screen_moves)
-    cands = screen(ctx, FS, list(FAMILIES if o.families is None else o.families), say)
+    cands = screen(ctx, FS, [f for f in FAMILIES if FAMILIES[f].screened]
+                   if o.families is None else list(o.families), say)
     top = [fit(ctx, c, FS, F) for c in shortlist(cands, o.n_refine)]
     # the push class's other form, fitted on its own: the held-out moves then compare a push
     # and a slope each at its best magnitude (the shortlist holds one of them)
@@ -473,6 +474,7 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
         twin = push_twin(c, robot_mass)
         top.append(fit(ctx, replace(twin, magnitude=float(twin.fitted), fitted=None), FS, F))
     top += scope_variants(ctx, top, FS)
+    top += form_variants(ctx, top, FS)
     # joint magnitudes too on every fit move, once the scope is chosen
     top = [wide_magnitude(ctx, c, F) if segments_only(c.family) else c for c in top]
     top.sort(key=lambda c: c.J / c.J0)

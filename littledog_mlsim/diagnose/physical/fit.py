@@ -21,7 +21,7 @@ from .context import Objective
 from .records import Candidate, Hypothesis
 
 __all__ = ["fit", "fit_magnitude", "refine_wide", "wide_magnitude", "refine_direction",
-           "refine_position", "start_side", "scope_variants", "segments_only"]
+           "refine_position", "start_side", "scope_variants", "form_variants", "segments_only"]
 
 
 def segments_only(family: str) -> bool:
@@ -324,3 +324,24 @@ def scope_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
         return []
     best = min(variants, key=lambda c: c.J)
     return [best] if best.J <= 1.1 * c0.J else []
+
+
+def form_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
+                  ) -> list[Candidate]:
+    """Each fitted hypothesis's other physical forms (:attr:`..families.Family.other_forms`:
+    a supply sag beside a gain drift), fitted on the moves ``F`` at its scope, starting from its
+    magnitude; a form joins the shortlist if it fits about as well (within 10 %), so that the
+    held-out decision chooses the form as it chooses the scope (:func:`scope_variants`)."""
+    have = {(c.family, c.scope) for c in top}
+    out = []
+    for c in top:
+        if c.fitted is None or c.J is None:
+            continue
+        for form in FAMILIES[c.family].other_forms:
+            if (form, c.scope) in have:
+                continue
+            v = fit_magnitude(obj, Candidate(form, c.scope, c.score, float(c.fitted)), F)
+            have.add((form, c.scope))
+            if v.J is not None and v.J <= 1.1 * c.J:
+                out.append(v)
+    return out
