@@ -25,7 +25,7 @@ recording would tell more. Nothing is added to the served model for it.
 """
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from scipy import stats
@@ -34,8 +34,8 @@ from ..layout import CONTROL_DT, StateLayout
 from .families.scopes import joint_scopes, scope_joints, scope_words
 from .learned import _joint_elements
 
-__all__ = ["MIN_RATIO", "CONCENTRATION", "CONCENTRATION_TOLERANCE", "move_mse", "elements_of",
-           "unexplained_change"]
+__all__ = ["MIN_RATIO", "CONCENTRATION", "CONCENTRATION_TOLERANCE", "RECORDINGS", "move_mse",
+           "elements_of", "locate", "unexplained_change"]
 
 S = StateLayout()
 #: the data's error at least this many times the reference's is material
@@ -78,12 +78,21 @@ def _ratio(A: np.ndarray, B: np.ndarray, cols: np.ndarray) -> float:
 
 def _where(A: np.ndarray, B: np.ndarray) -> tuple[str, dict[str, float], float]:
     """(scope, ratio per scope, concentration of the kept scope) of normalized MSEs A, B."""
-    joints = elements_of("all")
-    ratios = {s: _ratio(A, B, elements_of(s)) for s in ["body"] + joint_scopes()}
+    return locate(lambda cols: _ratio(A, B, cols), elements_of)
+
+
+def locate(ratio: Callable[[np.ndarray], float], elements: Callable[[str], np.ndarray]
+           ) -> tuple[str, dict[str, float], float]:
+    """Where an excess lives (module doc, "where it lives"): (scope, ratio per scope,
+    concentration of the kept scope), given the data's error over the reference's on a set of
+    elements or channels (``ratio``) and each vocabulary scope's elements (``elements``:
+    ``"body"`` and the joint scopes)."""
+    joints = elements("all")
+    ratios = {s: ratio(elements(s)) for s in ["body"] + joint_scopes()}
     conc: dict[str, float] = {"body": ratios["body"] / ratios["all"]}
     for s in joint_scopes()[1:]:
-        rest = np.setdiff1d(joints, elements_of(s))
-        conc[s] = ratios[s] / _ratio(A, B, rest)
+        rest = np.setdiff1d(joints, elements(s))
+        conc[s] = ratios[s] / ratio(rest)
     best = max(conc.values())
     if best >= CONCENTRATION:
         near = [s for s, c in conc.items() if c >= max(CONCENTRATION,

@@ -688,7 +688,8 @@ def build_physical_report(pid: Any, effect_augs: Sequence[Any], effect_stage: Se
         effects.append(_physical_effect(k, f, aug, before, stages[si]))
     doc = {
         "format": REPORT_FORMAT, "format_version": REPORT_FORMAT_VERSION,
-        "significant": bool(effects), "effects": effects, "suspected": list(pid.suspected),
+        "significant": bool(effects) or _left_named(pid), "effects": effects,
+        "suspected": list(pid.suspected),
         "before": stages[0], "after": stages[-1], "stages": list(stages), "rounds": [],
         "search": {"kind": "physical identification", "alpha": pid.alpha,
                    "min_gain": pid.min_gain, "library_size": pid.library_size,
@@ -700,6 +701,12 @@ def build_physical_report(pid: Any, effect_augs: Sequence[Any], effect_stage: Se
         **info,
     }
     return _clean(doc)
+
+
+def _left_named(pid: Any) -> bool:
+    """Whether, with a reference, what the findings leave is named ``other`` (decision 047):
+    the report is then significant without a finding."""
+    return bool(((getattr(pid, "reference", None) or {}).get("unexplained") or {}).get("named"))
 
 
 def _physical_figures(out: Path, doc: dict) -> dict[str, list[str]]:
@@ -758,6 +765,10 @@ def _physical_markdown(doc: dict, figs: Mapping[str, list[str]]) -> str:
         f"({', '.join(ph['families'])}); {ph['n_simulations']} re-simulations in "
         f"{ph['seconds']:.0f} s.\n")
     add(f"**Significant: {'yes' if doc['significant'] else 'no'}.**\n")
+    left = (ph.get("reference") or {}).get("unexplained") or {}
+    if left.get("named"):
+        add(f"**Unexplained against the reference** (`other` on `{left['scope']}`): "
+            f"{left['statement']}.\n")
     for e, fig in zip(doc["effects"], figs.get("effects", [])):
         p = e["physical"]
         ev = e["evidence"]

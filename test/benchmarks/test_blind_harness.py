@@ -51,6 +51,19 @@ def test_a_held_frame_finding_is_named_and_scored_like_the_timing_checks():
     assert harness.named_effects(quiet) == [] and not harness.significant(quiet)
 
 
+def test_the_physical_routes_named_excess_counts_as_other_at_its_scope():
+    """Decision 047: the excess over the reference the physical route's findings leave, where
+    named, is an ``other`` effect at its scope; not named, it names nothing."""
+    voc = {"family": "other", "scope": "joint:back_left_knee", "params": {"error_ratio": 1.4}}
+    left = {"named": True, "vocabulary": voc, "significant": True, "material": True}
+    report = {"significant": True, "effects": [], "physics": {"reference": {"unexplained": left}}}
+    assert harness.named_effects(report) == [voc]
+    s = harness.score({"family": "other", "scope": "joint:back_left_knee", "params": {}}, report)
+    assert s["found"] and not s["identified"]
+    quiet = {**report, "physics": {"reference": {"unexplained": {**left, "named": False}}}}
+    assert harness.named_effects(quiet) == []
+
+
 def test_the_tag_names_every_condition():
     assert harness.follow_up_tag({}) == ""
     assert harness.follow_up_tag({"--excitation": 0.05}) == "_e0.05"

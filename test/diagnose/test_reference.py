@@ -329,6 +329,58 @@ def test_what_is_left_in_a_few_channels_is_reported_as_unexplained():
     assert "1.80x the reference's" in pooled[0]["why"] and "no family" in pooled[0]["why"]
 
 
+def test_the_excess_left_is_located_and_named_other_where_it_lives():
+    """Decision 047: what the findings leave significantly and materially above the reference
+    is named ``other`` at the scope where it lives: one knee's angles, all joints, or the
+    body's motion; a material excess the data cannot establish is only suspected, with more
+    moves asked for first."""
+    import numpy as np
+    from types import SimpleNamespace
+    from littledog_mlsim.diagnose.physical.channels import CHANNELS, channels_of
+    from littledog_mlsim.diagnose.physical.driver import left_suspicion, name_left, unexplained
+    from littledog_mlsim.diagnose.report import _left_named
+    assert [CHANNELS[k] for k in channels_of("joint:back_left_knee")] == [
+        "short:q_back_left_knee", "long:q_back_left_knee"]
+    assert len(channels_of("body")) == 12 and len(channels_of("all")) == 24
+    V, R = list(range(12)), list(range(12, 24))
+    rng = np.random.default_rng(4)
+    S = np.exp(rng.normal(0.0, 0.2, (24, 1)) + rng.normal(0.0, 0.2, (24, 36)))
+
+    class Ctx:
+        def __init__(self, S):
+            self.S = S
+
+        def sse(self, hyp, moves):
+            return self.S[list(moves)]
+
+    def left_with(cols, factor):
+        T = S.copy()
+        T[np.ix_(V, cols)] *= factor
+        return name_left(unexplained(Ctx(T), V, R, 0.01))
+
+    knee = left_with(channels_of("joint:back_left_knee"), 12.0)
+    assert knee["named"] and knee["scope"] == "joint:back_left_knee", knee
+    assert knee["concentration"] > 2 and knee["vocabulary"]["family"] == "other"
+    assert knee["vocabulary"]["scope"] == "joint:back_left_knee"
+    assert "back-left knee" in knee["statement"] and "times the reference's" in knee["statement"]
+    spread = left_with(channels_of("all"), 2.5)
+    assert spread["named"] and spread["scope"] == "all" and spread["concentration"] == 1.0
+    body = left_with(channels_of("body"), 4.0)
+    assert body["named"] and body["scope"] == "body", body
+    (sus,) = left_suspicion(body, capped=False)
+    assert sus["scope"] == "body" and "--start-spread" in sus["recording"]
+    quiet = name_left(unexplained(Ctx(S), V, R, 0.01))
+    assert not quiet["named"] and "vocabulary" not in quiet
+    assert not _left_named(SimpleNamespace(reference={"unexplained": quiet}))
+    assert _left_named(SimpleNamespace(reference={"unexplained": knee}))
+    assert not _left_named(SimpleNamespace(reference=None))
+    # material, not significant: suspected, more moves first
+    untold = {**knee, "significant": False, "channel_significant": False, "named": False}
+    (sus,) = left_suspicion(untold, capped=False)
+    assert "cannot tell it from chance" in sus["why"] and sus["scope"] == "joint:back_left_knee"
+    assert sus["recording"].startswith("record more moves") and "--excitation" in sus["recording"]
+
+
 def test_a_finding_that_leaves_a_material_excess_is_read_as_partial_or_a_stand_in():
     """Decision 045: where the findings leave the data's error significantly and materially
     above the reference's, the share of the excess they removed reads them as part of the

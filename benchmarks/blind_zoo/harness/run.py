@@ -188,12 +188,16 @@ def named_effects(report: dict[str, Any]) -> list[dict[str, Any]]:
     rollout route), the rollout route's unexplained change since the reference where it is
     significant (family ``other``), its change since the reference read through the
     reference's model where it is named (decision 027), its push confirmed by the drift
-    against the reference where named (decision 037), and the sensor-timing check's where it
-    found a shift (either route)."""
+    against the reference where named (decision 037), the physical route's excess over the
+    reference that its findings leave where named (family ``other``, decision 047), and the
+    sensor-timing check's where it found a shift (either route)."""
     out = []
     for e in report.get("effects", []):
         p = e.get("physical") or {}
         out.append(p if "family" in p else (e.get("vocabulary") or {}))
+    left = ((report.get("physics") or {}).get("reference") or {}).get("unexplained") or {}
+    if left.get("named"):
+        out.append(left.get("vocabulary") or {})
     for e in (report.get("rollout_route") or {}).get("effects", []):
         out.append(e.get("vocabulary") or {})
     change = (report.get("rollout_route") or {}).get("unexplained_change") or {}

@@ -16,7 +16,8 @@ from ...data.recording import MoveRecording
 from ...layout import JOINT_NAMES
 
 __all__ = ["SEG_STARTS", "SEG_LEN", "MIN_STEPS", "seg_starts", "SCREEN_SEGMENTS", "DEFAULT_HORIZONS_S", "CHANNELS", "N_CH",
-           "SHORT", "LONG", "Measured", "measured", "errors", "sse", "flat", "horizon_errors"]
+           "SHORT", "LONG", "Measured", "measured", "errors", "sse", "flat", "horizon_errors",
+           "channels_of"]
 
 SEG_STARTS = (0, 100, 200, 300)
 SEG_LEN = 100
@@ -33,6 +34,16 @@ CHANNELS = tuple([f"short:q_{j}" for j in JOINT_NAMES] + [f"short:{c}_b" if c in
 N_CH = len(CHANNELS)
 SHORT = np.arange(18)
 LONG = np.arange(18, 36)
+
+
+def channels_of(scope: str) -> np.ndarray:
+    """The channels of a vocabulary scope: the body's twelve (position and attitude, both
+    horizon classes), or a joint scope's angles (both horizon classes)."""
+    from ..families.scopes import scope_joints
+    if scope == "body":
+        return np.array([k for k, c in enumerate(CHANNELS) if ":q_" not in c])
+    names = {f"q_{JOINT_NAMES[j]}" for j in scope_joints(scope)}
+    return np.array([k for k, c in enumerate(CHANNELS) if c.split(":")[1] in names])
 
 
 def rpy(orient: np.ndarray) -> np.ndarray:

@@ -162,7 +162,10 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         runner.close()
     sus = suspicions(findings, rejected, o.excitation, o.alpha, o.min_gain)
     if left is not None:
+        left = name_left(left)
         sus += left_suspicion(left, len(twin_errors) >= o.reference_rounds)
+        if left["named"]:
+            say("physics: unexplained: other at " + left["scope"] + ": " + left["statement"])
     res = PhysIdResult(findings, rejected, sus, cfg.name, len(sp.F), len(sp.V), n_sims,
                        time.perf_counter() - t_start, o.alpha, o.min_gain, library_size(),
                        tuple(o.horizons_s), baseline_h, notes)
@@ -338,21 +341,31 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     pooled excess over the reference that is significant and material, or one in a few
     channels (``channel_significant``); none if the data do not exceed the reference.
     ``capped``: the search stopped at the most corrections the reference may cancel."""
+    from ..excess import RECORDINGS
     pooled = left["significant"] and left["material"]
-    if not (pooled or left.get("channel_significant")):
+    untold = left["material"] and not left["significant"]
+    if not (pooled or untold or left.get("channel_significant")):
         return []
     where = ", ".join(c["channel"] for c in left["channels"][:4])
-    why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
-           f"(p = {left['p_value']:.2g}), most on {where}" if pooled else
-           f"the data's re-simulation error exceeds the reference's on {where} (per channel "
-           f"p = {left['channel_p_value']:.2g}; {left['pooled_ratio']:.2f}x pooled)")
+    if pooled:
+        why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
+               f"(p = {left['p_value']:.2g}), most on {where}")
+    elif untold:
+        why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's, "
+               f"material, but the data cannot tell it from chance (p = {left['p_value']:.2g}), "
+               f"most on {where}")
+    else:
+        why = (f"the data's re-simulation error exceeds the reference's on {where} (per channel "
+               f"p = {left['channel_p_value']:.2g}; {left['pooled_ratio']:.2f}x pooled)")
     why += ("; the search stopped at the most twin errors the reference may cancel"
             if capped else "; no family of the library explains it")
-    return [{"family": "other", "scope": "body", "params": {}, "kind": "unexplained",
+    scope = left.get("scope", "body")
+    more = ("record more moves of the same types (record --moves-per-type 20, a new seed), and "
+            if untold else "")
+    return [{"family": "other", "scope": scope, "params": {}, "kind": "unexplained",
              "why": why,
-             "recording": "record the same move types with command excitation "
-                          "(record --excitation 0.05) and from several headings, beside a new "
-                          "clean reference"}]
+             "recording": more + RECORDINGS["body" if scope == "body" else "joints"]
+             + ", beside a new clean reference"}]
 
 
 #: the data's re-simulation error against the reference's above which the difference is
@@ -405,11 +418,56 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
                                nan_policy="omit").pvalue) for j in np.flatnonzero(ok)]
     p_ch = [x for x in p_ch if np.isfinite(x)]
     p_channel = min(1.0, min(p_ch, default=1.0) * max(len(p_ch), 1))
+    scope, scope_ratios, conc = _locate(ratio)
     return {"pooled_ratio": pooled, "p_value": p, "significant": bool(p < alpha),
             "channel_p_value": p_channel, "channel_significant": bool(p_channel < alpha),
             "material": bool(pooled >= UNEXPLAINED_RATIO),
             "channels": [{"channel": CHANNELS[j], "ratio": float(ratio[j])} for j in order],
-            "n_data_moves": len(V), "n_reference_moves": len(R)}
+            "n_data_moves": len(V), "n_reference_moves": len(R),
+            "scope": scope, "concentration": conc, "scope_ratios": scope_ratios}
+
+
+def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
+    """Where the excess over the reference lives (decision 047): the learned route's rule
+    (:func:`..excess.locate`, decision 026) on the channels' ratios, a scope's ratio the mean
+    of its channels' (:func:`.channels.channels_of`)."""
+    from ..excess import locate
+    from .channels import channels_of
+
+    def of(cols: np.ndarray) -> float:
+        r = ratio[cols]
+        r = r[np.isfinite(r)]
+        return float(r.mean()) if r.size else float("nan")
+    scope, ratios, conc = locate(of, channels_of)
+    return scope, {k: float(v) for k, v in ratios.items()}, float(conc)
+
+
+def name_left(left: dict[str, Any]) -> dict[str, Any]:
+    """``left`` (:func:`unexplained`) with its reading (decision 047): where the data's error
+    significantly and materially exceeds the reference's with every finding in the twin, the
+    excess is named in the vocabulary as ``other`` at the scope where it lives (``named``,
+    ``vocabulary``, ``statement``): something changed that the library does not hold, or not
+    all of it. Otherwise ``named`` is false."""
+    named = bool(left["significant"] and left["material"])
+    out = {**left, "named": named, "statement": _left_statement(left)}
+    if named:
+        out["vocabulary"] = {"family": "other", "scope": left["scope"],
+                             "params": {"error_ratio": round(float(left["pooled_ratio"]), 3)},
+                             "statement": out["statement"]}
+    return out
+
+
+def _left_statement(left: dict[str, Any]) -> str:
+    from ..families import scope_words
+    scope = left["scope"]
+    where = "the body's motion" if scope == "body" else scope_words(scope)
+    ratios = left["scope_ratios"]
+    where += (f" ({ratios[scope]:.1f} times the reference's there, "
+              f"{left['concentration']:.1f} times the rest's ratio)" if left["concentration"] > 1
+              else f" (spread: body {ratios['body']:.1f}x, joints {ratios['all']:.1f}x)")
+    return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times the "
+            f"reference's (p = {left['p_value']:.2g}) with every finding in the twin, most on "
+            f"{where}")
 
 
 def replace_observer(o: PhysicalOptions, into: list) -> PhysicalOptions:
