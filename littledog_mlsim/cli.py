@@ -314,6 +314,12 @@ def print_diagnosis(r: dict, out: Path) -> None:
             print(f"effect {e['round']}: {e['family']} {e['label']} (p = {e['p_value']:.2g}) on "
                   f"{', '.join(e['outputs'][:6])}{' ...' if len(e['outputs']) > 6 else ''}; "
                   f"TestPool nMSE of those {100 * sum(cut) / max(len(cut), 1):.1f} % lower")
+    left = ((r.get("physics") or {}).get("reference") or {}).get("unexplained") or {}
+    if left.get("named"):
+        print(f"unexplained against the reference: other at {left['scope']}: "
+              f"{left['statement']}")
+    elif r["effects"]:
+        pass
     elif not (r.get("rollout_route") or {}).get("significant"):
         nc, own = r.get("not_comparable") or [], r.get("shared") or []
         print("nothing significant: no candidate effect explains the residual" if not nc + own

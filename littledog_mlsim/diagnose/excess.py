@@ -89,11 +89,12 @@ def locate(ratio: Callable[[np.ndarray], float], elements: Callable[[str], np.nd
     ``"body"`` and the joint scopes)."""
     joints = elements("all")
     ratios = {s: ratio(elements(s)) for s in ["body"] + joint_scopes()}
-    conc: dict[str, float] = {"body": ratios["body"] / ratios["all"]}
+    conc: dict[str, float] = {"body": ratios["body"] / ratios["all"] if ratios["all"] > 0
+                              else float("nan")}
     for s in joint_scopes()[1:]:
-        rest = np.setdiff1d(joints, elements(s))
-        conc[s] = ratios[s] / ratio(rest)
-    best = max(conc.values())
+        rest = ratio(np.setdiff1d(joints, elements(s)))
+        conc[s] = ratios[s] / rest if rest > 0 else float("nan")
+    best = max((c for c in conc.values() if np.isfinite(c)), default=0.0)
     if best >= CONCENTRATION:
         near = [s for s, c in conc.items() if c >= max(CONCENTRATION,
                                                        CONCENTRATION_TOLERANCE * best)]

@@ -370,7 +370,10 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
                          "reference": None if run.o.reference is None
                          else os.fspath(run.o.reference)}
     report = write_physical_report(run.out, pid, effect_augs, effect_stage, stages, **keywords)
-    found = "; ".join(e["physical"]["statement"] for e in report["effects"])
+    found = "; ".join([e["physical"]["statement"] for e in report["effects"]]
+                      + [f"unexplained against the reference, other at {u['scope']}"
+                         for u in [((report["physics"].get("reference") or {})
+                                    .get("unexplained") or {})] if u.get("named")])
     run.say(f"{'found: ' + found if found else 'nothing significant'}"
             + (f"; suspected: {', '.join(s['family'] for s in report['suspected'])}"
                if report["suspected"] else "")

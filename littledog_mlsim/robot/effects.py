@@ -331,20 +331,25 @@ class ServoGain(_ServoTorque):
 
 
 class SupplySag(_ServoTorque):
-    """The whole servo output of some joints scaled by max(0, 1 + ``rate_per_s`` * t), t the
-    time since the move started: the supply voltage sags (a battery under load, a hot motor),
-    so the PD torque and its limit shrink together: clip(k e - b dq, -limit, limit) * s(t)."""
+    """The whole servo output of some joints scaled by s(t) = min(1, max(0, 1 + ``rate_per_s``
+    * t)), t the time since the move started: clip(k e - b dq, -limit, limit) * s(t). The
+    supply voltage of a voltage-mode (PWM) servo sags under load, so the controller's P and D
+    torque and the torque it can reach shrink together; the sag restarts with each move (a
+    battery that recovers between moves), never exceeds the nominal supply, and at s = 0 the
+    servo drives nothing (no back-EMF braking is modelled)."""
 
     def __init__(self, rate_per_s: float, joints: str | list[str] | None = None,
                  time_offset_s: float = 0.0) -> None:
-        if not (np.isfinite(rate_per_s) and np.isfinite(time_offset_s)):
+        if not np.isfinite(rate_per_s):
             raise ValueError(f"SupplySag: rate_per_s must be finite, got {rate_per_s!r}")
+        if not np.isfinite(time_offset_s):
+            raise ValueError(f"SupplySag: time_offset_s must be finite, got {time_offset_s!r}")
         super().__init__(joints)
         self.rate_per_s = float(rate_per_s)
         self.time_offset_s = float(time_offset_s)   # the move's time at this simulation's start
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
-        s = max(0.0, 1.0 + self.rate_per_s * (t + self.time_offset_s))
+        s = min(1.0, max(0.0, 1.0 + self.rate_per_s * (t + self.time_offset_s)))
         return s * np.clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
 
 

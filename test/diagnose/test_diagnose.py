@@ -722,11 +722,16 @@ def test_a_supply_sag_scales_the_whole_servo_output():
     drift._kp, drift._kd, drift._lim0 = sag._kp, sag._kd, sag._lim0
     # the saturated knees: the gain drift changes nothing, the sag takes 40 % off
     assert drift.extra(e, dq, 1.0)[2] == 0.0 and sag.extra(e, dq, 1.0)[2] == pytest.approx(-0.24)
+    rising = SupplySag(0.5, "knees")          # never above the nominal supply
+    rising._kp, rising._kd, rising._lim0 = sag._kp, sag._kd, sag._lim0
+    assert rising.extra(e, dq, 2.0) == pytest.approx(np.zeros(4))
     flat = SupplySag(-0.5, "knees")           # floored at zero: a flat supply drives nothing
     flat._kp, flat._kd, flat._lim0 = sag._kp, sag._kd, sag._lim0
     assert flat.servo(e, dq, 3.0) == pytest.approx(np.zeros(4))
-    with pytest.raises(ValueError, match="SupplySag"):
+    with pytest.raises(ValueError, match="SupplySag: rate_per_s"):
         SupplySag(float("nan"))
+    with pytest.raises(ValueError, match="SupplySag: time_offset_s"):
+        SupplySag(-0.1, time_offset_s=float("inf"))
 
 
 class FakeObjective:
@@ -872,8 +877,9 @@ def test_a_drift_is_fitted_in_its_other_form_and_the_held_out_moves_choose():
     assert sag.family == "supply_sag" and sag.scope == "all"
     assert sag.fitted == pytest.approx(-0.09, abs=0.005) and sag.J < drift.J
     assert {h.family for hs, _, _ in obj.calls for h in hs} == {"time_drift", "supply_sag"}
-    # already in the shortlist at that scope: not fitted again
+    # already in the shortlist at that scope, or not among the families asked for: not fitted
     assert form_variants(obj, [drift, sag], [0, 1]) == []
+    assert form_variants(obj, [drift], [0, 1], allowed=["time_drift"]) == []
     far = FakeObjective(lambda h: 1.0 + (5.0 if h[0] == "supply_sag" else 0.0)
                         + (h[2]["rate_per_s"] + 0.05) ** 2)
     assert form_variants(far, [replace(drift, J=1.0)], [0, 1]) == []

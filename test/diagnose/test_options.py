@@ -139,6 +139,13 @@ def test_diagnose_prints_the_rollout_routes_verdict(tmp_path, capsys):
     print_diagnosis({**base, "timing": timing}, tmp_path)
     out = capsys.readouterr().out.splitlines()
     assert out[1] == "timing: the pose lags the joint states by about 30 ms" and len(out) == 3
+    # the physical route's excess over the reference, named other (decision 047)
+    left = {"named": True, "scope": "joint:back_left_knee", "statement": "1.40 times ..."}
+    print_diagnosis({**base, "significant": True, "physics": {"reference": {"unexplained": left}}},
+                    tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == ("unexplained against the reference: other at joint:back_left_knee: "
+                      "1.40 times ...") and len(out) == 2
 
 
 def test_the_report_models_lgpr_fits_run_in_the_diagnosis_jobs():

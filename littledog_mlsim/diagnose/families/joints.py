@@ -336,6 +336,7 @@ class SupplySagDrift(_Drift):
     voltage sags. Not screened: fitted where the gain drift's screen points."""
 
     name: ClassVar[str] = "supply_sag"
+    bounds: ClassVar[tuple[float, float]] = (-0.24, 0.0)   # a supply only sags
     reported_as: ClassVar[str] = "time_drift"
     form: ClassVar[str] = "servo output (P, D and torque limit)"
     screened: ClassVar[bool] = False

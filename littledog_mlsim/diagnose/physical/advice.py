@@ -54,8 +54,12 @@ def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
             continue
         seen.add(searched)
         how, rec = _separation(f.family, searched)
+        # two forms of one vocabulary family (a gain drift and a supply sag): say which
+        what = (f"{mine} in the form '{FAMILIES[f.family].form}'"
+                if vocabulary_family(searched) == mine and getattr(FAMILIES[f.family], "form", "")
+                else mine)
         out.append({"family": a["family"], "scope": a["scope"], "params": a["params"],
-                    "why": (f"cannot be told from the accepted {mine} on these data: held-out "
+                    "why": (f"cannot be told from the accepted {what} on these data: held-out "
                             f"cut {g:.3g} against {g0:.3g}; {how}"),
                     "recording": rec, "kind": "inseparable"})
     return out

@@ -348,7 +348,8 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
         return []
     where = ", ".join(c["channel"] for c in left["channels"][:4])
     if pooled:
-        why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
+        why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
+               f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
                f"(p = {left['p_value']:.2g}), most on {where}")
     elif untold:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's, "
@@ -523,8 +524,8 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
     screen's candidates)."""
     F = sp.F
     FS = _screen_moves(F, o.screen_moves)
-    cands = screen(ctx, FS, [f for f in FAMILIES if FAMILIES[f].screened]
-                   if o.families is None else list(o.families), say)
+    allowed = list(FAMILIES if o.families is None else o.families)
+    cands = screen(ctx, FS, [f for f in allowed if FAMILIES[f].screened], say)
     top = [fit(ctx, c, FS, F) for c in shortlist(cands, o.n_refine)]
     # the push class's other form, fitted on its own: the held-out moves then compare a push
     # and a slope each at its best magnitude (the shortlist holds one of them)
@@ -532,7 +533,7 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
         twin = push_twin(c, robot_mass)
         top.append(fit(ctx, replace(twin, magnitude=float(twin.fitted), fitted=None), FS, F))
     top += scope_variants(ctx, top, FS)
-    top += form_variants(ctx, top, FS)
+    top += form_variants(ctx, top, FS, allowed)
     # joint magnitudes too on every fit move, once the scope is chosen
     top = [wide_magnitude(ctx, c, F) if segments_only(c.family) else c for c in top]
     top.sort(key=lambda c: c.J / c.J0)

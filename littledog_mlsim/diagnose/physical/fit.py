@@ -326,19 +326,20 @@ def scope_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
     return [best] if best.J <= 1.1 * c0.J else []
 
 
-def form_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
-                  ) -> list[Candidate]:
+def form_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int],
+                  allowed: Sequence[str] | None = None) -> list[Candidate]:
     """Each fitted hypothesis's other physical forms (:attr:`..families.Family.other_forms`:
     a supply sag beside a gain drift), fitted on the moves ``F`` at its scope, starting from its
     magnitude; a form joins the shortlist if it fits about as well (within 10 %), so that the
-    held-out decision chooses the form as it chooses the scope (:func:`scope_variants`)."""
+    held-out decision chooses the form as it chooses the scope (:func:`scope_variants`).
+    ``allowed``: the families the search may report (None: all)."""
     have = {(c.family, c.scope) for c in top}
     out = []
     for c in top:
         if c.fitted is None or c.J is None:
             continue
         for form in FAMILIES[c.family].other_forms:
-            if (form, c.scope) in have:
+            if (form, c.scope) in have or (allowed is not None and form not in allowed):
                 continue
             v = fit_magnitude(obj, Candidate(form, c.scope, c.score, float(c.fitted)), F)
             have.add((form, c.scope))

@@ -46,7 +46,8 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|")
     for d in sorted(p for p in a.rerun.iterdir() if (p / "report.json").is_file()):
         new = json.loads((d / "report.json").read_text())
-        old = json.loads((HERE.parent / "reports" / d.name / "report.json").read_text())
+        run5 = HERE.parent / "reports" / d.name / "report.json"
+        old = json.loads(run5.read_text()) if run5.is_file() else {"effects": []}
         t = truth.get(d.name, {"family": "none (clean)", "scope": "-", "params": {}})
         s_old, s_new = _score(t, old), _score(t, new)
         sec = new.get("seconds")
