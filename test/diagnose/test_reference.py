@@ -164,6 +164,16 @@ def _held(ctx: _Ctx, V):
     return HeldOutDecision((), 1, S0, (S1,), (), (0.0,), 0)
 
 
+class _Sse:
+    """A stand-in context whose per-move, per-channel SSE is the rows of ``S``."""
+
+    def __init__(self, S):
+        self.S = S
+
+    def sse(self, hyp, moves):
+        return self.S[list(moves)]
+
+
 def test_reference_check_tells_a_change_from_a_twin_error():
     from types import SimpleNamespace
     from littledog_mlsim.diagnose.physical.driver import reference_check
@@ -205,12 +215,7 @@ def test_a_difference_in_one_channel_is_left_even_if_the_pooled_ratio_hides_it()
     rng = np.random.default_rng(2)   # each move's own scale times each channel's scatter
     S = np.exp(rng.normal(0.0, 0.5, (24, 1)) + rng.normal(0.0, 0.3, (24, 36)))
 
-    class Ctx:
-        def __init__(self, S):
-            self.S = S
-
-        def sse(self, hyp, moves):
-            return self.S[list(moves)]
+    Ctx = _Sse
 
     left = unexplained(Ctx(S), V, R, 0.01)
     assert not left["significant"] and not left["channel_significant"], left
@@ -346,12 +351,7 @@ def test_the_excess_left_is_located_and_named_other_where_it_lives():
     rng = np.random.default_rng(4)
     S = np.exp(rng.normal(0.0, 0.2, (24, 1)) + rng.normal(0.0, 0.2, (24, 36)))
 
-    class Ctx:
-        def __init__(self, S):
-            self.S = S
-
-        def sse(self, hyp, moves):
-            return self.S[list(moves)]
+    Ctx = _Sse
 
     def left_with(cols, factor):
         T = S.copy()
