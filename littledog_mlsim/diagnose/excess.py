@@ -35,7 +35,7 @@ from .families.scopes import joint_scopes, scope_joints, scope_words
 from .learned import _joint_elements
 
 __all__ = ["MIN_RATIO", "CONCENTRATION", "CONCENTRATION_TOLERANCE", "RECORDINGS", "move_mse",
-           "elements_of", "locate", "unexplained_change"]
+           "elements_of", "locate", "where_words", "unexplained_change"]
 
 S = StateLayout()
 #: the data's error at least this many times the reference's is material
@@ -154,14 +154,19 @@ def unexplained_change(err: np.ndarray, move: np.ndarray, t0: np.ndarray, types:
     return out
 
 
-def _statement(u: dict[str, Any]) -> str:
+def where_words(u: dict[str, Any]) -> str:
+    """Where an excess lives, in words, from :func:`locate`'s ``scope``, ``concentration`` and
+    ``scope_ratios`` in ``u``."""
     where = ("the body's motion" if u["scope"] == "body" else scope_words(u["scope"]))
     if u["concentration"] > 1.0:
-        where += (f" ({u['scope_ratios'][u['scope']]:.1f} times the reference's there, "
-                  f"{u['concentration']:.1f} times the rest's ratio)")
-    else:
-        where += f" (spread: body {u['scope_ratios']['body']:.1f}x, joints " \
-                 f"{u['scope_ratios']['all']:.1f}x)"
+        return where + (f" ({u['scope_ratios'][u['scope']]:.1f} times the reference's there, "
+                        f"{u['concentration']:.1f} times the rest's ratio)")
+    return where + (f" (spread: body {u['scope_ratios']['body']:.1f}x, joints "
+                    f"{u['scope_ratios']['all']:.1f}x)")
+
+
+def _statement(u: dict[str, Any]) -> str:
+    where = where_words(u)
     worst_t = sorted(u["by_type"].items(), key=lambda kv: -kv[1])[:3]
     starts = ", ".join(f"{e['start_s']} s {e['ratio']:.1f}x" for e in u["by_start_s"])
     head = (f"an unexplained change since the reference: the held-out {u['horizon_s']:g} s "

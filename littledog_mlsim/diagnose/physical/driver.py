@@ -459,16 +459,10 @@ def name_left(left: dict[str, Any]) -> dict[str, Any]:
 
 
 def _left_statement(left: dict[str, Any]) -> str:
-    from ..families import scope_words
-    scope = left["scope"]
-    where = "the body's motion" if scope == "body" else scope_words(scope)
-    ratios = left["scope_ratios"]
-    where += (f" ({ratios[scope]:.1f} times the reference's there, "
-              f"{left['concentration']:.1f} times the rest's ratio)" if left["concentration"] > 1
-              else f" (spread: body {ratios['body']:.1f}x, joints {ratios['all']:.1f}x)")
+    from ..excess import where_words
     return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times the "
             f"reference's (p = {left['p_value']:.2g}) with every finding in the twin, most on "
-            f"{where}")
+            f"{where_words(left)}")
 
 
 def replace_observer(o: PhysicalOptions, into: list) -> PhysicalOptions:
