@@ -215,13 +215,11 @@ def test_a_difference_in_one_channel_is_left_even_if_the_pooled_ratio_hides_it()
     rng = np.random.default_rng(2)   # each move's own scale times each channel's scatter
     S = np.exp(rng.normal(0.0, 0.5, (24, 1)) + rng.normal(0.0, 0.3, (24, 36)))
 
-    Ctx = _Sse
-
-    left = unexplained(Ctx(S), V, R, 0.01)
+    left = unexplained(_Sse(S), V, R, 0.01)
     assert not left["significant"] and not left["channel_significant"], left
     one = S.copy()
     one[:12, 5] *= 6.0
-    left = unexplained(Ctx(one), V, R, 0.01)
+    left = unexplained(_Sse(one), V, R, 0.01)
     assert not left["significant"], left
     assert left["channel_significant"] and left["channel_p_value"] < 0.01, left
     assert left["channels"][0]["ratio"] > 3, left
@@ -351,12 +349,10 @@ def test_the_excess_left_is_located_and_named_other_where_it_lives():
     rng = np.random.default_rng(4)
     S = np.exp(rng.normal(0.0, 0.2, (24, 1)) + rng.normal(0.0, 0.2, (24, 36)))
 
-    Ctx = _Sse
-
     def left_with(cols, factor):
         T = S.copy()
         T[np.ix_(V, cols)] *= factor
-        return name_left(unexplained(Ctx(T), V, R, 0.01))
+        return name_left(unexplained(_Sse(T), V, R, 0.01))
 
     knee = left_with(channels_of("joint:back_left_knee"), 12.0)
     assert knee["named"] and knee["scope"] == "joint:back_left_knee", knee
@@ -369,7 +365,7 @@ def test_the_excess_left_is_located_and_named_other_where_it_lives():
     assert body["named"] and body["scope"] == "body", body
     (sus,) = left_suspicion(body, capped=False)
     assert sus["scope"] == "body" and "--start-spread" in sus["recording"]
-    quiet = name_left(unexplained(Ctx(S), V, R, 0.01))
+    quiet = name_left(unexplained(_Sse(S), V, R, 0.01))
     assert not quiet["named"] and "vocabulary" not in quiet
     assert not _left_named(SimpleNamespace(reference={"unexplained": quiet}))
     assert _left_named(SimpleNamespace(reference={"unexplained": knee}))
