@@ -349,7 +349,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  max_evals=a.max_evals, jobs=a.jobs, name=a.name,
                                  scheduler=a.scheduler, servo=a.servo,
                                  test_missing=not a.no_missing_test,
-                                 initial_state=a.initial_state, add_asked=a.add_asked)
+                                 initial_state=a.initial_state, add_asked=a.add_asked,
+                                 consider_spread=a.consider_spread)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -369,6 +370,19 @@ def format_calibration(report: dict) -> str:
         stuck = f"  (at its {e['at_bound']} bound)" if e["at_bound"] else ""
         lines.append(f"{e['name']:<20} {num(e['start']):>9} {num(e['value']):>9}   "
                      f"[{num(lo)}, {num(hi)}]".ljust(64) + f" {e['unit']}{stuck}")
+    consider = report.get("consider") or {}
+    if consider.get("considered"):
+        lines.append(f"the intervals include the {len(consider['considered'])} parameters not "
+                     f"fitted, each uncertain by {100 * consider['spread']:.0f} % (1 sd; "
+                     "--consider-spread)")
+    for e in report["params"]:
+        c = (consider.get("params") or {}).get(e["name"])
+        data = e.get("ci95_data")
+        sd_data = (report.get("sd_coordinate_data") or {}).get(e["name"])
+        if c and data and sd_data is not None and c["sd_coordinate"] > sd_data:
+            lines.append(f"{e['name']}: its interval is mostly what {', '.join(c['by'])} "
+                         f"could be (the data alone: [{num(data[0])}, {num(data[1])}]); fit "
+                         "them, or measure them")
     for w in report["weak_directions"]:
         lines.append(f"not identified: {w['describe']} (95 % half-width "
                      f"{num(w['halfwidth95'])} in log/typical units)")
@@ -777,6 +791,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="after the fit, up to N times: add the parameters the score test asks "
                          "for and fit all again from the optimum (default 0; each round costs "
                          "up to --max-evals more re-simulations)")
+    cb.add_argument("--consider-spread", type=float, default=0.15, metavar="SD",
+                    help="a-priori standard deviation of every parameter not fitted, as a "
+                         "fraction (default 0.15): the intervals include the shift of the "
+                         "optimum it could cause; 0 gives the data's intervals alone")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "

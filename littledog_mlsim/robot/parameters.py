@@ -8,6 +8,12 @@ gains, masses, limits) and which servo it belongs to (``kp``/``kd`` act only on 
 ``position_gain``/``velocity_gain`` only on pybullet's position servo); a parameter of the other
 servo has no effect and is refused.
 
+``same_as`` names the parameters that, fitted together, already have a parameter's whole effect:
+``mass_scale`` multiplies the body's and the legs' masses, and Bullet multiplies the foot's and
+the floor's friction coefficients into the contact's. With those fitted, the parameter is another
+name for what they express, not an unknown of its own (``twin_fit``'s consider analysis leaves it
+out).
+
 Parameters a RobotConfig cannot hold (Coulomb joint friction, an effect plug-in in
 ``robot.effects``) are not here, because a twin file is a RobotConfig.
 """
@@ -39,6 +45,7 @@ class TwinParameter:
     servo: str | None = None        # "pd_torque" | "position" | None (both)
     unset: float | None = None      # the value a None field stands for (e.g. unfiltered)
     typical: float = 1.0            # a linear parameter's scale (finite-difference step, x_scale)
+    same_as: tuple[str, ...] = ()   # parameters that, fitted together, already span its effect
 
     def get(self, config: RobotConfig) -> float:
         v = getattr(config, self.field)
@@ -83,7 +90,8 @@ def _triple(field: str, unit: str, bounds: tuple[float, float], servo: str | Non
 TWIN_PARAMETERS: dict[str, TwinParameter] = {p.name: p for p in (
     TwinParameter("body_mass", "body_mass", "kg (body with battery)", (0.9, 4.5)),
     TwinParameter("leg_mass", "leg_mass", "kg per leg", (0.08, 0.6)),
-    TwinParameter("mass_scale", "mass_scale", "x every link mass", (0.5, 2.0)),
+    TwinParameter("mass_scale", "mass_scale", "x every link mass", (0.5, 2.0),
+                  same_as=("body_mass", "leg_mass")),
     *_triple("kp", "N m/rad", (0.5, 60.0), "pd_torque"),
     *_triple("kd", "N m s/rad", (0.01, 3.0), "pd_torque"),
     *_triple("torque_limit", "N m", (0.1, 5.0)),
@@ -93,9 +101,10 @@ TWIN_PARAMETERS: dict[str, TwinParameter] = {p.name: p for p in (
                   servo="position"),
     TwinParameter("velocity_gain", "velocity_gain", "pybullet velocity gain", (0.1, 1.9),
                   servo="position"),
-    TwinParameter("foot_friction", "foot_friction", "Coulomb coefficient", (0.1, 2.0), log=False),
+    TwinParameter("foot_friction", "foot_friction", "Coulomb coefficient", (0.1, 2.0), log=False,
+                  same_as=("ground_friction",)),
     TwinParameter("ground_friction", "ground_friction", "Coulomb coefficient", (0.1, 2.0),
-                  log=False),
+                  log=False, same_as=("foot_friction",)),
     TwinParameter("command_delay_ms", "command_delay_ms", "ms (set-points arrive late)",
                   (0.0, 40.0), log=False, typical=10.0),
     TwinParameter("rate_filter_hz", "rate_filter_hz", "Hz (joint-rate low-pass; unset = 300)",

@@ -39,7 +39,7 @@ Method
    factor, and stays positive). The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
-   fit, not the robot. Nor do they cover what the optimiser left: a fit stopped by the
+   fit, not the robot; the parameters not fitted widen them (10). Nor do they cover what the optimiser left: a fit stopped by the
    evaluation budget (``converged`` false in the report) can end outside them
    (benchmarks/calibrate).
 5. **Identifiability.** The singular values of J scaled to the coordinates (a unit is one e-fold
@@ -93,6 +93,27 @@ Method
    ``settings`` records ``add_asked`` and ``servo``. The top-level estimates, costs and
    ``stop`` are the last fit's; its estimates' ``start`` is the previous round's optimum. A
    refit that fails, for any reason, keeps the fit before it, and says why.
+10. **What the parameters not fitted add to the intervals** (``consider_spread``, a consider
+   analysis in the estimation sense). The intervals of 4 assume that every parameter left out
+   of the fit is right. On a real robot none is known exactly, and where one acts along a
+   direction the data pins weakly, its error moves the optimum further than the data's noise
+   does: if every mass and every servo torque scale together, the motion stays the same but
+   for what does not scale (the rotor inertia, the contact's stiffness), so an armature a few
+   per cent off shifts the masses and gains together by as much (benchmarks/blind_zoo,
+   zoo31). Each parameter not fitted (the score test's columns of 7: no extra re-simulation)
+   gets an a-priori standard deviation, :func:`consider_sd`: ``consider_spread`` (default
+   0.15) e-folds of a scale-like parameter, that fraction of the larger of its value and
+   ``typical`` for the others; the optimum's shift per unit of it is S = (J^T J)^-1 J^T J_c,
+   and S C S^T (C the a-priori variances) is added to the widest covariance of 4. A parameter
+   whose ``same_as`` are all fitted (``mass_scale`` with both masses, one friction coefficient
+   with the other) is another name for them and is left out. The default spread is the size
+   of the gap between a calibrated twin and a real robot that the project's gap robots are
+   built to (a few per cent to a few tens of per cent); a user with a datasheet sets it
+   smaller. The report's ``consider`` names the parameters considered and, per fitted
+   parameter, its consider sd and the three that give most of it; ``ci95`` is the widened
+   interval and ``ci95_data`` the data's alone. Weak directions (5) stay the data's. Without
+   the score test (``test_missing=False``) there are no columns and the intervals are the
+   data's.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -115,7 +136,8 @@ from .config import MEASURED_ARMATURE as REFLECTED_ROTOR_INERTIA
 from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
-__all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "CalibrationOptions", "Estimate", "WeakDirection",
+__all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
+           "consider_analysis", "consider_sd", "CalibrationOptions", "Estimate", "WeakDirection",
            "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "weak_directions"]
 
@@ -145,6 +167,7 @@ class CalibrationOptions:
     test_missing: bool = True               # score-test the parameters not fitted (doc, 7)
     initial_state: str = "auto"             # auto | smoothed | measured starting states (doc, 1)
     add_asked: int = 0                      # rounds adding what the residual asks for (doc, 9)
+    consider_spread: float = 0.15           # a-priori sd of the parameters not fitted (doc, 10)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -166,6 +189,8 @@ class CalibrationOptions:
             raise ValueError(f"jobs must be >= 1, got {self.jobs}")
         if int(self.add_asked) != self.add_asked or not 0 <= self.add_asked <= 5:
             raise ValueError(f"add_asked must be an integer in 0..5, got {self.add_asked!r}")
+        if not 0 <= self.consider_spread <= 1:
+            raise ValueError(f"consider_spread must be in [0, 1], got {self.consider_spread}")
         if self.add_asked and not self.test_missing:
             raise ValueError("add_asked needs the score test of the parameters not fitted "
                              "(test_missing)")
@@ -184,6 +209,9 @@ class Estimate:
     value: float
     ci95: tuple[float | None, float | None]   # None: not bounded by the data
     at_bound: str | None                      # "lower" | "upper" | None
+    # the interval from the data alone, without what the parameters not fitted add (module
+    # doc, 10); None where the consider analysis did not run
+    ci95_data: tuple[float | None, float | None] | None = None
 
     def contains(self, v: float) -> bool:
         lo, hi = self.ci95
@@ -371,9 +399,11 @@ def _covariances(J: np.ndarray, r: np.ndarray, cluster: int,
 
 
 def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
-               start: np.ndarray) -> tuple[list[Estimate], dict[str, Any], list[np.ndarray]]:
+               start: np.ndarray, consider: np.ndarray | None = None
+               ) -> tuple[list[Estimate], dict[str, Any], list[np.ndarray]]:
     """Estimates with 95 % intervals (module doc, 4): the widest of the plain, the per-state and
-    the per-move robust interval."""
+    the per-move robust interval, widened by the ``consider`` covariance of the parameters not
+    fitted (module doc, 10) where given."""
     sizes = [m.size for m in prob.raw(x)]
     plain, robust, s2, dof, by_move = _covariances(J, r, len(prob.o.horizons) * len(STATE_NAMES),
                                                    sizes)
@@ -382,18 +412,27 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     sd_move = None if by_move is None else np.sqrt(np.clip(np.diag(by_move), 0, None))
     if sd_move is not None:
         sd = np.maximum(sd, sd_move)
+    sd_data = sd
+    if consider is not None:
+        sd = np.sqrt(sd ** 2 + np.clip(np.diag(consider), 0, None))
     out = []
     for k, par in enumerate(prob.params):
         span = prob.hi[k] - prob.lo[k]
         at = ("lower" if x[k] - prob.lo[k] <= 1e-3 * span else
               "upper" if prob.hi[k] - x[k] <= 1e-3 * span else None)
         ci: tuple[float | None, float | None] = (None, None)
+        ci_data: tuple[float | None, float | None] | None = None if consider is None else ci
         if np.isfinite(sd[k]) and sd[k] > 0 and np.any(J[:, k] != 0):
             ci = (par.from_x(x[k] - Z95 * sd[k]), par.from_x(x[k] + Z95 * sd[k]))
-        out.append(Estimate(par.name, par.unit, par.from_x(start[k]), par.from_x(x[k]), ci, at))
+            if consider is not None:
+                ci_data = (par.from_x(x[k] - Z95 * sd_data[k]),
+                           par.from_x(x[k] + Z95 * sd_data[k]))
+        out.append(Estimate(par.name, par.unit, par.from_x(start[k]), par.from_x(x[k]), ci, at,
+                            ci_data))
     stats = {"residual_variance": s2, "dof": dof,
              "sd_coordinate_plain": {p.name: float(v) for p, v in zip(prob.params, sd_plain)},
-             "sd_coordinate": {p.name: float(v) for p, v in zip(prob.params, sd)}}
+             "sd_coordinate": {p.name: float(v) for p, v in zip(prob.params, sd)},
+             "sd_coordinate_data": {p.name: float(v) for p, v in zip(prob.params, sd_data)}}
     if sd_move is not None:
         stats["sd_coordinate_by_move"] = {p.name: float(v) for p, v in zip(prob.params, sd_move)}
     return out, stats, [plain, robust] + ([] if by_move is None else [by_move])
@@ -433,7 +472,9 @@ def _unbounded(estimates: list[Estimate], weak: Sequence[WeakDirection],
     not bound at all (half-width None or over 100 ``limit``) get no interval."""
     free = {n for w in weak if w.halfwidth95 is None or w.halfwidth95 > 100 * limit
             for n, c in w.combination.items() if abs(c) >= 0.1}
-    return [replace(e, ci95=(None, None)) if e.name in free else e for e in estimates]
+    return [replace(e, ci95=(None, None),
+                    ci95_data=None if e.ci95_data is None else (None, None))
+            if e.name in free else e for e in estimates]
 
 
 def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
@@ -545,15 +586,18 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
         x, stages = _fit(prob, x0)
         J, r = prob.jac(x), prob.fun(x)
         n_evals = len(prob.cache)
-        missing = None
+        missing = consider = consider_cov = None
         if options.test_missing:
             say("testing the parameters not fitted")
             try:
-                missing = missing_parameters(prob, x, J, r, options.ask_share)
+                columns = unfitted_columns(prob, x, r)
+                missing = missing_parameters(prob, x, J, r, options.ask_share, columns)
+                consider_cov, consider = consider_analysis(J, params, columns,
+                                                           options.consider_spread)
             except Exception as e:       # the fit is done; its twin is not lost to the test
                 log.warning("the test of the parameters not fitted failed: %s", e)
                 missing = [{"error": f"{type(e).__name__}: {e}"}]
-    estimates, stats, covs = _estimates(prob, x, J, r, x0)
+    estimates, stats, covs = _estimates(prob, x, J, r, x0, consider_cov)
     weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
                                options.weak_halfwidth)
     estimates = _unbounded(estimates, weak, options.weak_halfwidth)
@@ -570,8 +614,10 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                            "max_evals": options.max_evals, "diff_step": options.diff_step,
                            "weak_halfwidth": options.weak_halfwidth,
                            "initial_state": options.initial_state,
+                           "consider_spread": options.consider_spread,
                            "pose_noise_m": pose_noise(train_recs)},
-              "residual_rms": _rms_report(prob, x0, x), "missing": missing}
+              "residual_rms": _rms_report(prob, x0, x), "missing": missing,
+              "consider": consider}
     _finish(report, test_recs, original, calibrated, options, say, t0)
     return Calibration(calibrated, estimates, weak, report)
 
@@ -700,18 +746,17 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
-def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.ndarray,
-                       ask_share: float = 0.01) -> list[dict[str, Any]]:
-    """Score tests of the registry's parameters ``prob`` did not fit (module doc, 7), most
-    asked for first: name, unit, value now, suggested value, statistic, p-value, the cost
-    share a step would remove, and ``asks``."""
-    from scipy.stats import chi2
-
+def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
+                     ) -> list[tuple[TwinParameter, float, np.ndarray]]:
+    """The registry's parameters ``prob`` did not fit (and that the servo has) with their value
+    and Jacobian column at ``x`` (module doc, 7): a one-sided difference of ``diff_step``
+    coordinates towards the inside of the bounds, one re-simulation each. A parameter whose
+    moved robot diverges where the fitted one did not is left out."""
     from .parameters import TWIN_PARAMETERS
 
     fitted = {p.name for p in prob.params}
     config = prob.config(x)
-    cands = []
+    out = []
     for par in TWIN_PARAMETERS.values():
         if par.name in fitted or (par.servo is not None and par.servo != config.servo):
             continue
@@ -722,8 +767,34 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
         lo, hi = par.bounds
         if not lo <= value <= hi:
             continue
-        cands.append((par, value))
-    if not cands:
+        xc = par.to_x(value)
+        h = prob.o.diff_step * par.x_scale
+        lo_x, hi_x = par.x_bounds()
+        step = h if xc + h <= hi_x else -h
+        if not lo_x <= xc + step <= hi_x:
+            continue
+        raw = twin_residuals(prob.pool, par.set(config, par.from_x(xc + step)), prob.o.stride,
+                             prob.o.horizons, prob.o.initial_state)
+        w = _weighted(raw, prob.scale)
+        if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)):
+            continue                  # the moved robot diverges: no slope to read
+        out.append((par, value, (w - r) / step))
+    return out
+
+
+def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.ndarray,
+                       ask_share: float = 0.01,
+                       columns: Sequence[tuple[TwinParameter, float, np.ndarray]] | None = None
+                       ) -> list[dict[str, Any]]:
+    """Score tests of the registry's parameters ``prob`` did not fit (module doc, 7), most
+    asked for first: name, unit, value now, suggested value, statistic, p-value, the cost
+    share a step would remove, and ``asks``. ``columns``: :func:`unfitted_columns` at ``x``
+    if already computed."""
+    from scipy.stats import chi2
+
+    if columns is None:
+        columns = unfitted_columns(prob, x, r)
+    if not columns:
         return []
     u, sv, _ = np.linalg.svd(J, full_matrices=False)     # the fitted columns' span (a column
     q = u[:, sv > 1e-10 * sv.max()] if sv.size and sv.max() > 0 else u[:, :0]   # without effect: none)
@@ -731,20 +802,9 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
     n_c = r.size // cluster
     sse = float(r @ r)
     out = []
-    for par, value in cands:
+    for par, value, col in columns:
         xc = par.to_x(value)
-        h = prob.o.diff_step * par.x_scale
         lo_x, hi_x = par.x_bounds()
-        step = h if xc + h <= hi_x else -h
-        if not lo_x <= xc + step <= hi_x:
-            continue
-        moved = par.set(config, par.from_x(xc + step))
-        raw = twin_residuals(prob.pool, moved, prob.o.stride, prob.o.horizons,
-                             prob.o.initial_state)
-        w = _weighted(raw, prob.scale)
-        if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)):
-            continue                  # the moved robot diverges: no slope to read
-        col = (w - r) / step
         perp = col - q @ (q.T @ col)
         norm2 = float(perp @ perp)
         if not np.isfinite(norm2) or norm2 <= 1e-12 * max(float(col @ col), 1e-300):
@@ -767,9 +827,54 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
     return sorted(out, key=lambda m: (not m["asks"], -m["cost_share"]))
 
 
+def consider_sd(par: TwinParameter, value: float, spread: float) -> float:
+    """The a-priori standard deviation, in the fit's coordinate, of a parameter not fitted
+    (module doc, 10): ``spread`` e-folds of a scale-like parameter, ``spread`` times the larger
+    of its value and ``typical`` for the others."""
+    return spread if par.log else spread * max(abs(value), par.typical)
+
+
+def consider_analysis(J: np.ndarray, params: Sequence[TwinParameter],
+                      columns: Sequence[tuple[TwinParameter, float, np.ndarray]],
+                      spread: float) -> tuple[np.ndarray, dict[str, Any]]:
+    """The covariance the parameters not fitted add to the fitted ones' (module doc, 10):
+    S C S^T with S = (J^T J)^-1 J^T J_c, the shift of the optimum per unit of each unfitted
+    parameter, and C its a-priori variance (:func:`consider_sd`). A parameter whose
+    ``same_as`` are all fitted is another name for them and left out.
+
+    Returns (covariance in fit coordinates, report): the report has ``spread``, ``considered``
+    (name, value, a-priori sd in the fit coordinate) and, per fitted parameter, its consider
+    sd and the unfitted parameters that give most of it (``by``: name -> sd share, the
+    largest first)."""
+    fitted = {p.name for p in params}
+    kept = [(par, value, col) for par, value, col in columns
+            if not (par.same_as and set(par.same_as) <= fitted)]
+    report: dict[str, Any] = {"spread": spread, "considered": [], "params": {}}
+    p = len(params)
+    if not kept or spread <= 0:
+        return np.zeros((p, p)), report
+    Jc = np.stack([col for _, _, col in kept], axis=1)
+    sd_c = np.array([consider_sd(par, value, spread) for par, value, _ in kept])
+    S = np.linalg.pinv(J.T @ J) @ (J.T @ Jc)                   # (p, m)
+    contrib = S * sd_c[None, :]                                   # (p, m): sd of each source
+    cov = contrib @ contrib.T
+    report["considered"] = [{"name": par.name, "value": value, "sd_coordinate": float(s)}
+                            for (par, value, _), s in zip(kept, sd_c)]
+    for k, par in enumerate(params):
+        order = np.argsort(-np.abs(contrib[k]))
+        report["params"][par.name] = {
+            "sd_coordinate": float(math.sqrt(max(cov[k, k], 0.0))),
+            "by": {kept[j][0].name: float(abs(contrib[k, j])) for j in order[:3]
+                   if abs(contrib[k, j]) > 0}}
+    return cov, report
+
+
 def _estimate_dict(e: Estimate) -> dict[str, Any]:
-    return {"name": e.name, "unit": e.unit, "start": e.start, "value": e.value,
-            "ci95": list(e.ci95), "at_bound": e.at_bound}
+    out = {"name": e.name, "unit": e.unit, "start": e.start, "value": e.value,
+           "ci95": list(e.ci95), "at_bound": e.at_bound}
+    if e.ci95_data is not None:
+        out["ci95_data"] = list(e.ci95_data)
+    return out
 
 
 def _correlation(cov: np.ndarray, params: Sequence[TwinParameter]) -> dict[str, dict[str, float]]:

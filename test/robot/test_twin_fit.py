@@ -424,3 +424,72 @@ def test_pose_noise_reads_the_motion_capture_noise_and_auto_follows_it():
     assert "above" in said[0] and "below" in said[1] and POSE_NOISE_FLOOR == 2e-4
     fixed = CalibrationOptions(initial_state="measured")
     assert _resolve_initial_state(fixed, noisy, said.append) is fixed
+
+
+class _AliasedPool(_LinearPool):
+    """The linear stand-in with the foot friction acting mostly along the body mass's own
+    direction (0.8 of it), as a rotor inertia acts along the common scale of masses and servo
+    torques: a friction left wrong moves the fitted mass."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.dirs["friction"] = [0.8 * m + 0.6 * f for m, f in zip(self.dirs["mass"],
+                                                                     self.dirs["friction"])]
+
+
+def test_consider_analysis_widens_the_intervals_by_what_is_not_fitted(monkeypatch):
+    """The consider analysis (module doc, 10): the body mass fitted alone with the foot friction
+    left 0.1 off (its truth 0.5, the twin's 0.6) lands off the truth with a data interval that
+    misses it; with the friction uncertain by 0.15 (the default spread of its typical 1.0) the
+    interval holds the truth and its width is the friction's (sd = 0.15 times its shift per
+    unit); the report and the printout name it; a spread of 0 gives the data's interval; a
+    parameter whose ``same_as`` are all fitted is not considered."""
+    import contextlib
+    import math
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_fit
+    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS, twin_parameters
+
+    pool = _AliasedPool()
+    monkeypatch.setattr(twin_fit._bl, "move_pool",
+                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
+            for i in range(3)]
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0, foot_friction=0.6,
+                               command_delay_ms=0.0)
+    opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
+                                       initial_state="measured")
+    cal = twin_fit.calibrate_twin(recs, [], base, opts)
+    mass = cal.estimates[0]
+    assert mass.value == pytest.approx(2.0 * math.exp(-0.08), rel=0.01)   # 0.8 x 0.1 e-folds
+    lo, hi = mass.ci95_data
+    assert not lo <= 2.0 <= hi and hi / lo < 1.02
+    assert mass.contains(2.0)
+    consider = cal.report["consider"]
+    assert [c["name"] for c in consider["considered"]] == [
+        n for n in TWIN_PARAMETERS if n in {c["name"] for c in consider["considered"]}]
+    by = consider["params"]["body_mass"]
+    assert list(by["by"])[0] == "foot_friction"
+    assert by["by"]["foot_friction"] == pytest.approx(0.8 * 0.15, rel=0.02)
+    text = format_calibration({**cal.report, "params": [twin_fit._estimate_dict(e)
+                                                        for e in cal.estimates]})
+    assert "body_mass: its interval is mostly what foot_friction" in text
+    assert "each uncertain by 15 %" in text
+    off = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, consider_spread=0))
+    assert off.estimates[0].ci95 == pytest.approx(off.estimates[0].ci95_data)
+    assert off.estimates[0].ci95 == pytest.approx(mass.ci95_data, rel=1e-6)
+    # the direct form: S = (J^T J)^-1 J^T J_c, and same_as leaves a re-named parameter out
+    rng = np.random.default_rng(3)
+    J = rng.standard_normal((500, 2))
+    col = 0.5 * J[:, 0] + rng.standard_normal(500)
+    params = twin_parameters(("body_mass", "leg_mass"), base)
+    cov, rep = twin_fit.consider_analysis(
+        J, params, [(TWIN_PARAMETERS["mass_scale"], 1.0, col),
+                    (TWIN_PARAMETERS["kd_knee"], 0.3, col)], 0.2)
+    assert [c["name"] for c in rep["considered"]] == ["kd_knee"]
+    S = np.linalg.lstsq(J, col, rcond=None)[0]
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.abs(S) * 0.2, rtol=1e-9)
+    with pytest.raises(ValueError, match="consider_spread must be in"):
+        dataclasses.replace(opts, consider_spread=-0.1).check()

@@ -614,7 +614,9 @@ def main(argv: list[str] | None = None) -> int:
                                              a.clean_seeds_excited).split(","))]
     reference = (None if a.reference_seed is None else
                  Dataset("reference", work / "reference", a.reference_seed, 0.0, robot=robot))
-    for ds in clean_sets + effect_sets + ([reference] if reference else []):
+    # --calibrate-only needs the reference alone
+    for ds in ([] if a.calibrate_only else clean_sets + effect_sets) + (
+            [reference] if reference else []):
         print(f"record {ds.name}", flush=True)
         record(ds, a.moves_per_type, 2, logs, a.record_arg)
     if a.record_only:
