@@ -142,3 +142,33 @@ def test_each_asked_recording_is_made_once_and_diagnosed_against_its_reference(t
 def test_following_needs_an_arm_with_a_reference(tmp_path, fakes):
     with pytest.raises(SystemExit, match="reference"):
         harness.follow_recordings([], [], _args(arm="learned"), tmp_path, tmp_path, None, None)
+
+
+def test_a_friction_fitted_alone_is_scored_as_the_contacts(tmp_path):
+    """Bullet multiplies the foot's and the floor's friction: a twin that fits the floor's
+    from its own foot's is scored on the product, against the truth's product; a parameter
+    fitted as itself is scored as itself."""
+    import dataclasses
+
+    from littledog_mlsim.robot.config import robot_config
+    from littledog_mlsim.robot.twin import Twin, save_twin
+
+    base = robot_config("measured")
+    truth = dataclasses.replace(base, name="truth", foot_friction=0.7, ground_friction=1.0,
+                                body_mass=2.0)
+    twin = dataclasses.replace(base, name="twin", foot_friction=0.9, ground_friction=0.8,
+                               body_mass=2.3)
+    save_twin(Twin(truth, {}), tmp_path / "truth.json")
+    save_twin(Twin(twin, {"parameters": {
+        "ground_friction": {"value": 0.8, "ci95": [0.76, 0.84], "at_bound": None},
+        "body_mass": {"value": 2.3, "ci95": [2.2, 2.4], "at_bound": None}},
+        "calibration": {}}), tmp_path / "twin.json")
+    got = harness.calibration_score({"twin": str(tmp_path / "twin.json"), "seconds": 1.0},
+                                    tmp_path / "truth.json")
+    rows = {r["name"]: r for r in got["rows"]}
+    friction = rows["ground_friction"]
+    assert friction["scored_as"] == "contact_friction"
+    assert friction["truth"] == pytest.approx(0.7) and friction["value"] == pytest.approx(0.72)
+    assert friction["ci95"] == pytest.approx([0.684, 0.756]) and friction["inside"]
+    assert rows["body_mass"]["scored_as"] == "body_mass" and not rows["body_mass"]["inside"]
+    assert got["summary"] == "1 of 2"

@@ -420,10 +420,16 @@ def learned_summary(truth: list[dict[str, Any]], rows: list[dict[str, Any]]) -> 
             "learned: carried effects": len(carried)}
 
 
+#: the friction coefficients Bullet multiplies into the contact's
+FRICTION_PAIR = {"foot_friction": "ground_friction", "ground_friction": "foot_friction"}
+
+
 def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[str, Any]:
     """Each calibrated parameter against the gap robot's true value (read only here, after
     every diagnosis): inside its 95 % interval or not; identifiable = not at a bound and in no
-    weak direction."""
+    weak direction. A friction coefficient fitted without the other is scored as the contact's
+    (Bullet multiplies the foot's and the floor's): its value and interval times the twin's
+    other coefficient against the truth's product (``scored_as``)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
     from littledog_mlsim.robot.parameters import twin_parameters
     from littledog_mlsim.robot.twin import load_twin
@@ -441,12 +447,19 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
         except ValueError:
             true_v = None
         lo, hi = p["ci95"]
+        value, scored_as = p["value"], name
+        other = FRICTION_PAIR.get(name)
+        if other is not None and other not in params and true_v is not None:
+            k = getattr(twin.robot, other)
+            value, lo, hi = (None if v is None else v * k for v in (value, lo, hi))
+            true_v, scored_as = true_v * getattr(truth, other), "contact_friction"
         ident = p.get("at_bound") is None and name not in weak
-        rows.append({"name": name, "value": p["value"], "ci95": [lo, hi], "truth": true_v,
+        rows.append({"name": name, "scored_as": scored_as, "value": value, "ci95": [lo, hi],
+                     "truth": true_v,
                      "inside": (None if true_v is None or lo is None or hi is None
                                 else bool(lo <= true_v <= hi)),
                      "at_bound": p.get("at_bound"), "identifiable": ident,
-                     "rel_error": None if not true_v else abs(p["value"] / true_v - 1.0)})
+                     "rel_error": None if not true_v else abs(value / true_v - 1.0)})
     idf = [r for r in rows if r["identifiable"] and r["inside"] is not None]
     return {"seconds": calibration["seconds"], "rows": rows,
             "rollout": cal.get("rollout"),
