@@ -36,7 +36,7 @@ Method
    elements and horizons, may be correlated) and by move (every state of a move may be: a
    systematic error of the twin repeats along a move); the 95 % interval is x +- 1.96 sd in the
    fit's coordinate with the widest of the three sd (so a log parameter's interval is a
-   factor, and stays positive). The intervals
+   factor, and stays positive), cut to the parameter's bounds. The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
    fit, not the robot; the parameters not fitted widen them (10). Nor do they cover what the optimiser left: a fit stopped by the
@@ -423,10 +423,9 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
         ci: tuple[float | None, float | None] = (None, None)
         ci_data: tuple[float | None, float | None] | None = None if consider is None else ci
         if np.isfinite(sd[k]) and sd[k] > 0 and np.any(J[:, k] != 0):
-            ci = (par.from_x(x[k] - Z95 * sd[k]), par.from_x(x[k] + Z95 * sd[k]))
+            ci = _interval(par, x[k], sd[k])
             if consider is not None:
-                ci_data = (par.from_x(x[k] - Z95 * sd_data[k]),
-                           par.from_x(x[k] + Z95 * sd_data[k]))
+                ci_data = _interval(par, x[k], sd_data[k])
         out.append(Estimate(par.name, par.unit, par.from_x(start[k]), par.from_x(x[k]), ci, at,
                             ci_data))
     stats = {"residual_variance": s2, "dof": dof,
@@ -436,6 +435,13 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     if sd_move is not None:
         stats["sd_coordinate_by_move"] = {p.name: float(v) for p, v in zip(prob.params, sd_move)}
     return out, stats, [plain, robust] + ([] if by_move is None else [by_move])
+
+
+def _interval(par: TwinParameter, x: float, sd: float) -> tuple[float, float]:
+    """x +- 1.96 sd in the fit's coordinate, as values, inside the parameter's bounds (a delay
+    is not negative, a mass not below its bound)."""
+    lo, hi = par.bounds
+    return (max(par.from_x(x - Z95 * sd), lo), min(par.from_x(x + Z95 * sd), hi))
 
 
 def weak_directions(J: np.ndarray, params: Sequence[TwinParameter],

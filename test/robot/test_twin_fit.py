@@ -491,5 +491,10 @@ def test_consider_analysis_widens_the_intervals_by_what_is_not_fitted(monkeypatc
     assert [c["name"] for c in rep["considered"]] == ["kd_knee"]
     S = np.linalg.lstsq(J, col, rcond=None)[0]
     np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.abs(S) * 0.2, rtol=1e-9)
+    # an interval stays inside the parameter's bounds: a delay whose truth lies below 0 ms
+    at_zero = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(
+        opts, params=("body_mass", "command_delay_ms")))
+    delay = at_zero.estimates[1]
+    assert delay.at_bound == "lower" and delay.ci95[0] == 0.0 and delay.ci95[1] > 0
     with pytest.raises(ValueError, match="consider_spread must be in"):
         dataclasses.replace(opts, consider_spread=-0.1).check()
