@@ -390,7 +390,9 @@ def format_calibration(report: dict) -> str:
         lines.append("every parameter direction identified (95 % half-width <= "
                      f"{report['settings']['weak_halfwidth']:g})")
     for k, rnd in enumerate(report.get("added") or [], 1):
-        lines.append(f"round {k}: added {', '.join(rnd['added'])} to the fit; " + (
+        why = (f" ({', '.join(rnd['added_for_intervals'])} for the intervals)"
+               if rnd.get("added_for_intervals") else "")
+        lines.append(f"round {k}: added {', '.join(rnd['added'])}{why} to the fit; " + (
             f"the refit failed: {rnd['error']}" if "error" in rnd else
             f"k-step cost {num(rnd['k_step_cost_before'])} -> {num(rnd['k_step_cost_after'])}"))
     rounds = int((report.get("settings") or {}).get("add_asked") or 0)

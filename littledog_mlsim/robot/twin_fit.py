@@ -81,15 +81,20 @@ Method
    parameters absorb what a parameter left out would explain (a short set-point delay shows
    as stiffer gains), and a diagnosis against that twin then names the left-out parameter as
    an effect of clean data. With ``add_asked`` N > 0, the fit (in the structure ``servo``
-   chooses) is followed by up to N rounds: the parameters the score test asks for are added
-   and all are fitted again from the optimum, each round with its own ``max_evals``, until the
-   test asks for nothing new. Every parameter asked for is added at once: rivals that act
+   chooses) is followed by up to N rounds: the parameters the score test asks for are added,
+   and so are those the intervals blame (:func:`blamed_by_intervals`: a parameter not fitted
+   whose consider sd share, 10, exceeds the data's sd of some fitted parameter; the score test
+   cannot see a parameter whose effect the fitted ones can take over, which is exactly the
+   one that biases them), and all are fitted again from the optimum, each round with its own
+   ``max_evals``, raised to at least ``ROUND_EVALS_PER_COLUMN`` Jacobians of the larger set,
+   until nothing new is asked for. Every parameter asked for is added at once: rivals that act
    alike are then fitted together, and the refit's weak directions name what the data cannot
    tell apart. The report's ``added`` lists each round: what was added, the fit before it
    (convergence, evaluations, estimates) and the k-step cost before and after (the measure of
    8, with the weights of the first fit's starting robot, in the structure ``servo`` chose, so
    that rounds compare); ``n_evals_total`` counts the re-simulations of every fit that
-   finished (both structures' with ``auto``), and
+   finished (both structures' with ``auto``), ``added_for_intervals`` the round's parameters
+   that the intervals blamed, and
    ``settings`` records ``add_asked`` and ``servo``. The top-level estimates, costs and
    ``stop`` are the last fit's; its estimates' ``start`` is the previous round's optimum. A
    refit that fails, for any reason, keeps the fit before it, and says why.
@@ -137,7 +142,7 @@ from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
-           "consider_analysis", "consider_sd", "CalibrationOptions", "Estimate", "WeakDirection",
+           "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions", "Estimate", "WeakDirection",
            "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "weak_directions"]
 
@@ -703,6 +708,27 @@ def asked_for(report: dict[str, Any]) -> list[str]:
     return [m["name"] for m in report.get("missing") or [] if m.get("asks")]
 
 
+#: a refit round's evaluation budget is at least this many Jacobians (2 p + 1 each)
+ROUND_EVALS_PER_COLUMN = 8
+
+
+def blamed_by_intervals(report: dict[str, Any]) -> list[str]:
+    """The parameters not fitted that the consider analysis (module doc, 10) blames: each
+    widens some fitted parameter's interval by more than the data does (its consider sd share
+    above that parameter's data sd), most blamed first."""
+    consider = report.get("consider") or {}
+    sd_data = report.get("sd_coordinate_data") or {}
+    ratio: dict[str, float] = {}
+    for name, c in (consider.get("params") or {}).items():
+        base = sd_data.get(name)
+        if not base or base <= 0:
+            continue
+        for other, sd in c.get("by", {}).items():
+            if sd > base:
+                ratio[other] = max(ratio.get(other, 0.0), sd / base)
+    return sorted(ratio, key=lambda n: -ratio[n])
+
+
 def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
                             test_recs: Sequence[MoveRecording], base: RobotConfig,
                             options: CalibrationOptions, say: Callable[[str], None],
@@ -721,18 +747,26 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     for _ in range(options.add_asked):
         fitted = tuple(e.name for e in cal.estimates)
         asked = [n for n in asked_for(cal.report) if n not in fitted]
-        if not asked:
+        blamed = [n for n in blamed_by_intervals(cal.report) if n not in fitted + tuple(asked)]
+        if not asked and not blamed:
             break
-        params = fitted + tuple(asked)
-        say(f"the residual asks for {', '.join(asked)}: fitting {len(params)} parameters "
-            "again from the optimum")
-        rnd = {"added": asked, "k_step_cost_before": _structure_cost(cal, weights),
+        params = fitted + tuple(asked) + tuple(blamed)
+        say((f"the residual asks for {', '.join(asked)}" if asked else "")
+            + ("; " if asked and blamed else "")
+            + (f"the intervals ask for {', '.join(blamed)} (not fitted, they widen them more "
+               "than the data do)" if blamed else "")
+            + f": fitting {len(params)} parameters again from the optimum")
+        rnd = {"added": asked + blamed, "added_for_intervals": blamed,
+               "k_step_cost_before": _structure_cost(cal, weights),
                  "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
                  "wall_s": cal.report.get("wall_s"),
                  "params": [_estimate_dict(e) for e in cal.estimates]}
         try:
             cal = calibrate_twin(train_recs, [], cal.config,
-                                 replace(inner, params=params, servo="keep"), say)
+                                 replace(inner, params=params, servo="keep",
+                                         max_evals=max(inner.max_evals,
+                                                       ROUND_EVALS_PER_COLUMN
+                                                       * (2 * len(params) + 1))), say)
         except Exception as e:        # the fit before it stands; say why the refit did not
             rnd["error"] = f"{type(e).__name__}: {e}"
             rounds.append(rnd)

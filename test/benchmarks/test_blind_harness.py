@@ -172,3 +172,15 @@ def test_a_friction_fitted_alone_is_scored_as_the_contacts(tmp_path):
     assert friction["ci95"] == pytest.approx([0.684, 0.756]) and friction["inside"]
     assert rows["body_mass"]["scored_as"] == "body_mass" and not rows["body_mass"]["inside"]
     assert got["summary"] == "1 of 2"
+    # a weak direction takes out the parameters in it (coefficient >= 0.1), not the others
+    # its combination lists with 0
+    save_twin(Twin(twin, {"parameters": {
+        "ground_friction": {"value": 0.8, "ci95": [0.76, 0.84], "at_bound": None},
+        "body_mass": {"value": 2.3, "ci95": [2.2, 2.4], "at_bound": None}},
+        "calibration": {"weak_directions": [{"combination": {"body_mass": 1.0,
+                                                             "ground_friction": 0.0}}]}}),
+        tmp_path / "weak.json")
+    got = harness.calibration_score({"twin": str(tmp_path / "weak.json"), "seconds": 1.0},
+                                    tmp_path / "truth.json")
+    assert [r["identifiable"] for r in got["rows"]] == [True, False]
+    assert got["summary"] == "1 of 1"

@@ -498,3 +498,34 @@ def test_consider_analysis_widens_the_intervals_by_what_is_not_fitted(monkeypatc
     assert delay.at_bound == "lower" and delay.ci95[0] == 0.0 and delay.ci95[1] > 0
     with pytest.raises(ValueError, match="consider_spread must be in"):
         dataclasses.replace(opts, consider_spread=-0.1).check()
+
+
+def test_a_round_adds_what_the_intervals_blame(monkeypatch):
+    """``add_asked`` also adds the parameters the consider analysis blames (each widens a fitted
+    parameter's interval more than the data do), even where the score test asks for nothing
+    (here: its share threshold out of reach): on the aliased stand-in the foot friction is
+    added for the body mass's interval, and the refit recovers both."""
+    import contextlib
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_fit
+
+    pool = _AliasedPool()
+    monkeypatch.setattr(twin_fit._bl, "move_pool",
+                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
+            for i in range(3)]
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0, foot_friction=0.6,
+                               command_delay_ms=0.0)
+    opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
+                                       initial_state="measured", ask_share=0.99, add_asked=1)
+    cal = twin_fit.calibrate_twin(recs, [], base, opts)
+    rnd = cal.report["added"][0]
+    assert rnd["added"] == ["foot_friction"] and rnd["added_for_intervals"] == ["foot_friction"]
+    got = {e.name: e for e in cal.estimates}
+    assert got["body_mass"].value == pytest.approx(2.0, rel=0.01) and got["body_mass"].contains(2.0)
+    assert got["foot_friction"].value == pytest.approx(0.5, abs=0.01)
+    assert twin_fit.blamed_by_intervals(cal.report) == []
+    assert "(foot_friction for the intervals)" in format_calibration(
+        {**cal.report, "params": [twin_fit._estimate_dict(e) for e in cal.estimates]})

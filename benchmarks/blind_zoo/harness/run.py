@@ -437,8 +437,10 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
     truth = load_twin(robot).robot if robot is not None else None
     params = twin.provenance.get("parameters", {})
     cal = twin.provenance.get("calibration", {})
-    weak = " ".join(str(w.get("combination", "")) + " " + str(w.get("describe", ""))
-                    for w in cal.get("weak_directions", []))
+    # a parameter takes part in a weak direction with a coefficient of 0.1 or more (as
+    # calibrate's own rule for intervals); the combination lists every parameter
+    weak = {n for w in cal.get("weak_directions", [])
+            for n, c in (w.get("combination") or {}).items() if abs(c) >= 0.1}
     rows = []
     for name, p in params.items():
         try:       # a parameter of the other servo model has no true value in the truth
