@@ -791,7 +791,10 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     """The registry's parameters ``prob`` did not fit (and that the servo has) with their value
     and Jacobian column at ``x`` (module doc, 7): a one-sided difference of ``diff_step``
     coordinates towards the inside of the bounds, one re-simulation each. A parameter whose
-    moved robot diverges where the fitted one did not is left out."""
+    moved robot diverges where the fitted one did not is left out, and so is one whose
+    ``same_as`` are all fitted: another name for them (``mass_scale`` with both masses), which a
+    finite-difference column shows as a small effect of its own that the score test would
+    ask for, and a refit would then hold a direction the data cannot tell."""
     from .parameters import TWIN_PARAMETERS
 
     fitted = {p.name for p in prob.params}
@@ -800,6 +803,8 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     for par in TWIN_PARAMETERS.values():
         if par.name in fitted or (par.servo is not None and par.servo != config.servo):
             continue
+        if par.same_as and set(par.same_as) <= fitted:
+            continue                  # another name for fitted ones (parameters.py)
         try:
             value = par.get(config)
         except ValueError:

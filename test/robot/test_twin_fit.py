@@ -283,6 +283,7 @@ def test_missing_parameters_reads_a_linear_residual():
     import math
     import numpy as np
     from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot import twin_fit
     from littledog_mlsim.robot.twin_fit import (CalibrationOptions, _Problem,
                                                 missing_parameters)
 
@@ -296,6 +297,13 @@ def test_missing_parameters_reads_a_linear_residual():
         J, r = prob.jac(x), prob.fun(x)
         results.append({m["name"]: m for m in missing_parameters(prob, x, J, r)})
     got, with_zero_column = results
+    # a parameter that is another name for fitted ones is neither tested nor considered
+    for names, has_scale in ((("body_mass",), True), (("body_mass", "leg_mass"), False)):
+        prob = _Problem(_LinearPool(), base, twin_parameters(names, base), opts, lambda s: None)
+        prob.scale = np.ones((1, 33))
+        x = np.array([math.log(2.0)] + [math.log(0.2366)] * (len(names) - 1))
+        cols = twin_fit.unfitted_columns(prob, x, prob.fun(x))
+        assert ("mass_scale" in [c[0].name for c in cols]) == has_scale
     assert set(got) == {"foot_friction", "command_delay_ms"}, sorted(got)
     friction = got["foot_friction"]
     assert friction["asks"] and friction["p"] < 1e-12
