@@ -445,6 +445,23 @@ class _AliasedPool(_LinearPool):
                                                                      self.dirs["friction"])]
 
 
+def _aliased_case(monkeypatch):
+    """Three stand-in moves on the aliased pool (``calibrate_twin``'s pool replaced) and a
+    nominal robot whose foot friction is 0.1 off the pool's truth."""
+    import contextlib
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.robot import twin_fit
+
+    pool = _AliasedPool()
+    monkeypatch.setattr(twin_fit._bl, "move_pool",
+                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
+            for i in range(3)]
+    return recs, dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0,
+                                     foot_friction=0.6, command_delay_ms=0.0)
+
+
 def test_consider_analysis_widens_the_intervals_by_what_is_not_fitted(monkeypatch):
     """The consider analysis (module doc, 10): the body mass fitted alone with the foot friction
     left 0.1 off (its truth 0.5, the twin's 0.6) lands off the truth with a data interval that
@@ -452,21 +469,13 @@ def test_consider_analysis_widens_the_intervals_by_what_is_not_fitted(monkeypatc
     interval holds the truth and its width is the friction's (sd = 0.15 times its shift per
     unit); the report and the printout name it; a spread of 0 gives the data's interval; a
     parameter whose ``same_as`` are all fitted is not considered."""
-    import contextlib
     import math
-    from types import SimpleNamespace
     import numpy as np
     from littledog_mlsim.cli import format_calibration
     from littledog_mlsim.robot import twin_fit
     from littledog_mlsim.robot.parameters import TWIN_PARAMETERS, twin_parameters
 
-    pool = _AliasedPool()
-    monkeypatch.setattr(twin_fit._bl, "move_pool",
-                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
-    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
-            for i in range(3)]
-    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0, foot_friction=0.6,
-                               command_delay_ms=0.0)
+    recs, base = _aliased_case(monkeypatch)
     opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
                                        initial_state="measured")
     cal = twin_fit.calibrate_twin(recs, [], base, opts)
@@ -513,19 +522,10 @@ def test_a_round_adds_what_the_intervals_blame(monkeypatch):
     parameter's interval more than the data do), even where the score test asks for nothing
     (here: its share threshold out of reach): on the aliased stand-in the foot friction is
     added for the body mass's interval, and the refit recovers both."""
-    import contextlib
-    from types import SimpleNamespace
-    import numpy as np
     from littledog_mlsim.cli import format_calibration
     from littledog_mlsim.robot import twin_fit
 
-    pool = _AliasedPool()
-    monkeypatch.setattr(twin_fit._bl, "move_pool",
-                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
-    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
-            for i in range(3)]
-    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=205.0, foot_friction=0.6,
-                               command_delay_ms=0.0)
+    recs, base = _aliased_case(monkeypatch)
     opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
                                        initial_state="measured", ask_share=0.99, add_asked=1)
     cal = twin_fit.calibrate_twin(recs, [], base, opts)
