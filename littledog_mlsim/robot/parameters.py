@@ -47,6 +47,10 @@ class TwinParameter:
     typical: float = 1.0            # a linear parameter's scale (finite-difference step, x_scale)
     same_as: tuple[str, ...] = ()   # parameters that, fitted together, already span its effect
 
+    def renames(self, fitted: set[str]) -> bool:
+        """Whether this parameter is only another name for the fitted ones (``same_as``)."""
+        return bool(self.same_as) and set(self.same_as) <= fitted
+
     def get(self, config: RobotConfig) -> float:
         v = getattr(config, self.field)
         if v is None:

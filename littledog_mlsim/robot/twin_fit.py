@@ -39,9 +39,9 @@ Method
    factor, and stays positive), cut to the parameter's bounds. The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
-   fit, not the robot; the parameters not fitted widen them (10). Nor do they cover what the optimiser left: a fit stopped by the
-   evaluation budget (``converged`` false in the report) can end outside them
-   (benchmarks/calibrate).
+   fit, not the robot; the parameters not fitted widen them (10). Nor do they cover what the
+   optimiser left: a fit stopped by the evaluation budget (``converged`` false in the report)
+   can end outside them (benchmarks/calibrate).
 5. **Identifiability.** The singular values of J scaled to the coordinates (a unit is one e-fold
    of a log parameter, ``typical`` of a linear one) give the directions the data pins worst;
    a direction whose 95 % half-width s * 1.96 / sigma_k exceeds ``weak_halfwidth`` is reported
@@ -142,8 +142,8 @@ from .config import RobotConfig
 from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
 
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
-           "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions", "Estimate", "WeakDirection",
-           "Calibration", "calibrate_twin",
+           "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
+           "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "weak_directions"]
 
 log = logging.getLogger(__name__)
@@ -758,9 +758,9 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
             + f": fitting {len(params)} parameters again from the optimum")
         rnd = {"added": asked + blamed, "added_for_intervals": blamed,
                "k_step_cost_before": _structure_cost(cal, weights),
-                 "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
-                 "wall_s": cal.report.get("wall_s"),
-                 "params": [_estimate_dict(e) for e in cal.estimates]}
+               "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
+               "wall_s": cal.report.get("wall_s"),
+               "params": [_estimate_dict(e) for e in cal.estimates]}
         try:
             cal = calibrate_twin(train_recs, [], cal.config,
                                  replace(inner, params=params, servo="keep",
@@ -803,7 +803,7 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     for par in TWIN_PARAMETERS.values():
         if par.name in fitted or (par.servo is not None and par.servo != config.servo):
             continue
-        if par.same_as and set(par.same_as) <= fitted:
+        if par.renames(fitted):
             continue                  # another name for fitted ones (parameters.py)
         try:
             value = par.get(config)
@@ -892,8 +892,7 @@ def consider_analysis(J: np.ndarray, params: Sequence[TwinParameter],
     sd and the unfitted parameters that give most of it (``by``: name -> sd share, the
     largest first)."""
     fitted = {p.name for p in params}
-    kept = [(par, value, col) for par, value, col in columns
-            if not (par.same_as and set(par.same_as) <= fitted)]
+    kept = [(par, value, col) for par, value, col in columns if not par.renames(fitted)]
     report: dict[str, Any] = {"spread": spread, "considered": [], "params": {}}
     p = len(params)
     if not kept or spread <= 0:

@@ -420,10 +420,6 @@ def learned_summary(truth: list[dict[str, Any]], rows: list[dict[str, Any]]) -> 
             "learned: carried effects": len(carried)}
 
 
-#: the friction coefficients Bullet multiplies into the contact's
-FRICTION_PAIR = {"foot_friction": "ground_friction", "ground_friction": "foot_friction"}
-
-
 def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[str, Any]:
     """Each calibrated parameter against the gap robot's true value (read only here, after
     every diagnosis): inside its 95 % interval or not; identifiable = not at a bound and in no
@@ -431,7 +427,7 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
     (Bullet multiplies the foot's and the floor's): its value and interval times the twin's
     other coefficient against the truth's product (``scored_as``)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
-    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS, twin_parameters
     from littledog_mlsim.robot.twin import load_twin
     twin = load_twin(calibration["twin"])
     truth = load_twin(robot).robot if robot is not None else None
@@ -450,7 +446,9 @@ def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[s
             true_v = None
         lo, hi = p["ci95"]
         value, scored_as = p["value"], name
-        other = FRICTION_PAIR.get(name)
+        # a coefficient with one other name (the friction pair, parameters.py's same_as)
+        same = TWIN_PARAMETERS[name].same_as if name in TWIN_PARAMETERS else ()
+        other = same[0] if len(same) == 1 else None
         if other is not None and other not in params and true_v is not None:
             k = getattr(twin.robot, other)
             value, lo, hi = (None if v is None else v * k for v in (value, lo, hi))
