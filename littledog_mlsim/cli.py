@@ -350,7 +350,7 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  scheduler=a.scheduler, servo=a.servo,
                                  test_missing=not a.no_missing_test,
                                  initial_state=a.initial_state, add_asked=a.add_asked,
-                                 consider_spread=a.consider_spread)
+                                 consider_spread=a.consider_spread, bootstrap=a.bootstrap)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -370,6 +370,13 @@ def format_calibration(report: dict) -> str:
         stuck = f"  (at its {e['at_bound']} bound)" if e["at_bound"] else ""
         lines.append(f"{e['name']:<20} {num(e['start']):>9} {num(e['value']):>9}   "
                      f"[{num(lo)}, {num(hi)}]".ljust(64) + f" {e['unit']}{stuck}")
+    boot = report.get("bootstrap") or {}
+    if boot.get("params"):
+        moved = [(n, b) for n, b in boot["params"].items() if b.get("applied")]
+        lines.append(f"the fit's own bias, from {boot['replicates']} refit(s) on the twin's own "
+                     "recordings (--bootstrap), is taken out: "
+                     + ", ".join(f"{n} {num(b['fitted'])} -> {num(b['corrected'])}"
+                                 for n, b in moved))
     consider = report.get("consider") or {}
     if consider.get("considered"):
         lines.append(f"the intervals include the {len(consider['considered'])} parameters not "
@@ -797,6 +804,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="a-priori standard deviation of every parameter not fitted, as a "
                          "fraction (default 0.15): the intervals include the shift of the "
                          "optimum it could cause; 0 gives the data's intervals alone")
+    cb.add_argument("--bootstrap", type=int, default=0, metavar="N",
+                    help="take out the fit's own bias: the calibrated twin records the fitted "
+                         "moves again (their commands, the recording's sensing), is fitted "
+                         "again N times, and the mean shift is subtracted; the intervals carry "
+                         "its uncertainty (default 0: off; each refit costs about a round of "
+                         "--add-asked)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "
