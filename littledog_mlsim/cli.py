@@ -373,7 +373,7 @@ def format_calibration(report: dict) -> str:
     boot = report.get("bootstrap") or {}
     if boot.get("params"):
         moved = [(n, b) for n, b in boot["params"].items() if b.get("applied")]
-        lines.append(f"the fit's own bias, from {boot['replicates']} refit(s) on the twin's own "
+        lines.append(f"the fit's own bias, from {boot['iterations']} refit(s) on the twin's own "
                      "recordings (--bootstrap), is taken out: "
                      + ", ".join(f"{n} {num(b['fitted'])} -> {num(b['corrected'])}"
                                  for n, b in moved))
@@ -806,10 +806,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "optimum it could cause; 0 gives the data's intervals alone")
     cb.add_argument("--bootstrap", type=int, default=0, metavar="N",
                     help="take out the fit's own bias: the calibrated twin records the fitted "
-                         "moves again (their commands, the recording's sensing), is fitted "
-                         "again N times, and the mean shift is subtracted; the intervals carry "
-                         "its uncertainty (default 0: off; each refit costs about a round of "
-                         "--add-asked)")
+                         "moves again (their commands, the recording's sensing) and is fitted "
+                         "again; the shift is subtracted, N times over from the corrected twin "
+                         "(default 0: off; 2 measures how much the bias moves, and the "
+                         "intervals carry it; each refit costs about an --add-asked round)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "

@@ -11,21 +11,25 @@ parameter fitted, the masses and servo parameters ended 1-4 % off, outside inter
    recorded commands, from the move's start (the settled home stance where the recording
    starts there, else its smoothed first state), with the recording's own sensing
    (:func:`recording_sensing`: the motion-capture noise and the encoders' counts estimated from
-   the recording), each replicate with its own noise seed.
-2. **Refit.** The same parameters are fitted to each synthetic recording, from the twin's own
+   the recording), each iteration with its own noise seed.
+2. **Refit.** The same parameters are fitted to the synthetic recording, from the twin's own
    values, with the same options (starting states, horizons, stride); the refit's optimum
-   differs from the twin by the estimator's bias plus its noise.
-3. **Correction.** The bias b = mean(refits) - fit, in the fit's coordinates, is subtracted:
-   corrected = fit - b, inside the bounds. The corrected value carries the uncertainty of b
-   as well: var(b) = max(sd_data^2, the refits' sample variance) / N, with sd_data the fit's
-   data sd (the refits' noise is the data's), added to the interval's variance (the consider
-   analysis's included). A parameter at a bound or without an interval keeps its value (its
-   bias is reported, not applied).
+   differs from the twin by the estimator's bias b (plus its noise).
+3. **Correction, iterated.** corrected = fit - b, inside the bounds. The bias is measured at the
+   twin, not at the truth; where it varies with the parameters the two differ. With N > 1
+   iterations the corrected twin records and is refitted again, and the bias measured there
+   replaces the last (the fixed point x = fit - b(x), where the bias is measured at the
+   answer itself). The corrected value carries the last bias's noise (the data's sd: the
+   refit's noise is the data's) and, with N > 1, how much the bias moved between the last two
+   points (a measured stand-in for how far it may still be off), added to the interval's
+   variance (the consider analysis's included). A parameter at a bound or without an interval
+   keeps its value, in the iterations' twins too (its bias is reported, not applied).
 
 What it does not take out: a bias that varies with the parameters faster than the distance
 between the fit and the truth, and one from a structure the twin lacks (the synthetic robot is
 the twin). It costs N refits of the fitted parameters (each up to ``max_evals`` re-simulations,
-at least :data:`~.twin_fit.ROUND_EVALS_PER_COLUMN` Jacobians) and N re-recordings.
+at least :data:`~.twin_fit.ROUND_EVALS_PER_COLUMN` Jacobians; a refit from the twin's own values
+usually converges in a few) and N re-recordings.
 """
 from __future__ import annotations
 
@@ -166,64 +170,77 @@ def synthetic_recordings(recs: Sequence[MoveRecording], config: RobotConfig,
 
 def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
                    options: "CalibrationOptions", say: Callable[[str], None]) -> "Calibration":
-    """``cal`` with its estimator's bias taken out (module doc); ``options.bootstrap`` refits.
-    The report gains ``bootstrap``; its ``params`` and the twin are the corrected ones."""
+    """``cal`` with its estimator's bias taken out (module doc); ``options.bootstrap``
+    iterations. The report gains ``bootstrap``; its ``params`` and the twin are the corrected
+    ones."""
     from . import twin_fit as tf
     from .parameters import twin_parameters
 
     t0 = time.perf_counter()
-    n_rep = int(options.bootstrap)
+    n_it = int(options.bootstrap)
     names = [e.name for e in cal.estimates]
     params = twin_parameters(names, cal.config)
     x_fit = np.array([p.to_x(p.get(cal.config)) for p in params])
+    bounds = np.array([p.x_bounds() for p in params])
+    sd_data = np.array([(cal.report.get("sd_coordinate_data") or {}).get(n, math.nan)
+                        for n in names])
+    sd_all = np.array([(cal.report.get("sd_coordinate") or {}).get(n, math.nan) for n in names])
+    # a parameter at a bound or without an interval keeps its value: its bias is not applied
+    apply = np.array([e.at_bound is None and e.ci95 != (None, None) and np.isfinite(sd_all[k])
+                      for k, e in enumerate(cal.estimates)])
     sensing = recording_sensing(train_recs)
-    synth_robot = _with_sensing(cal.config, sensing)
     say(f"bootstrap: the twin records the {len(train_recs)} fitted moves again with the "
         f"recording's sensing (position noise {1e3 * sensing['mocap_position_std']:.2f} mm, "
         f"orientation {1e3 * sensing['mocap_orientation_std']:.2f} mrad, encoder counts "
-        f"{sensing['encoder_resolution'] or 'none'}) and is fitted again, {n_rep} time(s)")
+        f"{sensing['encoder_resolution'] or 'none'}) and is fitted again, {n_it} time(s)")
     inner = replace(options, params=tuple(names), servo="keep", add_asked=0, bootstrap=0,
                     test_missing=False, name=cal.config.name,
                     max_evals=max(options.max_evals,
                                   tf.ROUND_EVALS_PER_COLUMN * (2 * len(names) + 1)))
-    refits, stops = [], []
-    for i in range(n_rep):
-        synth = synthetic_recordings(train_recs, synth_robot, i)
-        rc = tf.calibrate_twin(synth, [], cal.config, inner, say)
-        refits.append([p.to_x(p.get(rc.config)) for p in params])
+
+    def config_at(x: np.ndarray) -> RobotConfig:
+        c = cal.config
+        for p, xi in zip(params, x):
+            c = p.set(c, p.from_x(float(xi)))
+        return c
+
+    x, points, biases, stops = x_fit.copy(), [], [], []
+    for i in range(n_it):
+        twin = config_at(x)
+        synth = synthetic_recordings(train_recs, _with_sensing(twin, sensing), i)
+        rc = tf.calibrate_twin(synth, [], twin, inner, say)
+        b = np.array([p.to_x(p.get(rc.config)) for p in params]) - x
+        b = np.where(apply & np.isfinite(b), b, 0.0)
+        points.append(x.copy())
+        biases.append(b)
         stops.append(rc.report.get("stop"))
-    refits_x = np.array(refits)
-    bias = refits_x.mean(axis=0) - x_fit
-    sd_data = np.array([(cal.report.get("sd_coordinate_data") or {}).get(n, math.nan)
-                        for n in names])
-    sd_all = np.array([(cal.report.get("sd_coordinate") or {}).get(n, math.nan) for n in names])
-    spread = refits_x.var(axis=0, ddof=1) if n_rep > 1 else np.zeros(len(names))
-    var_b = np.maximum(np.nan_to_num(sd_data ** 2), spread) / n_rep
+        x = np.clip(x_fit - b, bounds[:, 0], bounds[:, 1])
+    bias = biases[-1]
+    # the last bias's own noise (the refit's noise is the data's), and how much the bias moved
+    # between the last two points where it was measured: how far it may still be off
+    var_b = np.nan_to_num(sd_data ** 2) + (
+        (biases[-1] - biases[-2]) ** 2 if n_it > 1 else 0.0)
     config, estimates, per = cal.config, [], {}
     for k, (p, e) in enumerate(zip(params, cal.estimates)):
-        lo, hi = p.x_bounds()
-        apply = (e.at_bound is None and e.ci95 != (None, None) and np.isfinite(sd_all[k])
-                 and np.isfinite(bias[k]))
-        x_c = float(np.clip(x_fit[k] - bias[k], lo, hi)) if apply else float(x_fit[k])
-        if apply:
+        if apply[k]:
             sd_c = math.sqrt(sd_all[k] ** 2 + var_b[k])
             sd_cd = math.sqrt(sd_data[k] ** 2 + var_b[k])
-            config = p.set(config, p.from_x(x_c))
-            e = replace(e, value=p.from_x(x_c), ci95=tf._interval(p, x_c, sd_c),
+            config = p.set(config, p.from_x(float(x[k])))
+            e = replace(e, value=p.from_x(float(x[k])), ci95=tf._interval(p, float(x[k]), sd_c),
                         ci95_data=(None if e.ci95_data is None
-                                   else tf._interval(p, x_c, sd_cd)))
+                                   else tf._interval(p, float(x[k]), sd_cd)))
         estimates.append(e)
         per[p.name] = {"fitted": p.from_x(float(x_fit[k])),
-                       "refits": [p.from_x(float(v)) for v in refits_x[:, k]],
-                       "bias_coordinate": float(bias[k]), "applied": bool(apply),
-                       "corrected": p.from_x(x_c),
+                       "at": [p.from_x(float(pt[k])) for pt in points],
+                       "bias_coordinate": [float(b[k]) for b in biases],
+                       "applied": bool(apply[k]), "corrected": p.from_x(float(x[k])),
                        "sd_bias_coordinate": float(math.sqrt(var_b[k]))}
     report = dict(cal.report)
     report["params"] = [tf._estimate_dict(e) for e in estimates]
-    report["bootstrap"] = {"replicates": n_rep, "sensing": sensing, "params": per,
+    report["bootstrap"] = {"iterations": n_it, "sensing": sensing, "params": per,
                            "refit_stops": stops, "wall_s": round(time.perf_counter() - t0, 1)}
-    report["settings"] = {**report.get("settings", {}), "bootstrap": n_rep}
-    moved = sorted(per, key=lambda n: -abs(per[n]["bias_coordinate"]))[:3]
+    report["settings"] = {**report.get("settings", {}), "bootstrap": n_it}
+    moved = sorted(per, key=lambda n: -abs(per[n]["bias_coordinate"][-1]))[:3]
     say("bootstrap: the largest biases taken out: " + ", ".join(
         f"{n} {per[n]['fitted']:.4g} -> {per[n]['corrected']:.4g}" for n in moved
         if per[n]["applied"]))
