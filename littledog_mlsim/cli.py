@@ -350,7 +350,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  scheduler=a.scheduler, servo=a.servo,
                                  test_missing=not a.no_missing_test,
                                  initial_state=a.initial_state, add_asked=a.add_asked,
-                                 consider_spread=a.consider_spread, bootstrap=a.bootstrap)
+                                 consider_spread=a.consider_spread, bootstrap=a.bootstrap,
+                                 bootstrap_replicates=a.bootstrap_replicates)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -810,6 +811,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "again; the shift is subtracted, N times over from the corrected twin "
                          "(default 0: off; 2 measures how much the bias moves, and the "
                          "intervals carry it; each refit costs about an --add-asked round)")
+    cb.add_argument("--bootstrap-replicates", type=int, default=1, metavar="R",
+                    help="with --bootstrap: R noise seeds per iteration (default 1); the bias "
+                         "is their mean, and where they scatter more than the data's interval "
+                         "says, the intervals take their spread (R refits per iteration)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "

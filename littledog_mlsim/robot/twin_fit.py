@@ -124,9 +124,12 @@ Method
    by a few per cent even where the twin's structure is the robot's, more than the intervals of
    4 allow (benchmarks/blind_zoo, zoo32). With N > 0 the fitted twin records the fitted moves
    again with their commands and the recording's sensing, is fitted again N times from its own
-   values, and the mean shift is subtracted; the intervals gain the shift's uncertainty. The
-   report's ``bootstrap`` gives, per parameter, the fitted value, the refits, the bias and the
-   corrected value; ``params`` and the twin are the corrected ones.
+   values, and the mean shift is subtracted; the intervals gain the shift's uncertainty. With
+   ``bootstrap_replicates`` R > 1 each iteration refits R recordings with their own noise
+   seeds: the bias is their mean, and their spread, where larger than the data's sd, is the
+   estimator's (benchmarks/blind_zoo, zoo32: twice the data's sd for the servo parameters).
+   The report's ``bootstrap`` gives, per parameter, the fitted value, the bias, the refits'
+   spread and the corrected value; ``params`` and the twin are the corrected ones.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -182,6 +185,7 @@ class CalibrationOptions:
     add_asked: int = 0                      # rounds adding what the residual asks for (doc, 9)
     consider_spread: float = 0.15           # a-priori sd of the parameters not fitted (doc, 10)
     bootstrap: int = 0                      # refits on the twin's own recordings (doc, 11)
+    bootstrap_replicates: int = 1           # noise seeds per bootstrap iteration (doc, 11)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -207,6 +211,12 @@ class CalibrationOptions:
             raise ValueError(f"consider_spread must be in [0, 1], got {self.consider_spread}")
         if int(self.bootstrap) != self.bootstrap or not 0 <= self.bootstrap <= 10:
             raise ValueError(f"bootstrap must be an integer in 0..10, got {self.bootstrap!r}")
+        if (int(self.bootstrap_replicates) != self.bootstrap_replicates
+                or not 1 <= self.bootstrap_replicates <= 10):
+            raise ValueError("bootstrap_replicates must be an integer in 1..10, got "
+                             f"{self.bootstrap_replicates!r}")
+        if self.bootstrap_replicates > 1 and not self.bootstrap:
+            raise ValueError("bootstrap_replicates needs bootstrap (at least 1 iteration)")
         if self.add_asked and not self.test_missing:
             raise ValueError("add_asked needs the score test of the parameters not fitted "
                              "(test_missing)")
@@ -586,7 +596,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     options = _resolve_initial_state(options, train_recs, say)
     if options.bootstrap:
         from .twin_bias import bias_corrected
-        cal = calibrate_twin(train_recs, [], base, replace(options, bootstrap=0), say)
+        cal = calibrate_twin(train_recs, [], base,
+                             replace(options, bootstrap=0, bootstrap_replicates=1), say)
         cal = bias_corrected(cal, train_recs, options, say)
         _finish(cal.report, test_recs, replace(base, sensor_noise=False), cal.config, options,
                 say, t0)

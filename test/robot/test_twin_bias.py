@@ -73,21 +73,26 @@ class _BiasedPool:
     def __init__(self, recs) -> None:
         rng = np.random.default_rng(7)
         self.truth = [math.log(r.truth_mass) for r in recs]
+        self.offset = [getattr(r, "offset", 0.0) for r in recs]
         self.dirs = [rng.normal(size=(40, 1, 33)) for _ in recs]
         self.noise = [0.001 * rng.normal(size=(40, 1, 33)) for _ in recs]
 
     def map(self, fn, config, stride, horizons, initial="measured"):
-        return [d * (math.log(config.body_mass) - y - 0.05 - self.SLOPE * (y - math.log(2.0)))
-                + e for d, y, e in zip(self.dirs, self.truth, self.noise)]
+        return [d * (math.log(config.body_mass) - y - 0.05 - self.SLOPE * (y - math.log(2.0))
+                     - off) + e
+                for d, y, off, e in zip(self.dirs, self.truth, self.offset, self.noise)]
 
 
-def _biased_case(monkeypatch):
+def _biased_case(monkeypatch, spread: float = 0.0):
+    """The stand-in; ``spread``: a synthetic recording's optimum is off by +spread (even noise
+    seeds) or -spread (odd), as refits that scatter with their noise."""
     from littledog_mlsim.robot import twin_bias, twin_fit
 
     monkeypatch.setattr(twin_fit._bl, "move_pool", lambda recs, jobs=2, scheduler=None:
                         contextlib.nullcontext(_BiasedPool(recs)))
     monkeypatch.setattr(twin_bias, "synthetic_recordings", lambda recs, config, replicate=0: [
         SimpleNamespace(name=r.name, n_steps=r.n_steps, truth_mass=config.body_mass,
+                        offset=spread if replicate % 2 == 0 else -spread,
                         position=np.zeros((400, 3))) for r in recs])
     monkeypatch.setattr(twin_bias, "recording_sensing", lambda recs: {
         "sensor_noise": False, "mocap_position_std": 0.0, "mocap_orientation_std": 0.0,
@@ -135,3 +140,31 @@ def test_bootstrap_takes_out_the_estimators_own_bias(monkeypatch):
     assert "(--bootstrap), is taken out: body_mass" in format_calibration(cal.report)
     with pytest.raises(ValueError, match="bootstrap must be an integer"):
         dataclasses.replace(opts, bootstrap=-1).check()
+
+
+def test_bootstrap_replicates_measure_the_estimators_spread(monkeypatch):
+    """On the biased stand-in whose refits scatter with their noise seed (+-0.02 e-folds around
+    the bias, far more than the data's sd), two replicates per iteration: the bias is their mean
+    (0.075, as one noise-free refit), their sample sd (0.0283) is reported and taken as the
+    estimator's, and the interval, which without it would miss the truth 0.025 e-folds off,
+    holds it. Replicates without a bootstrap are refused."""
+    from littledog_mlsim.robot import twin_fit
+
+    recs, base, opts = _biased_case(monkeypatch, spread=0.02)
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(
+        opts, bootstrap=1, bootstrap_replicates=2))
+    mass = cal.estimates[0]
+    assert math.log(mass.value / 2.0) == pytest.approx(-0.025, abs=1e-3) and mass.contains(2.0)
+    b = cal.report["bootstrap"]["params"]["body_mass"]
+    assert b["bias_coordinate"] == pytest.approx([0.075], abs=1e-3)
+    assert b["sd_refits_coordinate"] == pytest.approx(0.02 * math.sqrt(2), rel=0.02)
+    lo, hi = mass.ci95
+    assert math.log(hi / lo) / (2 * 1.959964) >= 0.02 * math.sqrt(2) * math.sqrt(1.5) * 0.98
+    assert cal.report["bootstrap"]["replicates"] == 2
+    assert cal.report["settings"]["bootstrap_replicates"] == 2
+    one = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1))
+    assert one.report["bootstrap"]["params"]["body_mass"]["sd_refits_coordinate"] is None
+    with pytest.raises(ValueError, match="bootstrap_replicates needs bootstrap"):
+        dataclasses.replace(opts, bootstrap_replicates=2).check()
+    with pytest.raises(ValueError, match="bootstrap_replicates must be an integer"):
+        dataclasses.replace(opts, bootstrap=1, bootstrap_replicates=0).check()
