@@ -1,0 +1,74 @@
+"""zoo32, not blind: the estimator's own spread and bias at the gap robot itself.
+
+The gap robot (read from gap_robot.json, after its truth was read) records the 22 TrainPool
+moves run4 fitted again, with their commands and starts (``twin_bias.synthetic_recordings``),
+with R other noise seeds; each is fitted as run4's last round was (the 15 parameters, from
+run4's fit before its bootstrap, no score test). Per parameter: the mean fit against the truth
+(the estimator's bias at the truth), the spread of the R fits, and the data sd the calibration
+reports (run4's ``sd_coordinate_data``).
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/spread.py REFERENCE [R]
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ZOO = HERE.parents[1]
+
+
+def main(ref: str, reps: int) -> None:
+    from littledog_mlsim.data.dataset import load_moves
+    from littledog_mlsim.robot import twin_fit as tf
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot.twin import load_twin
+    from littledog_mlsim.robot.twin_bias import synthetic_recordings
+
+    twin = load_twin(HERE.parent / "run4_bootstrap2" / "calibrated_twin.json")
+    cal = twin.provenance["calibration"]
+    boot = cal["bootstrap"]["params"]
+    start = twin.robot
+    params = twin_parameters(list(boot), start)
+    for p in params:
+        start = p.set(start, boot[p.name]["fitted"])
+    gap = load_twin(ZOO / "gap_robot.json").robot
+    train = [r for r in load_moves(ref, "train") if r.name in set(cal["train_moves"])]
+    opts = tf.CalibrationOptions(params=tuple(boot), servo="keep", test_missing=False,
+                                 initial_state="smoothed", moves_per_type=None,
+                                 max_evals=tf.ROUND_EVALS_PER_COLUMN * (2 * len(params) + 1))
+    fits = []
+    for rep in range(reps):
+        synth = synthetic_recordings(train, gap, 100 + rep)
+        rc = tf.calibrate_twin(synth, [], start, opts, lambda s: None)
+        fits.append({p.name: p.get(rc.config) for p in params})
+        print(f"replicate {rep}: {rc.report.get('stop')}", flush=True)
+    out = {"replicates": fits, "rows": []}
+    print("| parameter | truth | mean fit vs truth | spread of the fits (sd) | reported data sd | "
+          "the recording's fit vs truth |")
+    print("|---|---|---|---|---|---|")
+    for p in params:
+        truth = (gap.ground_friction * gap.foot_friction / start.foot_friction
+                 if p.name == "ground_friction" else p.get(gap))
+        xs = np.array([p.to_x(f[p.name]) for f in fits])
+        xt = p.to_x(truth)
+        unit = "%" if p.log else "coord"
+        k = 100 if p.log else 1
+        row = {"name": p.name, "truth": truth, "mean_minus_truth": float(xs.mean() - xt),
+               "sd_fits": float(xs.std(ddof=1)) if reps > 1 else None,
+               "sd_data": cal["sd_coordinate_data"][p.name],
+               "recording_minus_truth": float(p.to_x(boot[p.name]["fitted"]) - xt)}
+        out["rows"].append(row)
+        sdf = "" if row["sd_fits"] is None else f"{k * row['sd_fits']:.2f}"
+        print(f"| {p.name} | {truth:.4g} | {k * row['mean_minus_truth']:+.2f} {unit} | {sdf} | "
+              f"{k * row['sd_data']:.2f} | {k * row['recording_minus_truth']:+.2f} |", flush=True)
+    (HERE / "spread.json").write_text(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 4)
