@@ -23,27 +23,18 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ZOO = HERE.parents[1]
 
 
 def main(ref: str) -> None:
-    from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.robot import baseline as bl
     from littledog_mlsim.robot import twin_fit as tf
-    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS, twin_parameters
-    from littledog_mlsim.robot.twin import load_twin
+    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
     from dataclasses import replace
+    from run4 import run4_case
 
-    twin = load_twin(HERE.parent / "run4_bootstrap2" / "calibrated_twin.json")
-    cal = twin.provenance["calibration"]
-    boot = cal["bootstrap"]["params"]
-    cfg = replace(twin.robot, sensor_noise=False)
-    names = list(boot)
-    params = twin_parameters(names, cfg)
-    for p in params:
-        cfg = p.set(cfg, boot[p.name]["fitted"])
-    gap = load_twin(ZOO / "gap_robot.json").robot
-    train = [r for r in load_moves(ref, "train") if r.name in set(cal["train_moves"])]
+    case = run4_case(ref)
+    cal, boot, params, gap, train = case.cal, case.boot, case.params, case.gap, case.train
+    cfg = replace(case.fit, sensor_noise=False)
     opts = tf.CalibrationOptions(initial_state="smoothed", max_evals=10_000)
     out: dict = {"train_moves": len(train), "secants": {}}
     with bl.move_pool(train, 2) as pool:

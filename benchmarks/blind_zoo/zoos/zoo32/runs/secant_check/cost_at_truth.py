@@ -15,29 +15,20 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ZOO = HERE.parents[1]
 
 
 def main(ref: str) -> None:
-    from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.robot import baseline as bl
     from littledog_mlsim.robot import twin_fit as tf
-    from littledog_mlsim.robot.parameters import twin_parameters
-    from littledog_mlsim.robot.twin import load_twin
+    from run4 import run4_case
 
-    twin = load_twin(HERE.parent / "run4_bootstrap2" / "calibrated_twin.json")
-    cal = twin.provenance["calibration"]
-    boot = cal["bootstrap"]["params"]
-    fit = replace(twin.robot, sensor_noise=False)
-    params = twin_parameters(list(boot), fit)
-    for p in params:
-        fit = p.set(fit, boot[p.name]["fitted"])
-    corrected = replace(twin.robot, sensor_noise=False)
-    gap = replace(load_twin(ZOO / "gap_robot.json").robot, sensor_noise=False)
-    train = [r for r in load_moves(ref, "train") if r.name in set(cal["train_moves"])]
+    case = run4_case(ref)
+    train = case.train
+    fit = replace(case.fit, sensor_noise=False)
+    corrected = replace(case.twin.robot, sensor_noise=False)
+    gap = replace(case.gap, sensor_noise=False)
     opts = tf.CalibrationOptions(initial_state="smoothed")
     out = {}
     with bl.move_pool(train, 2) as pool:

@@ -12,33 +12,22 @@ reports (run4's ``sd_coordinate_data``).
 from __future__ import annotations
 
 import json
-import math
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ZOO = HERE.parents[1]
 
 
 def main(ref: str, reps: int) -> None:
-    from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.robot import twin_fit as tf
-    from littledog_mlsim.robot.parameters import twin_parameters
-    from littledog_mlsim.robot.twin import load_twin
     from littledog_mlsim.robot.twin_bias import synthetic_recordings
+    from run4 import run4_case
 
-    twin = load_twin(HERE.parent / "run4_bootstrap2" / "calibrated_twin.json")
-    cal = twin.provenance["calibration"]
-    boot = cal["bootstrap"]["params"]
-    start = twin.robot
-    params = twin_parameters(list(boot), start)
-    for p in params:
-        start = p.set(start, boot[p.name]["fitted"])
-    gap = load_twin(ZOO / "gap_robot.json").robot
-    train = [r for r in load_moves(ref, "train") if r.name in set(cal["train_moves"])]
+    case = run4_case(ref)
+    cal, boot, params, gap, train = case.cal, case.boot, case.params, case.gap, case.train
+    start = case.fit
     opts = tf.CalibrationOptions(params=tuple(boot), servo="keep", test_missing=False,
                                  initial_state="smoothed", moves_per_type=None,
                                  max_evals=tf.ROUND_EVALS_PER_COLUMN * (2 * len(params) + 1))
