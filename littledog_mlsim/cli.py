@@ -374,10 +374,15 @@ def format_calibration(report: dict) -> str:
     boot = report.get("bootstrap") or {}
     if boot.get("params"):
         moved = [(n, b) for n, b in boot["params"].items() if b.get("applied")]
-        lines.append(f"the fit's own bias, from {boot['iterations']} refit(s) on the twin's own "
-                     "recordings (--bootstrap), is taken out: "
+        refits = boot["iterations"] * boot.get("replicates", 1)
+        lines.append(f"the fit's own bias, from {refits} refit(s) on the twin's own recordings "
+                     "(--bootstrap), is taken out: "
                      + ", ".join(f"{n} {num(b['fitted'])} -> {num(b['corrected'])}"
-                                 for n, b in moved))
+                                 for n, b in moved) if moved else
+                     "the fit's own bias (--bootstrap) is not taken out: every parameter is at "
+                     "a bound or not bounded by the data")
+    if boot.get("error"):
+        lines.append(f"the bootstrap stopped: {boot['error']}")
     consider = report.get("consider") or {}
     if consider.get("considered"):
         lines.append(f"the intervals include the {len(consider['considered'])} parameters not "

@@ -207,64 +207,96 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
                     max_evals=max(options.max_evals,
                                   tf.ROUND_EVALS_PER_COLUMN * (2 * len(names) + 1)))
 
+    def value(p, xi: float) -> float:
+        """The parameter's value at coordinate ``xi``, inside its bounds in value space (the
+        exponential of a log bound can fall a rounding error outside it)."""
+        lo, hi = p.bounds
+        return float(min(max(p.from_x(float(xi)), lo), hi))
+
     def config_at(x: np.ndarray) -> RobotConfig:
         c = cal.config
         for p, xi in zip(params, x):
-            c = p.set(c, p.from_x(float(xi)))
+            c = p.set(c, value(p, xi))
         return c
 
-    x, points, biases, stops, spreads = x_fit.copy(), [], [], [], []
+    x, points, biases, stops, spreads, error = x_fit.copy(), [], [], [], [], None
     for i in range(n_it):
         twin = config_at(x)
         refits = []
-        for j in range(n_rep):
-            synth = synthetic_recordings(train_recs, _with_sensing(twin, sensing), i * n_rep + j)
-            rc = tf.calibrate_twin(synth, [], twin, inner, say)
-            b = np.array([p.to_x(p.get(rc.config)) for p in params]) - x
-            refits.append(np.where(apply & np.isfinite(b), b, 0.0))
-            stops.append(rc.report.get("stop"))
+        try:
+            for j in range(n_rep):
+                synth = synthetic_recordings(train_recs, _with_sensing(twin, sensing),
+                                             i * n_rep + j)
+                rc = tf.calibrate_twin(synth, [], twin, inner, say)
+                refits.append(np.array([p.to_x(p.get(rc.config)) for p in params]) - x)
+                stops.append(rc.report.get("stop"))
+        except Exception as e:      # the fit (and any iteration before) stands; say why
+            error = f"iteration {i + 1}: {type(e).__name__}: {e}"
+            say(f"bootstrap: the refit failed ({error}); keeping "
+                + ("the fit without its bias taken out" if not biases
+                   else f"the correction of iteration {i}"))
+            break
         points.append(x.copy())
-        biases.append(np.mean(refits, axis=0))
+        biases.append(np.mean(refits, axis=0))     # as measured, finite or not
         spreads.append(np.std(refits, axis=0, ddof=1) if n_rep > 1 else None)
-        x = np.clip(x_fit - biases[-1], bounds[:, 0], bounds[:, 1])
+        apply &= np.isfinite(biases[-1])            # a refit that went non-finite: not applied
+        x = np.where(apply, np.clip(x_fit - biases[-1], bounds[:, 0], bounds[:, 1]), x_fit)
+    if not biases:
+        report = dict(cal.report)
+        report["bootstrap"] = {"iterations": 0, "replicates": n_rep, "sensing": sensing,
+                               "params": {}, "refit_stops": stops, "error": error,
+                               "wall_s": round(time.perf_counter() - t0, 1)}
+        report["settings"] = {**report.get("settings", {}), "bootstrap": n_it,
+                              "bootstrap_replicates": n_rep}
+        return tf.Calibration(cal.config, cal.estimates, cal.weak, report)
+    n_done = len(biases)
+    applied_b = [np.where(apply, b, 0.0) for b in biases]
     # the estimator's spread: the data's sd, or the replicates' where they scatter more (the
     # fit's own error then is as large as theirs, step 4 of the module doc)
     sd_e2 = np.nan_to_num(sd_data ** 2)
     extra = np.zeros_like(sd_e2)
     if spreads[-1] is not None:
-        extra = np.clip(spreads[-1] ** 2 - sd_e2, 0.0, None)
+        extra = np.nan_to_num(np.clip(spreads[-1] ** 2 - sd_e2, 0.0, None))
         sd_e2 = sd_e2 + extra
     # the last bias's own noise (a mean of n_rep refits), the fit's error beyond the data's sd,
     # and how much the bias moved between the last two points where it was measured: how far
     # it may still be off
     var_b = sd_e2 / n_rep + extra + (
-        (biases[-1] - biases[-2]) ** 2 if n_it > 1 else 0.0)
+        (applied_b[-1] - applied_b[-2]) ** 2 if n_done > 1 else 0.0)
     config, estimates, per = cal.config, [], {}
     for k, (p, e) in enumerate(zip(params, cal.estimates)):
         if apply[k]:
             sd_c = math.sqrt(sd_all[k] ** 2 + var_b[k])
             sd_cd = math.sqrt(sd_data[k] ** 2 + var_b[k])
-            config = p.set(config, p.from_x(float(x[k])))
-            e = replace(e, value=p.from_x(float(x[k])), ci95=tf._interval(p, float(x[k]), sd_c),
+            v = value(p, x[k])
+            lo, hi = p.bounds
+            config = p.set(config, v)
+            e = replace(e, value=v, ci95=tf._interval(p, float(x[k]), sd_c),
                         ci95_data=(None if e.ci95_data is None
-                                   else tf._interval(p, float(x[k]), sd_cd)))
+                                   else tf._interval(p, float(x[k]), sd_cd)),
+                        at_bound="lower" if v <= lo else "upper" if v >= hi else None)
         estimates.append(e)
         per[p.name] = {"fitted": p.from_x(float(x_fit[k])),
                        "at": [p.from_x(float(pt[k])) for pt in points],
-                       "bias_coordinate": [float(b[k]) for b in biases],
-                       "applied": bool(apply[k]), "corrected": p.from_x(float(x[k])),
+                       "bias_coordinate": [float(b[k]) if np.isfinite(b[k]) else None
+                                           for b in biases],
+                       "applied": bool(apply[k]),
+                       "corrected": value(p, x[k]) if apply[k] else p.from_x(float(x_fit[k])),
                        "sd_bias_coordinate": float(math.sqrt(var_b[k])),
                        "sd_refits_coordinate": (None if spreads[-1] is None
                                                 else float(spreads[-1][k]))}
     report = dict(cal.report)
     report["params"] = [tf._estimate_dict(e) for e in estimates]
-    report["bootstrap"] = {"iterations": n_it, "replicates": n_rep, "sensing": sensing,
-                           "params": per,
-                           "refit_stops": stops, "wall_s": round(time.perf_counter() - t0, 1)}
+    report["bootstrap"] = {"iterations": n_done, "replicates": n_rep, "sensing": sensing,
+                           "params": per, "refit_stops": stops, "error": error,
+                           "wall_s": round(time.perf_counter() - t0, 1)}
     report["settings"] = {**report.get("settings", {}), "bootstrap": n_it,
                           "bootstrap_replicates": n_rep}
-    moved = sorted(per, key=lambda n: -abs(per[n]["bias_coordinate"][-1]))[:3]
-    say("bootstrap: the largest biases taken out: " + ", ".join(
-        f"{n} {per[n]['fitted']:.4g} -> {per[n]['corrected']:.4g}" for n in moved
-        if per[n]["applied"]))
+    # the largest biases in units of the parameter's own data sd (coordinates differ in units)
+    moved = sorted((n for k, n in enumerate(names) if apply[k]),
+                   key=lambda n: -abs(applied_b[-1][names.index(n)])
+                   / max(float(np.nan_to_num(sd_data[names.index(n)])), 1e-12))[:3]
+    say("bootstrap: the largest biases taken out (against their data sd): " + ", ".join(
+        f"{n} {per[n]['fitted']:.4g} -> {per[n]['corrected']:.4g}" for n in moved)
+        if moved else "bootstrap: no bias taken out (every parameter at a bound or unbounded)")
     return tf.Calibration(config, estimates, cal.weak, report)

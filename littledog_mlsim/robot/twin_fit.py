@@ -123,13 +123,17 @@ Method
    that are estimates (a smoothed pose, late filtered rates, quantised angles) bias the optimum
    by a few per cent even where the twin's structure is the robot's, more than the intervals of
    4 allow (benchmarks/blind_zoo, zoo32). With N > 0 the fitted twin records the fitted moves
-   again with their commands and the recording's sensing, is fitted again N times from its own
-   values, and the mean shift is subtracted; the intervals gain the shift's uncertainty. With
+   again with their commands and the recording's sensing and is fitted again from its own
+   values; the shift is subtracted, and with N > 1 measured again at the corrected twin (a
+   fixed-point iteration); the intervals gain the shift's uncertainty. With
    ``bootstrap_replicates`` R > 1 each iteration refits R recordings with their own noise
    seeds: the bias is their mean, and their spread, where larger than the data's sd, is the
    estimator's (benchmarks/blind_zoo, zoo32: twice the data's sd for the servo parameters).
-   The report's ``bootstrap`` gives, per parameter, the fitted value, the bias, the refits'
-   spread and the corrected value; ``params`` and the twin are the corrected ones.
+   A correction stops at the parameter's bound (the estimate then says so); a refit that fails
+   keeps the last good correction, or the fit, and the report says why. The report's
+   ``bootstrap`` gives, per parameter, the fitted value, the biases, the refits' spread and
+   the corrected value; ``params`` and the twin are the corrected ones, while ``sd_coordinate``,
+   ``correlation``, ``consider``, ``residual_rms`` and the costs stay the fit's before it.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """

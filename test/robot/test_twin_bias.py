@@ -69,6 +69,7 @@ class _BiasedPool:
     iterated correction is the truth."""
 
     SLOPE = 0.5
+    CENTER = 2.0     # kg: where the bias is 0.05
 
     def __init__(self, recs) -> None:
         rng = np.random.default_rng(7)
@@ -78,8 +79,8 @@ class _BiasedPool:
         self.noise = [0.001 * rng.normal(size=(40, 1, 33)) for _ in recs]
 
     def map(self, fn, config, stride, horizons, initial="measured"):
-        return [d * (math.log(config.body_mass) - y - 0.05 - self.SLOPE * (y - math.log(2.0))
-                     - off) + e
+        return [d * (math.log(config.body_mass) - y - 0.05
+                     - self.SLOPE * (y - math.log(self.CENTER)) - off) + e
                 for d, y, off, e in zip(self.dirs, self.truth, self.offset, self.noise)]
 
 
@@ -97,7 +98,7 @@ def _biased_case(monkeypatch, spread: float = 0.0):
     monkeypatch.setattr(twin_bias, "recording_sensing", lambda recs: {
         "sensor_noise": False, "mocap_position_std": 0.0, "mocap_orientation_std": 0.0,
         "encoder_resolution": None})
-    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, truth_mass=2.0,
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, truth_mass=_BiasedPool.CENTER,
                             position=np.zeros((400, 3))) for i in range(3)]
     opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
                                        initial_state="measured", test_missing=False)
@@ -136,7 +137,7 @@ def test_bootstrap_takes_out_the_estimators_own_bias(monkeypatch):
     assert b["at"][0] == pytest.approx(plain.estimates[0].value)
     assert b["fitted"] == pytest.approx(plain.estimates[0].value)
     assert cal.report["params"][0]["value"] == pytest.approx(mass.value)
-    assert any("largest biases taken out: body_mass" in s for s in said)
+    assert any("largest biases taken out (against their data sd): body_mass" in s for s in said)
     assert "(--bootstrap), is taken out: body_mass" in format_calibration(cal.report)
     with pytest.raises(ValueError, match="bootstrap must be an integer"):
         dataclasses.replace(opts, bootstrap=-1).check()
@@ -168,3 +169,55 @@ def test_bootstrap_replicates_measure_the_estimators_spread(monkeypatch):
         dataclasses.replace(opts, bootstrap_replicates=2).check()
     with pytest.raises(ValueError, match="bootstrap_replicates must be an integer"):
         dataclasses.replace(opts, bootstrap=1, bootstrap_replicates=0).check()
+
+
+def test_a_correction_beyond_a_bound_stops_at_it(monkeypatch):
+    """A robot whose body mass, 0.92 kg, is near its lower bound (0.9): the correction (0.025
+    e-folds under the truth) would cross it and stops exactly at the bound, which the estimate
+    says; the twin is valid, and a second iteration starts from it."""
+    from littledog_mlsim.robot import twin_fit
+    from littledog_mlsim.robot.parameters import twin_parameters
+
+    monkeypatch.setattr(_BiasedPool, "CENTER", 0.92)
+    recs, base, opts = _biased_case(monkeypatch)
+    one = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1))
+    assert one.estimates[0].value == 0.9 and one.config.body_mass == 0.9
+    assert one.estimates[0].at_bound == "lower"
+    assert one.report["bootstrap"]["params"]["body_mass"]["corrected"] == 0.9
+    twin_parameters(["body_mass"], one.config)          # a valid twin: its value in bounds
+    two = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=2))
+    assert two.report["bootstrap"]["iterations"] == 2 and 0.9 <= two.config.body_mass
+
+
+def test_a_failed_refit_keeps_the_fit_and_says_why(monkeypatch):
+    """A refit that raises (here the re-recording of the second iteration, then of the first)
+    loses nothing: the last good correction stands, or the plain fit, with the error in the
+    report and the printout."""
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_bias, twin_fit
+
+    recs, base, opts = _biased_case(monkeypatch)
+    plain = twin_fit.calibrate_twin(recs, [], base, opts)
+    good = twin_bias.synthetic_recordings
+
+    def failing_from(n):
+        def synth(recs, config, replicate=0):
+            if replicate >= n:
+                raise RuntimeError("the physics server went away")
+            return good(recs, config, replicate)
+        return synth
+
+    monkeypatch.setattr(twin_bias, "synthetic_recordings", failing_from(1))
+    said = []
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=2),
+                                  said.append)
+    boot = cal.report["bootstrap"]
+    assert boot["iterations"] == 1 and "iteration 2: RuntimeError" in boot["error"]
+    assert math.log(cal.estimates[0].value / 2.0) == pytest.approx(-0.025, abs=1e-3)
+    assert any("the refit failed" in s for s in said)
+    assert "the bootstrap stopped: iteration 2" in format_calibration(cal.report)
+    monkeypatch.setattr(twin_bias, "synthetic_recordings", failing_from(0))
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1))
+    assert cal.estimates[0].value == plain.estimates[0].value
+    assert cal.report["bootstrap"]["params"] == {}
+    assert "iteration 1: RuntimeError" in cal.report["bootstrap"]["error"]
