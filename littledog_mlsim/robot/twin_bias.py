@@ -98,8 +98,9 @@ def orientation_noise(recs: Sequence[MoveRecording], half_window: int = 3, degre
 def encoder_resolution(recs: Sequence[MoveRecording]) -> tuple[float, float, float] | None:
     """The encoders' angle per count per joint kind, read off the recorded angles, or None if
     they are not quantised: per kind, the smallest step between distinct recorded angles,
-    accepted when 99 % of the angles are whole multiples of it (within 1 % of a count). Where
-    neighbouring counts were never both visited it reads a multiple of the count."""
+    accepted when 99 % of the angles are whole counts from the joint's first recorded angle
+    (within 1 % of a count; a joint's zero may sit anywhere between counts, as after homing).
+    Where neighbouring counts were never both visited it reads a multiple of the count."""
     if not recs:
         return None
     q = np.concatenate([np.asarray(r.q, float) for r in recs], axis=0)
@@ -115,7 +116,7 @@ def encoder_resolution(recs: Sequence[MoveRecording]) -> tuple[float, float, flo
         if not steps:
             return None
         res = min(steps)
-        counts = q[:, joints] / res
+        counts = (q[:, joints] - q[:1, joints]) / res
         frac = np.abs(counts - np.rint(counts))
         if float(np.quantile(frac, 0.99)) > 0.01:
             return None

@@ -20,8 +20,9 @@ from littledog_mlsim.robot.config import robot_config
 
 
 def test_the_recordings_sensing_is_read_off_the_recording():
-    """Encoder counts: the step of angles rounded to whole counts, per joint kind, and None for
-    angles that are not quantised; orientation noise: a known rotation noise read back."""
+    """Encoder counts: the step of angles rounded to whole counts, per joint kind, also with
+    each joint's zero between two counts, and None for angles that are not quantised;
+    orientation noise: a known rotation noise read back."""
     from littledog_mlsim.robot.twin_bias import encoder_resolution, orientation_noise
     from scipy.spatial.transform import Rotation
 
@@ -30,6 +31,9 @@ def test_the_recordings_sensing_is_read_off_the_recording():
     counted = [dataclasses.replace(r, q=np.rint(r.q / res) * res) for r in clean]
     got = encoder_resolution(counted)
     assert got == pytest.approx((3.65e-5, 3.65e-5, 2.43e-5), rel=1e-6)
+    offset = np.linspace(0.1, 0.9, 12) * res          # each joint's zero between two counts
+    homed = [dataclasses.replace(r, q=np.rint(r.q / res) * res + offset) for r in clean]
+    assert encoder_resolution(homed) == pytest.approx((3.65e-5, 3.65e-5, 2.43e-5), rel=1e-6)
     assert encoder_resolution(clean) is None
     assert encoder_resolution([]) is None
     rng = np.random.default_rng(4)
