@@ -12,6 +12,8 @@ a diagnostic made after reading zoo32's truth). Compared with the fit's error ag
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/check.py REFERENCE
 
 REFERENCE: zoo32's reference recording (the harness records it: seed 237, 10 moves per type).
+Another zoo's run: ``check.py REFERENCE RUN_DIR GAP_ROBOT OUT_JSON`` (the run's twin must have
+a bootstrap; its hip limits are changed the same way).
 """
 from __future__ import annotations
 
@@ -25,14 +27,15 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 
-def main(ref: str) -> None:
+def main(ref: str, run: str | None = None, gap_file: str | None = None,
+         out_json: str | None = None) -> None:
     from littledog_mlsim.robot import baseline as bl
     from littledog_mlsim.robot import twin_fit as tf
     from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
     from dataclasses import replace
     from run4 import run4_case
 
-    case = run4_case(ref)
+    case = run4_case(ref, run, gap_file)
     cal, boot, params, gap, train = case.cal, case.boot, case.params, case.gap, case.train
     cfg = replace(case.fit, sensor_noise=False)
     opts = tf.CalibrationOptions(initial_state="smoothed", max_evals=10_000)
@@ -71,7 +74,7 @@ def main(ref: str) -> None:
             if truth > 0 and p.get(cfg) > 0:
                 out["fit_error_pct"][p.name] = 100 * math.log(p.get(cfg) / truth)
         out["sd_data_pct_plain"] = {p.name: 100 * float(s) for p, s in zip(params, sd)}
-    (HERE / "secants.json").write_text(json.dumps(out, indent=1))
+    Path(out_json or HERE / "secants.json").write_text(json.dumps(out, indent=1))
     keys = list(out["secants"])
     print("| parameter | fit - truth [%] | " + " | ".join(keys) + " |")
     print("|---|---|" + "---|" * len(keys))
@@ -84,4 +87,4 @@ def main(ref: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(*sys.argv[1:5])

@@ -8,6 +8,8 @@ run4's fit before its bootstrap, no score test). Per parameter: the mean fit aga
 reports (run4's ``sd_coordinate_data``).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/spread.py REFERENCE [R]
+
+Another zoo's run: ``spread.py REFERENCE R RUN_DIR GAP_ROBOT OUT_JSON``.
 """
 from __future__ import annotations
 
@@ -20,12 +22,13 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 
-def main(ref: str, reps: int) -> None:
+def main(ref: str, reps: int, run: str | None = None, gap_file: str | None = None,
+         out_json: str | None = None) -> None:
     from littledog_mlsim.robot import twin_fit as tf
     from littledog_mlsim.robot.twin_bias import synthetic_recordings
     from run4 import run4_case
 
-    case = run4_case(ref)
+    case = run4_case(ref, run, gap_file)
     cal, boot, params, gap, train = case.cal, case.boot, case.params, case.gap, case.train
     start = case.fit
     opts = tf.CalibrationOptions(params=tuple(boot), servo="keep", test_missing=False,
@@ -56,8 +59,8 @@ def main(ref: str, reps: int) -> None:
         sdf = "" if row["sd_fits"] is None else f"{k * row['sd_fits']:.2f}"
         print(f"| {p.name} | {truth:.4g} | {k * row['mean_minus_truth']:+.2f} {unit} | {sdf} | "
               f"{k * row['sd_data']:.2f} | {k * row['recording_minus_truth']:+.2f} |", flush=True)
-    (HERE / "spread.json").write_text(json.dumps(out, indent=1))
+    Path(out_json or HERE / "spread.json").write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 4)
+    main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 4, *sys.argv[3:6])
