@@ -396,6 +396,13 @@ def format_calibration(report: dict) -> str:
             lines.append(f"{e['name']}: its interval is mostly what {', '.join(c['by'])} "
                          f"could be (the data alone: [{num(data[0])}, {num(data[1])}]); fit "
                          "them, or measure them")
+    sym = report.get("scale_symmetry")
+    if sym and not sym.get("identified"):
+        lines.append("the common scale of the masses and servo torques is not identified: "
+                     "scaled together they leave the motion unchanged (derivative along it "
+                     f"{num(sym['derivative'])}, the Jacobian's "
+                     f"{num(sym['jacobian_derivative'])}); weigh the robot and leave its "
+                     "masses out of --params at the weighed values")
     for w in report["weak_directions"]:
         lines.append(f"not identified: {w['describe']} (95 % half-width "
                      f"{num(w['halfwidth95'])} in log/typical units)")
