@@ -7,6 +7,8 @@ than the fit, the 2-4 % left is the estimator's (what the twin's cost prefers on
 recording); if they cost less, the fit stopped short of the optimum.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/cost_at_truth.py REFERENCE
+
+Another zoo's run: ``cost_at_truth.py REFERENCE RUN_DIR GAP_ROBOT OUT_JSON``.
 """
 from __future__ import annotations
 
@@ -19,12 +21,13 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def main(ref: str) -> None:
+def main(ref: str, run: str | None = None, gap_file: str | None = None,
+         out_json: str | None = None) -> None:
     from littledog_mlsim.robot import baseline as bl
     from littledog_mlsim.robot import twin_fit as tf
     from run4 import run4_case
 
-    case = run4_case(ref)
+    case = run4_case(ref, run, gap_file)
     train = case.train
     fit = replace(case.fit, sensor_noise=False)
     corrected = replace(case.twin.robot, sensor_noise=False)
@@ -44,8 +47,8 @@ def main(ref: str) -> None:
             w = tf._weighted(raw(c), scale)
             out[name] = 0.5 * float(w @ w)
             print(f"{name}: k-step cost {out[name]:.2f}", flush=True)
-    (HERE / "cost_at_truth.json").write_text(json.dumps(out, indent=1))
+    Path(out_json or HERE / "cost_at_truth.json").write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(*sys.argv[1:5])
