@@ -146,8 +146,10 @@ Method
    half-width (from that difference) exceeds ``weak_halfwidth``, it is reported first among
    the weak directions, and the parameters in it get no interval: only a weighed mass (a mass
    left out of the fit at its weighed value) or a parameter that breaks the symmetry and binds
-   tells the scale. The report's ``scale_symmetry`` has the combination, the derivative along
-   it measured and as the Jacobian gives it, the half-width and ``identified``.
+   tells the scale. Where it is bounded, the intervals of its parameters gain the width that
+   difference leaves along it. The report's ``scale_symmetry`` has the combination, the
+   derivative along it measured and as the Jacobian gives it, the half-width and
+   ``identified``.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -553,6 +555,26 @@ def scale_symmetry(prob: "_Problem", x: np.ndarray, J: np.ndarray, s2: float,
             "halfwidth95": half, "identified": half is not None and half <= limit}
 
 
+def _widened(estimates: list[Estimate], stats: dict[str, Any], params: Sequence[TwinParameter],
+             x: np.ndarray, symmetry: dict[str, Any]) -> list[Estimate]:
+    """Estimates whose intervals (and ``stats``' sds) include the width the data leave along the
+    common scale, measured along it (module doc, 12), which the Jacobian does not see."""
+    sd_dir = symmetry["halfwidth95"] / Z95
+    out = []
+    for k, (p, e) in enumerate(zip(params, estimates)):
+        c = symmetry["combination"].get(p.name, 0.0)
+        if c == 0.0 or e.ci95 == (None, None):
+            out.append(e)
+            continue
+        add = sd_dir * c * p.x_scale
+        for key in ("sd_coordinate", "sd_coordinate_data"):
+            stats[key][p.name] = math.sqrt(stats[key][p.name] ** 2 + add ** 2)
+        out.append(replace(e, ci95=_interval(p, float(x[k]), stats["sd_coordinate"][p.name]),
+                           ci95_data=None if e.ci95_data is None else
+                           _interval(p, float(x[k]), stats["sd_coordinate_data"][p.name])))
+    return out
+
+
 def _opened(estimates: list[Estimate], combination: dict[str, float]) -> list[Estimate]:
     """Estimates of the parameters in ``combination`` (|coefficient| >= 0.1) without an
     interval: the Jacobian's intervals say nothing along a direction it does not see."""
@@ -709,6 +731,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
         weak = [WeakDirection(symmetry["derivative"], symmetry["halfwidth95"],
                               symmetry["combination"])] + weak
         estimates = _opened(estimates, symmetry["combination"])
+    elif symmetry is not None:
+        estimates = _widened(estimates, stats, params, x, symmetry)
     estimates = _unbounded(estimates, weak, options.weak_halfwidth)
     calibrated = replace(prob.config(x), name=options.name or f"{base.name}-calibrated",
                          sensor_noise=start_robot.sensor_noise)

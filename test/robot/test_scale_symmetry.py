@@ -71,3 +71,36 @@ def test_the_common_scale_is_found_where_the_jacobian_misses_it(monkeypatch):
     assert weighed.report["scale_symmetry"] is None
     for e, v in zip(weighed.estimates, (2.2 * 3.0, 2.2 * 0.175)):
         assert e.ci95 != (None, None) and e.value == pytest.approx(v, rel=0.01)
+
+
+def test_a_bounded_common_scale_widens_its_parameters_intervals(monkeypatch):
+    """Where something that does not scale with the masses acts (here a smooth pull on the body
+    mass alone), the scale is bounded: it is not a weak direction, and the intervals of the
+    parameters in it include the width the difference along it leaves, wider than the
+    Jacobian's."""
+    from littledog_mlsim.robot import twin_fit
+
+    class _Pinned(_ScalePool):
+        def map(self, fn, config, stride, horizons, initial="measured"):
+            out = super().map(fn, config, stride, horizons, initial)
+            pull = math.log(config.body_mass / 2.2)
+            return [o + 0.05 * pull * d[0] for o, d in zip(out, self.dirs)]
+
+    monkeypatch.setattr(twin_fit._bl, "move_pool", lambda recs, jobs=2, scheduler=None:
+                        contextlib.nullcontext(_Pinned(recs)))
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
+            for i in range(3)]
+    base = dataclasses.replace(robot_config("measured"), body_mass=2.0, kp=(6.0, 6.0, 6.3),
+                               kd=(0.35, 0.35, 0.33), sensor_noise=False)
+    opts = twin_fit.CalibrationOptions(params=("body_mass", "kp_knee", "kd_knee"),
+                                       horizons=(1,), initial_state="measured",
+                                       test_missing=False, max_evals=60)
+    cal = twin_fit.calibrate_twin(recs, [], base, opts)
+    sym = cal.report["scale_symmetry"]
+    assert sym["identified"] and 0 < sym["derivative"] < sym["jacobian_derivative"]
+    assert all(w.combination != sym["combination"] for w in cal.weak)
+    mass = cal.estimates[0]
+    lo, hi = mass.ci95
+    sd = math.log(hi / lo) / (2 * 1.959964)
+    assert sd >= sym["halfwidth95"] / 1.959964 * abs(sym["combination"]["body_mass"]) * 0.99
+    assert cal.report["sd_coordinate"]["body_mass"] == pytest.approx(sd, rel=1e-6)
