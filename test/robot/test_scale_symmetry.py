@@ -36,14 +36,14 @@ class _ScalePool:
                 for d, e in zip(self.dirs, self.rough)]
 
 
-def _case(monkeypatch, params):
+def _case(monkeypatch, params, pool=_ScalePool, body_mass: float = 2.2):
     from littledog_mlsim.robot import twin_fit
 
     monkeypatch.setattr(twin_fit._bl, "move_pool", lambda recs, jobs=2, scheduler=None:
-                        contextlib.nullcontext(_ScalePool(recs)))
+                        contextlib.nullcontext(pool(recs)))
     recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
             for i in range(3)]
-    base = dataclasses.replace(robot_config("measured"), body_mass=2.2, kp=(6.0, 6.0, 6.3),
+    base = dataclasses.replace(robot_config("measured"), body_mass=body_mass, kp=(6.0, 6.0, 6.3),
                                kd=(0.35, 0.35, 0.33), sensor_noise=False)
     opts = twin_fit.CalibrationOptions(params=params, horizons=(1,), initial_state="measured",
                                        test_missing=False, max_evals=60)
@@ -78,24 +78,13 @@ def test_a_bounded_common_scale_widens_its_parameters_intervals(monkeypatch):
     mass alone), the scale is bounded: it is not a weak direction, and the intervals of the
     parameters in it include the width the difference along it leaves, wider than the
     Jacobian's."""
-    from littledog_mlsim.robot import twin_fit
-
     class _Pinned(_ScalePool):
         def map(self, fn, config, stride, horizons, initial="measured"):
             out = super().map(fn, config, stride, horizons, initial)
             pull = math.log(config.body_mass / 2.2)
             return [o + 0.05 * pull * d[0] for o, d in zip(out, self.dirs)]
 
-    monkeypatch.setattr(twin_fit._bl, "move_pool", lambda recs, jobs=2, scheduler=None:
-                        contextlib.nullcontext(_Pinned(recs)))
-    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
-            for i in range(3)]
-    base = dataclasses.replace(robot_config("measured"), body_mass=2.0, kp=(6.0, 6.0, 6.3),
-                               kd=(0.35, 0.35, 0.33), sensor_noise=False)
-    opts = twin_fit.CalibrationOptions(params=("body_mass", "kp_knee", "kd_knee"),
-                                       horizons=(1,), initial_state="measured",
-                                       test_missing=False, max_evals=60)
-    cal = twin_fit.calibrate_twin(recs, [], base, opts)
+    cal = _case(monkeypatch, ("body_mass", "kp_knee", "kd_knee"), _Pinned, body_mass=2.0)
     sym = cal.report["scale_symmetry"]
     assert sym["identified"] and 0 < sym["derivative"] < sym["jacobian_derivative"]
     assert all(w.combination != sym["combination"] for w in cal.weak)
