@@ -242,14 +242,17 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
         spreads.append(np.std(refits, axis=0, ddof=1) if n_rep > 1 else None)
         apply &= np.isfinite(biases[-1])            # a refit that went non-finite: not applied
         x = np.where(apply, np.clip(x_fit - biases[-1], bounds[:, 0], bounds[:, 1]), x_fit)
-    if not biases:
+    def with_bootstrap(per: dict[str, Any]) -> dict[str, Any]:
         report = dict(cal.report)
-        report["bootstrap"] = {"iterations": 0, "replicates": n_rep, "sensing": sensing,
-                               "params": {}, "refit_stops": stops, "error": error,
-                               "wall_s": round(time.perf_counter() - t0, 1)}
+        report["bootstrap"] = {"iterations": len(biases), "replicates": n_rep,
+                               "sensing": sensing, "params": per, "refit_stops": stops,
+                               "error": error, "wall_s": round(time.perf_counter() - t0, 1)}
         report["settings"] = {**report.get("settings", {}), "bootstrap": n_it,
                               "bootstrap_replicates": n_rep}
-        return tf.Calibration(cal.config, cal.estimates, cal.weak, report)
+        return report
+
+    if not biases:
+        return tf.Calibration(cal.config, cal.estimates, cal.weak, with_bootstrap({}))
     n_done = len(biases)
     applied_b = [np.where(apply, b, 0.0) for b in biases]
     # the estimator's spread: the data's sd, or the replicates' where they scatter more (the
@@ -286,17 +289,11 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
                        "sd_bias_coordinate": float(math.sqrt(var_b[k])),
                        "sd_refits_coordinate": (None if spreads[-1] is None
                                                 else float(spreads[-1][k]))}
-    report = dict(cal.report)
+    report = with_bootstrap(per)
     report["params"] = [tf._estimate_dict(e) for e in estimates]
-    report["bootstrap"] = {"iterations": n_done, "replicates": n_rep, "sensing": sensing,
-                           "params": per, "refit_stops": stops, "error": error,
-                           "wall_s": round(time.perf_counter() - t0, 1)}
-    report["settings"] = {**report.get("settings", {}), "bootstrap": n_it,
-                          "bootstrap_replicates": n_rep}
     # the largest biases in units of the parameter's own data sd (coordinates differ in units)
-    moved = sorted((n for k, n in enumerate(names) if apply[k]),
-                   key=lambda n: -abs(applied_b[-1][names.index(n)])
-                   / max(float(np.nan_to_num(sd_data[names.index(n)])), 1e-12))[:3]
+    size = np.abs(applied_b[-1]) / np.maximum(np.nan_to_num(sd_data), 1e-12)
+    moved = [names[k] for k in np.argsort(-size, kind="stable") if apply[k]][:3]
     say("bootstrap: the largest biases taken out (against their data sd): " + ", ".join(
         f"{n} {per[n]['fitted']:.4g} -> {per[n]['corrected']:.4g}" for n in moved)
         if moved else "bootstrap: no bias taken out (every parameter at a bound or unbounded)")

@@ -579,6 +579,11 @@ def _opened(estimates: list[Estimate], combination: dict[str, float]) -> list[Es
     """Estimates of the parameters in ``combination`` (|coefficient| >= 0.1) without an
     interval: the Jacobian's intervals say nothing along a direction it does not see."""
     free = {n for n, c in combination.items() if abs(c) >= 0.1}
+    return _without_interval(estimates, free)
+
+
+def _without_interval(estimates: list[Estimate], free: set[str]) -> list[Estimate]:
+    """``estimates`` with those named in ``free`` left without an interval."""
     return [replace(e, ci95=(None, None),
                     ci95_data=None if e.ci95_data is None else (None, None))
             if e.name in free else e for e in estimates]
@@ -590,9 +595,7 @@ def _unbounded(estimates: list[Estimate], weak: Sequence[WeakDirection],
     not bound at all (half-width None or over 100 ``limit``) get no interval."""
     free = {n for w in weak if w.halfwidth95 is None or w.halfwidth95 > 100 * limit
             for n, c in w.combination.items() if abs(c) >= 0.1}
-    return [replace(e, ci95=(None, None),
-                    ci95_data=None if e.ci95_data is None else (None, None))
-            if e.name in free else e for e in estimates]
+    return _without_interval(estimates, free)
 
 
 def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
