@@ -351,7 +351,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  test_missing=not a.no_missing_test,
                                  initial_state=a.initial_state, add_asked=a.add_asked,
                                  consider_spread=a.consider_spread, bootstrap=a.bootstrap,
-                                 bootstrap_replicates=a.bootstrap_replicates)
+                                 bootstrap_replicates=a.bootstrap_replicates,
+                                 weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -362,6 +363,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
 
 def format_calibration(report: dict) -> str:
     """The calibration table ``calibrate`` prints: estimates, weak directions, rollouts."""
+    import math
+
     def num(v: object) -> str:
         return "-" if v is None else f"{v:.4g}"
 
@@ -397,12 +400,21 @@ def format_calibration(report: dict) -> str:
                          f"could be (the data alone: [{num(data[0])}, {num(data[1])}]); fit "
                          "them, or measure them")
     sym = report.get("scale_symmetry")
-    if sym and not sym.get("identified"):
+    w = (sym or {}).get("weighed")
+    if w:
+        lines.append(f"weighed {num(w['mass_kg'])} +- {num(w['sd_kg'])} kg: the fit's masses "
+                     f"summed to {num(w['fitted_mass_kg'])} kg; the common scale of the masses "
+                     f"and servo torques moved by {100 * math.expm1(w['scale_applied']):+.1f} % "
+                     f"(95 % +- {196 * w['sd_scale']:.1f} %; the data alone "
+                     + ("nothing" if w["sd_scale_data"] is None else
+                        f"+- {196 * w['sd_scale_data']:.0f} %") + ")"
+                     + (f"; stopped at the bounds of {', '.join(w['clipped'])}"
+                        if w["clipped"] else ""))
+    if sym and not sym.get("identified") and not w:
         lines.append("the common scale of the masses and servo torques is not identified: "
                      "scaled together they leave the motion unchanged (derivative along it "
                      f"{num(sym['derivative'])}, the Jacobian's "
-                     f"{num(sym['jacobian_derivative'])}); weigh the robot and leave its "
-                     "masses out of --params at the weighed values")
+                     f"{num(sym['jacobian_derivative'])}); weigh the robot (--weighed-mass)")
     for w in report["weak_directions"]:
         lines.append(f"not identified: {w['describe']} (95 % half-width "
                      f"{num(w['halfwidth95'])} in log/typical units)")
@@ -827,6 +839,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --bootstrap: R noise seeds per iteration (default 1); the bias "
                          "is their mean, and where they scatter more than the data's interval "
                          "says, the intervals take their spread (R refits per iteration)")
+    cb.add_argument("--weighed-mass", type=float, default=None, metavar="KG",
+                    help="the robot's mass on a scale: motion under gravity cannot tell the "
+                         "common scale of every mass and servo torque, so the fitted twin is "
+                         "moved along it to this total (weighted against what the data say) "
+                         "and its parameters get their intervals from the weighing")
+    cb.add_argument("--weighed-mass-sd", type=float, default=0.01, metavar="KG",
+                    help="the weighing's standard deviation (default 0.01 kg)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "

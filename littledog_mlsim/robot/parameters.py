@@ -26,7 +26,8 @@ from typing import Sequence
 
 from .config import URDF_BODY_MASS, URDF_LEG_MASS, RobotConfig
 
-__all__ = ["TwinParameter", "TWIN_PARAMETERS", "twin_parameters", "DEFAULT_CALIBRATION_PARAMS"]
+__all__ = ["TwinParameter", "TWIN_PARAMETERS", "twin_parameters", "DEFAULT_CALIBRATION_PARAMS",
+           "total_mass"]
 
 KINDS: tuple[str, ...] = ("hip_roll", "hip_pitch", "knee")
 _URDF_DEFAULT = {"body_mass": URDF_BODY_MASS, "leg_mass": URDF_LEG_MASS}
@@ -148,3 +149,11 @@ def twin_parameters(names: Sequence[str], config: RobotConfig) -> tuple[TwinPara
                              f"[{lo:g}, {hi:g}]")
         out.append(par)
     return tuple(out)
+
+
+def total_mass(config: RobotConfig) -> float:
+    """The robot's mass on a scale [kg]: the body and four legs (the feet are massless), times
+    ``mass_scale``, as the simulator builds it (``robot/sim.py``)."""
+    body = TWIN_PARAMETERS["body_mass"].get(config)
+    leg = TWIN_PARAMETERS["leg_mass"].get(config)
+    return float(config.mass_scale * (body + 4.0 * leg))

@@ -14,7 +14,9 @@ parameter fitted, the masses and servo parameters ended 1-4 % off, outside inter
    the recording), each iteration with its own noise seed.
 2. **Refit.** The same parameters are fitted to the synthetic recording, from the twin's own
    values, with the same options (starting states, horizons, stride); the refit's optimum
-   differs from the twin by the estimator's bias b (plus its noise).
+   differs from the twin by the estimator's bias b (plus its noise). With a weighed mass
+   (``weighed_mass``, module doc 13 of :mod:`.twin_fit`) each refit is weighed at the twin's
+   own total mass, with the weighing's sd.
 3. **Correction, iterated.** corrected = fit - b, inside the bounds. The bias is measured at the
    twin, not at the truth; where it varies with the parameters the two differ. With N > 1
    iterations the corrected twin records and is refitted again, and the bias measured there
@@ -183,7 +185,7 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
     iterations. The report gains ``bootstrap``; its ``params`` and the twin are the corrected
     ones."""
     from . import twin_fit as tf
-    from .parameters import twin_parameters
+    from .parameters import total_mass, twin_parameters
 
     t0 = time.perf_counter()
     n_it, n_rep = int(options.bootstrap), int(options.bootstrap_replicates)
@@ -228,7 +230,9 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
             for j in range(n_rep):
                 synth = synthetic_recordings(train_recs, _with_sensing(twin, sensing),
                                              i * n_rep + j)
-                rc = tf.calibrate_twin(synth, [], twin, inner, say)
+                # the twin's own recordings come with its own mass on the scale
+                rc = tf.calibrate_twin(synth, [], twin, inner if options.weighed_mass is None
+                                       else replace(inner, weighed_mass=total_mass(twin)), say)
                 refits.append(np.array([p.to_x(p.get(rc.config)) for p in params]) - x)
                 stops.append(rc.report.get("stop"))
         except Exception as e:      # the fit (and any iteration before) stands; say why

@@ -170,13 +170,13 @@ from ..data.recording import MoveRecording
 from ..layout import STATE_NAMES
 from .config import MEASURED_ARMATURE as REFLECTED_ROTOR_INERTIA
 from .config import RobotConfig
-from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, twin_parameters
+from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, total_mass, twin_parameters
 
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
            "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
            "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "weak_directions", "scale_symmetry",
-           "SCALES_WITH_MASS"]
+           "SCALES_WITH_MASS", "weigh"]
 
 log = logging.getLogger(__name__)
 
@@ -207,6 +207,8 @@ class CalibrationOptions:
     consider_spread: float = 0.15           # a-priori sd of the parameters not fitted (doc, 10)
     bootstrap: int = 0                      # refits on the twin's own recordings (doc, 11)
     bootstrap_replicates: int = 1           # noise seeds per bootstrap iteration (doc, 11)
+    weighed_mass: float | None = None       # the robot's weighed mass [kg] (doc, 13)
+    weighed_mass_sd: float = 0.01           # the weighing's standard deviation [kg]
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -238,6 +240,13 @@ class CalibrationOptions:
                              f"{self.bootstrap_replicates!r}")
         if self.bootstrap_replicates > 1 and not self.bootstrap:
             raise ValueError("bootstrap_replicates needs bootstrap (at least 1 iteration)")
+        if self.weighed_mass is not None and not (
+                math.isfinite(self.weighed_mass) and 0.5 <= self.weighed_mass <= 30.0):
+            raise ValueError("weighed_mass must be the robot's mass in kg (0.5 to 30), got "
+                             f"{self.weighed_mass!r}")
+        if not (math.isfinite(self.weighed_mass_sd) and 0 < self.weighed_mass_sd <= 5.0):
+            raise ValueError("weighed_mass_sd must be a positive number of kg (at most 5), got "
+                             f"{self.weighed_mass_sd!r}")
         if self.add_asked and not self.test_missing:
             raise ValueError("add_asked needs the score test of the parameters not fitted "
                              "(test_missing)")
@@ -527,32 +536,120 @@ SCALES_WITH_MASS = ("body_mass", "leg_mass", "mass_scale", "kp_", "kd_", "torque
 _MASSES = ("body_mass", "leg_mass", "mass_scale")
 
 
+def _scale_direction(prob: "_Problem", x: np.ndarray) -> np.ndarray:
+    """The common scale in fit coordinates: d x / d t for every fitted parameter that scales
+    with the mass multiplied by e^t (1 for a log coordinate, the value for a linear one)."""
+    config = prob.config(x)
+    return np.array([(1.0 if p.log else p.get(config)) if p.name.startswith(SCALES_WITH_MASS)
+                     else 0.0 for p in prob.params])
+
+
+def _slope_along(prob: "_Problem", x: np.ndarray, v: np.ndarray) -> float:
+    """|d r / d t| along x + t v, from a central difference of ``diff_step`` (two evaluations,
+    outside the fit's budget; memoised, so the common-scale check and the weighing share
+    them)."""
+    h = prob.o.diff_step
+    prob.limit = max(prob.limit, len(prob.cache) + 2)
+    return float(np.linalg.norm((prob.fun(x + h * v) - prob.fun(x - h * v)) / (2 * h)))
+
+
 def scale_symmetry(prob: "_Problem", x: np.ndarray, J: np.ndarray, s2: float,
                    limit: float) -> dict[str, Any] | None:
     """The data's hold on the common scale of the fitted mass and servo parameters (module
     doc, 12), measured by re-simulating along it (two evaluations), against what the
     Jacobian's columns say. None where no mass is fitted (a weighed mass pins the scale) or
     fewer than two such parameters are."""
-    config = prob.config(x)
-    v = np.array([(1.0 if p.log else p.get(config)) if p.name.startswith(SCALES_WITH_MASS)
-                  else 0.0 for p in prob.params])
+    v = _scale_direction(prob, x)
     if np.count_nonzero(v) < 2 or not any(p.name in _MASSES for p in prob.params):
         return None
     scale = np.array([p.x_scale for p in prob.params])
     length = float(np.linalg.norm(v / scale))
-    h = prob.o.diff_step
-    prob.limit = max(prob.limit, len(prob.cache) + 2)     # two more, whatever the budget left
     try:
-        diff = (prob.fun(x + h * v) - prob.fun(x - h * v)) / (2 * h)
+        slope = _slope_along(prob, x, v) / length
     except Exception as e:            # the fit stands; the check says it did not run
         log.warning("the common-scale check failed: %s", e)
         return None
-    slope = float(np.linalg.norm(diff)) / length
     half = None if slope <= 0 else Z95 * math.sqrt(s2) / slope
     u = v / scale / length
     return {"combination": {p.name: float(c) for p, c in zip(prob.params, u) if c != 0},
             "derivative": slope, "jacobian_derivative": float(np.linalg.norm(J @ v)) / length,
             "halfwidth95": half, "identified": half is not None and half <= limit}
+
+
+def weigh(prob: "_Problem", x: np.ndarray, s2: float) -> tuple[np.ndarray, dict[str, Any]]:
+    """The fit moved along the common scale of its mass and servo parameters to the weighed
+    mass (module doc, 13): (the new coordinates, the report's ``scale_symmetry.weighed``).
+
+    Along x + t v (v: :func:`_scale_direction`) the weighing says t = t_w, where the fitted
+    masses give the weighed total, with sd (weighing sd / mass) / (d log M / d t); the data say
+    t = 0 with the information |d r / d t|^2 / s^2 of the residuals measured along v (the
+    Jacobian's is not: module doc, 12). The two combine as independent measurements of t.
+    ValueError (one line) where no mass is fitted or the bounds cannot reach the weighing."""
+    from scipy.optimize import brentq
+
+    o = prob.o
+    v = _scale_direction(prob, x)
+    if not any(p.name in _MASSES for p in prob.params):
+        raise ValueError("--weighed-mass needs a mass among the fitted parameters (body_mass, "
+                         "leg_mass or mass_scale)")
+    v = np.where([p.name.startswith(SCALES_WITH_MASS) for p in prob.params], v, 0.0)
+
+    def log_mass(t: float) -> float:
+        return math.log(total_mass(prob.config(np.clip(x + t * v, prob.lo, prob.hi))))
+
+    target, fitted = math.log(o.weighed_mass), total_mass(prob.config(x))
+    lo_t, hi_t = -3.0, 3.0
+    if not log_mass(lo_t) <= target <= log_mass(hi_t):
+        raise ValueError(f"the weighed mass {o.weighed_mass:g} kg is out of reach of the fitted "
+                         f"masses' bounds (fitted total {fitted:.4g} kg)")
+    t_w = brentq(lambda t: log_mass(t) - target, lo_t, hi_t, xtol=1e-10)
+    d = 1e-4
+    dlogm = (log_mass(t_w + d) - log_mass(t_w - d)) / (2 * d)
+    if not dlogm > 0:
+        raise ValueError("the weighed mass cannot move the fitted masses (each at a bound)")
+    sd_w = o.weighed_mass_sd / o.weighed_mass / dlogm
+    slope = _slope_along(prob, x, v)
+    info_d = slope ** 2 / s2 if s2 > 0 else 0.0
+    info = 1.0 / sd_w ** 2 + info_d
+    t = t_w / sd_w ** 2 / info
+    x_w = np.clip(x + t * v, prob.lo, prob.hi)
+    prob.limit = max(prob.limit, len(prob.cache) + 1)
+    cost_fit, cost_w = (0.5 * float(np.sum(prob.fun(xi) ** 2)) for xi in (x, x_w))
+    clipped = [p.name for p, a, b in zip(prob.params, x + t * v, x_w) if a != b]
+    return x_w, {"mass_kg": o.weighed_mass, "sd_kg": o.weighed_mass_sd,
+                 "fitted_mass_kg": fitted, "twin_mass_kg": total_mass(prob.config(x_w)),
+                 "scale_to_weighing": t_w, "scale_applied": t,
+                 "sd_scale": 1.0 / math.sqrt(info), "sd_scale_weighing": sd_w,
+                 "sd_scale_data": None if info_d <= 0 else 1.0 / math.sqrt(info_d),
+                 "cost_fit": cost_fit, "cost_weighed": cost_w, "clipped": clipped,
+                 "direction": v}
+
+
+def _weighed_estimates(estimates: list[Estimate], stats: dict[str, Any],
+                       params: Sequence[TwinParameter], x_w: np.ndarray, weighing: dict[str, Any],
+                       limit: float) -> tuple[list[Estimate], dict[str, Any]]:
+    """Estimates at the weighed coordinates ``x_w``, their intervals including the scale's sd
+    after the weighing along its direction (as :func:`_widened` does for the data's), and the
+    report's entry for the common scale."""
+    v = weighing.pop("direction")
+    scale = np.array([p.x_scale for p in params])
+    length = float(np.linalg.norm(v / scale))
+    combination = {p.name: float(c) for p, c in zip(params, v / scale / length) if c != 0}
+    half = Z95 * weighing["sd_scale"] / length
+    moved = []
+    for k, (p, e) in enumerate(zip(params, estimates)):
+        if v[k] == 0:
+            moved.append(e)
+            continue
+        span = p.x_bounds()[1] - p.x_bounds()[0]
+        lo, hi = p.x_bounds()
+        at = ("lower" if x_w[k] - lo <= 1e-3 * span else
+              "upper" if hi - x_w[k] <= 1e-3 * span else None)
+        moved.append(replace(e, value=p.from_x(float(x_w[k])), at_bound=at))
+    out = _widened(moved, stats, params, x_w, {"combination": combination, "halfwidth95": half})
+    entry = {"combination": combination, "halfwidth95": half,
+             "identified": Z95 * weighing["sd_scale"] <= limit, "weighed": weighing}
+    return out, entry
 
 
 def _widened(estimates: list[Estimate], stats: dict[str, Any], params: Sequence[TwinParameter],
@@ -730,7 +827,21 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
                                options.weak_halfwidth)
     symmetry = scale_symmetry(prob, x, J, stats["residual_variance"], options.weak_halfwidth)
-    if symmetry is not None and not symmetry["identified"]:
+    if options.weighed_mass is not None:
+        x, weighing = weigh(prob, x, stats["residual_variance"])
+        estimates, entry = _weighed_estimates(estimates, stats, params, x, weighing,
+                                              options.weak_halfwidth)
+        symmetry = {**(symmetry or {}), **entry}
+        say(f"weighed {options.weighed_mass:g} +- {options.weighed_mass_sd:g} kg: the fitted "
+            f"masses sum to {weighing['fitted_mass_kg']:.4g} kg; the common scale moved by "
+            f"{100 * math.expm1(weighing['scale_applied']):+.1f} % (cost "
+            f"{weighing['cost_fit']:.1f} -> {weighing['cost_weighed']:.1f})")
+        if not symmetry["identified"]:
+            sv_scale = Z95 * math.sqrt(stats["residual_variance"]) / symmetry["halfwidth95"]
+            weak = [WeakDirection(sv_scale, symmetry["halfwidth95"], symmetry["combination"])
+                    ] + weak
+            estimates = _opened(estimates, symmetry["combination"])
+    elif symmetry is not None and not symmetry["identified"]:
         weak = [WeakDirection(symmetry["derivative"], symmetry["halfwidth95"],
                               symmetry["combination"])] + weak
         estimates = _opened(estimates, symmetry["combination"])
@@ -751,6 +862,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                            "weak_halfwidth": options.weak_halfwidth,
                            "initial_state": options.initial_state,
                            "consider_spread": options.consider_spread,
+                           "weighed_mass": options.weighed_mass,
+                           "weighed_mass_sd": options.weighed_mass_sd,
                            "pose_noise_m": pose_noise(train_recs)},
               "residual_rms": _rms_report(prob, x0, x), "missing": missing,
               "consider": consider, "scale_symmetry": symmetry}

@@ -36,7 +36,7 @@ class _ScalePool:
                 for d, e in zip(self.dirs, self.rough)]
 
 
-def _case(monkeypatch, params, pool=_ScalePool, body_mass: float = 2.2):
+def _case(monkeypatch, params, pool=_ScalePool, body_mass: float = 2.2, **options):
     from littledog_mlsim.robot import twin_fit
 
     monkeypatch.setattr(twin_fit._bl, "move_pool", lambda recs, jobs=2, scheduler=None:
@@ -46,7 +46,7 @@ def _case(monkeypatch, params, pool=_ScalePool, body_mass: float = 2.2):
     base = dataclasses.replace(robot_config("measured"), body_mass=body_mass, kp=(6.0, 6.0, 6.3),
                                kd=(0.35, 0.35, 0.33), sensor_noise=False)
     opts = twin_fit.CalibrationOptions(params=params, horizons=(1,), initial_state="measured",
-                                       test_missing=False, max_evals=60)
+                                       test_missing=False, max_evals=60, **options)
     return twin_fit.calibrate_twin(recs, [], base, opts)
 
 
@@ -93,3 +93,38 @@ def test_a_bounded_common_scale_widens_its_parameters_intervals(monkeypatch):
     sd = math.log(hi / lo) / (2 * 1.959964)
     assert sd >= sym["halfwidth95"] / 1.959964 * abs(sym["combination"]["body_mass"]) * 0.99
     assert cal.report["sd_coordinate"]["body_mass"] == pytest.approx(sd, rel=1e-6)
+
+
+def test_a_weighing_sets_the_common_scale_and_its_intervals(monkeypatch):
+    """Weighed at 2.9 kg (the start's total is 2.2 + 4 x 0.19 = 2.96): along the scale the
+    residuals do not change, so the fit is moved to the weighing exactly (the knee's gain and
+    damping keep their ratios to the body mass, the cost does not move), the scale is
+    identified, and the three get intervals as wide as the weighing leaves them (its 0.02 kg
+    over the body's 2.14 kg: 0.93 %), around values that contain the truth of the weighed robot. A
+    weighing without a mass fitted is refused in one line."""
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot.parameters import total_mass
+
+    cal = _case(monkeypatch, ("body_mass", "kp_knee", "kd_knee"), weighed_mass=2.9,
+                weighed_mass_sd=0.02)
+    sym = cal.report["scale_symmetry"]
+    w = sym["weighed"]
+    assert sym["identified"] and w["sd_scale_data"] is None
+    assert total_mass(cal.config) == pytest.approx(2.9, rel=1e-9)
+    assert w["cost_weighed"] == pytest.approx(w["cost_fit"], rel=1e-9)
+    assert w["sd_scale"] == pytest.approx(w["sd_scale_weighing"])
+    # only the body scales (the legs, 4 x 0.19 kg, are not fitted): d log M / d t is the
+    # body's share of the weighed mass, and the scale's sd 0.02 / (2.9 - 0.76)
+    assert w["sd_scale"] == pytest.approx(0.02 / (2.9 - 0.76), rel=1e-6)
+    m = cal.config.body_mass
+    truth = {"body_mass": m, "kp_knee": m * 3.0, "kd_knee": m * 0.175}
+    assert all(cal.weak[k].combination != sym["combination"] for k in range(len(cal.weak)))
+    for e in cal.estimates:
+        lo, hi = e.ci95
+        assert lo < truth[e.name] < hi and e.value == pytest.approx(truth[e.name], rel=0.01)
+        assert math.log(hi / lo) / (2 * 1.959964) >= w["sd_scale"] * 0.99
+    assert "weighed 2.9 +- 0.02 kg" in format_calibration(cal.report)
+    with pytest.raises(ValueError, match="needs a mass among the fitted parameters"):
+        _case(monkeypatch, ("kp_knee", "kd_knee"), weighed_mass=2.9)
+    with pytest.raises(ValueError, match="weighed_mass must be"):
+        _case(monkeypatch, ("body_mass", "kp_knee"), weighed_mass=float("nan"))

@@ -420,6 +420,15 @@ def learned_summary(truth: list[dict[str, Any]], rows: list[dict[str, Any]]) -> 
             "learned: carried effects": len(carried)}
 
 
+def weighing(robot: Path, resolution: float) -> float:
+    """The gap robot on a scale that reads to ``resolution`` kg: its total mass, rounded (the
+    only number of the gap robot the calibration gets)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
+    from littledog_mlsim.robot.parameters import total_mass
+    from littledog_mlsim.robot.twin import load_twin
+    return round(total_mass(load_twin(robot).robot) / resolution) * resolution
+
+
 def calibration_score(calibration: dict[str, Any], robot: Path | None) -> dict[str, Any]:
     """Each calibrated parameter against the gap robot's true value (read only here, after
     every diagnosis): inside its 95 % interval or not; identifiable = not at a bound and in no
@@ -600,6 +609,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="extra argument for the calibrated arm's calibrate (repeatable, e.g. "
                          "--calibrate-arg=--servo --calibrate-arg=auto); its twin and reports "
                          "get their own names")
+    ap.add_argument("--weigh", type=float, default=None, metavar="KG",
+                    help="weigh the gap robot (--robot) on a scale that reads to KG: its total "
+                         "mass rounded to KG is given to calibrate as --weighed-mass, with "
+                         "--weighed-mass-sd KG")
     ap.add_argument("--calibrate-only", action="store_true",
                     help="arm calibrated: calibrate and score the twin, diagnose nothing")
     a = ap.parse_args(argv)
@@ -634,6 +647,12 @@ def main(argv: list[str] | None = None) -> int:
         record(ds, a.moves_per_type, 2, logs, a.record_arg)
     if a.record_only:
         return 0
+    if a.weigh is not None:
+        if robot is None or not (a.arm or "").startswith("calibrated") or not a.weigh > 0:
+            raise SystemExit("--weigh KG (> 0) weighs the gap robot (--robot) for the calibrated "
+                             "arm")
+        a.calibrate_arg += ["--weighed-mass", f"{weighing(robot, a.weigh):g}",
+                            "--weighed-mass-sd", f"{a.weigh:g}"]
     arm_args, calibration = arm_arguments(a.arm, reference, work, logs, a.calibrate_arg)
     extra = arm_args + a.diagnose_arg
     if a.calibrate_arg and not (a.arm or "").startswith("calibrated"):
