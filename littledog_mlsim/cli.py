@@ -410,6 +410,11 @@ def format_calibration(report: dict) -> str:
                         f"+- {196 * w['sd_scale_data']:.0f} %") + ")"
                      + (f"; stopped at the bounds of {', '.join(w['clipped'])}"
                         if w["clipped"] else ""))
+        if w["cost_weighed"] > 1.05 * w["cost_fit"] and w.get("sd_scale_data_by"):
+            lines.append(f"the weighing raised the fit's cost from {num(w['cost_fit'])} to "
+                         f"{num(w['cost_weighed'])}: the data tie the scale to "
+                         f"{', '.join(w['sd_scale_data_by'])} (not fitted); fit "
+                         + ("it" if len(w["sd_scale_data_by"]) == 1 else "them"))
     if sym and not sym.get("identified") and not w:
         lines.append("the common scale of the masses and servo torques is not identified: "
                      "scaled together they leave the motion unchanged (derivative along it "

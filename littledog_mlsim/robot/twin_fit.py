@@ -151,6 +151,22 @@ Method
    derivative along it measured and as the Jacobian gives it, the half-width and
    ``identified``.
 
+13. **A weighed robot** (``weighed_mass``, ``--weighed-mass KG``; :func:`weigh`). The robot's
+   total mass on a scale (:func:`~.parameters.total_mass`) tells the common scale of 12. After
+   the fit, its fitted parameters move together along x + t v (v: d x / d t when each scales
+   by e^t). The weighing puts t at t_w, where the fitted masses sum to the weighed mass, with
+   sd (weighing sd / mass) / (d log M / d t); the data put it at 0 with the information
+   |d r / d t|^2 / s^2 of the residuals re-simulated along v (12's two evaluations, not the
+   Jacobian's columns), less what the parameters not fitted could move it by (a rotor inertia
+   left at its assumed value ties the scale to itself; its consider sd of 10 times
+   (d r/d t . J_c) / |d r/d t|^2 is added to the data's variance). Combined as independent
+   measurements: t = t_w w / (w + i), sd
+   1 / sqrt(w + i), w = 1 / sd_w^2, i the data's. The twin moves to t (cut at the bounds), its
+   estimates' intervals gain that sd along v (as a bounded scale's do in 12), and the scale is
+   weak only if that sd's 95 % half-width exceeds ``weak_halfwidth``. The report's
+   ``scale_symmetry.weighed`` gives the weighing, both masses, the steps, the sds and the cost
+   before and after the move (equal where the scale is an exact symmetry).
+
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
 from __future__ import annotations
@@ -544,13 +560,13 @@ def _scale_direction(prob: "_Problem", x: np.ndarray) -> np.ndarray:
                      else 0.0 for p in prob.params])
 
 
-def _slope_along(prob: "_Problem", x: np.ndarray, v: np.ndarray) -> float:
-    """|d r / d t| along x + t v, from a central difference of ``diff_step`` (two evaluations,
+def _along(prob: "_Problem", x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """d r / d t along x + t v, from a central difference of ``diff_step`` (two evaluations,
     outside the fit's budget; memoised, so the common-scale check and the weighing share
     them)."""
     h = prob.o.diff_step
     prob.limit = max(prob.limit, len(prob.cache) + 2)
-    return float(np.linalg.norm((prob.fun(x + h * v) - prob.fun(x - h * v)) / (2 * h)))
+    return (prob.fun(x + h * v) - prob.fun(x - h * v)) / (2 * h)
 
 
 def scale_symmetry(prob: "_Problem", x: np.ndarray, J: np.ndarray, s2: float,
@@ -565,7 +581,7 @@ def scale_symmetry(prob: "_Problem", x: np.ndarray, J: np.ndarray, s2: float,
     scale = np.array([p.x_scale for p in prob.params])
     length = float(np.linalg.norm(v / scale))
     try:
-        slope = _slope_along(prob, x, v) / length
+        slope = float(np.linalg.norm(_along(prob, x, v))) / length
     except Exception as e:            # the fit stands; the check says it did not run
         log.warning("the common-scale check failed: %s", e)
         return None
@@ -576,15 +592,21 @@ def scale_symmetry(prob: "_Problem", x: np.ndarray, J: np.ndarray, s2: float,
             "halfwidth95": half, "identified": half is not None and half <= limit}
 
 
-def weigh(prob: "_Problem", x: np.ndarray, s2: float) -> tuple[np.ndarray, dict[str, Any]]:
+def weigh(prob: "_Problem", x: np.ndarray, s2: float,
+          columns: Sequence[tuple[TwinParameter, float, np.ndarray]] = ()
+          ) -> tuple[np.ndarray, dict[str, Any]]:
     """The fit moved along the common scale of its mass and servo parameters to the weighed
     mass (module doc, 13): (the new coordinates, the report's ``scale_symmetry.weighed``).
 
     Along x + t v (v: :func:`_scale_direction`) the weighing says t = t_w, where the fitted
     masses give the weighed total, with sd (weighing sd / mass) / (d log M / d t); the data say
     t = 0 with the information |d r / d t|^2 / s^2 of the residuals measured along v (the
-    Jacobian's is not: module doc, 12). The two combine as independent measurements of t.
-    ValueError (one line) where no mass is fitted or the bounds cannot reach the weighing."""
+    Jacobian's is not: module doc, 12), less what the parameters not fitted (``columns``, the
+    score test's) could move it: where one of them does not scale with the rest (a rotor
+    inertia left at its assumed value), the residuals pin the scale to it, and its a-priori sd
+    (:func:`consider_sd`) shifts that pin by (d r/d t . J_c) / |d r/d t|^2 per unit. The two
+    combine as independent measurements of t. ValueError (one line) where no mass is fitted or
+    the bounds cannot reach the weighing."""
     from scipy.optimize import brentq
 
     o = prob.o
@@ -592,7 +614,6 @@ def weigh(prob: "_Problem", x: np.ndarray, s2: float) -> tuple[np.ndarray, dict[
     if not any(p.name in _MASSES for p in prob.params):
         raise ValueError("--weighed-mass needs a mass among the fitted parameters (body_mass, "
                          "leg_mass or mass_scale)")
-    v = np.where([p.name.startswith(SCALES_WITH_MASS) for p in prob.params], v, 0.0)
 
     def log_mass(t: float) -> float:
         return math.log(total_mass(prob.config(np.clip(x + t * v, prob.lo, prob.hi))))
@@ -608,8 +629,16 @@ def weigh(prob: "_Problem", x: np.ndarray, s2: float) -> tuple[np.ndarray, dict[
     if not dlogm > 0:
         raise ValueError("the weighed mass cannot move the fitted masses (each at a bound)")
     sd_w = o.weighed_mass_sd / o.weighed_mass / dlogm
-    slope = _slope_along(prob, x, v)
-    info_d = slope ** 2 / s2 if s2 > 0 else 0.0
+    d = _along(prob, x, v)
+    dd = float(d @ d)
+    by: dict[str, float] = {}
+    if dd > 0:
+        for par, value, col in columns:
+            if not par.renames({p.name for p in prob.params}):
+                by[par.name] = float(d @ col) / dd * consider_sd(par, value, o.consider_spread)
+    var_noise = s2 / dd if dd > 0 and s2 > 0 else math.inf
+    var_d = var_noise + sum(b * b for b in by.values())
+    info_d = 0.0 if not math.isfinite(var_d) or var_d <= 0 else 1.0 / var_d
     info = 1.0 / sd_w ** 2 + info_d
     t = t_w / sd_w ** 2 / info
     x_w = np.clip(x + t * v, prob.lo, prob.hi)
@@ -621,6 +650,10 @@ def weigh(prob: "_Problem", x: np.ndarray, s2: float) -> tuple[np.ndarray, dict[
                  "scale_to_weighing": t_w, "scale_applied": t,
                  "sd_scale": 1.0 / math.sqrt(info), "sd_scale_weighing": sd_w,
                  "sd_scale_data": None if info_d <= 0 else 1.0 / math.sqrt(info_d),
+                 "sd_scale_data_noise": (None if not math.isfinite(var_noise)
+                                         else math.sqrt(var_noise)),
+                 "sd_scale_data_by": {n: abs(b) for n, b in sorted(
+                     by.items(), key=lambda kv: -abs(kv[1]))[:3] if b != 0},
                  "cost_fit": cost_fit, "cost_weighed": cost_w, "clipped": clipped,
                  "direction": v}
 
@@ -813,6 +846,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
         J, r = prob.jac(x), prob.fun(x)
         n_evals = len(prob.cache)
         missing = consider = consider_cov = None
+        columns: list[tuple[TwinParameter, float, np.ndarray]] = []
         if options.test_missing:
             say("testing the parameters not fitted")
             try:
@@ -823,30 +857,31 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
             except Exception as e:       # the fit is done; its twin is not lost to the test
                 log.warning("the test of the parameters not fitted failed: %s", e)
                 missing = [{"error": f"{type(e).__name__}: {e}"}]
-    estimates, stats, covs = _estimates(prob, x, J, r, x0, consider_cov)
-    weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
-                               options.weak_halfwidth)
-    symmetry = scale_symmetry(prob, x, J, stats["residual_variance"], options.weak_halfwidth)
-    if options.weighed_mass is not None:
-        x, weighing = weigh(prob, x, stats["residual_variance"])
-        estimates, entry = _weighed_estimates(estimates, stats, params, x, weighing,
-                                              options.weak_halfwidth)
-        symmetry = {**(symmetry or {}), **entry}
-        say(f"weighed {options.weighed_mass:g} +- {options.weighed_mass_sd:g} kg: the fitted "
-            f"masses sum to {weighing['fitted_mass_kg']:.4g} kg; the common scale moved by "
-            f"{100 * math.expm1(weighing['scale_applied']):+.1f} % (cost "
-            f"{weighing['cost_fit']:.1f} -> {weighing['cost_weighed']:.1f})")
-        if not symmetry["identified"]:
-            sv_scale = Z95 * math.sqrt(stats["residual_variance"]) / symmetry["halfwidth95"]
-            weak = [WeakDirection(sv_scale, symmetry["halfwidth95"], symmetry["combination"])
-                    ] + weak
+        # in the pool: the common-scale check and the weighing re-simulate
+        estimates, stats, covs = _estimates(prob, x, J, r, x0, consider_cov)
+        weak, sv = weak_directions(J, params, covs, stats["residual_variance"],
+                                   options.weak_halfwidth)
+        symmetry = scale_symmetry(prob, x, J, stats["residual_variance"], options.weak_halfwidth)
+        if options.weighed_mass is not None:
+            x, weighing = weigh(prob, x, stats["residual_variance"], columns)
+            estimates, entry = _weighed_estimates(estimates, stats, params, x, weighing,
+                                                  options.weak_halfwidth)
+            symmetry = {**(symmetry or {}), **entry}
+            say(f"weighed {options.weighed_mass:g} +- {options.weighed_mass_sd:g} kg: the fitted "
+                f"masses sum to {weighing['fitted_mass_kg']:.4g} kg; the common scale moved by "
+                f"{100 * math.expm1(weighing['scale_applied']):+.1f} % (cost "
+                f"{weighing['cost_fit']:.1f} -> {weighing['cost_weighed']:.1f})")
+            if not symmetry["identified"]:
+                sv_scale = Z95 * math.sqrt(stats["residual_variance"]) / symmetry["halfwidth95"]
+                weak = [WeakDirection(sv_scale, symmetry["halfwidth95"], symmetry["combination"])
+                        ] + weak
+                estimates = _opened(estimates, symmetry["combination"])
+        elif symmetry is not None and not symmetry["identified"]:
+            weak = [WeakDirection(symmetry["derivative"], symmetry["halfwidth95"],
+                                  symmetry["combination"])] + weak
             estimates = _opened(estimates, symmetry["combination"])
-    elif symmetry is not None and not symmetry["identified"]:
-        weak = [WeakDirection(symmetry["derivative"], symmetry["halfwidth95"],
-                              symmetry["combination"])] + weak
-        estimates = _opened(estimates, symmetry["combination"])
-    elif symmetry is not None:
-        estimates = _widened(estimates, stats, params, x, symmetry)
+        elif symmetry is not None:
+            estimates = _widened(estimates, stats, params, x, symmetry)
     estimates = _unbounded(estimates, weak, options.weak_halfwidth)
     calibrated = replace(prob.config(x), name=options.name or f"{base.name}-calibrated",
                          sensor_noise=start_robot.sensor_noise)
