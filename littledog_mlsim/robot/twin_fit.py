@@ -831,6 +831,9 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     original = replace(base, sensor_noise=False)     # "before" is the robot as given
     base = with_servo(base, options.servo)
     params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[base.servo], base)
+    if options.weighed_mass is not None and not any(p.name in _MASSES for p in params):
+        raise ValueError("--weighed-mass needs a mass among the fitted parameters (body_mass, "
+                         "leg_mass or mass_scale)")
     if not train_recs:
         raise ValueError("calibration needs at least one TrainPool move")
     short = [r.name for r in train_recs if r.n_steps <= max(options.horizons)]
