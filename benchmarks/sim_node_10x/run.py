@@ -279,40 +279,52 @@ def run_timer(a, ctl: Controller, cmds: np.ndarray) -> dict:
             "node_errors": [ln for ln in err.splitlines() if "ERROR" in ln or "WARN" in ln][:5]}
 
 
+def drive_lockstep(a, ctl: Controller, cmds: np.ndarray) -> tuple[int, int]:
+    """Command k+1 as soon as joint state k arrives, for ``a.warmup + a.lockstep_duration`` s,
+    against whatever answers on the topics (sim_node, or sim_node_20x's echo node): (start,
+    end) in monotonic ns."""
+    ctl.wait_connected()
+    with ctl.cond:
+        ctl.received.clear()
+    k = [0]
+    t_end = [0]
+
+    def next_cmd() -> None:
+        if time.monotonic_ns() < t_end[0]:
+            k[0] += 1
+            ctl.send(cmds[k[0] % len(cmds)])
+    ctl.on_state = next_cmd
+    t0 = time.monotonic_ns()
+    t_end[0] = t0 + int((a.warmup + a.lockstep_duration) * 1e9)
+    ctl.send(cmds[0])
+    time.sleep(a.warmup + a.lockstep_duration + 1.0)
+    ctl.on_state = None
+    return t0, t_end[0]
+
+
+def lockstep_rate(a, ctl: Controller, t0: int, t_end: int) -> dict:
+    """Steps per second and round trip over the window after the warm-up."""
+    with ctl.cond:
+        rec = np.asarray(ctl.received)
+    w0 = t0 + int(a.warmup * 1e9)
+    inwin = rec[(rec >= w0) & (rec < t_end)]
+    span = (t_end - w0) / 1e9
+    gaps = np.diff(inwin) / 1e6
+    return {"duration_s": span, "steps_per_s": inwin.size / span,
+            "round_trip_ms": pct(gaps) if gaps.size else None}
+
+
 def run_lockstep(a, ctl: Controller, cmds: np.ndarray) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "lat.csv"
         proc = start_node(a, log, step_mode="lockstep")
         load0 = uptime()
         try:
-            ctl.wait_connected()
-            with ctl.cond:
-                ctl.received.clear()
-            k = [0]
-            t_end = [0]
-
-            def next_cmd() -> None:
-                if time.monotonic_ns() < t_end[0]:
-                    k[0] += 1
-                    ctl.send(cmds[k[0] % len(cmds)])
-            ctl.on_state = next_cmd
-            t0 = time.monotonic_ns()
-            t_end[0] = t0 + int((a.warmup + a.lockstep_duration) * 1e9)
-            ctl.send(cmds[0])
-            time.sleep(a.warmup + a.lockstep_duration + 1.0)
-            ctl.on_state = None
+            t0, t_end = drive_lockstep(a, ctl, cmds)
         finally:
             err = stop_node(proc)
         load1 = uptime()
-    with ctl.cond:
-        rec = np.asarray(ctl.received)
-    w0 = t0 + int(a.warmup * 1e9)
-    inwin = rec[(rec >= w0) & (rec < t_end[0])]
-    span = (t_end[0] - w0) / 1e9
-    gaps = np.diff(inwin) / 1e6
-    return {"duration_s": span, "steps_per_s": inwin.size / span,
-            "round_trip_ms": pct(gaps) if gaps.size else None,
-            "load_before": load0, "load_after": load1,
+    return {**lockstep_rate(a, ctl, t0, t_end), "load_before": load0, "load_after": load1,
             "node_errors": [ln for ln in err.splitlines() if "ERROR" in ln][:5]}
 
 

@@ -26,7 +26,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -37,7 +36,7 @@ import numpy as np  # noqa: E402
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(ROOT))
-from benchmarks._common import git_state, pct, uptime  # noqa: E402
+from benchmarks._common import git_state, uptime  # noqa: E402
 
 
 def serve(executor: str) -> int:
@@ -78,28 +77,14 @@ def serve(executor: str) -> int:
     return 0
 
 
-def run_echo(a, ctl, cmds: np.ndarray) -> dict:
+def run_echo(a, ten, ctl, cmds: np.ndarray) -> dict:
     """sim_node_10x's lockstep loop against the echo node."""
     proc = subprocess.Popen([sys.executable, __file__, "--serve", "--executor", a.executor],
                             env=dict(os.environ, PYTHONPATH=str(ROOT)),
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     load0 = uptime()
     try:
-        ctl.wait_connected()
-        with ctl.cond:
-            ctl.received.clear()
-        k, t_end = [0], [0]
-
-        def next_cmd() -> None:
-            if time.monotonic_ns() < t_end[0]:
-                k[0] += 1
-                ctl.send(cmds[k[0] % len(cmds)])
-        ctl.on_state = next_cmd
-        t0 = time.monotonic_ns()
-        t_end[0] = t0 + int((a.warmup + a.lockstep_duration) * 1e9)
-        ctl.send(cmds[0])
-        time.sleep(a.warmup + a.lockstep_duration + 1.0)
-        ctl.on_state = None
+        t0, t_end = ten.drive_lockstep(a, ctl, cmds)
     finally:
         proc.send_signal(signal.SIGINT)
         try:
@@ -107,16 +92,8 @@ def run_echo(a, ctl, cmds: np.ndarray) -> dict:
         except subprocess.TimeoutExpired:
             proc.kill()
             _, err = proc.communicate()
-    load1 = uptime()
-    with ctl.cond:
-        rec = np.asarray(ctl.received)
-    w0 = t0 + int(a.warmup * 1e9)
-    inwin = rec[(rec >= w0) & (rec < t_end[0])]
-    span = (t_end[0] - w0) / 1e9
-    gaps = np.diff(inwin) / 1e6
-    return {"duration_s": span, "steps_per_s": inwin.size / span,
-            "round_trip_ms": pct(gaps) if gaps.size else None,
-            "load_before": load0, "load_after": load1,
+    return {**ten.lockstep_rate(a, ctl, t0, t_end), "load_before": load0,
+            "load_after": uptime(),
             "errors": [ln for ln in err.splitlines() if "rror" in ln][:5]}
 
 
@@ -156,7 +133,7 @@ def main(argv: list[str] | None = None) -> int:
     rounds = []
     try:
         for i in range(a.rounds):
-            r = {"echo": run_echo(a, ctl, cmds)}
+            r = {"echo": run_echo(a, ten, ctl, cmds)}
             print(f"round {i + 1}: echo {r['echo']['steps_per_s']:.0f} steps/s, round trip p50 "
                   f"{r['echo']['round_trip_ms']['p50']:.3f} ms", flush=True)
             if a.model:

@@ -18,7 +18,6 @@ REFERENCE: the reference dataset run1 calibrated on (the harness's WORK/referenc
 from __future__ import annotations
 
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -30,21 +29,13 @@ ZOO = HERE.parents[1]
 
 
 def main(ref: str, reps: int = 2, out_json: str | None = None) -> int:
-    from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.robot import twin_fit as tf
-    from littledog_mlsim.robot.parameters import total_mass, twin_parameters
-    from littledog_mlsim.robot.twin import load_twin
+    from littledog_mlsim.robot.parameters import total_mass
     from littledog_mlsim.robot.twin_bias import synthetic_recordings
+    from run4 import run4_case       # zoo32's secant_check: a run's fit before its bootstrap
 
-    twin = load_twin(HERE.parent / "run1" / "calibrated_twin.json")
-    cal = twin.provenance["calibration"]
-    boot = cal["bootstrap"]["params"]
-    fit = twin.robot
-    params = twin_parameters(list(boot), fit)
-    for p in params:
-        fit = p.set(fit, boot[p.name]["fitted"])
-    gap = load_twin(ZOO / "gap_robot.json").robot
-    train = [r for r in load_moves(ref, "train") if r.name in set(cal["train_moves"])]
+    case = run4_case(ref, HERE.parent / "run1", ZOO / "gap_robot.json")
+    boot, params, fit, gap, train = case.boot, case.params, case.fit, case.gap, case.train
     opts = tf.CalibrationOptions(params=tuple(boot), servo="keep", test_missing=False,
                                  initial_state="smoothed", moves_per_type=None,
                                  max_evals=tf.ROUND_EVALS_PER_COLUMN * (2 * len(params) + 1),
@@ -80,5 +71,6 @@ def main(ref: str, reps: int = 2, out_json: str | None = None) -> int:
 
 if __name__ == "__main__":
     sys.path.insert(0, str(HERE.parents[4]))
+    sys.path.insert(0, str(ZOO.parent / "zoo32" / "runs" / "secant_check"))
     sys.exit(main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 2,
                   sys.argv[3] if len(sys.argv) > 3 else None))
