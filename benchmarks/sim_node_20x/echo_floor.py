@@ -86,12 +86,7 @@ def run_echo(a, ten, ctl, cmds: np.ndarray) -> dict:
     try:
         t0, t_end = ten.drive_lockstep(a, ctl, cmds)
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            _, err = proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            _, err = proc.communicate()
+        err = ten.stop_node(proc)
     return {**ten.lockstep_rate(a, ctl, t0, t_end), "load_before": load0,
             "load_after": uptime(),
             "errors": [ln for ln in err.splitlines() if "rror" in ln][:5]}
