@@ -184,3 +184,18 @@ def test_a_friction_fitted_alone_is_scored_as_the_contacts(tmp_path):
                                     tmp_path / "truth.json")
     assert [r["identifiable"] for r in got["rows"]] == [True, False]
     assert got["summary"] == "1 of 1"
+
+
+def test_the_gap_robot_is_weighed_to_the_scales_resolution(tmp_path):
+    """``--weigh KG``: the calibration gets the gap robot's total mass (body and four legs)
+    rounded to KG, nothing else of it."""
+    import dataclasses
+
+    from littledog_mlsim.robot.config import robot_config
+    from littledog_mlsim.robot.twin import Twin, save_twin
+
+    gap = dataclasses.replace(robot_config("measured"), name="gap", body_mass=2.3137,
+                              leg_mass=0.1811)
+    save_twin(Twin(gap, {}), tmp_path / "gap.json")
+    assert harness.weighing(tmp_path / "gap.json", 0.01) == pytest.approx(3.04)   # 3.0381
+    assert harness.weighing(tmp_path / "gap.json", 0.001) == pytest.approx(3.038)
