@@ -384,6 +384,12 @@ def format_calibration(report: dict) -> str:
                                  for n, b in moved) if moved else
                      "the fit's own bias (--bootstrap) is not taken out: every parameter is at "
                      "a bound or not bounded by the data")
+    widened = [(n, b) for n, b in (boot.get("params") or {}).items() if b.get("widened_only")]
+    if widened:
+        lines.append("measured at one point, a threshold's bias widens its interval and is not "
+                     "taken out (--bootstrap 2 measures it again): " + ", ".join(
+                         f"{n} (bias {b['bias_coordinate'][-1]:+.3f} in the fit's coordinate)"
+                         for n, b in widened))
     if boot.get("error"):
         lines.append(f"the bootstrap stopped: {boot['error']}")
     consider = report.get("consider") or {}

@@ -8,6 +8,11 @@ gains, masses, limits) and which servo it belongs to (``kp``/``kd`` act only on 
 ``position_gain``/``velocity_gain`` only on pybullet's position servo); a parameter of the other
 servo has no effect and is refused.
 
+``threshold`` marks a parameter that acts only where the motion reaches it (a torque limit acts
+only on the steps where the servo asks for more): how much the data say about it, and how the
+fit's estimate of it is biased, depend on how often the recorded motion gets there
+(``twin_bias``, step 3).
+
 ``same_as`` names the parameters that, fitted together, already have a parameter's whole effect:
 ``mass_scale`` multiplies the body's and the legs' masses, and Bullet multiplies the foot's and
 the floor's friction coefficients into the contact's. With those fitted, the parameter is another
@@ -47,6 +52,7 @@ class TwinParameter:
     unset: float | None = None      # the value a None field stands for (e.g. unfiltered)
     typical: float = 1.0            # a linear parameter's scale (finite-difference step, x_scale)
     same_as: tuple[str, ...] = ()   # parameters that, fitted together, already span its effect
+    threshold: bool = False         # acts only where the state reaches it (a torque limit)
 
     def renames(self, fitted: set[str]) -> bool:
         """Whether this parameter is only another name for the fitted ones (``same_as``)."""
@@ -87,8 +93,10 @@ class TwinParameter:
 
 
 def _triple(field: str, unit: str, bounds: tuple[float, float], servo: str | None = None,
-            log: bool = True, typical: float = 1.0) -> list[TwinParameter]:
-    return [TwinParameter(f"{field}_{k}", field, unit, bounds, log, i, servo, typical=typical)
+            log: bool = True, typical: float = 1.0, threshold: bool = False
+            ) -> list[TwinParameter]:
+    return [TwinParameter(f"{field}_{k}", field, unit, bounds, log, i, servo, typical=typical,
+                          threshold=threshold)
             for i, k in enumerate(KINDS)]
 
 
@@ -99,7 +107,7 @@ TWIN_PARAMETERS: dict[str, TwinParameter] = {p.name: p for p in (
                   same_as=("body_mass", "leg_mass")),
     *_triple("kp", "N m/rad", (0.5, 60.0), "pd_torque"),
     *_triple("kd", "N m s/rad", (0.01, 3.0), "pd_torque"),
-    *_triple("torque_limit", "N m", (0.1, 5.0)),
+    *_triple("torque_limit", "N m", (0.1, 5.0), threshold=True),
     *_triple("armature", "kg m^2 (reflected rotor inertia)", (0.0, 0.01), log=False,
              typical=1e-3),
     TwinParameter("position_gain", "position_gain", "pybullet position gain", (0.02, 1.0),

@@ -225,3 +225,40 @@ def test_a_failed_refit_keeps_the_fit_and_says_why(monkeypatch):
     assert cal.estimates[0].value == plain.estimates[0].value
     assert cal.report["bootstrap"]["params"] == {}
     assert "iteration 1: RuntimeError" in cal.report["bootstrap"]["error"]
+
+
+def test_a_thresholds_bias_from_one_point_widens_its_interval(monkeypatch):
+    """A parameter marked ``threshold`` (a torque limit: its bias changes with where it is
+    measured) on the biased stand-in: one iteration reports its bias (0.075 e-folds) but leaves
+    the fit's value (0.05 over the truth), and the bias's square joins the interval's variance,
+    so that the interval holds the truth (the correction would have landed 0.025 under it and
+    missed, as the first test shows). Two iterations measure it at two points and apply it as
+    any other's. The printout says which was held."""
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import parameters, twin_fit
+
+    assert [n for n, p in parameters.TWIN_PARAMETERS.items() if p.threshold] == [
+        "torque_limit_hip_roll", "torque_limit_hip_pitch", "torque_limit_knee"]
+    monkeypatch.setitem(parameters.TWIN_PARAMETERS, "body_mass", dataclasses.replace(
+        parameters.TWIN_PARAMETERS["body_mass"], threshold=True))
+    recs, base, opts = _biased_case(monkeypatch)
+    plain = twin_fit.calibrate_twin(recs, [], base, opts)
+    said = []
+    one = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1),
+                                  said.append)
+    mass = one.estimates[0]
+    assert mass.value == pytest.approx(plain.estimates[0].value, rel=1e-12)
+    assert one.config.body_mass == pytest.approx(mass.value, rel=1e-12)
+    assert mass.contains(2.0)
+    lo, hi = mass.ci95
+    assert math.log(hi / lo) / (2 * 1.959964) >= 0.075 * 0.99
+    b = one.report["bootstrap"]["params"]["body_mass"]
+    assert not b["applied"] and b["widened_only"]
+    assert b["bias_coordinate"] == pytest.approx([0.075], abs=1e-3)
+    assert b["corrected"] == pytest.approx(plain.estimates[0].value, rel=1e-12)
+    assert any("a threshold's bias widens its interval" in s and "body_mass" in s for s in said)
+    assert "widens its interval and is not taken out" in format_calibration(one.report)
+    two = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=2))
+    b2 = two.report["bootstrap"]["params"]["body_mass"]
+    assert b2["applied"] and not b2["widened_only"]
+    assert math.log(two.estimates[0].value / 2.0) == pytest.approx(0.0125, abs=1e-3)
