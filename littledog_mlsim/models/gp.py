@@ -587,12 +587,26 @@ def gp_posterior(X: np.ndarray, Y: np.ndarray, log_params: np.ndarray,
     return alpha, lml
 
 
+def pack_lower(chol: np.ndarray, dtype=np.float32) -> np.ndarray:
+    """The lower triangle of ``chol`` (n, n), row by row, as one 1-D array of n (n + 1) / 2:
+    BLAS's column-major packed upper triangle of its transpose (for stpsv with ``trans=1``)."""
+    return np.ascontiguousarray(chol[np.tril_indices(chol.shape[0])], dtype=dtype)
+
+
 def noisy_variance(chol: np.ndarray, Kq: np.ndarray, sf2: float, sn2: float) -> np.ndarray:
     """Predictive variance (c,) of a noisy observation at c queries, sf2 + sn2 - k*^T K^-1 k*,
     from the lower Cholesky factor (n, n) of K and the kernel rows Kq (c, n).
 
     A float32 factor (``LGPR.prepare_variance(dtype="float32")``) solves in float32 (half the
-    memory traffic) and sums the squares in float64."""
+    memory traffic) and sums the squares in float64. A 1-D float32 ``chol`` is the factor packed
+    (:func:`pack_lower`: its lower triangle row by row, n (n + 1) / 2 numbers, half the bytes of
+    the square again), solved by BLAS stpsv one query at a time."""
+    if chol.ndim == 1:
+        out = np.empty(Kq.shape[0])
+        for i, k in enumerate(Kq):
+            v = sla.blas.stpsv(Kq.shape[1], chol, k.astype(np.float32), lower=0, trans=1)
+            out[i] = np.dot(v, v.astype(np.float64))
+        return np.maximum(sf2 + sn2 - out, 0.0)
     if chol.dtype == np.float32:
         if Kq.shape[0] == 1 and chol.flags.c_contiguous:   # one query: BLAS strsv directly
             # (C-order lower L is F-order upper L^T: solve L^T^T v = k without a copy)

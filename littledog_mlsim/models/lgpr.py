@@ -158,6 +158,7 @@ from .gp import (
     gp_posterior_stable,
     gp_predict,
     noisy_variance,
+    pack_lower,
     unpack_log_params,
 )
 from .clustering import _sqdist_to_centres, balanced_clusters, nearest_rows
@@ -505,7 +506,7 @@ class LGPR(Regressor):
         kernels, _ = self._kernels[c]
         f = [gp_cholesky(self._X[c], th, float(self.jitter_[c])) for th in kernels]
         if self._variance_dtype == "float32":
-            f = [np.ascontiguousarray(a, dtype=np.float32) for a in f]
+            f = [pack_lower(a) for a in f]
         size = sum(a.nbytes for a in f)
         budget = float(self.variance_cache_mb) * 1e6
         while self._chol and self._chol_bytes + size > budget:
@@ -520,24 +521,27 @@ class LGPR(Regressor):
         """Build the Cholesky factors for ``return_std`` ahead of time (as many clusters as fit
         in ``variance_cache_mb``); returns the number of clusters cached.
 
-        ``dtype="float32"`` keeps the factors in float32 (a run-time choice, not stored in the
-        model): half the memory and half the memory traffic of each std (the learned
-        simulator's step, ``benchmarks/sim_node_20x``). The variance changes by the float32
-        solve's rounding, which is relative to the prior variance: the std by 2e-5 (median)
-        to 7.5e-3 (max) relative on the paper-size model (measured there), by a few per cent
-        where the variance is 1e-4 of the prior or less; the mean is untouched. Calling it
-        again with the other dtype rebuilds the factors."""
+        ``dtype="float32"`` keeps the factors in float32, packed (``gp.pack_lower``: the lower
+        triangle only; a run-time choice, not stored in the model): a quarter of float64's
+        memory and memory traffic per std, which is what a std costs when the learned
+        simulator's step moves to a cluster whose factor is not in cache
+        (``benchmarks/sim_node_20x/std_tail``). The variance changes by the float32 solve's
+        rounding, which is relative to the prior variance (the std's relative change on the
+        paper-size model is in that study), by a few per cent where the variance is 1e-4 of
+        the prior or less; the mean is untouched. Calling it again with the other dtype
+        rebuilds the factors."""
         if dtype not in ("float64", "float32"):
             raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
         if dtype != self._variance_dtype:
             self._chol.clear()
             self._chol_bytes = 0
             self._variance_dtype = dtype
-        itemsize = 4 if dtype == "float32" else 8
         budget = float(self.variance_cache_mb) * 1e6
         for c in range(self.n_clusters_):
             m = self._X[c].shape[0]
-            need = self._kernels[c][0].shape[0] * m * m * itemsize
+            # float32 factors are packed (half the square), float64 ones square
+            per = m * (m + 1) // 2 * 4 if dtype == "float32" else m * m * 8
+            need = self._kernels[c][0].shape[0] * per
             if c not in self._chol and self._chol_bytes + need > budget:
                 break  # full: later clusters would only evict earlier ones
             self._factors(c)

@@ -275,3 +275,27 @@ def test_default_init_avoids_the_all_noise_basin() -> None:
     assert np.exp(stuck.log_params[0, -1]) > 0.05  # large noise variance: little explained
     assert np.exp(fitted.log_params[0, -1]) < 1e-2
     assert fitted.lml[0] > stuck.lml[0] + 100
+
+
+def test_a_packed_float32_factor_gives_the_variance_of_the_square_one() -> None:
+    """``noisy_variance`` from a packed float32 factor (``pack_lower``) against the variance by
+    a float64 dense solve of K: equal within float32 rounding, for one query and for several;
+    the packed array holds the lower triangle row by row."""
+    import scipy.linalg as sla
+
+    from littledog_mlsim.models.gp import noisy_variance, pack_lower
+
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(120, 4))
+    sf2, sn2 = 1.3, 0.01
+    K = sf2 * np.exp(-0.5 * ((X[:, None, :] - X[None, :, :]) ** 2).sum(-1))
+    L = np.linalg.cholesky(K + sn2 * np.eye(120))
+    packed = pack_lower(L)
+    assert packed.dtype == np.float32 and packed.shape == (120 * 121 // 2,)
+    np.testing.assert_array_equal(packed[:3], np.float32([L[0, 0], L[1, 0], L[1, 1]]))
+    Q = rng.normal(size=(5, 4))
+    Kq = sf2 * np.exp(-0.5 * ((Q[:, None, :] - X[None, :, :]) ** 2).sum(-1))
+    want = sf2 + sn2 - np.einsum("ij,ji->i", Kq, sla.solve(K + sn2 * np.eye(120), Kq.T))
+    got = noisy_variance(packed, Kq, sf2, sn2)
+    np.testing.assert_allclose(got, want, atol=1e-4 * (sf2 + sn2))
+    np.testing.assert_array_equal(noisy_variance(packed, Kq[2:3], sf2, sn2), got[2:3])

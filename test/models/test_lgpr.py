@@ -390,8 +390,9 @@ def test_cluster_failure_is_one_line_naming_the_cluster(monkeypatch):
 
 
 def test_float32_variance_factors_keep_the_mean_and_bound_the_std_change():
-    """``prepare_variance(dtype="float32")``: the mean bit for bit, the std within the float32
-    solve's rounding (relative to the prior variance); back to float64: the std as before.
+    """``prepare_variance(dtype="float32")``: packed factors (half the square's bytes); the mean
+    bit for bit, the std within the float32 solve's rounding (relative to the prior variance),
+    for one query and for many; back to float64: the std as before.
     ``cluster_rows`` partitions fit's rows."""
     X, Y = smooth_data(400, seed=6)
     Q, _ = smooth_data(50, seed=7)
@@ -402,10 +403,12 @@ def test_float32_variance_factors_keep_the_mean_and_bound_the_std_change():
     m64, s64 = lg.predict(Q, return_std=True)
     m1, s1 = lg.predict(Q[:1], return_std=True)
     assert lg.prepare_variance(dtype="float32") == lg.n_clusters_
-    assert all(f[0].dtype == np.float32 for f in lg._chol.values())
+    assert all(f[0].dtype == np.float32 and f[0].ndim == 1 for f in lg._chol.values())
+    assert lg._chol_bytes == sum(4 * len(r) * (len(r) + 1) // 2 for r in rows)   # packed
     m32, s32 = lg.predict(Q, return_std=True)
     np.testing.assert_array_equal(m32, m64)
     np.testing.assert_array_equal(lg.predict(Q[:1], return_std=True)[0], m1)
+    np.testing.assert_array_equal(lg.predict(Q[:1], return_std=True)[1], s32[:1])
     prior = lg._prior_var[lg.nearest_cluster(Q)] * lg._variance_units(lg.nearest_cluster(Q))
     assert np.all(np.abs(s32 ** 2 - s64 ** 2) <= 1e-4 * prior)
     assert not np.array_equal(s32, s64)
