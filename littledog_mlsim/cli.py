@@ -383,11 +383,14 @@ def format_calibration(report: dict) -> str:
                      + ", ".join(f"{n} {num(b['fitted'])} -> {num(b['corrected'])}"
                                  for n, b in moved) if moved else
                      "the fit's own bias (--bootstrap) is not taken out: every parameter is at "
-                     "a bound or not bounded by the data")
+                     "a bound, not bounded by the data or a threshold measured at one point")
     widened = [(n, b) for n, b in (boot.get("params") or {}).items() if b.get("widened_only")]
     if widened:
+        again = ("(--bootstrap 2 measures it again)" if boot.get("iterations", 0) >= 1
+                 and (report.get("settings") or {}).get("bootstrap", 1) == 1
+                 else "(the second iteration did not finish)")
         lines.append("measured at one point, a threshold's bias widens its interval and is not "
-                     "taken out (--bootstrap 2 measures it again): " + ", ".join(
+                     f"taken out {again}: " + ", ".join(
                          f"{n} (bias {b['bias_coordinate'][-1]:+.3f} in the fit's coordinate)"
                          for n, b in widened))
     if boot.get("error"):

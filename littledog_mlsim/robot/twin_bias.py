@@ -248,7 +248,8 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
             error = f"iteration {i + 1}: {type(e).__name__}: {e}"
             say(f"bootstrap: the refit failed ({error}); keeping "
                 + ("the fit without its bias taken out" if not biases
-                   else f"the correction of iteration {i}"))
+                   else f"the correction of iteration {i} (a threshold's bias, measured at "
+                   "one point, only widens its interval)"))
             break
         points.append(x.copy())
         biases.append(np.mean(refits, axis=0))     # as measured, finite or not
@@ -315,9 +316,11 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
     moved = [names[k] for k in np.argsort(-size, kind="stable") if apply[k]][:3]
     say("bootstrap: the largest biases taken out (against their data sd): " + ", ".join(
         f"{n} {per[n]['fitted']:.4g} -> {per[n]['corrected']:.4g}" for n in moved)
-        if moved else "bootstrap: no bias taken out (every parameter at a bound or unbounded)")
+        if moved else "bootstrap: no bias taken out (every parameter at a bound, unbounded or "
+        "a threshold measured at one point)")
     if held.any():
-        say("bootstrap: measured at one point, a threshold's bias widens its interval and is not "
-            "taken out: " + ", ".join(f"{names[k]} (bias {biases[-1][k]:+.3f} e-folds)"
+        say("bootstrap: measured at one point"
+            + (" (the second iteration failed)" if n_it > 1 else "")
+            + ", a threshold's bias widens its interval and is not taken out: " + ", ".join(f"{names[k]} (bias {biases[-1][k]:+.3f} e-folds)"
                                       for k in np.flatnonzero(held)))
     return tf.Calibration(config, estimates, cal.weak, report)

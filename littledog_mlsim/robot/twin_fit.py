@@ -158,12 +158,15 @@ Method
    sd (weighing sd / mass) / (d log M / d t); the data put it at 0 with the information
    |d r / d t|^2 / s^2 of the residuals re-simulated along v (12's two evaluations, not the
    Jacobian's columns), less what the parameters not fitted could move it by (a rotor inertia
-   left at its assumed value ties the scale to itself; its consider sd of 10 times
-   (d r/d t . J_c) / |d r/d t|^2 is added to the data's variance). Combined as independent
+   left at its assumed value ties the scale to itself: the square of its consider sd (item 10)
+   times (d r/d t . J_c) / |d r/d t|^2 is added to the data's variance). Where re-simulating
+   along v fails or diverges, the weighing alone sets t. Combined as independent
    measurements: t = t_w w / (w + i), sd
-   1 / sqrt(w + i), w = 1 / sd_w^2, i the data's. The twin moves to t (cut at the bounds), its
-   estimates' intervals gain that sd along v (as a bounded scale's do in 12), and the scale is
-   weak only if that sd's 95 % half-width exceeds ``weak_halfwidth``. The report's
+   1 / sqrt(w + i), w = 1 / sd_w^2, i the data's. The twin moves to t (cut at the bounds), each
+   estimate's coordinate gains that sd times its v in quadrature (as a bounded scale's do in
+   12), and the scale is weak only if that sd's 95 % half-width along the unit-norm combination
+   exceeds ``weak_halfwidth``; once the weighing bounds it, a weak direction of the Jacobian
+   along it (|overlap| > 0.9) is dropped. The report's
    ``scale_symmetry.weighed`` gives the weighing, both masses, the steps, the sds and the cost
    before and after the move (equal where the scale is an exact symmetry).
 
@@ -629,7 +632,19 @@ def weigh(prob: "_Problem", x: np.ndarray, s2: float,
     if not dlogm > 0:
         raise ValueError("the weighed mass cannot move the fitted masses (each at a bound)")
     sd_w = o.weighed_mass_sd / o.weighed_mass / dlogm
-    d = _along(prob, x, v)
+    try:
+        prob.limit = max(prob.limit, len(prob.cache) + 3)
+        d = _along(prob, x, v)
+        h = prob.o.diff_step
+        ends = [prob.fun(x + h * v), prob.fun(x - h * v)]         # memoised by _along
+        r0 = prob.fun(x)
+        if any(np.any((e == DIVERGED_RESIDUAL) & (r0 != DIVERGED_RESIDUAL)) for e in ends):
+            log.warning("the robot diverges along the common scale: the weighing alone sets it")
+            d = np.zeros_like(r0)
+    except Exception as e:            # the fit stands; the weighing alone sets the scale
+        log.warning("re-simulating along the common scale failed (%s): the weighing alone sets "
+                    "it", e)
+        d = np.zeros(0)
     dd = float(d @ d)
     by: dict[str, float] = {}
     if dd > 0:
@@ -668,7 +683,8 @@ def _weighed_estimates(estimates: list[Estimate], stats: dict[str, Any],
     scale = np.array([p.x_scale for p in params])
     length = float(np.linalg.norm(v / scale))
     combination = {p.name: float(c) for p, c in zip(params, v / scale / length) if c != 0}
-    half = Z95 * weighing["sd_scale"] / length
+    # the scale's sd is in t (x + t v); along the unit-norm combination a step t is t * length
+    half = Z95 * weighing["sd_scale"] * length
     moved = []
     for k, (p, e) in enumerate(zip(params, estimates)):
         if v[k] == 0:
@@ -681,8 +697,13 @@ def _weighed_estimates(estimates: list[Estimate], stats: dict[str, Any],
         moved.append(replace(e, value=p.from_x(float(x_w[k])), at_bound=at))
     out = _widened(moved, stats, params, x_w, {"combination": combination, "halfwidth95": half})
     entry = {"combination": combination, "halfwidth95": half,
-             "identified": Z95 * weighing["sd_scale"] <= limit, "weighed": weighing}
+             "identified": half <= limit, "weighed": weighing}
     return out, entry
+
+
+def _overlap(a: dict[str, float], b: dict[str, float]) -> float:
+    """The dot product of two unit-norm parameter combinations."""
+    return float(sum(c * b.get(n, 0.0) for n, c in a.items()))
 
 
 def _widened(estimates: list[Estimate], stats: dict[str, Any], params: Sequence[TwinParameter],
@@ -874,7 +895,12 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                 f"masses sum to {weighing['fitted_mass_kg']:.4g} kg; the common scale moved by "
                 f"{100 * math.expm1(weighing['scale_applied']):+.1f} % (cost "
                 f"{weighing['cost_fit']:.1f} -> {weighing['cost_weighed']:.1f})")
-            if not symmetry["identified"]:
+            if symmetry["identified"]:
+                # the weighing bounds the scale: a weak direction of the Jacobian along it (where
+                # the Jacobian does see the symmetry) no longer takes its parameters' intervals
+                weak = [w for w in weak if abs(_overlap(w.combination,
+                                                        symmetry["combination"])) <= 0.9]
+            else:
                 sv_scale = Z95 * math.sqrt(stats["residual_variance"]) / symmetry["halfwidth95"]
                 weak = [WeakDirection(sv_scale, symmetry["halfwidth95"], symmetry["combination"])
                         ] + weak

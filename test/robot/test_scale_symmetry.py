@@ -155,3 +155,66 @@ def test_a_scale_pinned_by_a_parameter_not_fitted_yields_to_the_weighing(monkeyp
     assert abs(total_mass(cal.config) - 2.9) < 0.1 * abs(w["fitted_mass_kg"] - 2.9)
     assert "the data tie the scale to armature_knee (not fitted); fit it" in \
         format_calibration(cal.report)
+
+
+def test_the_weighings_sd_reaches_each_parameter_along_the_scale():
+    """``_weighed_estimates`` on hand-made estimates: three log parameters on the scale (the
+    body mass, the knee's gain and damping), a linear one on it (a rotor inertia, moved by its
+    value per unit of scale) and one off it (the contact's friction). With the scale's sd 0.01,
+    each coordinate on the scale gains 0.01 times its move per unit of scale in quadrature
+    (0.01 e-folds for a log parameter, 0.01 times the value for the inertia), the friction
+    nothing; the entry's 95 % half-width is along the unit-norm combination."""
+    from littledog_mlsim.robot import twin_fit
+    from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
+
+    names = ["body_mass", "kp_knee", "kd_knee", "armature_knee", "ground_friction"]
+    params = [TWIN_PARAMETERS[n] for n in names]
+    values = [2.0, 6.0, 0.35, 1.5e-3, 0.8]
+    x = np.array([p.to_x(v) for p, v in zip(params, values)])
+    sd0 = {"body_mass": 0.02, "kp_knee": 0.03, "kd_knee": 0.01, "armature_knee": 2e-4,
+           "ground_friction": 0.05}
+    stats = {"sd_coordinate": dict(sd0), "sd_coordinate_data": dict(sd0)}
+    estimates = [twin_fit.Estimate(p.name, p.unit, v, v,
+                                   twin_fit._interval(p, float(xi), sd0[p.name]), None,
+                                   twin_fit._interval(p, float(xi), sd0[p.name]))
+                 for p, v, xi in zip(params, values, x)]
+    v = np.array([1.0, 1.0, 1.0, 1.5e-3, 0.0])
+    out, entry = twin_fit._weighed_estimates(estimates, stats, params, x,
+                                             {"sd_scale": 0.01, "direction": v}, limit=0.5)
+    for k, n in enumerate(names):
+        want = math.sqrt(sd0[n] ** 2 + (0.01 * v[k]) ** 2)
+        assert stats["sd_coordinate"][n] == pytest.approx(want, rel=1e-9), n
+        assert stats["sd_coordinate_data"][n] == pytest.approx(want, rel=1e-9), n
+        assert out[k].ci95 == pytest.approx(twin_fit._interval(params[k], float(x[k]), want))
+    length = math.sqrt(3.0 + (1.5e-3 / 1e-3) ** 2)     # the inertia's coordinate unit is 1e-3
+    assert entry["halfwidth95"] == pytest.approx(1.959964 * 0.01 * length, rel=1e-6)
+    assert entry["identified"] and set(entry["combination"]) == set(names[:4])
+
+
+def test_a_weighing_bounds_the_scale_where_the_jacobian_sees_it_too(monkeypatch):
+    """Without the rough part the Jacobian itself finds the common scale (a zero singular
+    value); weighed, the scale is bounded by the weighing, so that direction is no longer weak
+    and the three parameters on it keep intervals that hold the weighed robot's values."""
+    class _Smooth(_ScalePool):
+        def map(self, fn, config, stride, horizons, initial="measured"):
+            m = math.log(config.body_mass)
+            a, b = math.log(config.kp[2]) - m, math.log(config.kd[2]) - m
+            return [d[0] * (a - self.A0) + d[1] * (b - self.B0) + 0.01 * e
+                    for d, e in zip(self.dirs, self.rough)]
+
+    plain = _case(monkeypatch, ("body_mass", "kp_knee", "kd_knee"), _Smooth)
+    assert all(e.ci95 == (None, None) for e in plain.estimates)
+    cal = _case(monkeypatch, ("body_mass", "kp_knee", "kd_knee"), _Smooth, weighed_mass=2.9,
+                weighed_mass_sd=0.02)
+    sym = cal.report["scale_symmetry"]
+    assert sym["identified"]
+    assert all(abs(twin_fit_overlap(w.combination, sym["combination"])) <= 0.9 for w in cal.weak)
+    m = cal.config.body_mass
+    truth = {"body_mass": m, "kp_knee": m * 3.0, "kd_knee": m * 0.175}
+    for e in cal.estimates:
+        assert e.ci95 != (None, None) and e.contains(truth[e.name]), e
+
+
+def twin_fit_overlap(a, b):
+    from littledog_mlsim.robot.twin_fit import _overlap
+    return _overlap(a, b)
