@@ -599,8 +599,8 @@ def noisy_variance(chol: np.ndarray, Kq: np.ndarray, sf2: float, sn2: float) -> 
 
     A float32 factor (``LGPR.prepare_variance(dtype="float32")``) solves in float32 (half the
     memory traffic) and sums the squares in float64. A 1-D float32 ``chol`` is the factor packed
-    (:func:`pack_lower`: its lower triangle row by row, n (n + 1) / 2 numbers, half the bytes of
-    the square again), solved by BLAS stpsv one query at a time."""
+    (:func:`pack_lower`: its lower triangle row by row, n (n + 1) / 2 numbers, half the memory of
+    the square; the solve reads as many bytes), solved by BLAS stpsv one query at a time."""
     if chol.ndim == 1:
         out = np.empty(Kq.shape[0])
         for i, k in enumerate(Kq):

@@ -523,9 +523,9 @@ class LGPR(Regressor):
 
         ``dtype="float32"`` keeps the factors in float32, packed (``gp.pack_lower``: the lower
         triangle only; a run-time choice, not stored in the model): a quarter of float64's
-        memory and memory traffic per std, which is what a std costs when the learned
-        simulator's step moves to a cluster whose factor is not in cache
-        (``benchmarks/sim_node_20x/std_tail``). The variance changes by the float32 solve's
+        memory, and half its memory traffic per std, which is what a std costs when the
+        learned simulator's step moves to a cluster whose factor is not in cache
+        (``benchmarks/sim_node_20x/std_tail``; packing halves the memory, not the traffic). The variance changes by the float32 solve's
         rounding, which is relative to the prior variance (the std's relative change on the
         paper-size model is in that study), by a few per cent where the variance is 1e-4 of
         the prior or less; the mean is untouched. Calling it again with the other dtype

@@ -194,9 +194,23 @@ def main(argv=None) -> int:
     ap.add_argument("--every", default="2,4,8,16")
     ap.add_argument("--local-m", default="32,64,128")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--code-root", default=None,
+                    help="import littledog_mlsim from this checkout (an A/B against older code)")
+    ap.add_argument("--only", default=None, metavar="CONFIG",
+                    help="run this one configuration (e.g. float32) and write its figures only")
     a = ap.parse_args(argv)
     import subprocess
+    if a.code_root:
+        sys.path.insert(0, a.code_root)
     cmds = commands(a.data, a.steps)
+    if a.only:
+        dtype = "float64" if a.only == "float64" else "float32"
+        doc, _, _ = run_config(a.model, cmds, dtype, None, a.only != "off")
+        import littledog_mlsim
+        doc.update(config=a.only, code=str(Path(littledog_mlsim.__file__).parents[1]))
+        Path(a.out + ".json").write_text(json.dumps(doc, indent=1))
+        print(json.dumps(doc))
+        return 0
     configs, model32, queries = {}, None, None
     for name, dtype, every, use in [("off", "float32", None, False),
                                     ("float32", "float32", None, True),
