@@ -315,6 +315,63 @@ def test_missing_parameters_reads_a_linear_residual():
         assert with_zero_column["foot_friction"][k] == pytest.approx(friction[k], rel=1e-9)
 
 
+class _LimitPool(_LinearPool):
+    """The linear stand-in plus a hip pitch torque limit that acts only below 1.5 N m (a
+    threshold: above it no torque the motion asks for is cut), as (log 1.5 - log limit)+."""
+
+    def map(self, fn, config, stride, horizons, initial="measured"):
+        import math
+        import numpy as np
+        out = super().map(fn, config, stride, horizons, initial)
+        cut = max(0.0, math.log(1.5) - math.log(config.torque_limit[1]))
+        rng = np.random.default_rng(9)
+        return [o + cut * rng.normal(size=o.shape) for o in out]
+
+
+def test_a_torque_limit_not_reached_is_read_by_a_secant():
+    """A robot whose hip pitch limit is 1.29 N m, fitted from a twin that assumes 1.7: at 1.7
+    the limit's derivative is zero (no torque reaches it), so a one-sided difference would ask
+    for nothing; the score test reads a threshold by a secant down by twice the consider
+    spread (0.3 e-folds, to 1.26 N m) and asks for it; a rotor inertia, not a threshold, keeps
+    its small step. Without a consider spread the derivative is back."""
+    import math
+    import numpy as np
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot import twin_fit
+    from littledog_mlsim.robot.twin_fit import CalibrationOptions, _Problem
+
+    class _Robot(_LimitPool):
+        def map(self, fn, config, stride, horizons, initial="measured"):
+            import dataclasses as dc
+            tl = config.torque_limit
+            truth = dc.replace(config, torque_limit=(tl[0], 1.29, tl[2]))
+            base = super().map(fn, truth, stride, horizons, initial)
+            # the residual of the twin against the robot: twin minus robot
+            twin = super().map(fn, config, stride, horizons, initial)
+            return [t - b + e for t, b, e in zip(twin, base, self.noise)]
+
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0,
+                               torque_limit=(1.7, 1.7, 1.0))
+    for spread, asks in ((0.15, True), (0.0, False)):
+        opts = CalibrationOptions(horizons=(1,), stride=20, consider_spread=spread)
+        prob = _Problem(_Robot(), base, twin_parameters(("body_mass",), base), opts,
+                        lambda s: None)
+        prob.scale = np.ones((1, 33))
+        x = np.array([math.log(2.0)])
+        J, r = prob.jac(x), prob.fun(x)
+        cols = {c[0].name: c[2] for c in twin_fit.unfitted_columns(prob, x, r)}
+        limit = cols.get("torque_limit_hip_pitch")
+        if asks:
+            assert limit is not None and np.abs(limit).max() > 0.1
+            got = {m["name"]: m for m in twin_fit.missing_parameters(prob, x, J, r,
+                                                                     columns=list(
+                twin_fit.unfitted_columns(prob, x, r)))}
+            assert got["torque_limit_hip_pitch"]["asks"]
+            assert got["torque_limit_hip_pitch"]["suggested"] < 1.5
+        else:
+            assert limit is None or np.abs(limit).max() == 0.0
+
+
 def test_add_asked_refits_with_what_the_score_test_asks_for(monkeypatch):
     """``add_asked`` (module doc, 9) on the linear stand-in: a fit of the body mass alone
     leaves the foot friction's share in the residual; the score test asks for it, the refit
