@@ -564,11 +564,9 @@ class LGPR(Regressor):
         return (shift, inv_l, np.ascontiguousarray(Z.T), np.einsum("ij,ij->i", Z, Z),
                 float(sf2[0]), float(sn2[0]))
 
-    def _shared_kernel_predict(self, c: int, Xq: np.ndarray, want_var: bool
-                               ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Standardised mean (nq, p) and variance of a shared-kernel cluster from GEMM kernel
-        rows (the rollout's hot path: ~1.7x faster than per-dimension differences for a few
-        queries, equal to them to rounding; ``benchmarks/rollout_speed/rollout_speed.md``)."""
+    def kernel_rows(self, c: int, Xq: np.ndarray) -> tuple[np.ndarray, float, float]:
+        """The kernel rows (nq, n_c) of queries Xq against shared-kernel cluster c's training
+        inputs by one GEMM, with the kernel's signal and noise variances (sf2, sn2)."""
         shift, inv_l, ZT, zz, sf2, sn2 = self._rows[c]
         A = (Xq - shift) * inv_l
         K = A @ ZT
@@ -579,6 +577,14 @@ class LGPR(Regressor):
         K *= -0.5
         np.exp(K, out=K)
         K *= sf2
+        return K, sf2, sn2
+
+    def _shared_kernel_predict(self, c: int, Xq: np.ndarray, want_var: bool
+                               ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Standardised mean (nq, p) and variance of a shared-kernel cluster from GEMM kernel
+        rows (the rollout's hot path: ~1.7x faster than per-dimension differences for a few
+        queries, equal to them to rounding; ``benchmarks/rollout_speed/rollout_speed.md``)."""
+        K, sf2, sn2 = self.kernel_rows(c, Xq)
         mean = K @ self._alpha[c]
         if not want_var:
             return mean, None

@@ -100,16 +100,8 @@ def local_std(model, queries, ms: list[int], every: int = 3) -> list[dict]:
     for m in ms:
         err, t_exact, t_local = [], [], []
         for c, Xq in queries[::every]:
-            shift, inv_l, ZT, zz, sf2, sn2 = est._rows[c]
-            A = (Xq - shift) * inv_l
-            K = A @ ZT
-            K *= -2.0
-            K += np.einsum("ij,ij->i", A, A)[:, None]
-            K += zz
-            np.maximum(K, 0.0, out=K)
-            K *= -0.5
-            np.exp(K, out=K)
-            K *= sf2
+            _, _, ZT, zz, _, _ = est._rows[c]
+            K, sf2, sn2 = est.kernel_rows(c, Xq)
             t0 = time.thread_time_ns()
             exact = noisy_variance(est._factors(c)[0], K, sf2, sn2)[0]
             t1 = time.thread_time_ns()
