@@ -14,6 +14,7 @@ the bootstrap measured at the twin.
         REFERENCE [R] [OUT_JSON]
 
 REFERENCE: the reference dataset run1 calibrated on (the harness's WORK/reference; seed 267).
+Another zoo's run: ``bias_at_truth.py REFERENCE R OUT_JSON RUN_DIR GAP_ROBOT``.
 """
 from __future__ import annotations
 
@@ -28,13 +29,14 @@ HERE = Path(__file__).resolve().parent
 ZOO = HERE.parents[1]
 
 
-def main(ref: str, reps: int = 2, out_json: str | None = None) -> int:
+def main(ref: str, reps: int = 2, out_json: str | None = None, run: str | None = None,
+         gap_file: str | None = None) -> int:
     from littledog_mlsim.robot import twin_fit as tf
     from littledog_mlsim.robot.parameters import total_mass
     from littledog_mlsim.robot.twin_bias import synthetic_recordings
     from run4 import run4_case       # zoo32's secant_check: a run's fit before its bootstrap
 
-    case = run4_case(ref, HERE.parent / "run1", ZOO / "gap_robot.json")
+    case = run4_case(ref, run or HERE.parent / "run1", gap_file or ZOO / "gap_robot.json")
     boot, params, fit, gap, train = case.boot, case.params, case.fit, case.gap, case.train
     opts = tf.CalibrationOptions(params=tuple(boot), servo="keep", test_missing=False,
                                  initial_state="smoothed", moves_per_type=None,
@@ -73,4 +75,6 @@ if __name__ == "__main__":
     sys.path.insert(0, str(HERE.parents[4]))
     sys.path.insert(0, str(ZOO.parent / "zoo32" / "runs" / "secant_check"))
     sys.exit(main(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 2,
-                  sys.argv[3] if len(sys.argv) > 3 else None))
+                  sys.argv[3] if len(sys.argv) > 3 else None,
+                  sys.argv[4] if len(sys.argv) > 4 else None,
+                  sys.argv[5] if len(sys.argv) > 5 else None))
