@@ -54,7 +54,8 @@ from std_srvs.srv import Trigger
 
 from ..layout import N_STATE
 from ..models.persistence import ModelError
-from ..rollout.learned_sim import LearnedSimulator, model_has_variance, standing_train_state
+from ..rollout.learned_sim import (MAX_COVARIANCE_EVERY, LearnedSimulator, model_has_variance,
+                                   standing_train_state)
 from ._run import Param, StartupError, one_line
 from .simulator import SimulatorNode, run_simulator
 
@@ -93,6 +94,10 @@ class SimNode(SimulatorNode):
               "the paper-size model, more where the variance is far below the prior: "
               "docs/simulator.md) or float64 (as `evaluate` computes it); the mean is the same "
               "either way", "float32 | float64"),
+        Param("covariance_every", 1, "compute the model's std on every k-th step only and "
+              "hold it in between (the mean is the same; the covariance lags the state by up "
+              "to k - 1 steps: docs/simulator.md); 1: every step",
+              f"integer 1..{MAX_COVARIANCE_EVERY}"),
     )
 
     def __init__(self) -> None:
@@ -206,6 +211,10 @@ class SimNode(SimulatorNode):
         if precision not in ("float32", "float64"):
             raise StartupError(f"parameter covariance_precision must be float32 or float64, "
                                f"got {precision!r}")
+        every = self.param("covariance_every")
+        if not 1 <= every <= MAX_COVARIANCE_EVERY:
+            raise StartupError(f"parameter covariance_every must be an integer from 1 to "
+                               f"{MAX_COVARIANCE_EVERY}, got {every}")
         prepare = getattr(model, "prepare", None)
         if prepare is not None:   # one-time work (variance factors) out of the 10 ms loop
             prepare(return_std=use_var, variance_dtype=precision)
@@ -222,7 +231,8 @@ class SimNode(SimulatorNode):
             nn.prepare()              # the search index now, not inside the first step
         try:
             sim = LearnedSimulator(model, projection, s0, pose, use_var, trust_radius=trust,
-                                   monitor=monitor)
+                                   monitor=monitor,
+                                   covariance_every=every)
         except ValueError as e:
             raise StartupError(f"cannot serve model {path}: {one_line(e)}") from None
         return sim, model, radius_source

@@ -40,6 +40,14 @@ gives its homoscedastic residual std, GPs their predictive std), an approximatio
 Without a std (``use_variance=False`` or a model that has none) both covariances are None
 ("unknown", -1 in [0] on the wire).
 
+The std every k steps (``covariance_every`` k > 1, sim_node's parameter of that name): the
+model's std is computed on the first step after a (re)start and then on every k-th step; the
+steps between predict the mean alone (the same mean, bit for bit) and take the last computed
+per-step variance as theirs, inflated by their own ``(d / r)^2`` where they extrapolate. The
+covariances are then those of a variance that lags the state by up to k - 1 steps;
+``benchmarks/sim_node_20x/std_tail`` measures what that changes in the published covariance and
+in the step's time.
+
 Knowing when not to trust it: every step also gives ``nn_distance``, the normalised distance
 (alpha-PROJ's metric) of the model's prediction, before the projection, to its nearest TrainPool
 state: taken from the alpha projection's own nearest-neighbour search (no second search), or
@@ -120,6 +128,7 @@ def gate_candidates(model: Any, projection: Projection, enabled: bool = True):
     return projection.candidate_groups(groups), label
 
 
+MAX_COVARIANCE_EVERY = 100   # covariance_every: the std at least once a second
 RECENT = np.arange(4)   # the last step's TrainPool state and its next three in recorded order
 
 
@@ -157,6 +166,8 @@ class LearnedSimulator:
             ``OneStepModel.state_clusters``), skip the exact search for predictions whose
             cluster's TrainPool states already put them inside the gate (module doc; the states
             are bit for bit the same).
+        covariance_every: compute the std on every k-th step only and hold it in between
+            (module doc); 1: every step.
 
     Attributes after ``reset``/``step``: ``state`` (33,), ``q``, ``dq`` (12,); ``position``
     (3,), ``orientation`` (4,) xyzw, ``linear_velocity``, ``angular_velocity`` (3,) in
@@ -168,7 +179,7 @@ class LearnedSimulator:
     def __init__(self, model: Any, projection: Projection, initial_state: np.ndarray,
                  initial_pose=(0.0, 0.0, 0.0), use_variance: bool = True,
                  trust_radius: float = 0.0, monitor: AlphaProjection | None = None,
-                 gate_shortcut: bool = True) -> None:
+                 gate_shortcut: bool = True, covariance_every: int = 1) -> None:
         self.model = model
         self.projection = projection
         self.initial_state = _as_vector(initial_state, N_STATE, "initial_state")
@@ -177,6 +188,11 @@ class LearnedSimulator:
         self.dt = CONTROL_DT
         self.feature_set = model_feature_set(model)
         self.trust_radius = float(trust_radius)
+        if isinstance(covariance_every, bool) or int(covariance_every) != covariance_every \
+                or not 1 <= covariance_every <= MAX_COVARIANCE_EVERY:
+            raise ValueError(f"covariance_every must be an integer from 1 to "
+                             f"{MAX_COVARIANCE_EVERY}, got {covariance_every!r}")
+        self.covariance_every = int(covariance_every)
         if not (np.isfinite(self.trust_radius) and self.trust_radius >= 0):
             raise ValueError(f"trust_radius must be finite and >= 0, got {trust_radius}")
         self._search = projection if isinstance(projection, AlphaProjection) else monitor
@@ -209,6 +225,8 @@ class LearnedSimulator:
         self.nn_distance = float("nan")
         self.extrapolating = False
         self._last[0] = -1
+        self._held_var = None           # the last computed per-step variance (covariance_every)
+        self._since_std = 0             # steps since it was computed
         self._set_outputs(None)
 
     def continue_from(self, other: "LearnedSimulator") -> None:
@@ -228,6 +246,7 @@ class LearnedSimulator:
         self.steps = other.steps
         self.nn_distance, self.extrapolating = other.nn_distance, other.extrapolating
         self.extrapolating_steps = other.extrapolating_steps
+        self._held_var, self._since_std = None, 0      # this model's std on the next step
         if self.feature_set is None:
             self._history = None
         elif other._history is not None and other.feature_set == self.feature_set:
@@ -255,8 +274,10 @@ class LearnedSimulator:
             X[0, N_STATE:] = u
         else:
             X = np.atleast_2d(history.features(u))
+        held = self._held_var
+        fresh = self.use_variance and (held is None or self._since_std + 1 >= self.covariance_every)
         with np.errstate(over="ignore", invalid="ignore"):
-            mean, std = _predict(self.model, X, self.use_variance)
+            mean, std = _predict(self.model, X, fresh)
             if self._candidates is not None:
                 nxt, d = self.projection.project_distance(
                     mean, (self._candidates, self._label(X), recent_states(self._last)),
@@ -295,7 +316,12 @@ class LearnedSimulator:
         if not d <= self._window_max:     # also replaces NaN
             self._window_max = d
         if std is not None:
-            var = std * std
+            var = self._held_var = std * std
+            self._since_std = 0
+        elif self.use_variance:
+            var = held
+            self._since_std += 1
+        if self.use_variance:
             if self.extrapolating:
                 var = var * (d / r) ** 2
             self._sigma_xy = self._sigma_xy + (R * var[S.d_b]) @ R.T

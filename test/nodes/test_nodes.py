@@ -553,6 +553,13 @@ def test_sim_node_refuses_bad_radius(work, model_path, params):
     assert "FATAL" in line and "radius" in line
 
 
+def test_sim_node_refuses_a_bad_covariance_every(work, model_path):
+    rc, err = run("sim_node", {"model_path": model_path, "covariance_every": 0}, work, timeout=60)
+    assert rc == 2
+    line = _one_fatal_line(err)
+    assert "FATAL" in line and "covariance_every" in line
+
+
 @pytest.mark.parametrize("case", ["missing", "corrupt"])
 def test_pybullet_node_refuses_a_bad_twin_file(work, case):
     twin = work / f"twin_{case}.json"

@@ -183,3 +183,55 @@ def test_continue_from_swaps_the_model_and_keeps_the_robot(moves, tmp_path):
     new.reset()
     np.testing.assert_array_equal(new.state, move.s0)
     np.testing.assert_array_equal(new.position[:2], [0.0, 0.0])
+
+
+class _VaryingStd:
+    """A model whose std changes with its input (LR's is constant) and that counts the calls
+    asking for it: the wrapped LR's mean, std = 0.01 (1 + |first feature|)."""
+
+    def __init__(self, model):
+        self.model, self.std_calls = model, 0
+        self.supports_std = True
+
+    def __getattr__(self, name):
+        return getattr(self.model, name)
+
+    def predict(self, X, return_std=False):
+        mean = self.model.predict(X)
+        if not return_std:
+            return mean
+        self.std_calls += 1
+        return mean, 0.01 * (1.0 + np.abs(X[:, :1])) * np.ones_like(mean)
+
+
+def test_covariance_every_k_steps_holds_the_std_and_keeps_the_mean(moves):
+    """covariance_every k: the states are bit for bit those of every step's std; the std is
+    asked for on the first step and every k-th step after it (and again after a reset); a step
+    between publishes the last computed variance, and the summed x variance grows by it."""
+    X, Y, _ = FeatureSet().features_responses(moves[:3])
+    base = OneStepModel.fit(LinearRegression(), X, Y)
+    move = prepare_test_move(moves[3])
+    pose0 = np.array([move.pose0.x0, move.pose0.y0, move.pose0.yaw0])
+    proj = base.projection("bound")
+    every, held = _VaryingStd(base), _VaryingStd(base)
+    ref = LearnedSimulator(every, proj, move.s0, pose0, use_variance=True)
+    sim = LearnedSimulator(held, proj, move.s0, pose0, use_variance=True, covariance_every=4)
+    last = None
+    for t, u in enumerate(move.actions[:30]):
+        assert ref.step(u) and sim.step(u)
+        np.testing.assert_array_equal(sim.state, ref.state)
+        np.testing.assert_array_equal(sim.position, ref.position)
+        if t % 4 == 0:
+            np.testing.assert_array_equal(sim.twist_covariance, ref.twist_covariance)
+            last = ref.twist_covariance.copy()
+        else:
+            np.testing.assert_array_equal(sim.twist_covariance, last)
+            assert not np.array_equal(sim.twist_covariance, ref.twist_covariance)
+    assert every.std_calls == 30 and held.std_calls == 8          # steps 0, 4, ..., 28
+    assert sim.pose_covariance[0] > 0 and sim.pose_covariance[0] != ref.pose_covariance[0]
+    sim.reset()
+    held.std_calls = 0
+    assert sim.step(move.actions[0]) and held.std_calls == 1       # a fresh std after a reset
+    for bad in (0, 101, 2.5, True):
+        with pytest.raises(ValueError, match="covariance_every"):
+            LearnedSimulator(base, proj, move.s0, pose0, covariance_every=bad)
