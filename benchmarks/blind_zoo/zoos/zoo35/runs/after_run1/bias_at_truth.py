@@ -14,7 +14,8 @@ the bootstrap measured at the twin.
         REFERENCE [R] [OUT_JSON]
 
 REFERENCE: the reference dataset run1 calibrated on (the harness's WORK/reference; seed 267).
-Another zoo's run: ``bias_at_truth.py REFERENCE R OUT_JSON RUN_DIR GAP_ROBOT``.
+Another zoo's run: ``bias_at_truth.py REFERENCE R OUT_JSON RUN_DIR GAP_ROBOT``; other horizons
+than the calibration's (1, 10): ``BIAS_HORIZONS=10,25``.
 """
 from __future__ import annotations
 
@@ -38,7 +39,10 @@ def main(ref: str, reps: int = 2, out_json: str | None = None, run: str | None =
 
     case = run4_case(ref, run or HERE.parent / "run1", gap_file or ZOO / "gap_robot.json")
     boot, params, fit, gap, train = case.boot, case.params, case.fit, case.gap, case.train
+    import os
+    horizons = tuple(int(h) for h in os.environ.get("BIAS_HORIZONS", "1,10").split(","))
     opts = tf.CalibrationOptions(params=tuple(boot), servo="keep", test_missing=False,
+                                 horizons=horizons,
                                  initial_state="smoothed", moves_per_type=None,
                                  max_evals=tf.ROUND_EVALS_PER_COLUMN * (2 * len(params) + 1),
                                  weighed_mass=total_mass(gap), weighed_mass_sd=0.01)
@@ -64,7 +68,8 @@ def main(ref: str, reps: int = 2, out_json: str | None = None, run: str | None =
         print(f"{p.name:24s} bias at the truth {rows[p.name]['bias_at_truth_coordinate']:+.4f}"
               f"  at the twin {b['bias_coordinate'][-1]:+.4f}"
               + ("  (e-folds)" if p.log else ""))
-    doc = {"command": " ".join(sys.argv), "reference": str(ref), "replicates": reps,
+    doc = {"command": " ".join(sys.argv), "horizons": list(horizons), "reference": str(ref),
+           "replicates": reps,
            "walls_s": walls, "params": rows}
     if out_json:
         Path(out_json).write_text(json.dumps(doc, indent=1) + "\n")
