@@ -8,7 +8,12 @@ TestPool moves' commands, one command per step, for ``--steps`` steps, in each c
 - ``float32``: the std from float32 factors (sim_node's default ``covariance_precision``);
 - ``float64``: from float64 factors;
 - ``every K``: float32, but the std computed only on every K-th step (timing only: the steps
-  between publish no covariance, so this measures what holding the std for K steps would save).
+  between publish no covariance, so this measures what holding the std for K steps would save);
+- ``held K`` (``--held``): sim_node's ``covariance_every`` K, the option itself: the std on every
+  K-th step, held in between. Its published covariances are compared with the ``float32`` run's
+  (the same states, checked bit for bit): the per-step std (the twist's 6 diagonal entries and
+  the pose's z, roll, pitch) as sqrt(held / exact) - 1, and the summed x, y and yaw variances as
+  held / exact - 1, over every step.
 
 Per step: thread CPU time, whether the prediction left the gate, and whether the LGPR cluster
 the step used differs from the previous step's (the step then reads another cluster's training
@@ -44,8 +49,10 @@ def commands(data: str, steps: int) -> np.ndarray:
 
 
 def run_config(model_path: str, cmds: np.ndarray, dtype: str, every: int | None,
-               use_std: bool) -> dict:
+               use_std: bool, held: int | None = None, keep: bool = False) -> dict:
     model, projection, sim = R.build_backend(model_path, None, dtype)
+    if held is not None:
+        sim.covariance_every = held
     est = model.estimator
     labels: list[int] = []
     queries: list[tuple[int, np.ndarray]] = []
@@ -66,6 +73,8 @@ def run_config(model_path: str, cmds: np.ndarray, dtype: str, every: int | None,
     out = np.zeros(n, bool)
     lab = np.full(n, -1)
     r = float(projection.radius)
+    published = np.full((n, 2, 36), np.nan) if keep else None
+    states = np.full((n, 33), np.nan) if keep else None
     load0 = uptime()
     for k in range(n):
         sim.use_variance = use_std and (every is None or k % every == 0)
@@ -75,6 +84,9 @@ def run_config(model_path: str, cmds: np.ndarray, dtype: str, every: int | None,
         cpu[k] = (time.thread_time_ns() - c0) / 1e6
         out[k] = sim.nn_distance > r
         lab[k] = labels[-1] if len(labels) > before else -1
+        if keep:
+            published[k, 0], published[k, 1] = sim.pose_covariance, sim.twist_covariance
+            states[k] = sim.state
     load1 = uptime()
     est._shared_kernel_predict = orig
     change = np.r_[False, lab[1:] != lab[:-1]]
@@ -87,12 +99,40 @@ def run_config(model_path: str, cmds: np.ndarray, dtype: str, every: int | None,
            "p99_inside_gate_same_cluster_ms": float(np.quantile(cpu[~out & ~change], 0.99)),
            "p99_inside_gate_cluster_changed_ms": float(np.quantile(cpu[~out & change], 0.99)),
            "load_before": load0, "load_after": load1}
+    if keep:
+        doc["_published"], doc["_states"] = published, states
     return doc, model, queries
+
+
+#: the per-step std entries of the published covariances: (pose or twist, index in the 6 x 6)
+STEP_STD = [(1, 7 * i) for i in range(6)] + [(0, 14), (0, 21), (0, 28)]
+SUMMED = {"x": (0, 0), "y": (0, 7), "yaw": (0, 35)}
+
+
+def held_error(held: dict, exact: dict) -> dict:
+    """The held std's published covariances against every step's (module doc)."""
+    if not np.array_equal(held["_states"], exact["_states"]):
+        raise SystemExit("held std: the states differ from the exact run's (they must not)")
+    ph, pe = held["_published"], exact["_published"]
+    ratio = np.stack([ph[:, a, i] / pe[:, a, i] for a, i in STEP_STD], axis=1)
+    step = np.abs(np.sqrt(ratio) - 1.0)
+    doc = {"states_identical": True,
+           "step_std_rel_error": {"median": float(np.median(step)),
+                                  "p99": float(np.quantile(step, 0.99)),
+                                  "max": float(step.max())}}
+    for name, (a, i) in SUMMED.items():
+        e = np.abs(ph[:, a, i] / pe[:, a, i] - 1.0)[100:]     # after the first second
+        doc[f"summed_{name}_var_rel_error"] = {"median": float(np.median(e)),
+                                               "max": float(e.max()),
+                                               "last": float(e[-1])}
+    return doc
 
 
 def local_std(model, queries, ms: list[int], every: int = 3) -> list[dict]:
     """The exact std (the model's float64 factor) against the std from the m points of largest
     kernel value, on every ``every``-th query; thread CPU of each."""
+    if not ms:
+        return []
     est = model.estimator
     est.prepare_variance("float64")
     from littledog_mlsim.models.gp import noisy_variance
@@ -157,6 +197,23 @@ def markdown(doc: dict) -> str:
                  f"{100 * r['slowest_1pct']['cluster_change_share']:.0f} % | "
                  f"{r['p99_inside_gate_same_cluster_ms']:.3f} / "
                  f"{r['p99_inside_gate_cluster_changed_ms']:.3f} | `{r['load_before']}` |")
+    held = {k: v for k, v in doc["configs"].items() if "held_error" in v}
+    if held:
+        L += ["", "`covariance_every` K (the std on every K-th step, held in between) against "
+              "every step's std (float32), over the same steps (the states bit for bit the "
+              "same):", "",
+              "| K | per-step std: abs. relative error median / p99 / max | summed x variance: "
+              "median / max | summed y | summed yaw |", "|---|---|---|---|---|"]
+        for name, v in held.items():
+            e = v["held_error"]
+            st = e["step_std_rel_error"]
+            L.append(f"| {name.split()[-1]} | {100 * st['median']:.1f} / {100 * st['p99']:.1f} / "
+                     f"{100 * st['max']:.1f} % | " + " | ".join(
+                         f"{100 * e[f'summed_{c}_var_rel_error']['median']:.2f} / "
+                         f"{100 * e[f'summed_{c}_var_rel_error']['max']:.2f} %"
+                         for c in ("x", "y", "yaw")) + " |")
+    if not doc["local_std"]:
+        return "\n".join(L + [""])
     L += ["", "The std from the m training points of largest kernel value (a conservative bound) "
           "against the exact one (float64 factor), on every third query of the float32 run:", "",
           "| m | std relative error: median | p99 | max | exact std p50 / p99 [us] | "
@@ -184,7 +241,8 @@ def main(argv=None) -> int:
     ap.add_argument("--data", required=True)
     ap.add_argument("--steps", type=int, default=6000)
     ap.add_argument("--every", default="2,4,8,16")
-    ap.add_argument("--local-m", default="32,64,128")
+    ap.add_argument("--held", default="", help="also covariance_every K for these K (e.g. 2,4,8)")
+    ap.add_argument("--local-m", default="32,64,128", help="'' skips the m-point std")
     ap.add_argument("--out", required=True)
     ap.add_argument("--code-root", default=None,
                     help="import littledog_mlsim from this checkout (an A/B against older code)")
@@ -204,15 +262,23 @@ def main(argv=None) -> int:
         print(json.dumps(doc))
         return 0
     configs, model32, queries = {}, None, None
-    for name, dtype, every, use in [("off", "float32", None, False),
-                                    ("float32", "float32", None, True),
-                                    ("float64", "float64", None, True)] + [
-            (f"every {k}", "float32", int(k), True) for k in a.every.split(",")]:
-        doc, model, q = run_config(a.model, cmds, dtype, every, use)
+    helds = [int(k) for k in a.held.split(",") if k]
+    for name, dtype, every, use, held in [("off", "float32", None, False, None),
+                                          ("float32", "float32", None, True, None),
+                                          ("float64", "float64", None, True, None)] + [
+            (f"every {k}", "float32", int(k), True, None) for k in a.every.split(",") if k] + [
+            (f"held {k}", "float32", None, True, k) for k in helds]:
+        doc, model, q = run_config(a.model, cmds, dtype, every, use, held,
+                                   keep=bool(helds) and (held is not None or name == "float32"))
         configs[name] = doc
         if name == "float32":
             model32, queries = model, q
-        print(name, doc["step_cpu_ms"], flush=True)
+        elif held is not None:
+            doc["held_error"] = held_error(doc, configs["float32"])
+        print(name, doc["step_cpu_ms"], doc.get("held_error", ""), flush=True)
+    for doc in configs.values():
+        doc.pop("_published", None)
+        doc.pop("_states", None)
     est = model32.estimator
     sizes = np.diff(est.offsets_)
     packed = sizes * (sizes + 1) / 2 * 4 / 1e6
@@ -222,7 +288,7 @@ def main(argv=None) -> int:
                                   capture_output=True, text=True).stdout.strip(),
            "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "steps": a.steps,
            "configs": configs,
-           "local_std": local_std(model32, queries, [int(m) for m in a.local_m.split(",")]),
+           "local_std": local_std(model32, queries, [int(m) for m in a.local_m.split(",") if m]),
            "factors": {"clusters": int(len(sizes)), "rows_median": int(np.median(sizes)),
                        "rows_max": int(sizes.max()),
                        "packed_mb_median": float(np.median(packed)),
