@@ -113,7 +113,9 @@ class SimNode(SimulatorNode):
                 f"({self.model.info.get('n_train', '?')} training samples), projection "
                 f"{sim.projection.describe()} (radius: {self.radius_source}), step_mode "
                 f"{self.step_mode}, covariance "
-                f"{'from the model' if sim.use_variance else 'unknown'}")
+                f"{'from the model' if sim.use_variance else 'unknown'}"
+                + (f" (its std every {sim.covariance_every} steps)"
+                   if sim.use_variance and sim.covariance_every > 1 else ""))
 
     def make_backend(self) -> LearnedSimulator:
         path = self.param("model_path")

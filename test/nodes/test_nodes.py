@@ -522,7 +522,8 @@ def test_trainer_model_loads_in_sim_node(ros, work, dataset):
 def test_sim_node_gated_alpha_proj_equals_the_core(ros, work, model_path, test_move):
     """`radius` gates alpha-PROJ in the node exactly as in the core rollout; the node spins
     rclpy's EventsExecutor here (`executor: events`; the other node tests use the default) and
-    still ends with status 0 on SIGINT."""
+    still ends with status 0 on SIGINT. The std every 4 steps (`covariance_every`) leaves the
+    states as they are."""
     model = OneStepModel.load(model_path)
     gated = model.projection("alpha", 0.5, radius=1.0)
     ref = rollout(model, test_move.s0, test_move.actions[:20], gated)
@@ -530,7 +531,7 @@ def test_sim_node_gated_alpha_proj_equals_the_core(ros, work, model_path, test_m
                                         model.projection("alpha", 0.5)))   # the gate matters
     proc = Proc("sim_node", {"model_path": model_path, "step_mode": "lockstep", "radius": 1.0,
                              "initial_state": [float(x) for x in test_move.s0],
-                             "executor": "events"}, work)
+                             "executor": "events", "covariance_every": 4}, work)
     probe = Probe(ros)
     try:
         probe.connect(proc)
