@@ -218,3 +218,51 @@ def test_a_weighing_bounds_the_scale_where_the_jacobian_sees_it_too(monkeypatch)
 def twin_fit_overlap(a, b):
     from littledog_mlsim.robot.twin_fit import _overlap
     return _overlap(a, b)
+
+
+def test_the_weighing_inside_the_fit_fits_what_lies_off_the_scale(monkeypatch):
+    """A parameter off the common scale whose best value depends on where the scale is (here the
+    contact's friction, whose optimum moves with the log body mass, as one that makes up for a
+    too light robot's slips would): weighed at 2.9 kg (body 2.14 kg, the truth at friction 0.9),
+    the fit that holds the weighing as a residual ends at the weighed mass with the friction
+    inside its interval around 0.9 (the rough part of the residuals pulls the mass 1 % off the
+    weighing); the same fit moved to the weighing only afterwards
+    (``weigh_in_fit=False``) leaves the friction where the unweighed masses put it, further
+    off. The report says where the fit started and ended on the scale."""
+    from littledog_mlsim.robot.parameters import total_mass
+
+    class _Coupled(_ScalePool):
+        def __init__(self, recs) -> None:
+            super().__init__(recs)
+            rng = np.random.default_rng(12)
+            self.fdir = [rng.normal(size=(40, 1, 33)) for _ in recs]
+
+        def map(self, fn, config, stride, horizons, initial="measured"):
+            out = super().map(fn, config, stride, horizons, initial)
+            f = config.ground_friction - 0.9 - 0.5 * math.log(config.body_mass / 2.14)
+            return [o + f * d for o, d in zip(out, self.fdir)]
+
+    params = ("body_mass", "kp_knee", "kd_knee", "ground_friction")
+    kw = dict(body_mass=2.0, weighed_mass=2.9, weighed_mass_sd=0.01, max_evals=120)
+    inside = _case(monkeypatch, params, _Coupled, **kw)
+    after = _case(monkeypatch, params, _Coupled, weigh_in_fit=False, **kw)
+    assert total_mass(inside.config) == pytest.approx(2.9, abs=0.05)
+    assert inside.config.body_mass == pytest.approx(2.14, rel=0.02)
+    friction = {e.name: e for e in inside.estimates}["ground_friction"]
+    assert friction.value == pytest.approx(0.9, abs=0.01) and friction.contains(0.9)
+    assert abs(after.config.ground_friction - 0.9) > 3 * abs(inside.config.ground_friction - 0.9)
+    w = inside.report["weighing_in_fit"]
+    assert w["mass_kg_start"] == pytest.approx(2.9, rel=1e-6)
+    assert w["mass_kg_end"] == pytest.approx(2.9, abs=0.05)
+    assert inside.report["settings"]["weigh_in_fit"] is True
+    assert "weighing_in_fit" not in after.report
+
+
+def test_the_cli_turns_the_weighing_in_the_fit_off():
+    """``calibrate --weigh-after-fit`` sets ``weigh_in_fit`` false; without it the weighing is in
+    the fit."""
+    from littledog_mlsim.cli import build_parser
+
+    base = ["calibrate", "--data", "D", "--out", "T.json", "--weighed-mass", "2.9"]
+    assert build_parser().parse_args(base).weigh_after_fit is False
+    assert build_parser().parse_args(base + ["--weigh-after-fit"]).weigh_after_fit is True
