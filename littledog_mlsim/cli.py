@@ -353,7 +353,7 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  consider_spread=a.consider_spread, bootstrap=a.bootstrap,
                                  bootstrap_replicates=a.bootstrap_replicates,
                                  weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd,
-                                 weigh_in_fit=not a.weigh_after_fit)
+                                 weigh_in_fit=a.weigh_in_fit)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -856,14 +856,14 @@ def build_parser() -> argparse.ArgumentParser:
                          "says, the intervals take their spread (R refits per iteration)")
     cb.add_argument("--weighed-mass", type=float, default=None, metavar="KG",
                     help="the robot's mass on a scale: motion under gravity cannot tell the "
-                         "common scale of every mass and servo torque, so the fit starts at "
-                         "this total and holds it as one more residual, the fitted twin is "
-                         "moved along the scale to it (weighted against what the data say) "
+                         "common scale of every mass and servo torque, so the fitted twin is "
+                         "moved along it to this total (weighted against what the data say) "
                          "and its parameters get their intervals from the weighing")
-    cb.add_argument("--weigh-after-fit", action="store_true",
-                    help="with --weighed-mass: fit without the weighing and only then move the "
-                         "twin along the common scale to it (the parameters outside the scale "
-                         "are not fitted again)")
+    cb.add_argument("--weigh-in-fit", action="store_true",
+                    help="with --weighed-mass: start the fit at the weighed total and hold it as "
+                         "one more residual, so that the parameters off the common scale are "
+                         "fitted where the scale is (off by default: measured, the rollouts "
+                         "were worse)")
     cb.add_argument("--weighed-mass-sd", type=float, default=0.01, metavar="KG",
                     help="the weighing's standard deviation (default 0.01 kg)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",

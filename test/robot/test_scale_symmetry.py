@@ -227,7 +227,7 @@ def test_the_weighing_inside_the_fit_fits_what_lies_off_the_scale(monkeypatch):
     the fit that holds the weighing as a residual ends at the weighed mass with the friction
     inside its interval around 0.9 (the rough part of the residuals pulls the mass 1 % off the
     weighing); the same fit moved to the weighing only afterwards
-    (``weigh_in_fit=False``) leaves the friction where the unweighed masses put it, further
+    (``weigh_in_fit=False``, the default) leaves the friction where the unweighed masses put it, further
     off. The report says where the fit started and ended on the scale."""
     from littledog_mlsim.robot.parameters import total_mass
 
@@ -244,8 +244,8 @@ def test_the_weighing_inside_the_fit_fits_what_lies_off_the_scale(monkeypatch):
 
     params = ("body_mass", "kp_knee", "kd_knee", "ground_friction")
     kw = dict(body_mass=2.0, weighed_mass=2.9, weighed_mass_sd=0.01, max_evals=120)
-    inside = _case(monkeypatch, params, _Coupled, **kw)
-    after = _case(monkeypatch, params, _Coupled, weigh_in_fit=False, **kw)
+    inside = _case(monkeypatch, params, _Coupled, weigh_in_fit=True, **kw)
+    after = _case(monkeypatch, params, _Coupled, **kw)
     assert total_mass(inside.config) == pytest.approx(2.9, abs=0.05)
     assert inside.config.body_mass == pytest.approx(2.14, rel=0.02)
     friction = {e.name: e for e in inside.estimates}["ground_friction"]
@@ -258,11 +258,11 @@ def test_the_weighing_inside_the_fit_fits_what_lies_off_the_scale(monkeypatch):
     assert "weighing_in_fit" not in after.report
 
 
-def test_the_cli_turns_the_weighing_in_the_fit_off():
-    """``calibrate --weigh-after-fit`` sets ``weigh_in_fit`` false; without it the weighing is in
+def test_the_cli_puts_the_weighing_in_the_fit_on_request():
+    """``calibrate --weigh-in-fit`` sets ``weigh_in_fit``; without it the weighing comes after
     the fit."""
     from littledog_mlsim.cli import build_parser
 
     base = ["calibrate", "--data", "D", "--out", "T.json", "--weighed-mass", "2.9"]
-    assert build_parser().parse_args(base).weigh_after_fit is False
-    assert build_parser().parse_args(base + ["--weigh-after-fit"]).weigh_after_fit is True
+    assert build_parser().parse_args(base).weigh_in_fit is False
+    assert build_parser().parse_args(base + ["--weigh-in-fit"]).weigh_in_fit is True
