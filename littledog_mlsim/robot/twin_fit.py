@@ -497,18 +497,11 @@ class _WeighingRow:
         return row
 
     def start(self, x: np.ndarray) -> np.ndarray:
-        """x moved along the common scale (:func:`_scale_direction`) to the weighed mass, cut
-        at the bounds; x itself where the bounds cannot reach it (:func:`weigh` then says so)."""
-        from scipy.optimize import brentq
-
-        v = _scale_direction(self.prob, x)
-
-        def g(t: float) -> float:
-            return self.log_mass(np.clip(x + t * v, self.prob.lo, self.prob.hi)) - self.target
-
-        if not g(-3.0) <= 0.0 <= g(3.0):
+        """x moved along the common scale (:func:`_to_weighing`) to the weighed mass, cut at
+        the bounds; x itself where the bounds cannot reach it (:func:`weigh` then says so)."""
+        v, _, t = _to_weighing(self.prob, x)
+        if t is None:
             return np.asarray(x, float)
-        t = brentq(g, -3.0, 3.0, xtol=1e-10)
         return np.clip(x + t * v, self.prob.lo, self.prob.hi)
 
 
@@ -667,6 +660,24 @@ def scale_symmetry(prob: "_Problem", x: np.ndarray, J: np.ndarray, s2: float,
             "halfwidth95": half, "identified": half is not None and half <= limit}
 
 
+def _to_weighing(prob: "_Problem", x: np.ndarray
+                 ) -> tuple[np.ndarray, Callable[[float], float], float | None]:
+    """Along the common scale from x (x + t v, cut at the bounds): v, log M(t), and the step
+    t_w at which the masses sum to the weighed mass (None where t in [-3, 3] cannot reach
+    it)."""
+    from scipy.optimize import brentq
+
+    v = _scale_direction(prob, x)
+    target = math.log(prob.o.weighed_mass)
+
+    def log_mass(t: float) -> float:
+        return math.log(total_mass(prob.config(np.clip(x + t * v, prob.lo, prob.hi))))
+
+    if not log_mass(-3.0) <= target <= log_mass(3.0):
+        return v, log_mass, None
+    return v, log_mass, brentq(lambda t: log_mass(t) - target, -3.0, 3.0, xtol=1e-10)
+
+
 def weigh(prob: "_Problem", x: np.ndarray, s2: float,
           columns: Sequence[tuple[TwinParameter, float, np.ndarray]] = ()
           ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -682,23 +693,15 @@ def weigh(prob: "_Problem", x: np.ndarray, s2: float,
     (:func:`consider_sd`) shifts that pin by (d r/d t . J_c) / |d r/d t|^2 per unit. The two
     combine as independent measurements of t. ValueError (one line) where no mass is fitted or
     the bounds cannot reach the weighing."""
-    from scipy.optimize import brentq
-
     o = prob.o
-    v = _scale_direction(prob, x)
     if not any(p.name in _MASSES for p in prob.params):
         raise ValueError("--weighed-mass needs a mass among the fitted parameters (body_mass, "
                          "leg_mass or mass_scale)")
-
-    def log_mass(t: float) -> float:
-        return math.log(total_mass(prob.config(np.clip(x + t * v, prob.lo, prob.hi))))
-
-    target, fitted = math.log(o.weighed_mass), total_mass(prob.config(x))
-    lo_t, hi_t = -3.0, 3.0
-    if not log_mass(lo_t) <= target <= log_mass(hi_t):
+    fitted = total_mass(prob.config(x))
+    v, log_mass, t_w = _to_weighing(prob, x)
+    if t_w is None:
         raise ValueError(f"the weighed mass {o.weighed_mass:g} kg is out of reach of the fitted "
                          f"masses' bounds (fitted total {fitted:.4g} kg)")
-    t_w = brentq(lambda t: log_mass(t) - target, lo_t, hi_t, xtol=1e-10)
     d = 1e-4
     dlogm = (log_mass(t_w + d) - log_mass(t_w - d)) / (2 * d)
     if not dlogm > 0:
