@@ -257,7 +257,8 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
     sensing = matched_sensing(train_recs, cal.config, recording_sensing(train_recs))
     say(f"bootstrap: the twin records the {len(train_recs)} fitted moves again with the "
         "recording's sensing, its noise matched on the twin's own recordings (position noise "
-        f"{1e3 * sensing['mocap_position_std']:.2f} mm, orientation {1e3 * sensing['mocap_orientation_std']:.2f} mrad, encoder counts "
+        f"{1e3 * sensing['mocap_position_std']:.2f} mm, orientation "
+        f"{1e3 * sensing['mocap_orientation_std']:.2f} mrad, encoder counts "
         f"{sensing['encoder_resolution'] or 'none'}) and is fitted again, {n_it} time(s)"
         + (f", {n_rep} noise seeds each" if n_rep > 1 else ""))
     inner = replace(options, params=tuple(names), servo="keep", add_asked=0, bootstrap=0,

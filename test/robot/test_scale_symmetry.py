@@ -226,9 +226,8 @@ def test_the_weighing_inside_the_fit_fits_what_lies_off_the_scale(monkeypatch):
     too light robot's slips would): weighed at 2.9 kg (body 2.14 kg, the truth at friction 0.9),
     the fit that holds the weighing as a residual ends at the weighed mass with the friction
     inside its interval around 0.9 (the rough part of the residuals pulls the mass 1 % off the
-    weighing); the same fit moved to the weighing only afterwards
-    (``weigh_in_fit=False``, the default) leaves the friction where the unweighed masses put it, further
-    off. The report says where the fit started and ended on the scale."""
+    weighing); the same fit moved to the weighing only afterwards (``weigh_in_fit=False``,
+    the default) leaves the friction where the unweighed masses put it, further off. The report says where the fit started and ended on the scale."""
     from littledog_mlsim.robot.parameters import total_mass
 
     class _Coupled(_ScalePool):
