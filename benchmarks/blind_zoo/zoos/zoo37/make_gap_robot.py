@@ -9,7 +9,7 @@ direction), then some factors are adjusted by hand (HAND below). The result is w
 ``robot_config_from``; the script fails unless both equal the robot built, every unchanged field
 equals ``measured``'s and every moved field differs from it.
 
-    cd /work/main && OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo37/make_gap_robot.py
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/blind_zoo/zoos/zoo37/make_gap_robot.py
 """
 from __future__ import annotations
 
