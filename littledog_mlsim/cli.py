@@ -384,8 +384,17 @@ def format_calibration(report: dict) -> str:
                      + ", ".join(f"{n} {num(b['fitted'])} -> {num(b['corrected'])}"
                                  for n, b in moved) if moved else
                      "the fit's own bias (--bootstrap) is not taken out: every parameter is at "
-                     "a bound, not bounded by the data or a threshold measured at one point")
-    widened = [(n, b) for n, b in (boot.get("params") or {}).items() if b.get("widened_only")]
+                     "a bound, not bounded by the data, a threshold measured at one point or "
+                     "refuted by the recording")
+    check = boot.get("check") or {}
+    if check and not check.get("accepted"):
+        lines.append("the recording refutes the bias correction ("
+                     + (f"it could not be checked: {check['error']}" if check.get("error") else
+                        f"its k-step cost rises by {check['cost_rise']:.1f}, "
+                        f"{check['allowed_rise']:.1f} allowed")
+                     + "): the fit's values stand, each bias widens its interval")
+    widened = [(n, b) for n, b in (boot.get("params") or {}).items()
+               if b.get("widened_only") and not b.get("refuted")]
     if widened:
         again = ("(--bootstrap 2 measures it again)" if boot.get("iterations", 0) >= 1
                  and (report.get("settings") or {}).get("bootstrap", 1) == 1

@@ -81,16 +81,19 @@ class _BiasedPool:
         self.offset = [getattr(r, "offset", 0.0) for r in recs]
         self.dirs = [rng.normal(size=(40, 1, 33)) for _ in recs]
         self.noise = [0.001 * rng.normal(size=(40, 1, 33)) for _ in recs]
+        self.steep = [getattr(r, "steep", 1.0) for r in recs]
 
     def map(self, fn, config, stride, horizons, initial="measured"):
-        return [d * (math.log(config.body_mass) - y - 0.05
-                     - self.SLOPE * (y - math.log(self.CENTER)) - off) + e
-                for d, y, off, e in zip(self.dirs, self.truth, self.offset, self.noise)]
+        return [k * d * (math.log(config.body_mass) - y - 0.05
+                         - self.SLOPE * (y - math.log(self.CENTER)) - off) + e
+                for d, y, off, e, k in zip(self.dirs, self.truth, self.offset, self.noise,
+                                           self.steep)]
 
 
-def _biased_case(monkeypatch, spread: float = 0.0):
+def _biased_case(monkeypatch, spread: float = 0.0, steep: float = 1.0):
     """The stand-in; ``spread``: a synthetic recording's optimum is off by +spread (even noise
-    seeds) or -spread (odd), as refits that scatter with their noise."""
+    seeds) or -spread (odd), as refits that scatter with their noise; ``steep``: the recording's
+    residual changes that many times as fast with the mass as the twin's own recordings'."""
     from littledog_mlsim.robot import twin_bias, twin_fit
 
     monkeypatch.setattr(twin_fit._bl, "move_pool", lambda recs, jobs=2, scheduler=None:
@@ -103,7 +106,7 @@ def _biased_case(monkeypatch, spread: float = 0.0):
         "sensor_noise": False, "mocap_position_std": 0.0, "mocap_orientation_std": 0.0,
         "encoder_resolution": None})
     recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, truth_mass=_BiasedPool.CENTER,
-                            position=np.zeros((400, 3))) for i in range(3)]
+                            steep=steep, position=np.zeros((400, 3))) for i in range(3)]
     opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
                                        initial_state="measured", test_missing=False)
     return recs, dataclasses.replace(robot_config("nominal"), body_mass=1.8), opts
@@ -173,6 +176,47 @@ def test_bootstrap_replicates_measure_the_estimators_spread(monkeypatch):
         dataclasses.replace(opts, bootstrap_replicates=2).check()
     with pytest.raises(ValueError, match="bootstrap_replicates must be an integer"):
         dataclasses.replace(opts, bootstrap=1, bootstrap_replicates=0).check()
+
+
+def test_a_correction_the_recording_refutes_is_not_taken_out(monkeypatch):
+    """The check on the recording (module doc, step 5). On the plain stand-in the correction
+    costs the recording what the bias costs the twin's own recordings, and is taken out. Where
+    the recording's residual changes ten times as fast with the mass as the twin's (the cost
+    steeper around the fit than around the twin), the same correction costs it a hundred times
+    as much: refuted, the fit's value stands and the bias widens the interval, which then holds
+    the truth. The report and the printout say so."""
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_bias, twin_fit
+
+    recs, base, opts = _biased_case(monkeypatch)
+    one = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1))
+    check = one.report["bootstrap"]["check"]
+    assert check["accepted"] and check["synthetic_drop"] > 0
+    assert check["cost_rise"] == pytest.approx(check["synthetic_drop"], rel=0.1)
+    assert check["cost_corrected"] - check["cost_fit"] == pytest.approx(check["cost_rise"])
+    assert math.log(one.estimates[0].value / 2.0) == pytest.approx(-0.025, abs=1e-3)
+    recs, base, opts = _biased_case(monkeypatch, steep=10.0)
+    plain = twin_fit.calibrate_twin(recs, [], base, opts)
+    said = []
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1),
+                                  said.append)
+    check = cal.report["bootstrap"]["check"]
+    assert not check["accepted"]
+    assert check["cost_rise"] == pytest.approx(100 * check["synthetic_drop"], rel=0.1)
+    assert check["allowed_rise"] == pytest.approx(
+        twin_bias.CHECK_SLACK * check["synthetic_drop"] + 0.5 * 6.634897, rel=1e-4)
+    mass = cal.estimates[0]
+    assert mass.value == pytest.approx(plain.estimates[0].value, rel=1e-12)
+    assert cal.config.body_mass == pytest.approx(mass.value, rel=1e-12)
+    assert not plain.estimates[0].contains(2.0) and mass.contains(2.0)
+    b = cal.report["bootstrap"]["params"]["body_mass"]
+    assert not b["applied"] and b["widened_only"] and b["refuted"]
+    assert any("the correction raises the k-step cost on the recording" in s for s in said)
+    assert not any("a threshold's bias" in s for s in said)
+    text = format_calibration(cal.report)
+    assert "the recording refutes the bias correction (its k-step cost rises by" in text
+    assert "a threshold's bias" not in text
+    assert not one.report["bootstrap"]["params"]["body_mass"]["refuted"]
 
 
 def test_a_correction_beyond_a_bound_stops_at_it(monkeypatch):
