@@ -67,7 +67,7 @@ from ..data.states import features_responses, states_from_recording
 from ..fileio import atomic_write_text, read_document
 from ..layout import CONTROL_DT, MOVE_TYPES, S, STATE_NAMES
 from .config import RobotConfig, config_from_dict, config_to_dict, robot_config
-from .sim import INITIAL_STATES, OBS_FIELDS, InitialState, LittleDogSim, encoder_rate_lag
+from .sim import INITIAL_STATES, OBS_FIELDS, InitialState, LittleDogSim
 from ..rollout.metrics import nmse_array, rollout_metrics, xy_error
 from ..rollout.simulate import prepare_test_moves, predicted_paths
 
@@ -146,8 +146,7 @@ def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
     (with the effect plug-ins ``effects`` switched on, reset at the start); ``initial``: the
     starting state as measured (:meth:`InitialState.from_recording`) or estimated from the
     measurements around k (:meth:`InitialState.smoothed`)."""
-    lag = encoder_rate_lag(sim.config) if initial == "smoothed_rates" else 0.0
-    obs = [sim.reset(initial=InitialState.at(rec, k, initial, lag), effects=effects)]
+    obs = [sim.reset(initial=InitialState.at(rec, k, initial), effects=effects)]
     for u in rec.cmd[k:k + n]:
         obs.append(sim.step(u))
     arrays = {f: np.array([o[f] for o in obs], dtype=float) for f in OBS_FIELDS}

@@ -17,7 +17,6 @@ process; effects may add bodies or constraints in their ``reset`` without cleani
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
@@ -33,26 +32,14 @@ from .sensors import JointEncoders, MotionCapture, twist_from_poses
 from .servo import make_servo
 
 __all__ = ["LittleDogSim", "InitialState", "simulate_move", "get_sim", "RobotConfig", "robot_config",
-           "OBS_FIELDS", "encoder_rate_lag"]
+           "OBS_FIELDS"]
 
 FOOT_RADIUS = 0.0103  # m, the URDF's foot sphere
 GRAVITY = 9.81
 OBS_FIELDS: tuple[str, ...] = ("q", "dq", "position", "orientation", "linear_velocity",
                                "angular_velocity")
 #: how a re-simulation's starting state is taken from a recording (:meth:`InitialState.at`)
-INITIAL_STATES: tuple[str, ...] = ("measured", "smoothed", "smoothed_rates")
-
-
-def encoder_rate_lag(config: RobotConfig) -> float:
-    """How late [s] the joint rates ``config``'s encoders report are, on a steady ramp: half a
-    sample of the backward difference of quantised angles, plus the first-order filter's lag
-    dt (1 - alpha) / alpha at the servo period dt (:class:`JointEncoders`); 0 for exact
-    encoders (no quantisation, no filter)."""
-    dt = float(config.physics_dt)
-    res = getattr(config, "encoder_resolution", None)
-    f = getattr(config, "rate_filter_hz", None)
-    alpha = 1.0 if f is None else 1.0 - math.exp(-2.0 * math.pi * float(f) * dt)
-    return (0.0 if res is None else 0.5 * dt) + dt * (1.0 - alpha) / alpha
+INITIAL_STATES: tuple[str, ...] = ("measured", "smoothed")
 
 
 @dataclass(frozen=True)
@@ -87,7 +74,7 @@ class InitialState:
 
     @classmethod
     def smoothed(cls, rec: MoveRecording, k: int, body_half_window: int = 3,
-                 joint_half_window: int = 0, rate_lag_s: float = 0.0) -> "InitialState":
+                 joint_half_window: int = 0) -> "InitialState":
         """The state at step k estimated offline from the measurements around it.
 
         :meth:`from_recording` takes a backward difference of noisy poses for the twist (with
@@ -104,10 +91,7 @@ class InitialState:
         only quantised, and the filtered rate (a few ms late) is closer to the servo-rate
         motion than any difference over 10 ms steps (``benchmarks/calibrate``). The encoders'
         rate filter starts from the rates recorded at k (``reported_dq``), which is what they
-        reported then. ``rate_lag_s`` > 0 (``"smoothed_rates"``, :func:`encoder_rate_lag`):
-        the measured rates are taken as that much late, and the joints start at the rate
-        measured at k plus the lag times the measured rates' slope at k (a central difference
-        over the neighbouring steps); the filter still starts from what was reported.
+        reported then.
         """
         from ..rotations import quat_conjugate, quat_from_rotvec, rotvec_from_quat
         n1 = rec.q.shape[0]
@@ -137,27 +121,18 @@ class InitialState:
             q, dq = np.asarray(rec.q[k], float).copy(), np.asarray(rec.dq[k], float).copy()
         else:
             q, dq = joints[1][:2] @ np.asarray(rec.q[joints[0]], float)
-        if rate_lag_s > 0:
-            lo, hi = max(0, k - 1), min(n1 - 1, k + 1)
-            slope = ((np.asarray(rec.dq[hi], float) - np.asarray(rec.dq[lo], float))
-                     / ((hi - lo) * CONTROL_DT))
-            dq = dq + rate_lag_s * slope
         r = quat_to_matrix(orn)
         return cls(pos, orn / np.linalg.norm(orn), q, dq, r.T @ v_world, omega,
                    np.asarray(rec.dq[k], float).copy())
 
     @classmethod
-    def at(cls, rec: MoveRecording, k: int, kind: str = "measured",
-           rate_lag_s: float = 0.0) -> "InitialState":
+    def at(cls, rec: MoveRecording, k: int, kind: str = "measured") -> "InitialState":
         """The starting state at step k of ``kind`` (:data:`INITIAL_STATES`): ``"measured"``
-        (:meth:`from_recording`), ``"smoothed"`` (:meth:`smoothed`) or ``"smoothed_rates"``
-        (smoothed, the joint rates taken ``rate_lag_s`` late); ValueError otherwise."""
+        (:meth:`from_recording`) or ``"smoothed"`` (:meth:`smoothed`); ValueError otherwise."""
         if kind == "measured":
             return cls.from_recording(rec, k)
         if kind == "smoothed":
             return cls.smoothed(rec, k)
-        if kind == "smoothed_rates":
-            return cls.smoothed(rec, k, rate_lag_s=rate_lag_s)
         raise ValueError(f"initial state must be one of {', '.join(INITIAL_STATES)}, "
                          f"got {kind!r}")
 
