@@ -50,14 +50,17 @@ parameter fitted, the masses and servo parameters ended 1-4 % off, outside inter
    bias and trusts that the data's cost is as flat around the fit as around the twin; near a
    steep wall of the cost (a servo close to its stability limit) it is not. The corrected twin
    re-simulates the fitted moves of the recording once more, with the residuals weighted at the
-   fit; where its cost rises by more than :data:`CHECK_SLACK` times what the refits' first
-   stages took off the twin's own recordings (what the bias is worth where the twin is the
-   robot), plus half the 99 % chi-squared quantile of the number of parameters corrected, the
-   recording refutes the correction: no bias is taken out, and every one widens its
-   parameter's interval as a threshold's measured at one point does (``benchmarks/blind_zoo``,
-   zoo38 after run1: a hip roll rotor inertia corrected by -11 % more than doubled the cost).
-   The report's ``bootstrap.check`` has both costs, the rise, the refits' drop, the rise
-   allowed and ``accepted`` (null where nothing was to be taken out).
+   fit (:func:`cost_rise`). Each refit is costed the same way on its own synthetic
+   recordings, from its optimum back to the twin, weighted at its optimum: what the bias is
+   worth where the twin is the robot. Where the recording's cost rises by more than
+   :data:`CHECK_SLACK` times their mean, plus half the 99 % chi-squared quantile of the number
+   of parameters corrected, the recording refutes the correction: no bias is taken out, and
+   every one widens its parameter's interval as a threshold's measured at one point does
+   (``benchmarks/blind_zoo``, zoo38 after run1: a hip roll rotor inertia corrected by -11 %
+   more than doubled the cost). A check that fails holds the biases too. The report's
+   ``bootstrap.check`` has both costs, the rise, the refits' mean worth, the rise allowed and
+   ``accepted`` (or ``error`` and ``accepted`` false; the whole entry null where nothing was
+   to be taken out).
 
 What it does not take out: a bias that varies with the parameters faster than the distance
 between the fit and the truth, and one from a structure the twin lacks (the synthetic robot is
@@ -247,9 +250,9 @@ def synthetic_recordings(recs: Sequence[MoveRecording], config: RobotConfig,
     return out
 
 
-#: the correction may raise the recording's k-step cost by this many times what the refits
-#: put the bias at (their first stages' cost drop), plus a shift within the data's own 99 %
-#: confidence region (half the chi-squared quantile of the number of parameters corrected)
+#: the correction may raise the recording's k-step cost by this many times what the bias is
+#: worth on the twin's own recordings (the refits' optima against the twin), plus a shift within
+#: the data's own 99 % confidence region (half the chi-squared quantile of the number corrected)
 CHECK_SLACK = 3.0
 CHECK_LEVEL = 0.99
 

@@ -184,11 +184,13 @@ def test_a_correction_the_recording_refutes_is_not_taken_out(monkeypatch):
     the recording's residual changes ten times as fast with the mass as the twin's (the cost
     steeper around the fit than around the twin), the same correction costs it a hundred times
     as much: refuted, the fit's value stands and the bias widens the interval, which then holds
-    the truth. The report and the printout say so."""
+    the truth. The report and the printout say so. A check that fails (the recording's
+    re-simulation raising) holds the biases too, and says why."""
     from littledog_mlsim.cli import format_calibration
     from littledog_mlsim.robot import twin_bias, twin_fit
 
     recs, base, opts = _biased_case(monkeypatch)
+    plain_1 = twin_fit.calibrate_twin(recs, [], base, opts)
     one = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1))
     check = one.report["bootstrap"]["check"]
     assert check["accepted"] and check["synthetic_drop"] > 0
@@ -217,6 +219,24 @@ def test_a_correction_the_recording_refutes_is_not_taken_out(monkeypatch):
     assert "the recording refutes the bias correction (its k-step cost rises by" in text
     assert "a threshold's bias" not in text
     assert not one.report["bootstrap"]["params"]["body_mass"]["refuted"]
+    real = twin_bias.cost_rise
+
+    def failing_on_the_recording(recs, at, to, options):
+        if not hasattr(recs[0], "offset"):      # the synthetic recordings carry an offset
+            raise RuntimeError("the physics server went away")
+        return real(recs, at, to, options)
+
+    monkeypatch.setattr(twin_bias, "cost_rise", failing_on_the_recording)
+    recs, base, opts = _biased_case(monkeypatch)
+    said = []
+    failed = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, bootstrap=1),
+                                     said.append)
+    check = failed.report["bootstrap"]["check"]
+    assert not check["accepted"] and "RuntimeError" in check["error"]
+    assert failed.estimates[0].value == pytest.approx(plain_1.estimates[0].value, rel=1e-12)
+    assert failed.report["bootstrap"]["params"]["body_mass"]["refuted"]
+    assert any("could not be checked on the recording" in s for s in said)
+    assert "it could not be checked: RuntimeError" in format_calibration(failed.report)
 
 
 def test_a_correction_beyond_a_bound_stops_at_it(monkeypatch):
