@@ -879,7 +879,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="the re-simulations' starting states: smoothed (a local quadratic fit "
                          "of the body's pose, without the motion-capture noise of a 10 ms "
                          "difference in its twist), as measured, or auto (default): smoothed "
-                         "where the recording's body-position noise exceeds 0.2 mm")
+                         "where the recording's body-position noise exceeds 0.08 mm")
     cb.add_argument("--name", default=None, help="the twin's robot name (default ROBOT-calibrated)")
     cb.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     cb.add_argument("--scheduler", default=None, metavar="ADDRESS",

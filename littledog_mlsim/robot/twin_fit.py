@@ -870,7 +870,14 @@ def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
 
 
 #: the body-position noise [m] above which ``initial_state="auto"`` smooths the starting states
-POSE_NOISE_FLOOR = 2e-4
+#: and the bootstrap's synthetic recordings carry motion-capture noise: 2.5 times what a
+#: noise-free trot reads (0.032 mm, its curvature), half the least noise a gap robot's motion
+#: capture has been given (0.16 mm). Smoothing costs little without noise and gains much with
+#: it (``benchmarks/calibrate``: the joint rates' 10-step residual 0.022 against 0.019 rad/s
+#: without noise, 0.038 against 0.273 with 0.3 mm); at 0.2 mm (before 2026-12-04) a gap
+#: robot with 0.195 mm of noise was calibrated from measured starts and bootstrapped without
+#: noise (``benchmarks/blind_zoo``, zoo40 run1)
+POSE_NOISE_FLOOR = 8e-5
 
 
 def pose_noise(recs: Sequence[MoveRecording], half_window: int = 3, every: int = 10) -> float:

@@ -22,8 +22,10 @@ from littledog_mlsim.robot.config import robot_config
 def test_the_recordings_sensing_is_read_off_the_recording():
     """Encoder counts: the step of angles rounded to whole counts, per joint kind, also with
     each joint's zero between two counts, and None for angles that are not quantised;
-    orientation noise: a known rotation noise read back."""
-    from littledog_mlsim.robot.twin_bias import encoder_resolution, orientation_noise
+    orientation noise: a known rotation noise read back; the motion capture taken as on from
+    0.08 mm of body-position noise."""
+    from littledog_mlsim.robot.twin_bias import (encoder_resolution, orientation_noise,
+                                                 recording_sensing)
     from scipy.spatial.transform import Rotation
 
     clean = [make_recording(n=300, seed=s) for s in range(3)]
@@ -41,6 +43,15 @@ def test_the_recordings_sensing_is_read_off_the_recording():
         1e-3 * rng.standard_normal((r.orientation.shape[0], 3)))).as_quat()) for r in clean]
     assert orientation_noise(clean) < 0.2e-3
     assert orientation_noise(noisy) == pytest.approx(1e-3, rel=0.2)
+    # the motion capture is on from 0.08 mm of body-position noise (zoo40's 0.195 mm was read
+    # as none under the earlier 0.2 mm floor, and the bootstrap then recorded without noise)
+    low = [dataclasses.replace(r, position=r.position + 1.95e-4 * rng.standard_normal(
+        r.position.shape)) for r in noisy]
+    sensing = recording_sensing(low)
+    assert sensing["sensor_noise"]
+    assert sensing["mocap_position_std"] == pytest.approx(1.95e-4, rel=0.15)
+    assert sensing["mocap_orientation_std"] == pytest.approx(1e-3, rel=0.2)
+    assert not recording_sensing(clean)["sensor_noise"]
 
 
 def test_a_synthetic_recording_of_the_recording_robot_is_its_recording():

@@ -486,7 +486,11 @@ def test_pose_noise_reads_the_motion_capture_noise_and_auto_follows_it():
     assert auto.initial_state == "auto"
     assert _resolve_initial_state(auto, noisy, said.append).initial_state == "smoothed"
     assert _resolve_initial_state(auto, clean, said.append).initial_state == "measured"
-    assert "above" in said[0] and "below" in said[1] and POSE_NOISE_FLOOR == 2e-4
+    assert "above" in said[0] and "below" in said[1] and POSE_NOISE_FLOOR == 8e-5
+    # zoo40's gap robot: 0.195 mm of motion-capture noise is noise, not a quiet recording
+    low = [dataclasses.replace(r, position=r.position + 1.95e-4 * rng.standard_normal(
+        r.position.shape)) for r in clean]
+    assert _resolve_initial_state(auto, low, said.append).initial_state == "smoothed"
     fixed = CalibrationOptions(initial_state="measured")
     assert _resolve_initial_state(fixed, noisy, said.append) is fixed
 
