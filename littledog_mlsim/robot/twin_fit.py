@@ -907,7 +907,7 @@ def _resolve_initial_state(options: "CalibrationOptions", recs: Sequence[MoveRec
     noise = pose_noise(recs)
     chosen = "smoothed" if noise > POSE_NOISE_FLOOR else "measured"
     say(f"starting states: {chosen} (body-position noise about {noise * 1e3:.2f} mm, "
-        f"{'above' if chosen == 'smoothed' else 'below'} {POSE_NOISE_FLOOR * 1e3:.1f} mm)")
+        f"{'above' if chosen == 'smoothed' else 'below'} {POSE_NOISE_FLOOR * 1e3:.2f} mm)")
     return replace(options, initial_state=chosen)
 
 
