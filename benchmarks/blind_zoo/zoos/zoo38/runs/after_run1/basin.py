@@ -28,6 +28,7 @@ import json
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -36,7 +37,9 @@ from littledog_mlsim.robot import baseline as bl
 from littledog_mlsim.robot import twin_fit as tf
 from littledog_mlsim.robot.config import robot_config
 from littledog_mlsim.robot.parameters import twin_parameters
-from littledog_mlsim.robot.twin import load_twin
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "harness"))
+from fit_points import fit_points  # noqa: E402
 
 
 def _errors(params, x, gap) -> dict[str, float]:
@@ -49,17 +52,9 @@ def _errors(params, x, gap) -> dict[str, float]:
 
 def main() -> None:
     twin_path, gap_path, data, out, mode, *args = sys.argv[1:]
-    twin = load_twin(twin_path)
-    gap = replace(load_twin(gap_path).robot, sensor_noise=False)
-    cal = twin.provenance["calibration"]
-    settings = cal["settings"]
-    fitted = {n: p["fitted"] for n, p in (cal.get("bootstrap") or {}).get("params", {}).items()}
-    final = replace(twin.robot, sensor_noise=False)
-    names = list(twin.provenance["parameters"])
-    config = final
-    for p in twin_parameters(names, final):     # back to the fit's optimum
-        if p.name in fitted:
-            config = p.set(config, fitted[p.name])
+    pts = fit_points(twin_path, gap_path)
+    settings, final, config, gap = pts.settings, pts.final, pts.fit, pts.gap
+    names = list(pts.names)
     if mode == "limit":
         names = names + [args[0]]
     params = twin_parameters(names, config)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -25,22 +25,16 @@ from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.robot import baseline as bl
 from littledog_mlsim.robot import twin_fit as tf
 from littledog_mlsim.robot.parameters import TWIN_PARAMETERS, twin_parameters
-from littledog_mlsim.robot.twin import load_twin
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "harness"))
+from fit_points import fit_points  # noqa: E402
 
 
 def main() -> None:
     twin_path, gap_path, data, out = sys.argv[1:5]
-    twin = load_twin(twin_path)
-    gap = replace(load_twin(gap_path).robot, sensor_noise=False)
-    cal = twin.provenance["calibration"]
-    settings = cal["settings"]
-    fitted = {n: p["fitted"] for n, p in (cal.get("bootstrap") or {}).get("params", {}).items()}
-    final = replace(twin.robot, sensor_noise=False)
-    params = twin_parameters(list(twin.provenance["parameters"]), final)
-    config = final
-    for p in params:                       # back to the fit's optimum (before the bootstrap)
-        if p.name in fitted:
-            config = p.set(config, fitted[p.name])
+    pts = fit_points(twin_path, gap_path)
+    settings, final, config, gap = pts.settings, pts.final, pts.fit, pts.gap
+    params = twin_parameters(pts.names, final)
     opts = tf.CalibrationOptions(params=tuple(p.name for p in params), jobs=1,
                                  horizons=tuple(settings["horizons"]), stride=settings["stride"],
                                  initial_state=settings["initial_state"], max_evals=10_000)

@@ -22,16 +22,19 @@ import math
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
 from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.robot import baseline as bl
 from littledog_mlsim.robot import twin_fit as tf
-from littledog_mlsim.robot.parameters import TWIN_PARAMETERS, twin_parameters
+from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
 from littledog_mlsim.layout import CONTROL_DT
 from littledog_mlsim.robot.sim import InitialState
-from littledog_mlsim.robot.twin import load_twin
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "harness"))
+from fit_points import fit_points  # noqa: E402
 
 
 def encoder_rate_lag(config) -> float:
@@ -70,16 +73,8 @@ def main() -> None:
     kinds = ("smoothed", "smoothed_rates")
     bl._replay = _replay_rates
     bl.INITIAL_STATES = bl.INITIAL_STATES + ("smoothed_rates",)
-    twin = load_twin(twin_path)
-    gap = replace(load_twin(gap_path).robot, sensor_noise=False)
-    cal = twin.provenance["calibration"]
-    settings = cal["settings"]
-    fitted = {n: p["fitted"] for n, p in (cal.get("bootstrap") or {}).get("params", {}).items()}
-    final = replace(twin.robot, sensor_noise=False)
-    fit = final
-    for p in twin_parameters(list(twin.provenance["parameters"]), final):
-        if p.name in fitted:
-            fit = p.set(fit, fitted[p.name])
+    pts = fit_points(twin_path, gap_path)
+    settings, fit, gap = pts.settings, pts.fit, pts.gap
     limit_rows = [r for r in json.load(open(limit_path))["rows"] if r.get("factor") == 0.6]
     points = {"fit optimum": fit, "gap robot": gap}
     if limit_rows:
