@@ -874,9 +874,9 @@ def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
 #: noise-free trot reads (0.032 mm, its curvature), half the least noise a gap robot's motion
 #: capture has been given (0.16 mm). Smoothing costs little without noise and gains much with
 #: it (``benchmarks/calibrate``: the joint rates' 10-step residual 0.022 against 0.019 rad/s
-#: without noise, 0.038 against 0.273 with 0.3 mm); at 0.2 mm (before 2026-12-04) a gap
-#: robot with 0.195 mm of noise was calibrated from measured starts and bootstrapped without
-#: noise (``benchmarks/blind_zoo``, zoo40 run1)
+#: without noise, 0.038 against 0.273 with 0.3 mm); a floor of 0.2 mm left a gap robot with
+#: 0.195 mm of noise calibrated from measured starts and bootstrapped without noise
+#: (``benchmarks/blind_zoo``, zoo40 run1)
 POSE_NOISE_FLOOR = 8e-5
 
 
