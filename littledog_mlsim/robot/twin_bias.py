@@ -338,8 +338,8 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
             c = p.set(c, value(p, xi))
         return c
 
-    x, points, biases, stops, spreads, error, check = (x_fit.copy(), [], [], [], [], None,
-                                                       None)
+    x, points, biases, stops, spreads, error = x_fit.copy(), [], [], [], [], None
+    check: dict[str, Any] | None = None
     drops: list[float] = []     # what the move from each refit back to the twin costs
     for i in range(n_it):
         twin = config_at(x)
@@ -392,15 +392,15 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
             at_fit, at_corrected = cost_rise(train_recs, cal.config, config_at(x), options)
             check = {"cost_fit": at_fit, "cost_corrected": at_corrected,
                      **correction_check(at_corrected - at_fit, drops, int(apply.sum()))}
+            if not check["accepted"]:
+                say(f"bootstrap: the correction raises the k-step cost on the recording by "
+                    f"{check['cost_rise']:.1f} (allowed {check['allowed_rise']:.1f}; the "
+                    f"refits put the bias at {check['synthetic_drop']:.1f}): not taken out; "
+                    "each bias widens its parameter's interval instead")
         except Exception as e:        # unchecked: say so, and hold the biases
             check = {"error": f"{type(e).__name__}: {e}", "accepted": False}
             say(f"bootstrap: the correction could not be checked on the recording ({e})")
-        if not check["accepted"] and "error" not in check:    # refuted by the recording
-            say(f"bootstrap: the correction raises the k-step cost on the recording by "
-                f"{check['cost_rise']:.1f} (allowed {check['allowed_rise']:.1f}; the refits "
-                f"put the bias at {check['synthetic_drop']:.1f}): not taken out; each bias "
-                "widens its parameter's interval instead")
-        if not check["accepted"]:
+        if not check["accepted"]:     # refuted by the recording, or not checked
             refuted = apply.copy()
             held = held | apply
             apply = np.zeros_like(apply)
