@@ -871,8 +871,8 @@ def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
 
 #: the body-position noise [m] above which ``initial_state="auto"`` smooths the starting states
 #: and the bootstrap's synthetic recordings carry motion-capture noise: 2.5 times what a
-#: noise-free trot reads (0.032 mm, its curvature), half the least noise a gap robot's motion
-#: capture has been given (0.16 mm). Smoothing costs little without noise and gains much with
+#: noise-free trot reads (0.032 mm, its curvature), under half the least a gap robot's
+#: recording has read (0.20 mm; zoo35-zoo42's calibration logs, 0.20-0.39 mm). Smoothing costs little without noise and gains much with
 #: it (``benchmarks/calibrate``: the joint rates' 10-step residual 0.022 against 0.019 rad/s
 #: without noise, 0.038 against 0.273 with 0.3 mm); a floor of 0.2 mm left a gap robot with
 #: 0.195 mm of noise calibrated from measured starts and bootstrapped without noise
