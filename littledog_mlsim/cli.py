@@ -350,6 +350,7 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  scheduler=a.scheduler, servo=a.servo,
                                  test_missing=not a.no_missing_test,
                                  initial_state=a.initial_state, add_asked=a.add_asked,
+                                 threshold_round=not a.no_threshold_round,
                                  consider_spread=a.consider_spread, bootstrap=a.bootstrap,
                                  bootstrap_replicates=a.bootstrap_replicates,
                                  weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd,
@@ -448,7 +449,9 @@ def format_calibration(report: dict) -> str:
     for k, rnd in enumerate(report.get("added") or [], 1):
         why = (f" ({', '.join(rnd['added_for_intervals'])} for the intervals)"
                if rnd.get("added_for_intervals") else "")
-        lines.append(f"round {k}: added {', '.join(rnd['added'])}{why} to the fit; " + (
+        late = " (a torque limit asked for after the last round)" if rnd.get(
+            "threshold_round") else ""
+        lines.append(f"round {k}{late}: added {', '.join(rnd['added'])}{why} to the fit; " + (
             f"the refit failed: {rnd['error']}" if "error" in rnd else
             f"k-step cost {num(rnd['k_step_cost_before'])} -> {num(rnd['k_step_cost_after'])}"))
     rounds = int((report.get("settings") or {}).get("add_asked") or 0)
@@ -849,6 +852,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="after the fit, up to N times: add the parameters the score test asks "
                          "for and fit all again from the optimum (default 0; each round costs "
                          "up to --max-evals more re-simulations)")
+    cb.add_argument("--no-threshold-round", action="store_true",
+                    help="with --add-asked N: do not give a torque limit the score test asks "
+                         "for after the N rounds one more round of its own (by default it gets "
+                         "one: a limit the twin's motion does not reach shows only once a fit "
+                         "has moved the twin to where it binds)")
     cb.add_argument("--consider-spread", type=float, default=0.15, metavar="SD",
                     help="a-priori standard deviation of every parameter not fitted, as a "
                          "fraction (default 0.15): the intervals include the shift of the "

@@ -103,7 +103,16 @@ Method
    that the intervals blamed, and
    ``settings`` records ``add_asked`` and ``servo``. The top-level estimates, costs and
    ``stop`` are the last fit's; its estimates' ``start`` is the previous round's optimum. A
-   refit that fails, for any reason, keeps the fit before it, and says why.
+   refit that fails, for any reason, keeps the fit before it, and says why. **A threshold
+   round** (``threshold_round``, on by default; ``--no-threshold-round``): a torque limit that
+   the score test asks for after the last of the N rounds gets one more round, with the torque
+   limits asked for alone added. A limit below every torque the twin's motion asks for has no
+   effect on the residual until a fit has moved the twin to where it binds (the secant of 7
+   reads it only then), so it is the one parameter the earlier rounds could not have added;
+   its round is marked ``threshold_round`` in ``added``, and ``settings`` records the option.
+   A torque limit added in any round starts at the value the score test suggests (the secant's
+   Gauss-Newton step), not where it was: where it was, no torque reaches it and a difference
+   there has no slope.
 10. **What the parameters not fitted add to the intervals** (``consider_spread``, a consider
    analysis in the estimation sense). The intervals of 4 assume that every parameter left out
    of the fit is right. On a real robot none is known exactly, and where one acts along a
@@ -207,7 +216,8 @@ from ..data.recording import MoveRecording
 from ..layout import STATE_NAMES
 from .config import MEASURED_ARMATURE as REFLECTED_ROTOR_INERTIA
 from .config import RobotConfig
-from .parameters import DEFAULT_CALIBRATION_PARAMS, TwinParameter, total_mass, twin_parameters
+from .parameters import (DEFAULT_CALIBRATION_PARAMS, TWIN_PARAMETERS, TwinParameter, total_mass,
+                         twin_parameters)
 
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
            "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
@@ -241,6 +251,7 @@ class CalibrationOptions:
     test_missing: bool = True               # score-test the parameters not fitted (doc, 7)
     initial_state: str = "auto"             # auto | smoothed | measured starting states (doc, 1)
     add_asked: int = 0                      # rounds adding what the residual asks for (doc, 9)
+    threshold_round: bool = True            # a torque limit asked for after them: a round (9)
     consider_spread: float = 0.15           # a-priori sd of the parameters not fitted (doc, 10)
     bootstrap: int = 0                      # refits on the twin's own recordings (doc, 11)
     bootstrap_replicates: int = 1           # noise seeds per bootstrap iteration (doc, 11)
@@ -1138,25 +1149,41 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     total_evals = (sum(c.get("n_evals") or 0 for c in structure["candidates"]) if structure
                    else cal.report.get("n_evals") or 0)
     rounds = []
-    for _ in range(options.add_asked):
+    for k in range(options.add_asked + 1):
         fitted = tuple(e.name for e in cal.estimates)
         asked = [n for n in asked_for(cal.report) if n not in fitted]
         blamed = [n for n in blamed_by_intervals(cal.report) if n not in fitted + tuple(asked)]
+        late = k == options.add_asked          # the rounds are used up: only a threshold round
+        if late:
+            asked = [n for n in asked if getattr(TWIN_PARAMETERS.get(n), "threshold", False)]
+            blamed = []
+            if not options.threshold_round or not asked:
+                break
         if not asked and not blamed:
             break
         params = fitted + tuple(asked) + tuple(blamed)
         say((f"the residual asks for {', '.join(asked)}" if asked else "")
+            + (" (a torque limit, asked for after the last round: one round of its own)"
+               if late else "")
             + ("; " if asked and blamed else "")
             + (f"the intervals ask for {', '.join(blamed)} (not fitted, they widen them more "
                "than the data do)" if blamed else "")
             + f": fitting {len(params)} parameters again from the optimum")
         rnd = {"added": asked + blamed, "added_for_intervals": blamed,
+               "threshold_round": late,
                "k_step_cost_before": _structure_cost(cal, weights),
                "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
                "wall_s": cal.report.get("wall_s"),
                "params": [_estimate_dict(e) for e in cal.estimates]}
+        start = cal.config
+        for m in cal.report.get("missing") or []:
+            par = TWIN_PARAMETERS.get(m.get("name"))
+            if par is not None and par.threshold and m["name"] in asked:
+                # a limit the twin does not reach has no slope where it is: start it where the
+                # secant's step points (7)
+                start = par.set(start, float(m["suggested"]))
         try:
-            cal = calibrate_twin(train_recs, [], cal.config,
+            cal = calibrate_twin(train_recs, [], start,
                                  replace(inner, params=params, servo="keep",
                                          max_evals=max(inner.max_evals,
                                                        ROUND_EVALS_PER_COLUMN
@@ -1173,7 +1200,7 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     report["added"] = rounds
     report["n_evals_total"] = total_evals
     report["settings"] = {**report.get("settings", {}), "add_asked": options.add_asked,
-                          "servo": options.servo}
+                          "threshold_round": options.threshold_round, "servo": options.servo}
     if structure is not None:
         report["structure"] = structure
     _finish(report, test_recs, replace(base, sensor_noise=False), cal.config, options, say, t0)

@@ -328,6 +328,21 @@ class _LimitPool(_LinearPool):
         return [o + cut * rng.normal(size=o.shape) for o in out]
 
 
+class _LimitRobot(_LimitPool):
+    """The residual of a twin (the stand-in at ``config``) against a robot whose hip pitch
+    torque limit is 1.29 N m and whose other parameters are ``truth_fields``."""
+
+    truth_fields: dict = {}
+
+    def map(self, fn, config, stride, horizons, initial="measured"):
+        tl = config.torque_limit
+        truth = dataclasses.replace(config, torque_limit=(tl[0], 1.29, tl[2]),
+                                    **self.truth_fields)
+        robot = super().map(fn, truth, stride, horizons, initial)
+        twin = super().map(fn, config, stride, horizons, initial)
+        return [t - b + e for t, b, e in zip(twin, robot, self.noise)]
+
+
 def test_a_torque_limit_not_reached_is_read_by_a_secant():
     """A robot whose hip pitch limit is 1.29 N m, fitted from a twin that assumes 1.7: at 1.7
     the limit's derivative is zero (no torque reaches it), so a one-sided difference would ask
@@ -340,21 +355,11 @@ def test_a_torque_limit_not_reached_is_read_by_a_secant():
     from littledog_mlsim.robot import twin_fit
     from littledog_mlsim.robot.twin_fit import CalibrationOptions, _Problem
 
-    class _Robot(_LimitPool):
-        def map(self, fn, config, stride, horizons, initial="measured"):
-            import dataclasses as dc
-            tl = config.torque_limit
-            truth = dc.replace(config, torque_limit=(tl[0], 1.29, tl[2]))
-            base = super().map(fn, truth, stride, horizons, initial)
-            # the residual of the twin against the robot: twin minus robot
-            twin = super().map(fn, config, stride, horizons, initial)
-            return [t - b + e for t, b, e in zip(twin, base, self.noise)]
-
     base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0,
                                torque_limit=(1.7, 1.7, 1.0))
     for spread, asks in ((0.15, True), (0.0, False)):
         opts = CalibrationOptions(horizons=(1,), stride=20, consider_spread=spread)
-        prob = _Problem(_Robot(), base, twin_parameters(("body_mass",), base), opts,
+        prob = _Problem(_LimitRobot(), base, twin_parameters(("body_mass",), base), opts,
                         lambda s: None)
         prob.scale = np.ones((1, 33))
         x = np.array([math.log(2.0)])
@@ -598,3 +603,61 @@ def test_a_round_adds_what_the_intervals_blame(monkeypatch):
     assert twin_fit.blamed_by_intervals(cal.report) == []
     assert "(foot_friction for the intervals)" in format_calibration(
         {**cal.report, "params": [twin_fit._estimate_dict(e) for e in cal.estimates]})
+
+
+def test_a_torque_limit_asked_for_after_the_last_round_gets_a_round(monkeypatch):
+    """``threshold_round`` (module doc, 9): on the limit stand-in (the robot's hip pitch limit
+    1.29 N m, the twin's 1.7, its foot friction 0.5 against the twin's 0.6), with the score
+    test made blind to the limit until the one round is used up (as a real twin's motion does
+    not reach a low limit until a fit has moved it there), the limit gets a round of its own,
+    starts where the secant points and is recovered; the printout marks the round; without
+    the option the limit is only named as asked for; a gain asked for late gets no round."""
+    import contextlib
+    from types import SimpleNamespace
+    import numpy as np
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_fit
+
+    pool = _LimitRobot()
+    pool.truth_fields = {"body_mass": 2.0, "foot_friction": 0.5}
+    monkeypatch.setattr(twin_fit._bl, "move_pool",
+                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
+    real_asked, calls = twin_fit.asked_for, []
+
+    def asked_late(report):
+        calls.append(1)
+        got = real_asked(report)
+        return got if len(calls) > 1 else [n for n in got if not n.startswith("torque_limit")]
+
+    monkeypatch.setattr(twin_fit, "asked_for", asked_late)
+    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
+            for i in range(3)]
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0, foot_friction=0.6,
+                               torque_limit=(1.7, 1.7, 1.0))
+    opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
+                                       initial_state="measured", add_asked=1)
+    cal = twin_fit.calibrate_twin(recs, [], base, opts)
+    rounds = cal.report["added"]
+    assert [r["added"] for r in rounds] == [["foot_friction"], ["torque_limit_hip_pitch"]]
+    assert [r["threshold_round"] for r in rounds] == [False, True]
+    got = {e.name: e for e in cal.estimates}
+    limit = got["torque_limit_hip_pitch"]
+    assert limit.start < 1.5                       # where the secant pointed, not 1.7
+    assert limit.value == pytest.approx(1.29, rel=0.02) and limit.contains(1.29)
+    assert got["foot_friction"].value == pytest.approx(0.5, abs=0.01)
+    assert cal.report["settings"]["threshold_round"] is True
+    text = format_calibration({**cal.report, "params": [twin_fit._estimate_dict(e)
+                                                        for e in cal.estimates]})
+    assert "round 2 (a torque limit asked for after the last round): added " \
+           "torque_limit_hip_pitch" in text
+    calls.clear()
+    off = twin_fit.calibrate_twin(recs, [], base,
+                                  dataclasses.replace(opts, threshold_round=False))
+    assert [r["added"] for r in off.report["added"]] == [["foot_friction"]]
+    assert "torque_limit_hip_pitch" in twin_fit.asked_for(off.report)
+    # only a threshold gets the late round: a gain asked for after the rounds does not
+    calls.clear()
+    monkeypatch.setattr(twin_fit, "asked_for", lambda report: (
+        calls.append(1) or (["foot_friction"] if len(calls) == 1 else ["kd_knee"])))
+    gain = twin_fit.calibrate_twin(recs, [], base, opts)
+    assert [r["added"] for r in gain.report["added"]] == [["foot_friction"]]
