@@ -457,13 +457,18 @@ def format_calibration(report: dict) -> str:
     rounds = int((report.get("settings") or {}).get("add_asked") or 0)
     hint = ("add it to --params" if not rounds or len(report.get("added") or []) < rounds else
             f"raise --add-asked above {rounds}, or add it to --params")
+    settings = report.get("settings") or {}
+    held = (rounds and len(report.get("added") or []) >= rounds
+            and settings.get("threshold_round") is False)
     for m in report.get("missing") or []:
+        limit_hint = ("drop --no-threshold-round, " + hint) if held and str(
+            m.get("name", "")).startswith("torque_limit_") else hint
         if "error" in m:
             lines.append(f"the test of the parameters not fitted failed: {m['error']}")
         elif m["asks"]:
             lines.append(f"the residual asks for {m['name']}: about {num(m['suggested'])} "
                          f"{m['unit']} (now {num(m['value'])}; p = {m['p']:.2g}, would remove "
-                         f"{100 * m['cost_share']:.1f} % of the cost): {hint}")
+                         f"{100 * m['cost_share']:.1f} % of the cost): {limit_hint}")
     if "structure" in report:
         st = report["structure"]
         costs = ", ".join(f"{c['servo']} {c['cost']:.4g}" for c in st["candidates"])

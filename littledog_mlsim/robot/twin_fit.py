@@ -101,18 +101,24 @@ Method
    that rounds compare); ``n_evals_total`` counts the re-simulations of every fit that
    finished (both structures' with ``auto``), ``added_for_intervals`` the round's parameters
    that the intervals blamed, and
-   ``settings`` records ``add_asked`` and ``servo``. The top-level estimates, costs and
-   ``stop`` are the last fit's; its estimates' ``start`` is the previous round's optimum. A
-   refit that fails, for any reason, keeps the fit before it, and says why. **A threshold
-   round** (``threshold_round``, on by default; ``--no-threshold-round``): a torque limit that
-   the score test asks for after the last of the N rounds gets one more round, with the torque
-   limits asked for alone added. A limit below every torque the twin's motion asks for has no
-   effect on the residual until a fit has moved the twin to where it binds (the secant of 7
-   reads it only then), so it is the one parameter the earlier rounds could not have added;
-   its round is marked ``threshold_round`` in ``added``, and ``settings`` records the option.
-   A torque limit added in any round starts at the value the score test suggests (the secant's
-   Gauss-Newton step), not where it was: where it was, no torque reaches it and a difference
-   there has no slope.
+   ``settings`` records ``add_asked``, ``threshold_round`` and ``servo``. The top-level
+   estimates, costs and ``stop`` are the last fit's; its estimates' ``start`` is the previous
+   round's optimum, except for a torque limit the score test asked for (below). A refit that
+   fails, for any reason, keeps the fit before it, and says why. **A torque limit asked for**
+   starts its round at the value the score test suggests (its Gauss-Newton step, along the
+   secant of 7), but no lower than the secant's own point, the lowest value the test
+   re-simulated: where the limit was, no torque reaches it and a difference there has no slope.
+   The round's ``started_at`` gives each such limit's value before, the suggestion and the
+   start. If that refit ends above the k-step cost before the round, the round is fitted again
+   from the previous optimum (``restarted`` gives the first refit's cost). A limit the
+   intervals blame starts where it was. **A threshold round** (``threshold_round``, on by
+   default; ``--no-threshold-round``): a torque limit that the score test asks for after the
+   last of the N rounds gets one more round, with only the torque limits asked for added. A
+   robot whose limit is below the twin's, but above every torque the twin's motion asks for,
+   leaves no trace in the residual until a fit has moved the twin to where the limit binds
+   (the secant of 7 reads it only then), so the earlier rounds could not have added it; its
+   round is marked ``threshold_round`` in ``added``. Other parameters asked for after the last
+   round are only named.
 10. **What the parameters not fitted add to the intervals** (``consider_spread``, a consider
    analysis in the estimation sense). The intervals of 4 assume that every parameter left out
    of the fit is right. On a real robot none is known exactly, and where one acts along a
@@ -1152,47 +1158,55 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     for k in range(options.add_asked + 1):
         fitted = tuple(e.name for e in cal.estimates)
         asked = [n for n in asked_for(cal.report) if n not in fitted]
-        blamed = [n for n in blamed_by_intervals(cal.report) if n not in fitted + tuple(asked)]
         late = k == options.add_asked          # the rounds are used up: only a threshold round
         if late:
-            asked = [n for n in asked if getattr(TWIN_PARAMETERS.get(n), "threshold", False)]
-            blamed = []
+            asked = [n for n in asked if TWIN_PARAMETERS[n].threshold]
             if not options.threshold_round or not asked:
                 break
+        blamed = [] if late else [n for n in blamed_by_intervals(cal.report)
+                                  if n not in fitted + tuple(asked)]
         if not asked and not blamed:
             break
         params = fitted + tuple(asked) + tuple(blamed)
+        moved = _limit_starts(cal.report, asked, options)
         say((f"the residual asks for {', '.join(asked)}" if asked else "")
             + (" (a torque limit, asked for after the last round: one round of its own)"
                if late else "")
             + ("; " if asked and blamed else "")
             + (f"the intervals ask for {', '.join(blamed)} (not fitted, they widen them more "
                "than the data do)" if blamed else "")
-            + f": fitting {len(params)} parameters again from the optimum")
+            + f": fitting {len(params)} parameters again from the optimum"
+            + (" (" + ", ".join(f"{n} from {v['start']:.4g}, where the score test points"
+                                for n, v in moved.items()) + ")" if moved else ""))
         rnd = {"added": asked + blamed, "added_for_intervals": blamed,
-               "threshold_round": late,
+               "threshold_round": late, "started_at": moved,
                "k_step_cost_before": _structure_cost(cal, weights),
                "converged": cal.report.get("converged"), "n_evals": cal.report.get("n_evals"),
                "wall_s": cal.report.get("wall_s"),
                "params": [_estimate_dict(e) for e in cal.estimates]}
+        round_options = replace(inner, params=params, servo="keep",
+                                max_evals=max(inner.max_evals,
+                                              ROUND_EVALS_PER_COLUMN * (2 * len(params) + 1)))
         start = cal.config
-        for m in cal.report.get("missing") or []:
-            par = TWIN_PARAMETERS.get(m.get("name"))
-            if par is not None and par.threshold and m["name"] in asked:
-                # a limit the twin does not reach has no slope where it is: start it where the
-                # secant's step points (7)
-                start = par.set(start, float(m["suggested"]))
+        for n, v in moved.items():
+            start = TWIN_PARAMETERS[n].set(start, v["start"])
         try:
-            cal = calibrate_twin(train_recs, [], start,
-                                 replace(inner, params=params, servo="keep",
-                                         max_evals=max(inner.max_evals,
-                                                       ROUND_EVALS_PER_COLUMN
-                                                       * (2 * len(params) + 1))), say)
+            refit = calibrate_twin(train_recs, [], start, round_options, say)
+            if moved and _structure_cost(refit, weights) > rnd["k_step_cost_before"]:
+                # the limits' start led somewhere worse than the fit before the round: the
+                # round again from that fit, as for any other parameter
+                say("the refit from the limits' suggested values ends above the cost before it; "
+                    "fitting again from the optimum")
+                rnd["restarted"] = {"k_step_cost": _structure_cost(refit, weights)}
+                total_evals += refit.report.get("n_evals") or 0
+                refit = calibrate_twin(train_recs, [], cal.config, round_options, say)
         except Exception as e:        # the fit before it stands; say why the refit did not
             rnd["error"] = f"{type(e).__name__}: {e}"
             rounds.append(rnd)
-            say(f"the refit with {', '.join(asked)} failed ({e}); keeping the fit before it")
+            say(f"the refit with {', '.join(asked + blamed)} failed ({e}); keeping the fit "
+                "before it")
             break
+        cal = refit
         rnd["k_step_cost_after"] = _structure_cost(cal, weights)
         total_evals += cal.report.get("n_evals") or 0
         rounds.append(rnd)
@@ -1207,6 +1221,38 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
+def secant_step(par: TwinParameter, value: float, options: CalibrationOptions) -> float:
+    """The score test's step in ``par``'s fit coordinate from ``value`` (module doc, 7): for a
+    threshold with a consider spread, a secant down by twice its a-priori sd (at least
+    ``diff_step``), kept inside the bounds; otherwise ``diff_step`` towards the inside."""
+    xc = par.to_x(value)
+    h = options.diff_step * par.x_scale
+    lo_x, hi_x = par.x_bounds()
+    step = h if xc + h <= hi_x else -h
+    if par.threshold and options.consider_spread > 0:
+        step = -max(2.0 * consider_sd(par, value, options.consider_spread), h)
+        if xc + step < lo_x:
+            step = lo_x - xc
+    return step
+
+
+def _limit_starts(report: dict[str, Any], asked: Sequence[str], options: CalibrationOptions
+                  ) -> dict[str, dict[str, float]]:
+    """Where a round starts the torque limits the score test asks for (module doc, 9): at its
+    suggested value, but no lower than the secant's point, the lowest value it re-simulated;
+    {name: {"value": now, "suggested", "start"}}."""
+    out = {}
+    for m in report.get("missing") or []:
+        name = m.get("name")
+        if name not in asked or not TWIN_PARAMETERS[name].threshold or "suggested" not in m:
+            continue
+        par, value = TWIN_PARAMETERS[name], float(m["value"])
+        floor = par.from_x(par.to_x(value) + min(secant_step(par, value, options), 0.0))
+        out[name] = {"value": value, "suggested": float(m["suggested"]),
+                     "start": max(float(m["suggested"]), floor)}
+    return out
+
+
 def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
                      ) -> list[tuple[TwinParameter, float, np.ndarray]]:
     """The registry's parameters ``prob`` did not fit (and that the servo has) with their value
@@ -1216,8 +1262,6 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     ``same_as`` are all fitted: another name for them (``mass_scale`` with both masses), which a
     finite-difference column shows as a small effect of its own that the score test would
     ask for, and a refit would then hold a direction the data cannot tell."""
-    from .parameters import TWIN_PARAMETERS
-
     fitted = {p.name for p in prob.params}
     config = prob.config(x)
     out = []
@@ -1234,14 +1278,9 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
         if not lo <= value <= hi:
             continue
         xc = par.to_x(value)
-        h = prob.o.diff_step * par.x_scale
         lo_x, hi_x = par.x_bounds()
-        step = h if xc + h <= hi_x else -h
-        if par.threshold and prob.o.consider_spread > 0:
-            # a secant down by the plausible range: a limit not reached has no derivative
-            step = -max(2.0 * consider_sd(par, value, prob.o.consider_spread), h)
-            if xc + step < lo_x:
-                step = lo_x - xc
+        # a threshold: a secant down by the plausible range (a limit not reached has no slope)
+        step = secant_step(par, value, prob.o)
         if not lo_x <= xc + step <= hi_x or step == 0:
             continue
         raw = twin_residuals(prob.pool, par.set(config, par.from_x(xc + step)), prob.o.stride,

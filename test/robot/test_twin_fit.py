@@ -332,12 +332,12 @@ class _LimitRobot(_LimitPool):
     """The residual of a twin (the stand-in at ``config``) against a robot whose hip pitch
     torque limit is 1.29 N m and whose other parameters are ``truth_fields``."""
 
-    truth_fields: dict = {}
+    truth_fields: dict | None = None
 
     def map(self, fn, config, stride, horizons, initial="measured"):
         tl = config.torque_limit
         truth = dataclasses.replace(config, torque_limit=(tl[0], 1.29, tl[2]),
-                                    **self.truth_fields)
+                                    **(self.truth_fields or {}))
         robot = super().map(fn, truth, stride, horizons, initial)
         twin = super().map(fn, config, stride, horizons, initial)
         return [t - b + e for t, b, e in zip(twin, robot, self.noise)]
@@ -643,6 +643,9 @@ def test_a_torque_limit_asked_for_after_the_last_round_gets_a_round(monkeypatch)
     got = {e.name: e for e in cal.estimates}
     limit = got["torque_limit_hip_pitch"]
     assert limit.start < 1.5                       # where the secant pointed, not 1.7
+    moved = rounds[1]["started_at"]["torque_limit_hip_pitch"]
+    assert moved["value"] == 1.7 and moved["start"] == limit.start
+    assert rounds[0]["started_at"] == {} and "restarted" not in rounds[1]
     assert limit.value == pytest.approx(1.29, rel=0.02) and limit.contains(1.29)
     assert got["foot_friction"].value == pytest.approx(0.5, abs=0.01)
     assert cal.report["settings"]["threshold_round"] is True
@@ -655,9 +658,37 @@ def test_a_torque_limit_asked_for_after_the_last_round_gets_a_round(monkeypatch)
                                   dataclasses.replace(opts, threshold_round=False))
     assert [r["added"] for r in off.report["added"]] == [["foot_friction"]]
     assert "torque_limit_hip_pitch" in twin_fit.asked_for(off.report)
+    assert off.report["settings"]["threshold_round"] is False
+    assert "drop --no-threshold-round" in format_calibration(
+        {**off.report, "params": [twin_fit._estimate_dict(e) for e in off.estimates]})
+    # a refit from the suggested start that ends above the cost before the round is fitted
+    # again from the optimum (here the stand-in's refit from the lowered limit made to look worse)
+    real_fit = twin_fit.calibrate_twin
+
+    def worse_from_a_lowered_limit(recs_, test_, start, options, say=None):
+        got = real_fit(recs_, test_, start, options, say)
+        if start.torque_limit[1] < 1.5:
+            rms = got.report["residual_rms"]["calibrated"]
+            got.report["residual_rms"]["calibrated"] = {
+                h: {k: (None if v is None else 100 * v) for k, v in row.items()}
+                for h, row in rms.items()}
+        return got
+
+    calls.clear()
+    monkeypatch.setattr(twin_fit, "calibrate_twin", worse_from_a_lowered_limit)
+    again = real_fit(recs, [], base, opts)
+    monkeypatch.setattr(twin_fit, "calibrate_twin", real_fit)
+    late_round = again.report["added"][1]
+    assert late_round["restarted"]["k_step_cost"] > late_round["k_step_cost_before"]
+    assert {e.name: e for e in again.estimates}["torque_limit_hip_pitch"].start == 1.7
+    # the start is never below the secant's own point (the lowest value the test simulated)
+    floor = twin_fit._limit_starts(
+        {"missing": [{"name": "torque_limit_hip_pitch", "value": 1.7, "suggested": 0.2}]},
+        ["torque_limit_hip_pitch"], opts)["torque_limit_hip_pitch"]["start"]
+    assert floor == pytest.approx(1.7 * np.exp(-0.3), rel=1e-6)
     # only a threshold gets the late round: a gain asked for after the rounds does not
     calls.clear()
     monkeypatch.setattr(twin_fit, "asked_for", lambda report: (
-        calls.append(1) or (["foot_friction"] if len(calls) == 1 else ["kd_knee"])))
+        calls.append(1) or (["foot_friction"] if len(calls) == 1 else ["command_delay_ms"])))
     gain = twin_fit.calibrate_twin(recs, [], base, opts)
     assert [r["added"] for r in gain.report["added"]] == [["foot_friction"]]
