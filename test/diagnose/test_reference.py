@@ -363,6 +363,18 @@ def test_the_excess_left_is_located_and_named_other_where_it_lives():
     assert spread["named"] and spread["scope"] == "all" and spread["concentration"] == 1.0
     body = left_with(channels_of("body"), 4.0)
     assert body["named"] and body["scope"] == "body", body
+    # decision 048: the knees' excess with the body's motion carrying as much (a soft floor)
+    # is placed on the body; the knee's own, with the body at a tenth of it, stays at the knee
+    soft = S.copy()
+    soft[np.ix_(V, channels_of("type:knees"))] *= 12.0
+    soft[np.ix_(V, channels_of("body"))] *= 11.0
+    soft = name_left(unexplained(_Sse(soft), V, R, 0.01))
+    assert soft["named"] and soft["scope"] == "body", soft["scope_ratios"]
+    assert soft["scope_ratios"]["type:knees"] > soft["scope_ratios"]["body"]
+    both = S.copy()
+    both[np.ix_(V, channels_of("joint:back_left_knee"))] *= 12.0
+    both[np.ix_(V, channels_of("body"))] *= 1.2
+    assert name_left(unexplained(_Sse(both), V, R, 0.01))["scope"] == "joint:back_left_knee"
     (sus,) = left_suspicion(body, capped=False)
     assert sus["scope"] == "body" and "--start-spread" in sus["recording"]
     quiet = name_left(unexplained(_Sse(S), V, R, 0.01))

@@ -428,10 +428,18 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
             "scope": scope, "concentration": conc, "scope_ratios": scope_ratios}
 
 
+#: decision 048: a joint scope keeps the excess only where the body's motion carries less than
+#: this share of that scope's ratio (the same tolerance as the widest concentrated scope's)
+BODY_SHARE = 0.8
+
+
 def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
     """Where the excess over the reference lives (decision 047): the learned route's rule
     (:func:`..excess.locate`, decision 026) on the channels' ratios, a scope's ratio the mean
-    of its channels' (:func:`.channels.channels_of`)."""
+    of its channels' (:func:`.channels.channels_of`). Decision 048: where the body's ratio is
+    at least :data:`BODY_SHARE` of the joint scope's so found, the excess is placed on the
+    body: what acts on the body (a soft floor, a pull) moves the joints that carry it as much,
+    where a cause at a joint leaves the body's motion far less changed than that joint's."""
     from ..excess import locate
     from .channels import channels_of
 
@@ -440,6 +448,10 @@ def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
         r = r[np.isfinite(r)]
         return float(r.mean()) if r.size else float("nan")
     scope, ratios, conc = locate(of, channels_of)
+    body = ratios.get("body", float("nan"))
+    if scope != "body" and np.isfinite(body) and body >= BODY_SHARE * ratios[scope]:
+        scope = "body"
+        conc = body / ratios["all"] if ratios["all"] > 0 else float("nan")
     return scope, {k: float(v) for k, v in ratios.items()}, float(conc)
 
 
