@@ -454,15 +454,18 @@ def format_calibration(report: dict) -> str:
         lines.append(f"round {k}{late}: added {', '.join(rnd['added'])}{why} to the fit; " + (
             f"the refit failed: {rnd['error']}" if "error" in rnd else
             f"k-step cost {num(rnd['k_step_cost_before'])} -> {num(rnd['k_step_cost_after'])}"))
-    rounds = int((report.get("settings") or {}).get("add_asked") or 0)
-    hint = ("add it to --params" if not rounds or len(report.get("added") or []) < rounds else
-            f"raise --add-asked above {rounds}, or add it to --params")
+    from .robot.parameters import TWIN_PARAMETERS
+
     settings = report.get("settings") or {}
-    held = (rounds and len(report.get("added") or []) >= rounds
-            and settings.get("threshold_round") is False)
+    rounds = int(settings.get("add_asked") or 0)
+    used_up = bool(rounds) and len(report.get("added") or []) >= rounds
+    hint = (f"raise --add-asked above {rounds}, or add it to --params" if used_up else
+            "add it to --params")
+    held = used_up and settings.get("threshold_round") is False
     for m in report.get("missing") or []:
-        limit_hint = ("drop --no-threshold-round, " + hint) if held and str(
-            m.get("name", "")).startswith("torque_limit_") else hint
+        par = TWIN_PARAMETERS.get(m.get("name"))
+        limit_hint = ("drop --no-threshold-round, " + hint
+                      if held and par is not None and par.threshold else hint)
         if "error" in m:
             lines.append(f"the test of the parameters not fitted failed: {m['error']}")
         elif m["asks"]:

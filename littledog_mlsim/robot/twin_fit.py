@@ -1192,12 +1192,13 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
             start = TWIN_PARAMETERS[n].set(start, v["start"])
         try:
             refit = calibrate_twin(train_recs, [], start, round_options, say)
-            if moved and _structure_cost(refit, weights) > rnd["k_step_cost_before"]:
+            after = _structure_cost(refit, weights)
+            if moved and after > rnd["k_step_cost_before"]:
                 # the limits' start led somewhere worse than the fit before the round: the
                 # round again from that fit, as for any other parameter
                 say("the refit from the limits' suggested values ends above the cost before it; "
                     "fitting again from the optimum")
-                rnd["restarted"] = {"k_step_cost": _structure_cost(refit, weights)}
+                rnd["restarted"] = {"k_step_cost": after}
                 total_evals += refit.report.get("n_evals") or 0
                 refit = calibrate_twin(train_recs, [], cal.config, round_options, say)
         except Exception as e:        # the fit before it stands; say why the refit did not
