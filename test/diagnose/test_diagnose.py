@@ -673,10 +673,23 @@ def test_physical_scopes_and_shortlist():
          Candidate("servo_gain", "joint:back_left_knee", 3.0, 0.8),
          Candidate("leg_difference", "leg:front_left", 2.0, 1.5)]
     short = shortlist(c, 4)
-    # one scope per family, one of the push class (slope or odom force), a leg family included
+    # one scope per family, one of the push class (slope or odom force), every leg family
+    # included beyond the n places (decision 049), the best scope of each
     assert [(x.family, x.scope) for x in short] == [
         ("joint_friction", "leg:front_left"), ("servo_gain", "joint:back_left_knee"),
-        ("ground_slope", "body"), ("swing_drag", "leg:back_left")]
+        ("ground_slope", "body"), ("swing_drag", "leg:back_left"),
+        ("leg_difference", "leg:front_left")]
+    c2 = c + [Candidate("foot_slip", "leg:back_left", 1.0, -0.5),
+              Candidate("foot_slip", "leg:front_right", 0.5, -0.5)]
+    short = shortlist(c2, 4)
+    assert [(x.family, x.scope) for x in short][3:] == [
+        ("swing_drag", "leg:back_left"), ("leg_difference", "leg:front_left"),
+        ("foot_slip", "leg:back_left")]
+    # with one leg family, the n places as before: the next best overall fills the last
+    short = shortlist([x for x in c if x.family != "leg_difference"], 5)
+    assert [(x.family, x.scope) for x in short] == [
+        ("joint_friction", "leg:front_left"), ("servo_gain", "joint:back_left_knee"),
+        ("ground_slope", "body"), ("swing_drag", "leg:back_left"), ("body_wrench", "body")]
 
 
 def test_physical_mass_com_position_and_servo_saturation():

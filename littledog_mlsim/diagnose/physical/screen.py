@@ -174,10 +174,14 @@ def _scope_scores(fam: str, G: np.ndarray, b: np.ndarray) -> list[Candidate]:
 
 def shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
     """The hypotheses to fit: the best scope of the best joint families (half, at most three), of
-    the best body families (all but one of the rest) and of the best leg family, then the next
-    best overall. With the default 8 that is 3 joint, 4 body and 1 leg family: the body classes
-    number seven, and with two body places a body-fixed force or a tilted floor was screened
-    but never fitted (docs/decisions/009-shortlist-of-eight.md). Joint
+    the best body families (all but one of the rest) and of every leg family, then the next
+    best overall up to ``n`` joint, body and leg places. With the default 8 that is 3 joint, 4
+    body and the 4 leg families: the body classes number seven, and with two body places a
+    body-fixed force or a tilted floor was screened but never fitted
+    (docs/decisions/009-shortlist-of-eight.md); the leg families' first-order scores are not
+    comparable either (a foot's friction acts only once the foot slips), and with one leg place
+    a worn foot pad scored below a lift-off adhesion and was never fitted
+    (docs/decisions/049-every-leg-family-is-fitted.md). Joint
     families are screened on the 1 s segments, body and leg families also on the 4 s replay, so
     their scores are not compared directly: the held-out decision compares them after the fit.
     A push fixed in odom and a slope count as one class here (they act alike; the rival is
@@ -189,9 +193,11 @@ def shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
 
     n_joint = min((n + 1) // 2, 3)
     n_body = max(1, n - n_joint - 1)
+    legs = [c for c in pos if FAMILIES[c.family].kind == "leg"]
+    n_leg = max(1, len({cls(c) for c in legs}))
     groups = [([c for c in pos if FAMILIES[c.family].kind == "joints"], n_joint),
               ([c for c in pos if FAMILIES[c.family].kind == "body"], n_body),
-              ([c for c in pos if FAMILIES[c.family].kind == "leg"], max(1, n - n_joint - n_body))]
+              (legs, n_leg)]
     out: list[Candidate] = []
     for group, k in groups:
         seen: set[str] = set()
@@ -201,9 +207,10 @@ def shortlist(cands: list[Candidate], n: int) -> list[Candidate]:
             if cls(c) not in seen:
                 out.append(c)
                 seen.add(cls(c))
+    cap = max(n, 1) + n_leg - 1   # the leg families beyond the one place of ``n``
     for c in pos:
-        if len(out) >= n:
+        if len(out) >= cap:
             break
         if c not in out and cls(c) not in {cls(o) for o in out}:
             out.append(c)
-    return out[:max(n, 1)] or cands[:1]
+    return out[:cap] or cands[:1]
