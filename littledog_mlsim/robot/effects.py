@@ -529,17 +529,41 @@ def _legs(legs: str | list[str], who: str) -> list[int]:
 
 
 class LegMass:
-    """The links of one leg (or several) weigh ``scale`` times their normal mass, with their
-    inertia (and the reflected rotor inertia on it) scaled alike: heavier motors or a guard."""
+    """One leg (or several) weighs ``scale`` times its normal mass.
 
-    def __init__(self, scale: float, legs: str | list[str] = "front_left") -> None:
+    ``where``: ``"leg"`` (default) scales every link of the leg, with its inertia (and the
+    reflected rotor inertia on it) alike: heavier motors. ``"lower"`` puts the whole change on
+    the lower leg (the knee's link), its inertia scaled in proportion: a guard, a pad or a
+    sensor on the shin. The lower leg keeps at least a tenth of its own mass.
+    """
+
+    WHERE = ("leg", "lower")
+
+    def __init__(self, scale: float, legs: str | list[str] = "front_left",
+                 where: str = "leg") -> None:
         if not (np.isfinite(scale) and scale > 0):
             raise ValueError(f"LegMass: scale must be > 0, got {scale!r}")
+        if where not in self.WHERE:
+            raise ValueError(f"LegMass: where must be one of {', '.join(self.WHERE)}, "
+                             f"got {where!r}")
         self.scale = float(scale)
         self.legs = _legs(legs, "LegMass")
+        self.where = where
 
     def reset(self, sim: Any) -> None:
         c = sim.client
+        if self.where == "lower":
+            for i in self.legs:
+                links = [sim.joint_indices[3 * i + k] for k in range(3)] + [sim.foot_links[i]]
+                leg = sum(p.getDynamicsInfo(sim.robot, link, physicsClientId=c)[0]
+                          for link in links)
+                shin = links[2]
+                mass, _, inertia = p.getDynamicsInfo(sim.robot, shin, physicsClientId=c)[:3]
+                new = max(mass + (self.scale - 1.0) * leg, 0.1 * mass)
+                p.changeDynamics(sim.robot, shin, mass=new,
+                                 localInertiaDiagonal=[v * new / mass for v in inertia],
+                                 physicsClientId=c)
+            return
         for i in self.legs:
             for link in [sim.joint_indices[3 * i + k] for k in range(3)] + [sim.foot_links[i]]:
                 mass, _, inertia = p.getDynamicsInfo(sim.robot, link, physicsClientId=c)[:3]
@@ -627,13 +651,37 @@ class FootAdhesion:
 class ServoDeadband(_ServoTorque):
     """Backlash in the gears of some joints as the servo sees it: the position error
     e = q_des - q drives no torque within +-``width_rad``/2 and k (|e| - width/2) beyond it (a
-    dead zone on the stiffness term; damping unchanged)."""
+    dead zone on the stiffness term; damping unchanged).
 
-    def __init__(self, width_rad: float, joints: str | list[str] | None = None) -> None:
+    ``encoder``: where the joint's encoder sits. ``"link"`` (default): on the output, so the
+    reported angle is the link's. ``"motor"``: on the motor side of the gears, whose small
+    inertia runs to the set-point within the play, so the reported angle is the link's plus
+    the motor's place in the play, clip(q_des - q, -width/2, width/2): it reads the set-point
+    while the link is within the play.
+    """
+
+    ENCODERS = ("link", "motor")
+
+    def __init__(self, width_rad: float, joints: str | list[str] | None = None,
+                 encoder: str = "link") -> None:
         if not (np.isfinite(width_rad) and width_rad >= 0):
             raise ValueError(f"ServoDeadband: width_rad must be >= 0, got {width_rad!r}")
+        if encoder not in self.ENCODERS:
+            raise ValueError(f"ServoDeadband: encoder must be one of {', '.join(self.ENCODERS)}, "
+                             f"got {encoder!r}")
         super().__init__(joints)
         self.width_rad = float(width_rad)
+        self.encoder = encoder
+
+    def measure(self, obs: dict, t: float) -> dict:
+        if self.encoder == "link":
+            return obs
+        h = 0.5 * self.width_rad
+        q = obs["q"].copy()
+        j = self.joints
+        q[j] += np.clip(self._q_des[j] - q[j], -h, h)
+        obs["q"] = q
+        return obs
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         h = 0.5 * self.width_rad

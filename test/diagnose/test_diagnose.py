@@ -663,7 +663,7 @@ def test_physical_scopes_and_shortlist():
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             same_leg = r.startswith("joint:") and r.split("_")[:2] == scope.split("_")[:2]
             assert a < b or b < a or (len(a) == len(b) == 1 and same_leg), (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 10 * 22 + 8 + 4 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 11 * 22 + 8 + 5 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),
@@ -1208,6 +1208,20 @@ def test_physical_torque_axes_and_foot_friction_names():
     assert vocabulary_family("setpoint_backlash") == "backlash" and pp["width_rad"] == 0.08
     assert pp["form"] != physical_params(Candidate("backlash", "all", 1.0, 0.08))["form"]
     assert "0.040 rad past it" in statement("setpoint_backlash", "leg:back_right", pp)
+    # the third form: play in the gears with the encoder on the motor side
+    (gears,) = build_effects("motor_backlash", "leg:back_right", {"width_rad": 0.08})
+    assert gears.encoder == "motor" and gears.width_rad == 0.08
+    assert list(gears.joints) == [9, 10, 11]
+    pp = physical_params(Candidate("motor_backlash", "leg:back_right", 1.0, 0.08, fitted=0.08))
+    assert vocabulary_family("motor_backlash") == "backlash"
+    assert "motor side" in pp["form"] and "encoder then reads the set-point" in statement(
+        "motor_backlash", "leg:back_right", pp)
+    # leg_difference's lower-leg form
+    (guard,) = build_effects("lower_leg_mass", "leg:back_left", {"scale": 1.4})
+    assert guard.where == "lower" and guard.scale == 1.4 and guard.legs == [2]
+    pp = physical_params(Candidate("lower_leg_mass", "leg:back_left", 1.0, 1.4, fitted=1.4))
+    assert vocabulary_family("lower_leg_mass") == "leg_difference" and pp["scale"] == 1.4
+    assert "lower leg" in statement("lower_leg_mass", "leg:back_left", pp)
 
 
 def test_held_out_rank_test_has_power_on_uneven_cuts_and_keeps_its_level():

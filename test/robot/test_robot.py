@@ -382,6 +382,18 @@ def test_leg_swing_and_servo_plugins_act_where_named():
     sim.reset(effects=[])
     m0 = sum(p.getDynamicsInfo(sim.robot, j, physicsClientId=sim.client)[0] for j in leg)
     assert m1 == pytest.approx(2.0 * m0)                 # the named leg's links, twice as heavy
+    # the lower-leg form: the same leg mass ratio, all of the change on the knee's link
+    whole = leg + [sim.foot_links[2]]
+    mass = lambda links: [p.getDynamicsInfo(sim.robot, j, physicsClientId=sim.client)[0]
+                          for j in links]
+    before = mass(whole)
+    sim.reset(effects=[LegMass(1.4, "back_left", where="lower")])
+    after = mass(whole)
+    assert sum(after) == pytest.approx(1.4 * sum(before))
+    assert after[:2] == before[:2] and after[3] == before[3] and after[2] > before[2]
+    sim.reset(effects=[])
+    with pytest.raises(ValueError, match="where"):
+        LegMass(1.4, "back_left", where="foot")
     base = simulate_move(cmd, robot=quiet())
     # swing drag on a foot: the foot swings less far, so that leg's hip pitch lags its command
     drag = simulate_move(cmd, robot=quiet(), effects=[SwingDrag(5.0, "front_left")])
@@ -391,6 +403,16 @@ def test_leg_swing_and_servo_plugins_act_where_named():
     # a dead band in the knee servos: knees track worse, hips hardly change
     loose = simulate_move(cmd, robot=quiet(), effects=[ServoDeadband(0.1, "knees")])
     assert err(loose, 2) > 1.1 * err(base, 2)
+    # the same play with the encoder on the motor: the knees move as with the encoder on the
+    # link, and the reported knee angle is the link's moved towards the set-point within the play
+    motor = simulate_move(cmd, robot=quiet(), effects=[ServoDeadband(0.1, "knees", encoder="motor")])
+    assert np.array_equal(motor.position, loose.position)
+    shift = motor.q[1:, 2] - loose.q[1:, 2]
+    assert np.all(np.abs(shift) <= 0.05 + 1e-12) and np.abs(shift).max() > 0.01
+    assert np.array_equal(motor.q[:, 0], loose.q[:, 0])       # hips: as reported before
+    assert err(motor, 2) < err(loose, 2)                       # nearer the set-point
+    with pytest.raises(ValueError, match="encoder"):
+        ServoDeadband(0.1, "knees", encoder="hall")
     # an encoder offset inside the servo loop: the reported angle follows the set-point as before,
     # the true joint sits offset_rad short of it (the measured angle minus the offset)
     off = EncoderOffset(0.05, "front_left_hip_pitch", servo_loop=True)

@@ -12,7 +12,7 @@ from .base import (EXCITED_MOVES, Family, FittedEffect, Separation, _cap, _magni
 from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
-           "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily", "TimeDrift",
+           "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily", "TimeDrift",
            "SupplySagDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
@@ -166,6 +166,30 @@ class Backlash(_Play):
         v = params[self.primary]
         return (f"{_cap(where)}: about {v:.3f} rad of play (backlash): the servo drives no "
                 f"torque while the joint is within {v / 2:.3f} rad of its set-point")
+
+
+@register_family
+class MotorBacklash(_Play):
+    """Play in the gears with the encoder on the motor side: the servo drives no torque within
+    half the width of its set-point, and the encoder, on the motor that runs to the set-point
+    within the play, reads the set-point there (the joint angles hide the play; the body's
+    motion shows it)."""
+
+    name: ClassVar[str] = "motor_backlash"
+    probe: ClassVar[float] = 0.03
+    bounds: ClassVar[tuple[float, float]] = (0.0, 0.3)
+    reported_as: ClassVar[str] = "backlash"
+    form: ClassVar[str] = "play in the gears, the encoder on the motor side"
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import ServoDeadband
+        return [ServoDeadband(max(params[self.primary], 0.0), _joints(scope), encoder="motor")]
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        v = params[self.primary]
+        return (f"{_cap(where)}: about {v:.3f} rad of play (backlash) in the gears, the encoder "
+                f"on the motor side: the servo drives no torque while the joint is within "
+                f"{v / 2:.3f} rad of its set-point, and the encoder then reads the set-point")
 
 
 @register_family

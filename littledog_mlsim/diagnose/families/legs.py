@@ -5,7 +5,7 @@ from typing import Any, ClassVar, Mapping
 
 from .base import Family, FittedEffect, _cap, _magnitude, register_family
 
-__all__ = ["LegDifference", "FootSlip", "ContactPhase", "SwingDragFamily", "FootAdhesionFamily"]
+__all__ = ["LegDifference", "LowerLegMass", "FootSlip", "ContactPhase", "SwingDragFamily", "FootAdhesionFamily"]
 
 
 def _leg(scope: str) -> str:
@@ -36,6 +36,29 @@ class LegDifference(_Leg):
 
     def statement(self, where: str, params: Mapping[str, Any]) -> str:
         return f"{_cap(where)} differs: its links weigh about {params[self.primary]:.2f} times the others'"
+
+
+@register_family
+class LowerLegMass(LegDifference):
+    """One leg weighs a multiple of the others', the difference all on its lower leg (a guard,
+    a pad or a sensor on the shin): another form of the vocabulary's leg_difference, screened
+    on its own because a load on the shin swings the foot unlike a heavier leg."""
+
+    name: ClassVar[str] = "lower_leg_mass"
+    reported_as: ClassVar[str] = "leg_difference"
+    bounds: ClassVar[tuple[float, float]] = (0.5, 4.0)
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import LegMass
+        return [LegMass(max(params[self.primary], 1e-3), _leg(scope), where="lower")]
+
+    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
+        return {"scale": float(_magnitude(c)),
+                "quantity": "leg mass (links and inertias), the change on the lower leg"}
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        return (f"{_cap(where)} differs: its lower leg carries the difference, the leg weighing "
+                f"about {params[self.primary]:.2f} times the others'")
 
 
 @register_family
