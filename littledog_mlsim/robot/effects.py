@@ -528,6 +528,11 @@ def _legs(legs: str | list[str], who: str) -> list[int]:
     return [LEGS.index(n) for n in names]
 
 
+def _leg_links(sim: Any, leg: int) -> list[int]:
+    """Leg ``leg``'s links in the simulation: hip, upper leg, lower leg (the knee's), foot."""
+    return [sim.joint_indices[3 * leg + k] for k in range(3)] + [sim.foot_links[leg]]
+
+
 class LegMass:
     """One leg (or several) weighs ``scale`` times its normal mass.
 
@@ -554,7 +559,7 @@ class LegMass:
         c = sim.client
         if self.where == "lower":
             for i in self.legs:
-                links = [sim.joint_indices[3 * i + k] for k in range(3)] + [sim.foot_links[i]]
+                links = _leg_links(sim, i)
                 leg = sum(p.getDynamicsInfo(sim.robot, link, physicsClientId=c)[0]
                           for link in links)
                 shin = links[2]
@@ -565,7 +570,7 @@ class LegMass:
                                  physicsClientId=c)
             return
         for i in self.legs:
-            for link in [sim.joint_indices[3 * i + k] for k in range(3)] + [sim.foot_links[i]]:
+            for link in _leg_links(sim, i):
                 mass, _, inertia = p.getDynamicsInfo(sim.robot, link, physicsClientId=c)[:3]
                 if mass > 0:
                     p.changeDynamics(sim.robot, link, mass=mass * self.scale,
@@ -672,10 +677,10 @@ class ServoDeadband(_ServoTorque):
         super().__init__(joints)
         self.width_rad = float(width_rad)
         self.encoder = encoder
+        if encoder == "motor":      # a reading hook only where the reading changes
+            self.measure = self._motor_reading
 
-    def measure(self, obs: dict, t: float) -> dict:
-        if self.encoder == "link":
-            return obs
+    def _motor_reading(self, obs: dict, t: float) -> dict:
         h = 0.5 * self.width_rad
         q = obs["q"].copy()
         j = self.joints
