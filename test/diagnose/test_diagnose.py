@@ -868,6 +868,50 @@ def test_signed_family_starts_its_scope_fit_on_the_better_side():
     assert fits[0][:2] == fits[1][:2] and fits[1][2] == fits[0][2] - 1
 
 
+def test_every_joint_family_is_fitted_where_the_excess_lives():
+    """Decision 051: where the fit moves' excess over the reference lives at a joint, every
+    joint family and form is fitted at that joint and its leg; the best joins the shortlist if
+    it fits about as well as the best joint hypothesis there. A stand-in objective where only
+    motor-side play of 0.04 rad on the back-left leg explains the data."""
+    from littledog_mlsim.diagnose.families import FAMILIES
+    from littledog_mlsim.diagnose.physical import Candidate, located_variants
+    from littledog_mlsim.diagnose.physical.driver import located_scopes
+
+    def J(hyp):
+        fam, scope, par = hyp
+        if fam == "motor_backlash" and scope == "leg:back_left":
+            return 1.0 + 40.0 * (par["width_rad"] - 0.04) ** 2
+        return 1.9
+    left = {"significant": True, "channel_significant": False,
+            "scope": "joint:back_left_knee"}
+    where = located_scopes(left)
+    assert where == ["joint:back_left_knee", "leg:back_left"]
+    obj = FakeObjective(J)
+    drift = Candidate("time_drift", "joint:back_left_hip_roll", 1.0, -0.07, fitted=-0.07,
+                      J=1.85, J0=2.0)
+    (best,) = located_variants(obj, [drift], where, [0, 1])
+    assert best.family == "motor_backlash" and best.scope == "leg:back_left"
+    assert best.fitted == pytest.approx(0.04, abs=0.004)
+    asked = {(h[0], h[1]) for hs, _, _ in obj.calls for h in hs}
+    joint_families = {n for n, f in FAMILIES.items() if f.kind == "joints"}
+    assert {f for f, _ in asked} == joint_families      # every one, forms included
+    assert {s for _, s in asked} == set(where)
+    assert all(seg for _, _, seg in obj.calls)          # joint families: the 1 s segments
+    # far worse than the shortlist's best joint hypothesis: not added; among the allowed only
+    good = replace(drift, J=0.5)
+    assert located_variants(FakeObjective(J), [good], where, [0, 1]) == []
+    obj = FakeObjective(J)
+    assert located_variants(obj, [drift], where, [0, 1], allowed=["servo_gain"])[0].family \
+        == "servo_gain"
+    assert {h[0] for hs, _, _ in obj.calls for h in hs} == {"servo_gain"}
+    # on the body, or not significant: nowhere; a group: itself
+    assert located_scopes({**left, "scope": "body"}) == []
+    assert located_scopes({**left, "significant": False}) == []
+    assert located_scopes({**left, "scope": "all"}) == ["all"]
+    assert located_scopes({**left, "scope": "leg:front_right", "significant": False,
+                           "channel_significant": True}) == ["leg:front_right"]
+
+
 def test_a_drift_is_fitted_in_its_other_form_and_the_held_out_moves_choose():
     """A gain drift's other form, a supply sag, is not screened; it is fitted at the drift's
     scope from the drift's rate and joins the shortlist when it fits about as well (within

@@ -42,7 +42,11 @@ Method
    first-order one and refit the magnitude (:func:`.fit.refine_direction`).
    This is the transducer: the parameter is the plug-in's value that reproduces the data.
    A family with other physical forms (a gain drift and a supply sag) has each form fitted at
-   the scope its screen chose (:func:`.fit.form_variants`); step 5 chooses the form.
+   the scope its screen chose (:func:`.fit.form_variants`); step 5 chooses the form. The best
+   joint hypothesis is refitted on its related scopes (:func:`.fit.scope_variants`). With a
+   reference, where the fit moves' excess over it lives at one joint, leg or group
+   (:func:`.driver.located_scopes`), every joint family and form is fitted there too
+   (:func:`.fit.located_variants`, decision 051).
 5. **Decision on held-out moves.** The fitted shortlist is re-simulated on other TrainPool moves
    (not used to screen or fit): the hypothesis with the largest mean per-move cut
    (:func:`..stats.move_cuts`, bounded per move and channel) is the finding (the 4 s replays are
@@ -63,7 +67,8 @@ from .channels import CHANNELS, DEFAULT_HORIZONS_S, N_CH, horizon_errors
 from .context import Objective, SearchContext
 from .driver import PhysicalOptions, identify, pick_moves
 from .fit import (fit, fit_magnitude, refine_direction, refine_position, refine_wide,
-                  scope_variants, form_variants, start_side, wide_magnitude)
+                  scope_variants, form_variants, located_variants, start_side,
+                  wide_magnitude)
 from .records import Candidate, Finding, HeldOutDecision, Hypothesis, PhysIdResult
 from .resim import Memo, Move, Runner, Transducer, build_effects, simulate, true_start
 from .screen import screen, shortlist
@@ -73,6 +78,7 @@ __all__ = ["identify", "PhysicalOptions", "PhysIdResult", "Finding", "Candidate"
            "SearchContext", "Objective", "Transducer", "Runner", "Memo", "Move", "simulate",
            "true_start", "build_effects", "screen", "shortlist", "fit", "fit_magnitude",
            "refine_direction", "refine_position", "refine_wide", "wide_magnitude",
-           "start_side", "scope_variants", "form_variants", "validate", "push_twin", "physical_params",
+           "start_side", "scope_variants", "form_variants", "located_variants", "validate",
+           "push_twin", "physical_params",
            "statement", "inseparable", "suspicions", "INSEPARABLE_SHARE", "horizon_errors",
            "CHANNELS", "N_CH", "DEFAULT_HORIZONS_S", "pick_moves", "HeldOutDecision"]

@@ -15,11 +15,13 @@ import numpy as np
 
 from ...data.recording import MoveRecording
 from ..families import FAMILIES, library_size
+from ...layout import LEGS
 from .advice import suspicions
 from .channels import (DEFAULT_HORIZONS_S, MIN_STEPS, errors, horizon_errors, measured,
                        seg_starts)
 from .context import SearchContext
-from .fit import fit, form_variants, scope_variants, segments_only, wide_magnitude
+from .fit import (fit, form_variants, located_variants, scope_variants, segments_only,
+                  wide_magnitude)
 from .records import Candidate, Finding, HeldOutDecision, PhysIdResult
 from .resim import DaskRunner, Memo, Move, Runner
 from .screen import screen, shortlist
@@ -518,6 +520,23 @@ def _contrast(ctx: SearchContext, hyp: Any, S0: np.ndarray, S1_data: np.ndarray,
             "n_data_moves": int(cut_data.size), "n_reference_moves": int(cut_ref.size)}
 
 
+def located_scopes(left: dict[str, Any]) -> list[str]:
+    """Where a round also fits every joint family (decision 051): the scope where the fit
+    moves' excess over the reference lives (:func:`unexplained` on the fit moves, so the
+    held-out moves stay out of the choice), if that excess is significant, pooled or in some
+    channel, and lives on the joints: a joint and its leg, or the one group so found (a leg, a
+    side, a joint type, or ``all`` where it is spread over the joints). None where it lives on
+    the body's motion or is not significant."""
+    if not (left["significant"] or left["channel_significant"]) or left["scope"] == "body":
+        return []
+    scope = left["scope"]
+    kind, _, what = scope.partition(":")
+    if kind == "joint":
+        leg = next(g for g in LEGS if what.startswith(g + "_"))
+        return [scope, f"leg:{leg}"]
+    return [scope]
+
+
 def _screen_moves(F: Sequence[int], n: int) -> list[int]:
     """The fit moves a round screens and first fits on: ``n`` of ``F``, spread."""
     return list(F[::max(1, len(F) // n)][:n])
@@ -538,8 +557,14 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
     for c in [c for c in top if FAMILIES[c.family].twin_family]:
         twin = push_twin(c, robot_mass)
         top.append(fit(ctx, replace(twin, magnitude=float(twin.fitted), fitted=None), FS, F))
-    top += scope_variants(ctx, top, FS)
     top += form_variants(ctx, top, FS, allowed)
+    top += scope_variants(ctx, top, FS)
+    if sp.R:
+        where = located_scopes(unexplained(ctx, F, sp.R, o.alpha))
+        if where:
+            top += located_variants(ctx, top, where, FS, allowed, cands)
+            say(f"physics round {rnd + 1}: the fit moves' excess over the reference lives at "
+                f"{', '.join(where)}: every joint family fitted there")
     # joint magnitudes too on every fit move, once the scope is chosen
     top = [wide_magnitude(ctx, c, F) if segments_only(c.family) else c for c in top]
     top.sort(key=lambda c: c.J / c.J0)

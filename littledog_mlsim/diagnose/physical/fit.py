@@ -21,7 +21,8 @@ from .context import Objective
 from .records import Candidate, Hypothesis
 
 __all__ = ["fit", "fit_magnitude", "refine_wide", "wide_magnitude", "refine_direction",
-           "refine_position", "start_side", "scope_variants", "form_variants", "segments_only"]
+           "refine_position", "start_side", "scope_variants", "form_variants", "located_variants",
+           "segments_only"]
 
 
 def segments_only(family: str) -> bool:
@@ -346,3 +347,43 @@ def form_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int],
             if v.J is not None and v.J <= 1.1 * c.J:
                 out.append(v)
     return out
+
+
+def located_variants(obj: Objective, top: Sequence[Candidate], scopes: Sequence[str],
+                     F: Sequence[int], allowed: Sequence[str] | None = None,
+                     cands: Sequence[Candidate] = ()) -> list[Candidate]:
+    """Every joint family of the library, and every other form of one, fitted at ``scopes``:
+    where the fit moves' excess over the reference lives (:func:`.driver.located_scopes`,
+    decision 051). The screen ranks a family by its first-order fit to the whole residual and
+    fits only the best three joint families, each at its best scope; a threshold effect
+    (play, a weak drive) can rank below them there and still be what the excess at one joint
+    asks for. Each starts from the screen's first-order magnitude at that scope where the
+    screen found one of the right sign (``cands``), else from the family's probe, on the side
+    that fits it better (:func:`start_side`). The best of them joins the shortlist if it fits
+    about as well as the best joint hypothesis already there (within 10 %), or if there is
+    none; the held-out decision then chooses, adjusted for the larger shortlist.
+    ``allowed``: the families the search may report (None: all)."""
+    have = {(c.family, c.scope) for c in top}
+    first: dict[tuple[str, str], Candidate] = {}
+    for c in cands:
+        first.setdefault((c.family, c.scope), c)
+    names = [f for f in (allowed if allowed is not None else FAMILIES)
+             if f in FAMILIES and FAMILIES[f].kind == "joints"]
+    out = []
+    for scope in scopes:
+        for name in names:
+            spec = FAMILIES[name]
+            if (name, scope) in have or scope not in spec.scopes():
+                continue
+            c0 = first.get((name, scope))
+            m0 = (float(c0.magnitude) if c0 is not None and c0.score > 0
+                  else spec.neutral + spec.probe)
+            v, side = start_side(obj, Candidate(name, scope, 0.0, m0), F)
+            out.append(fit_magnitude(obj, v, F, known=side))
+            have.add((name, scope))
+    out = [c for c in out if c.J is not None]
+    if not out:
+        return []
+    best = min(out, key=lambda c: c.J)
+    joint = [c.J for c in top if segments_only(c.family) and c.J is not None]
+    return [best] if not joint or best.J <= 1.1 * min(joint) else []
