@@ -912,6 +912,51 @@ def test_every_joint_family_is_fitted_where_the_excess_lives():
                            "channel_significant": True}) == ["leg:front_right"]
 
 
+def test_every_fitted_joint_hypothesis_has_its_scope_checked():
+    """Decision 051: not only the best joint hypothesis is refitted on its related scopes. A
+    supply sag fitted at the hip rolls (where the drift's screen pointed) is tried on every
+    joint, where it acts, though a backlash fits the choosing moves better; the best joint
+    hypothesis's variant joins within 10 % of it, another's only if it fits better."""
+    from littledog_mlsim.diagnose.physical import Candidate, scope_variants
+
+    def J(hyp):
+        fam, scope, par = hyp
+        if fam == "supply_sag":
+            return (0.90 if scope == "all" else 0.97) + (par["rate_per_s"] + 0.035) ** 2
+        if fam == "backlash":
+            return 0.95 + (0.2 if scope != "all" else 0.0)
+        return 1.5
+    sag = Candidate("supply_sag", "type:hip_rolls", 0.0, -0.048, fitted=-0.048, J=0.971)
+    play = Candidate("backlash", "all", 0.0, 0.003, fitted=0.003, J=0.95)
+    out = scope_variants(FakeObjective(J), [play, sag], [0, 1])
+    assert [(c.family, c.scope) for c in out] == [("supply_sag", "all")]
+    assert out[0].J < sag.J and out[0].fitted == pytest.approx(-0.035, abs=0.004)
+    # another hypothesis's variant that fits no better than it stays out
+    def worse(hyp):
+        return 0.99 if hyp[0] == "supply_sag" else J(hyp)
+    assert scope_variants(FakeObjective(worse), [play, sag], [0, 1]) == []
+
+
+def test_a_minimum_at_the_edge_of_the_refit_is_followed():
+    """Decision 051: the refit on every fit move follows a minimum at the edge of what it
+    tried (x1.4 of the deviation from neutral, or x0.7 towards it) while the fit improves: a
+    foot's friction 0.35 of normal, first fitted at 0.81, is not left at 0.73."""
+    from littledog_mlsim.diagnose.physical import Candidate, wide_magnitude
+
+    def J(hyp):
+        return 1.0 + (hyp[2]["friction_ratio"] - 0.35) ** 2
+
+    c = Candidate("foot_slip", "leg:front_left", 1.0, 0.81, fitted=0.807)
+    out = wide_magnitude(FakeObjective(J), c, list(range(11)))
+    assert abs(out.fitted - 0.35) < abs(0.73 - 0.35) / 2
+    tried = sorted(p["magnitude"] for p in out.profile)
+    assert tried[0] == pytest.approx(out.fitted) or out.fitted < 0.6
+    # towards neutral: an effect smaller than the first fit
+    small = wide_magnitude(FakeObjective(lambda h: 1.0 + (h[2]["friction_ratio"] - 0.97) ** 2),
+                           c, list(range(11)))
+    assert small.fitted > 0.9
+
+
 def test_a_drift_is_fitted_in_its_other_form_and_the_held_out_moves_choose():
     """A gain drift's other form, a supply sag, is not screened; it is fitted at the drift's
     scope from the drift's rate and joins the shortlist when it fits about as well (within
