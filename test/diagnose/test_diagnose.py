@@ -889,7 +889,9 @@ def test_every_joint_family_is_fitted_where_the_excess_lives():
     obj = FakeObjective(J)
     drift = Candidate("time_drift", "joint:back_left_hip_roll", 1.0, -0.07, fitted=-0.07,
                       J=1.85, J0=2.0)
-    (best,) = located_variants(obj, [drift], where, [0, 1])
+    tried = []
+    (best,) = located_variants(obj, [drift], where, [0, 1], into=tried)
+    assert tried[0] == best and len(tried) == len({(c.family, c.scope) for c in tried}) > 10
     assert best.family == "motor_backlash" and best.scope == "leg:back_left"
     assert best.fitted == pytest.approx(0.04, abs=0.004)
     asked = {(h[0], h[1]) for hs, _, _ in obj.calls for h in hs}

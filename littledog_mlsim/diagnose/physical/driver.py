@@ -562,9 +562,12 @@ def _round(ctx: SearchContext, o: PhysicalOptions, sp: _Split, robot_mass: float
     if sp.R:
         where = located_scopes(unexplained(ctx, F, sp.R, o.alpha))
         if where:
-            top += located_variants(ctx, top, where, FS, allowed, cands)
+            tried: list[Candidate] = []
+            top += located_variants(ctx, top, where, FS, allowed, cands, into=tried)
             say(f"physics round {rnd + 1}: the fit moves' excess over the reference lives at "
-                f"{', '.join(where)}: every joint family fitted there")
+                f"{', '.join(where)}: every joint family fitted there; best "
+                + "; ".join(f"{c.family} {c.scope} {_fmt_params(c)} J {c.J / c.J0:.3f}"
+                            for c in tried[:6]))
     # joint magnitudes too on every fit move, once the scope is chosen
     top = [wide_magnitude(ctx, c, F) if segments_only(c.family) else c for c in top]
     top.sort(key=lambda c: c.J / c.J0)

@@ -413,7 +413,8 @@ def form_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int],
 
 def located_variants(obj: Objective, top: Sequence[Candidate], scopes: Sequence[str],
                      F: Sequence[int], allowed: Sequence[str] | None = None,
-                     cands: Sequence[Candidate] = ()) -> list[Candidate]:
+                     cands: Sequence[Candidate] = (),
+                     into: list[Candidate] | None = None) -> list[Candidate]:
     """Every joint family of the library, and every other form of one, fitted at ``scopes``:
     where the fit moves' excess over the reference lives (:func:`.driver.located_scopes`,
     decision 051). The screen ranks a family by its first-order fit to the whole residual and
@@ -424,7 +425,8 @@ def located_variants(obj: Objective, top: Sequence[Candidate], scopes: Sequence[
     that fits it better (:func:`start_side`). The best of them joins the shortlist if it fits
     about as well as the best joint hypothesis already there (within 10 %), or if there is
     none; the held-out decision then chooses, adjusted for the larger shortlist.
-    ``allowed``: the families the search may report (None: all)."""
+    ``allowed``: the families the search may report (None: all). ``into``, if given, receives
+    every fit made here (for the log)."""
     have = {(c.family, c.scope) for c in top}
     first: dict[tuple[str, str], Candidate] = {}
     for c in cands:
@@ -444,6 +446,8 @@ def located_variants(obj: Objective, top: Sequence[Candidate], scopes: Sequence[
             out.append(fit_magnitude(obj, v, F, known=side))
             have.add((name, scope))
     out = [c for c in out if c.J is not None]
+    if into is not None:
+        into.extend(sorted(out, key=lambda c: c.J))
     if not out:
         return []
     best = min(out, key=lambda c: c.J)
