@@ -105,14 +105,7 @@ def fit_magnitude(obj: Objective, c: Candidate, F: Sequence[int],
         if new is None:
             break
         _evaluate(obj, c, [new], F, w, evals)
-    xm = _vertex(evals)
-    if xm is not None:
-        _evaluate(obj, c, [xm], F, w, evals)
-    for _ in range(2):      # halve the bracket around the best point, twice
-        ms = sorted(evals)
-        k = int(np.argmin([evals[m] for m in ms]))
-        _evaluate(obj, c, [0.5 * (ms[k] + ms[j]) for j in (k - 1, k + 1) if 0 <= j < len(ms)],
-                  F, w, evals)
+    _settle(obj, c, F, w, evals, halvings=2)
     best = min(evals, key=evals.get)
     return replace(c, fitted=best, J=evals[best], J0=J0,
                    profile=[{"magnitude": m, "J_relative": evals[m] / J0} for m in sorted(evals)])
@@ -192,17 +185,19 @@ def _follow_edge(obj: Objective, c: Candidate, F: Sequence[int], w: np.ndarray,
 
 
 def _settle(obj: Objective, c: Candidate, F: Sequence[int], w: np.ndarray,
-            evals: dict[float, float]) -> None:
-    """After an edge was followed: the vertex of the parabola through the best magnitude and
-    its neighbours, then the midpoints between the best and its neighbours, once (the steps
-    of x1.4 leave the minimum up to 40 % of the deviation away)."""
+            evals: dict[float, float], halvings: int = 1) -> None:
+    """The vertex of the parabola through the best magnitude and its neighbours, then the
+    midpoints between the best and its neighbours, ``halvings`` times: the end of
+    :func:`fit_magnitude` (twice), and of a refit whose edge was followed (once: the steps of
+    x1.4 leave the minimum up to 40 % of the deviation away)."""
     xm = _vertex(evals)
     if xm is not None:
         _evaluate(obj, c, [xm], F, w, evals)
-    ms = sorted(evals)
-    k = int(np.argmin([evals[m] for m in ms]))
-    _evaluate(obj, c, [0.5 * (ms[k] + ms[j]) for j in (k - 1, k + 1) if 0 <= j < len(ms)],
-              F, w, evals)
+    for _ in range(halvings):
+        ms = sorted(evals)
+        k = int(np.argmin([evals[m] for m in ms]))
+        _evaluate(obj, c, [0.5 * (ms[k] + ms[j]) for j in (k - 1, k + 1) if 0 <= j < len(ms)],
+                  F, w, evals)
 
 
 def refine_wide(obj: Objective, c: Candidate, F: Sequence[int],
