@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
@@ -350,6 +350,10 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
     config = robot_config_from(robot)
     reference = _reference_moves(run)
     popts = route.options(run.o.alpha, run.o.min_gain, config, excitation)
+    conditions = _conditions(run)
+    if conditions is not None:      # decision 052: the excess over it is read accordingly
+        popts = replace(popts, excitation=conditions.data_excitation_rad,
+                        reference_excitation=conditions.reference_excitation_rad)
     pid = identify(run.train, run.test, popts, reference=reference, progress=run.say)
     fs = run.start
     feature_sets = [run.start]
@@ -365,6 +369,8 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
         effect_stage.append(len(feature_sets) - 1 + (run.as_recorded is not None))
     stages, last_model = _stages(run, feature_sets, 1 if popts.scheduler else popts.jobs)
     keywords = _report_keywords(run, last_model)
+    if conditions is not None:
+        keywords["reference_conditions"] = conditions.to_dict()
     keywords["route"] = {"name": "physical", "why": why, "robot": config.name,
                          "twin": None if run.o.twin is None else _plain_twin(run.o.twin),
                          "reference": None if run.o.reference is None
@@ -463,7 +469,6 @@ def _sensor_corrected(run: _Run) -> _Run:
     are filled in; then where the timing check (on those data) finds a late sensor stream, it
     is re-stamped (:mod:`.restamp`). Returns the run with its TrainPool and TestPool corrected
     (the data as recorded kept for the report's ``before``), or ``run`` itself."""
-    from dataclasses import replace
     from .held_frames import repair, repair_plan
     from .restamp import correction_from_timing, restamp
     train, test = run.train, run.test

@@ -389,6 +389,54 @@ def test_the_excess_left_is_located_and_named_other_where_it_lives():
     assert sus["recording"].startswith("record more moves") and "--excitation" in sus["recording"]
 
 
+def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_concentrated():
+    """Decision 052: against a reference recorded under another command excitation, an excess
+    on the body or spread over the joints is not named (the twin's own error under the data's
+    excitation is not in the reference; a suspected entry asks for the reference recorded the
+    data's way); one concentrated at a joint is named as measured, marked not comparable. The
+    same excitation, or none given, changes nothing."""
+    import numpy as np
+    from types import SimpleNamespace
+    from littledog_mlsim.diagnose.conditions import Conditions
+    from littledog_mlsim.diagnose.physical.channels import channels_of
+    from littledog_mlsim.diagnose.physical.driver import (PhysicalOptions, _conditions,
+                                                          left_suspicion, name_left,
+                                                          unexplained)
+    from littledog_mlsim.diagnose.report import _left_named
+    V, R = list(range(12)), list(range(12, 24))
+    rng = np.random.default_rng(4)
+    S = np.exp(rng.normal(0.0, 0.2, (24, 1)) + rng.normal(0.0, 0.2, (24, 36)))
+    other = Conditions(data_excitation_rad=0.05, reference_excitation_rad=0.0)
+
+    def left_with(cols, factor, conditions):
+        T = S.copy()
+        T[np.ix_(V, cols)] *= factor
+        return name_left(unexplained(_Sse(T), V, R, 0.01), conditions)
+
+    for scope, factor in (("body", 4.0), ("all", 2.5)):
+        left = left_with(channels_of(scope), factor, other)
+        assert left["significant"] and left["material"] and left["scope"] == scope, left
+        assert not left["named"] and "vocabulary" not in left
+        assert left["comparable"] is False and left["concentrated"] is False
+        assert left["statement"].startswith("not compared: the reference was recorded with")
+        assert not _left_named(SimpleNamespace(reference={"unexplained": left}))
+        (sus,) = left_suspicion(left, capped=False)
+        assert sus["kind"] == "unexplained" and "not named" in sus["why"]
+        assert sus["recording"] == other.recording and "--excitation 0.05" in sus["recording"]
+        # the same excitation, or the reference's not given: named as before (decision 047)
+        for same in (Conditions(0.05, 0.05), None):
+            again = left_with(channels_of(scope), factor, same)
+            assert again["named"] and "comparable" not in again
+    knee = left_with(channels_of("joint:back_left_knee"), 12.0, other)
+    assert knee["named"] and knee["concentrated"] and knee["comparable"] is False
+    assert knee["vocabulary"]["scope"] == "joint:back_left_knee"
+    assert "does not give" in knee["statement"]
+    # the options carry the reference's excitation to the driver
+    assert _conditions(PhysicalOptions(excitation=0.05)) is None
+    c = _conditions(PhysicalOptions(excitation=0.05, reference_excitation=0.0))
+    assert c == other and not c.comparable
+
+
 def test_a_finding_that_leaves_a_material_excess_is_read_as_partial_or_a_stand_in():
     """Decision 045: where the findings leave the data's error significantly and materially
     above the reference's, the share of the excess they removed reads them as part of the

@@ -43,7 +43,10 @@ class PhysicalOptions:
     ``observer``: called with each round's held-out decision (:class:`.records.HeldOutDecision`),
     a recorder for benchmarks that does not change the diagnosis. With a reference recording:
     ``reference_per_type`` of its TrainPool moves of each type are the control, and at most
-    ``reference_rounds`` findings are taken as the twin's errors (module doc). ``scheduler``:
+    ``reference_rounds`` findings are taken as the twin's errors (module doc);
+    ``reference_excitation``: the reference's command excitation [rad] (None: taken to be the
+    data's), which decides whether the excess left over it is compared (:func:`name_left`,
+    decision 052). ``scheduler``:
     re-simulate on the workers of this Dask cluster (:class:`.resim.DaskRunner`) instead of
     ``jobs`` local processes; the result is the same. ``initial_state``: each re-simulated
     segment starts from the state as measured, or ``"smoothed"`` (a local fit of the body's
@@ -66,6 +69,7 @@ class PhysicalOptions:
     observer: Callable[[HeldOutDecision], None] | None = None
     reference_per_type: int = 2
     reference_rounds: int = 3
+    reference_excitation: float | None = None
     scheduler: str | None = None
     initial_state: str = "measured"
 
@@ -164,7 +168,7 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         runner.close()
     sus = suspicions(findings, rejected, o.excitation, o.alpha, o.min_gain)
     if left is not None:
-        left = name_left(left)
+        left = name_left(left, _conditions(o))
         sus += left_suspicion(left, len(twin_errors) >= o.reference_rounds)
         if left["named"]:
             say("physics: unexplained: other at " + left["scope"] + ": " + left["statement"])
@@ -175,6 +179,15 @@ def identify(train: Sequence[MoveRecording], test: Sequence[MoveRecording] = (),
         res.reference = {"n_moves": len(sp.R), "moves": [sp.recs[i].name for i in sp.R],
                          "twin_errors": twin_errors, "unexplained": left}
     return res
+
+
+def _conditions(o: PhysicalOptions) -> Any:
+    """The data's and the reference's command excitation (:class:`..conditions.Conditions`),
+    or None where the reference's is not given."""
+    if o.reference_excitation is None:
+        return None
+    from ..conditions import Conditions
+    return Conditions(float(o.excitation), float(o.reference_excitation))
 
 
 def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Split,
@@ -349,6 +362,15 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     if not (pooled or untold or left.get("channel_significant")):
         return []
     where = ", ".join(c["channel"] for c in left["channels"][:4])
+    cond = left.get("conditions") or {}
+    if pooled and not left.get("named") and cond.get("comparable") is False:
+        return [{"family": "other", "scope": left.get("scope", "body"), "params": {},
+                 "kind": "unexplained",
+                 "why": (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
+                         f"reference's (p = {left['p_value']:.2g}), most on {where}, but "
+                         f"{cond['statement']}: the twin's own error under the data's "
+                         "excitation is not in the reference, so the excess is not named"),
+                 "recording": cond["recording"]}]
     if pooled:
         why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
                f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
@@ -457,14 +479,34 @@ def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
     return scope, {k: float(v) for k, v in ratios.items()}, float(conc)
 
 
-def name_left(left: dict[str, Any]) -> dict[str, Any]:
+def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     """``left`` (:func:`unexplained`) with its reading (decision 047): where the data's error
     significantly and materially exceeds the reference's with every finding in the twin, the
     excess is named in the vocabulary as ``other`` at the scope where it lives (``named``,
     ``vocabulary``, ``statement``): something changed that the library does not hold, or not
-    all of it. Otherwise ``named`` is false."""
+    all of it. Otherwise ``named`` is false.
+
+    ``conditions`` (:class:`..conditions.Conditions`, None: the same recording): where the
+    reference was recorded under another command excitation than the data, the twin's own
+    error under the data's excitation is not in the reference, so the excess is named only
+    where it concentrates at a joint scope narrower than all joints, which a difference of
+    excitation over every joint does not give (decision 052, the physical route's reading of
+    decisions 031 and 033); ``conditions`` is then kept in ``left``, with ``comparable``
+    false, and ``concentrated`` says which reading was taken."""
     named = bool(left["significant"] and left["material"])
     out = {**left, "named": named, "statement": _left_statement(left)}
+    if conditions is not None and not conditions.comparable:
+        from ..learned import concentrated_at_joints
+        concentrated = concentrated_at_joints(left)
+        out.update(conditions=conditions.to_dict(), comparable=False,
+                   concentrated=concentrated)
+        if named and concentrated:
+            out["statement"] = (f"{conditions.recorded}, but the excess concentrates at one "
+                                "place of the joints, which a difference of excitation over "
+                                f"every joint does not give: {out['statement']}")
+        elif named:
+            out["named"] = named = False
+            out["statement"] = f"not compared: {conditions.statement} ({out['statement']})"
     if named:
         out["vocabulary"] = {"family": "other", "scope": left["scope"],
                              "params": {"error_ratio": round(float(left["pooled_ratio"]), 3)},
