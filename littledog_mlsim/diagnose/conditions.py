@@ -28,7 +28,7 @@ from typing import Any, Mapping
 
 from ..models.feature_base import Augmentation
 
-__all__ = ["Conditions", "conditions_of", "cannot_contrast", "EXCITATION_KEY"]
+__all__ = ["Conditions", "conditions_of", "excitation_of", "cannot_contrast", "EXCITATION_KEY"]
 
 #: ``dataset.yaml``'s key for the command excitation a recording was made with [rad]
 EXCITATION_KEY = "command_excitation_rad"
@@ -100,6 +100,12 @@ def _excitation(info: Mapping[str, Any], whose: str) -> float:
         raise ValueError(f"{whose}: dataset.yaml's {EXCITATION_KEY} must be a finite number "
                          f">= 0, got {raw!r}")
     return v
+
+
+def excitation_of(info: Mapping[str, Any], whose: str) -> float:
+    """The command excitation [rad] a recording names in its ``dataset.yaml`` ``info`` (0 if
+    none); a value that is not a finite number >= 0 is refused in one line naming ``whose``."""
+    return _excitation(info, whose)
 
 
 def conditions_of(data_info: Mapping[str, Any], reference_info: Mapping[str, Any],

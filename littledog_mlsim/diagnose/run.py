@@ -346,14 +346,14 @@ def _diagnose_physical(run: _Run, route: PhysicalRoute, robot: Any, why: str
     from ..robot.twin import robot_config_from
     from .physical import identify
     from .report import write_physical_report
-    excitation = float(run.index.info.get("command_excitation_rad", 0.0) or 0.0)
+    from .conditions import excitation_of
+    conditions = _conditions(run)       # decision 052: the excess over it is read accordingly
+    excitation = excitation_of(run.index.info, os.fspath(run.data))
     config = robot_config_from(robot)
     reference = _reference_moves(run)
     popts = route.options(run.o.alpha, run.o.min_gain, config, excitation)
-    conditions = _conditions(run)
-    if conditions is not None:      # decision 052: the excess over it is read accordingly
-        popts = replace(popts, excitation=conditions.data_excitation_rad,
-                        reference_excitation=conditions.reference_excitation_rad)
+    if conditions is not None:
+        popts = replace(popts, reference_excitation=conditions.reference_excitation_rad)
     pid = identify(run.train, run.test, popts, reference=reference, progress=run.say)
     fs = run.start
     feature_sets = [run.start]

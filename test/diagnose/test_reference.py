@@ -399,9 +399,10 @@ def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_co
     from types import SimpleNamespace
     from littledog_mlsim.diagnose.conditions import Conditions
     from littledog_mlsim.diagnose.physical.channels import channels_of
-    from littledog_mlsim.diagnose.physical.driver import (PhysicalOptions, _conditions,
-                                                          left_suspicion, name_left,
-                                                          unexplained)
+    from littledog_mlsim.diagnose.conditions import excitation_of
+    from littledog_mlsim.diagnose.physical.driver import (PhysicalOptions, _compared,
+                                                          _conditions, left_suspicion,
+                                                          name_left, unexplained)
     from littledog_mlsim.diagnose.report import _left_named
     V, R = list(range(12)), list(range(12, 24))
     rng = np.random.default_rng(4)
@@ -431,10 +432,29 @@ def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_co
     assert knee["named"] and knee["concentrated"] and knee["comparable"] is False
     assert knee["vocabulary"]["scope"] == "joint:back_left_knee"
     assert "does not give" in knee["statement"]
-    # the options carry the reference's excitation to the driver
+    # material but not significant, or in a few channels only: suspected as before, with the
+    # reference recorded the data's way asked for
+    body = left_with(channels_of("body"), 4.0, other)
+    untold = {**body, "significant": False, "channel_significant": False}
+    (sus,) = left_suspicion(untold, capped=True)
+    assert "cannot tell it from chance" in sus["why"] and "--excitation 0.05" in sus["recording"]
+    assert "the search stopped" in sus["why"] and sus["recording"].startswith("record more")
+    few = {**body, "significant": False, "material": False, "channel_significant": True}
+    (sus,) = left_suspicion(few, capped=False)
+    assert "per channel" in sus["why"] and sus["recording"] == other.recording
+    # the options carry the reference's excitation to the driver; only a compared excess
+    # reads the findings against it (remainder)
     assert _conditions(PhysicalOptions(excitation=0.05)) is None
     c = _conditions(PhysicalOptions(excitation=0.05, reference_excitation=0.0))
     assert c == other and not c.comparable
+    assert not _compared(body, c) and _compared(knee, c) and _compared(body, None)
+    assert _compared(body, Conditions(0.05, 0.05))
+    # a recording's excitation is read with a one-line error naming it
+    assert excitation_of({"command_excitation_rad": 0.05}, "d") == 0.05
+    assert excitation_of({}, "d") == 0.0
+    for bad in ("abc", -1.0, float("nan")):
+        with pytest.raises(ValueError, match="my_data: dataset.yaml's command_excitation_rad"):
+            excitation_of({"command_excitation_rad": bad}, "my_data")
 
 
 def test_a_finding_that_leaves_a_material_excess_is_read_as_partial_or_a_stand_in():

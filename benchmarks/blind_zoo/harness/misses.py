@@ -51,6 +51,10 @@ def evidences(report: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
     return out
 
 
+def _num(x: Any, f: str) -> str:
+    return "-" if x is None else format(x, f)
+
+
 def _fmt_params(params: dict[str, Any] | None) -> str:
     out = []
     for k, v in (params or {}).items():
@@ -80,9 +84,9 @@ def fitted_place(ev: dict[str, Any], family: str, scope: str) -> str:
     for a in hits:
         mark = "**" if a.get("scope") == scope else ""
         rows.append(f"{mark}{a.get('searched_family')} @ {a.get('scope')}{mark} "
-                    f"{_fmt_params(a.get('params'))}, J {a.get('J_relative', float('nan')):.3f}, "
-                    f"cut {a.get('held_out_move_cut', float('nan')):.3f} "
-                    f"(p {a.get('held_out_p', float('nan')):.2g})")
+                    f"{_fmt_params(a.get('params'))}, J {_num(a.get('J_relative'), '.3f')}, "
+                    f"cut {_num(a.get('held_out_move_cut'), '.3f')} "
+                    f"(p {_num(a.get('held_out_p'), '.2g')})")
     return "; ".join(rows)
 
 
@@ -90,10 +94,11 @@ def chosen(ev: dict[str, Any]) -> str:
     alts = ev.get("alternatives") or []
     if not alts:
         return "-"
-    best = max(alts, key=lambda a: a.get("held_out_move_cut", float("-inf")))
+    best = max(alts, key=lambda a: (float("-inf") if a.get("held_out_move_cut") is None
+                                    else a["held_out_move_cut"]))
     return (f"{best.get('searched_family')} @ {best.get('scope')}, J "
-            f"{best.get('J_relative', float('nan')):.3f}, cut "
-            f"{best.get('held_out_move_cut', float('nan')):.3f}")
+            f"{_num(best.get('J_relative'), '.3f')}, cut "
+            f"{_num(best.get('held_out_move_cut'), '.3f')}")
 
 
 def located_line(log: Path) -> str:
@@ -120,7 +125,9 @@ def rows(run: Path, truth_file: Path, every: bool) -> list[str]:
         s = row.get("score") or {}
         if s.get("identified") and not every:
             continue
-        t = truth[row["id"]]
+        t = truth.get(row["id"])
+        if t is None:      # a follow-up row ("... (recommended recording)"): not the run's own
+            continue
         named = "; ".join(f"{n.get('family')} @ {n.get('scope')} {_fmt_params(n.get('params'))}"
                           for n in s.get("named", [])) or "nothing"
         out.append(f"### {row['id']}: {t['family']} @ {t['scope']} ({_truth_value(t)})")

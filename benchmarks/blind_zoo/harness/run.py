@@ -283,11 +283,12 @@ def _record_args(text: str) -> dict[str, float]:
 
 
 def recommended_recording(report: dict[str, Any]) -> dict[str, Any] | None:
-    """The recording a report of the learned route asks for, or None: ``{"what": "reference"
-    | "both", "args": {record argument: value}, "why": the report's words}``.
+    """The recording a report asks for, or None: ``{"what": "reference" | "both", "args":
+    {record argument: value}, "why": the report's words}``.
 
     In this order: a reference recorded under other conditions than the data (the reference
-    again, under the data's: ``reference_conditions.recording``); else the first of the
+    again, under the data's: ``reference_conditions.recording``, which a physical report also
+    carries from decision 052 on); else, on the learned route, the first of the
     rollout route's unexplained change, its suspected findings and the one-step loop's
     suspected findings whose recording names a ``record`` argument (the data and the
     reference again, both with it)."""

@@ -190,6 +190,15 @@ def _conditions(o: PhysicalOptions) -> Any:
     return Conditions(float(o.excitation), float(o.reference_excitation))
 
 
+def _compared(left: dict[str, Any], conditions: Any) -> bool:
+    """Whether ``left`` (:func:`unexplained`) is compared against the reference: recorded
+    alike, or concentrated at a joint scope where not (decision 052, :func:`name_left`)."""
+    if conditions is None or conditions.comparable:
+        return True
+    from ..learned import concentrated_at_joints
+    return concentrated_at_joints(left)
+
+
 def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Split,
                             o: PhysicalOptions, say: Callable[[str], None]
                             ) -> tuple[list[Finding], dict[str, Any]]:
@@ -199,7 +208,7 @@ def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Sp
     if findings and findings[-1].hyp not in ctx.base:
         ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
     left = unexplained(ctx, sp.V, sp.R, o.alpha)
-    if findings and left["significant"] and left["material"]:
+    if findings and left["significant"] and left["material"] and _compared(left, _conditions(o)):
         found = [f.hyp for f in findings]
         without = _rebase(ctx, tuple(h for h in ctx.base if h not in found))
         rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
@@ -363,15 +372,13 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
         return []
     where = ", ".join(c["channel"] for c in left["channels"][:4])
     cond = left.get("conditions") or {}
-    if pooled and not left.get("named") and cond.get("comparable") is False:
-        return [{"family": "other", "scope": left.get("scope", "body"), "params": {},
-                 "kind": "unexplained",
-                 "why": (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
-                         f"reference's (p = {left['p_value']:.2g}), most on {where}, but "
-                         f"{cond['statement']}: the twin's own error under the data's "
-                         "excitation is not in the reference, so the excess is not named"),
-                 "recording": cond["recording"]}]
-    if pooled:
+    apart = cond.get("comparable") is False and not left.get("concentrated")
+    if pooled and apart:
+        why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
+               f"reference's (p = {left['p_value']:.2g}), most on {where}, but "
+               f"{cond['statement']}: the twin's own error under the data's excitation is not "
+               "in the reference, so the excess is not named")
+    elif pooled:
         why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
                f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
                f"(p = {left['p_value']:.2g}), most on {where}")
@@ -382,15 +389,20 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     else:
         why = (f"the data's re-simulation error exceeds the reference's on {where} (per channel "
                f"p = {left['channel_p_value']:.2g}; {left['pooled_ratio']:.2f}x pooled)")
-    why += ("; the search stopped at the most twin errors the reference may cancel"
-            if capped else "; no family of the library explains it")
+    if apart and not pooled:
+        why += f"; {cond['statement']}"
+    if capped:
+        why += "; the search stopped at the most twin errors the reference may cancel"
+    elif not apart:
+        why += "; no family of the library explains it"
     scope = left.get("scope", "body")
     more = ("record more moves of the same types (record --moves-per-type 20, a new seed), and "
             if untold else "")
+    recording = (cond["recording"] if apart else
+                 RECORDINGS["body" if scope == "body" else "joints"]
+                 + ", beside a new clean reference")
     return [{"family": "other", "scope": scope, "params": {}, "kind": "unexplained",
-             "why": why,
-             "recording": more + RECORDINGS["body" if scope == "body" else "joints"]
-             + ", beside a new clean reference"}]
+             "why": why, "recording": more + recording}]
 
 
 #: the data's re-simulation error against the reference's above which the difference is
@@ -495,6 +507,7 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     false, and ``concentrated`` says which reading was taken."""
     named = bool(left["significant"] and left["material"])
     out = {**left, "named": named, "statement": _left_statement(left)}
+    out.pop("vocabulary", None)
     if conditions is not None and not conditions.comparable:
         from ..learned import concentrated_at_joints
         concentrated = concentrated_at_joints(left)

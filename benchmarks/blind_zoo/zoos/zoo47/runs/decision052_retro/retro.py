@@ -7,8 +7,11 @@ and its findings do not), so this reading is what the diagnosis with decision 05
     .venv/bin/python benchmarks/blind_zoo/zoos/zoo47/runs/decision052_retro/retro.py RUN... \\
         [--reference-excitation 0] [--json OUT]
 
-Every reference of the blind zoos is recorded without excitation (``harness/run.py``), hence
-the default. A run directory holds ``reports/<id>/report.json``.
+The reference's excitation is the report's ``reference_conditions`` where it has one (decision
+052 on); else ``--reference-excitation``: every reference the harness records for a run's
+main rows is recorded without excitation (``harness/run.py``; a follow-up row's reference is
+recorded with the data's and carries the suffix "_ref"), hence the default 0. A run directory
+holds ``reports/<id>/report.json``.
 """
 from __future__ import annotations
 
@@ -22,6 +25,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[6]))
 from littledog_mlsim.diagnose.conditions import Conditions  # noqa: E402
 from littledog_mlsim.diagnose.physical.driver import left_suspicion, name_left  # noqa: E402
 
+#: the most twin errors the reference may cancel (``PhysicalOptions.reference_rounds``'s
+#: default, which the blind runs use)
+REFERENCE_ROUNDS = 3
 READING = ("named", "statement", "vocabulary", "conditions", "comparable", "concentrated")
 
 
@@ -30,12 +36,16 @@ def reread(report: dict, reference_excitation: float) -> dict | None:
     if not left or "scope" not in left:      # none, or a report from before decision 047
         return None
     data_exc = float((report.get("dataset_info") or {}).get("command_excitation_rad") or 0.0)
-    cond = Conditions(data_exc, reference_excitation)
+    given = report.get("reference_conditions") or {}
+    cond = Conditions(data_exc, float(given.get("reference_excitation_rad",
+                                                reference_excitation)))
     if cond.comparable:
         return None
     raw = {k: v for k, v in left.items() if k not in READING}
     again = name_left(raw, cond)
-    sus = left_suspicion(again, capped=False)
+    ref = (report.get("physics") or {}).get("reference") or {}
+    capped = len(ref.get("twin_errors") or []) >= REFERENCE_ROUNDS
+    sus = left_suspicion(again, capped=capped)
     return {"data_excitation_rad": data_exc, "scope": left.get("scope"),
             "pooled_ratio": left.get("pooled_ratio"), "p_value": left.get("p_value"),
             "concentration": left.get("concentration"),
@@ -60,9 +70,12 @@ def main(argv: list[str] | None = None) -> int:
     print("| run | dataset | excitation | excess (scope, ratio, p, concentration) "
           "| named before -> after | significant before -> after |")
     print("|---|---|---|---|---|---|")
+    def num(x, f):
+        return "-" if x is None else format(x, f)
     for r in rows:
         print(f"| {r['run']} | {r['id']} | {r['data_excitation_rad']:g} | {r['scope']}, "
-              f"{r['pooled_ratio']:.2f}x, p {r['p_value']:.2g}, {r['concentration']:.2f} | "
+              f"{num(r['pooled_ratio'], '.2f')}x, p {num(r['p_value'], '.2g')}, "
+              f"{num(r['concentration'], '.2f')} | "
               f"{r['named_before']} -> {r['named_after']} | "
               f"{r['significant_before']} -> {r['significant_after']} |")
     changed = [r for r in rows if r["named_before"] != r["named_after"]]
