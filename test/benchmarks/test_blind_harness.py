@@ -199,3 +199,48 @@ def test_the_gap_robot_is_weighed_to_the_scales_resolution(tmp_path):
     save_twin(Twin(gap, {}), tmp_path / "gap.json")
     assert harness.weighing(tmp_path / "gap.json", 0.01) == pytest.approx(3.04)   # 3.0381
     assert harness.weighing(tmp_path / "gap.json", 0.001) == pytest.approx(3.038)
+
+
+def test_misses_reads_where_each_miss_stood_in_its_diagnosis(tmp_path):
+    """``harness/misses.py``: for an effect not identified, the truth's family in the screen
+    (in the vocabulary: a searched form counts as its family), its fitted hypotheses with
+    their J and held-out cut (null values shown as "-"), the best held-out cut and the located
+    pass's log line; identified effects and follow-up rows are left out."""
+    import json
+    import yaml
+    from benchmarks.blind_zoo.harness import misses
+    truth = {"effects": [
+        {"id": "z01", "family": "time_drift", "scope": "all", "params": {"rate_per_s": -0.03}},
+        {"id": "z02", "family": "servo_gain", "scope": "all", "params": {"gain_ratio": 0.7}}]}
+    (tmp_path / "truth.yaml").write_text(yaml.safe_dump(truth))
+    run = tmp_path / "run"
+    rows = [{"id": "z01", "score": {"identified": False, "found": False, "named": [
+                {"family": "mass_com", "scope": "body", "params": {"added_mass_kg": 0.1}}]}},
+            {"id": "z02", "score": {"identified": True, "found": True, "named": []}},
+            {"id": "z01 (recommended recording)", "score": {"identified": False}}]
+    run.mkdir()
+    (run / "results.json").write_text(json.dumps({"rows": rows}))
+    ev = {"screening_top": [{"family": "supply_sag", "scope": "type:hip_rolls", "score": 4.5},
+                            {"family": "mass_com", "scope": "body", "score": 3.0}],
+          "alternatives": [
+              {"family": "time_drift", "searched_family": "supply_sag", "scope": "all",
+               "params": {"rate_per_s": -0.011}, "J_relative": 0.962,
+               "held_out_move_cut": None, "held_out_p": 0.18},
+              {"family": "mass_com", "searched_family": "mass_com", "scope": "body",
+               "params": {}, "J_relative": 0.854, "held_out_move_cut": 3.68,
+               "held_out_p": 1e-4}]}
+    report = {"effects": [{"round": 1, "physical": {"family": "mass_com", "scope": "body"},
+                           "evidence": ev}], "physics": {"rejected": []}}
+    (run / "reports" / "z01").mkdir(parents=True)
+    (run / "reports" / "z01" / "report.json").write_text(json.dumps(report))
+    (run / "logs").mkdir()
+    (run / "logs" / "diagnose_z01.log").write_text(
+        "diagnose: physics round 1: the fit moves' excess over the reference lives at all: "
+        "every joint family fitted there\n")
+    text = "\n".join(misses.rows(run, tmp_path / "truth.yaml", every=False))
+    assert "### z01: time_drift @ all (rate_per_s=-0.03)" in text and "z02" not in text
+    assert "#1 supply_sag @ type:hip_rolls (4.50); not at all" in text
+    assert "**supply_sag @ all** rate_per_s=-0.011, J 0.962, cut - (p 0.18)" in text
+    assert "best held-out cut: mass_com @ body, J 0.854, cut 3.680" in text
+    assert "located pass: round 1: the fit moves' excess over the reference lives at all" in text
+    assert "recommended" not in text
