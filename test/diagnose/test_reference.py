@@ -117,6 +117,31 @@ def test_a_shared_delay_is_absorbed_and_the_soft_knee_is_named(delayed):
                                     families=JOINT_FAMILIES)
 
 
+def test_the_physical_route_gets_the_references_excitation(delayed, tmp_path, monkeypatch):
+    """Decision 052's wiring: ``diagnose --reference`` hands the physical route the data's and
+    the reference's command excitation, each read from its ``dataset.yaml``."""
+    import shutil
+    import yaml
+    from littledog_mlsim.diagnose import physical
+
+    class Seen(Exception):
+        pass
+
+    def seen(train, test, options, **kw):
+        raise Seen(options)
+    data = tmp_path / "excited"
+    shutil.copytree(delayed["changed"], data)
+    index = yaml.safe_load((data / "dataset.yaml").read_text())
+    index["info"]["command_excitation_rad"] = 0.05
+    (data / "dataset.yaml").write_text(yaml.safe_dump(index, sort_keys=False))
+    monkeypatch.setattr(physical, "identify", seen)
+    with pytest.raises(Seen) as got:
+        diagnose(data, tmp_path / "out", method="lr", figures=False, progress=False,
+                 twin="measured", reference=delayed["reference"], physics_options=PHYS)
+    (options,) = got.value.args
+    assert options.excitation == 0.05 and options.reference_excitation == 0.0
+
+
 @pytest.mark.slow   # make test runs the case above: a shared delay, two families
 def test_what_the_reference_shares_is_absorbed_and_the_change_is_named(recorded):
     _shared_absorbed_and_knee_named(recorded, "odom_force", "body", "force_N", 3.0)
