@@ -89,7 +89,9 @@ class Conditions:
         return out
 
 
-def _excitation(info: Mapping[str, Any], whose: str) -> float:
+def excitation_of(info: Mapping[str, Any], whose: str) -> float:
+    """The command excitation [rad] a recording names in its ``dataset.yaml`` ``info`` (0 if
+    none); a value that is not a finite number >= 0 is refused in one line naming ``whose``."""
     raw = info.get(EXCITATION_KEY, 0.0)
     try:
         v = float(0.0 if raw is None else raw)
@@ -102,19 +104,13 @@ def _excitation(info: Mapping[str, Any], whose: str) -> float:
     return v
 
 
-def excitation_of(info: Mapping[str, Any], whose: str) -> float:
-    """The command excitation [rad] a recording names in its ``dataset.yaml`` ``info`` (0 if
-    none); a value that is not a finite number >= 0 is refused in one line naming ``whose``."""
-    return _excitation(info, whose)
-
-
 def conditions_of(data_info: Mapping[str, Any], reference_info: Mapping[str, Any],
                   data_name: str = "data", reference_name: str = "reference") -> Conditions:
     """The two recordings' conditions from their ``dataset.yaml`` infos (a recording that
     names no excitation was made without); a value that is not a finite number >= 0 is
     refused in one line naming the dataset."""
-    return Conditions(_excitation(data_info, data_name),
-                      _excitation(reference_info, reference_name))
+    return Conditions(excitation_of(data_info, data_name),
+                      excitation_of(reference_info, reference_name))
 
 
 def cannot_contrast(aug: Augmentation, conditions: "Conditions | None") -> bool:
