@@ -693,6 +693,37 @@ class ServoDeadband(_ServoTorque):
         return np.clip(self._kp * (e - np.clip(e, -h, h)) - self._kd * dq,
                        -self._lim0, self._lim0)
 
+class EncoderScale(_ServoTorque):
+    """Measured angle and rate = ``scale`` x the true ones on some joints (an encoder's counts
+    per radian, or the gear ratio it is read through, set wrong), about the encoder's zero.
+
+    The servo closes its loop on the same encoder, as a joint servo does: its torque is
+    clip(k (q_des - scale q) - b scale dq) within the normal limit, so it holds the joint at
+    q_des / scale (and acts as a servo ``scale`` times as stiff and damped about it) while the
+    reported angle still matches the set-point: the error shows in the body's pose and motion,
+    not in the joint angles.
+    """
+
+    def __init__(self, scale: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(f"EncoderScale: scale must be > 0, got {scale!r}")
+        super().__init__(joints)
+        self.scale = float(scale)
+
+    def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        # the servo's error from the scaled reading: q_des - s q = (1 - s) q_des + s e
+        s = self.scale
+        err = (1.0 - s) * self._q_des[self.joints] + s * e
+        return np.clip(self._kp * err - self._kd * s * dq, -self._lim0, self._lim0)
+
+    def measure(self, obs: dict, t: float) -> dict:
+        for key in ("q", "dq"):
+            v = obs[key].copy()
+            v[self.joints] *= self.scale
+            obs[key] = v
+        return obs
+
+
 # ----------------------------------------------------------------------------- loading from YAML
 def _import_class(spec: str, base_dir: Path) -> type:
     module_part, sep, class_name = spec.rpartition(":")

@@ -22,7 +22,8 @@ from littledog_mlsim.layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_
                                     JOINT_UPPER, MOVE_TYPES, STEPS_PER_MOVE)
 from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE, URDF_PATH,
                                           RobotConfig, per_joint, robot_config)
-from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, JointFriction,
+from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, EncoderScale,
+                                           JointFriction,
                                            LegMass, Payload, ServoDeadband, SwingDrag,
                                            load_effects, resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
@@ -421,6 +422,30 @@ def test_leg_swing_and_servo_plugins_act_where_named():
     enc = simulate_move(cmd, robot=quiet(), effects=[off])
     assert abs(np.mean(enc.q[50:, 1] - base.q[50:, 1])) < 0.02
     assert EncoderOffset(0.05, "knees").command(np.zeros(12), 0.0).tolist() == [0.0] * 12
+
+
+
+def test_an_encoder_read_through_a_wrong_ratio_moves_the_joint_not_its_reading():
+    """EncoderScale: the readings are the true angles and rates times the scale, and the servo
+    closes its loop on them, so the reported angles still follow the set-points while the
+    joints stand at set-point / scale: the body stands and walks differently."""
+    enc = EncoderScale(0.9, "knees")
+    obs = enc.measure({"q": np.ones(12), "dq": np.full(12, 2.0)}, 0.0)
+    knees = [2, 5, 8, 11]
+    assert obs["q"][knees].tolist() == [0.9] * 4 and obs["dq"][knees].tolist() == [1.8] * 4
+    assert obs["q"][0] == 1.0 and obs["dq"][0] == 2.0
+    with pytest.raises(ValueError, match="scale"):
+        EncoderScale(0.0, "knees")
+    cmd = commands("F", 3)[:150]
+    base = simulate_move(cmd, robot=quiet())
+    same = simulate_move(cmd, robot=quiet(), effects=[EncoderScale(1.0, "all")])
+    assert np.allclose(same.position, base.position, atol=1e-9)
+    scaled = simulate_move(cmd, robot=quiet(), effects=[EncoderScale(0.95, "all")])
+    # the readings track the set-points about as closely as before ...
+    err = lambda r: np.sqrt(np.mean((r.q[51:] - r.cmd[50:]) ** 2))
+    assert err(scaled) < 1.5 * err(base) + 0.005
+    # ... while every knee is bent about 5 % further than its reading: the body stands lower
+    assert np.mean(scaled.position[50:, 2]) < np.mean(base.position[50:, 2]) - 0.002
 
 
 PLUGIN = textwrap.dedent('''

@@ -12,7 +12,9 @@ from .base import (EXCITED_MOVES, Family, FittedEffect, Separation, _cap, _magni
 from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
-           "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily", "TimeDrift",
+           "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily",
+           "EncoderScaleFamily",
+           "TimeDrift",
            "SupplySagDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
@@ -303,6 +305,38 @@ class EncoderOffsetFamily(Family):
         was not in)."""
         out = np.array(q, dtype=float)
         out[scope_joints(scope)] -= float(params["offset_rad"])
+        return out
+
+
+@register_family
+class EncoderScaleFamily(Family):
+    """The encoder reads every angle and rate a ratio off the true one (its counts per radian,
+    or the gear ratio it is read through, set wrong); the servo closes its loop on it."""
+
+    name: ClassVar[str] = "encoder_scale"
+    kind: ClassVar[str] = "joints"
+    primary: ClassVar[str] = "scale"
+    unit: ClassVar[str] = "1"
+    probe: ClassVar[float] = -0.03
+    bounds: ClassVar[tuple[float, float]] = (0.7, 1.3)
+    neutral: ClassVar[float] = 1.0
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import EncoderScale
+        return [EncoderScale(min(max(float(params[self.primary]), self.bounds[0]),
+                                 self.bounds[1]), _joints(scope))]
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        s = float(params[self.primary])
+        return (f"{_cap(where)}: the encoder reads about {s:.3f} times the true angle "
+                f"({100 * abs(1 - s):.1f} % {'short' if s < 1 else 'over'}; the servo holds "
+                f"the joint at the set-point / {s:.3f} while the report shows it on it)")
+
+    def start_q(self, q: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
+        """The measured angle is the true one times the scale: the joints start at the
+        measured angle divided by it."""
+        out = np.array(q, dtype=float)
+        out[scope_joints(scope)] /= float(params["scale"])
         return out
 
 
