@@ -137,12 +137,30 @@ def test_start_state_changes_only_its_scope(name):
     q = np.linspace(-0.5, 0.5, 12)
     for scope in spec.scopes():
         params = _fit(spec, scope, _probe_value(spec)).params()
-        out = spec.start_q(q, scope, params)
-        assert out.shape == q.shape and np.array_equal(q, np.linspace(-0.5, 0.5, 12))
-        if out is q:
-            continue
-        changed = np.flatnonzero(out != q)
-        assert spec.kind == "joints" and set(changed) <= set(scope_joints(scope)), (name, scope)
+        for start in (spec.start_q, spec.start_dq):
+            out = start(q, scope, params)
+            assert out.shape == q.shape and np.array_equal(q, np.linspace(-0.5, 0.5, 12))
+            if out is q:
+                continue
+            changed = np.flatnonzero(out != q)
+            assert spec.kind == "joints" and set(changed) <= set(scope_joints(scope)), (name, scope)
+
+
+def test_a_start_state_undoes_the_readings_in_the_reverse_order():
+    """true_start inverts the hypotheses' readings: an encoder offset then a scale on the same
+    joints read m = s (q + o), so the true angle is m / s - o, and the true rate (and the rate
+    filter's state) m_dq / s."""
+    from littledog_mlsim.diagnose.physical import true_start
+    from littledog_mlsim.robot.sim import InitialState
+    q, dq = np.linspace(-0.5, 0.5, 12), np.linspace(1.0, 2.0, 12)
+    s, o = 0.9, 0.05
+    measured = InitialState(np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), s * (q + o), s * dq,
+                            np.zeros(3), np.zeros(3), reported_dq=s * dq)
+    hyps = [("encoder_offset", "all", {"offset_rad": o}), ("encoder_scale", "all", {"scale": s})]
+    start = true_start(measured, hyps)
+    assert np.allclose(start.q, q) and np.allclose(start.dq, dq)
+    assert np.allclose(start.reported_dq, dq)
+    assert true_start(measured, []) is measured
 
 
 @pytest.mark.parametrize("name", NAMES)

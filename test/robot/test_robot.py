@@ -23,8 +23,7 @@ from littledog_mlsim.layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_
 from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE, URDF_PATH,
                                           RobotConfig, per_joint, robot_config)
 from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, EncoderScale,
-                                           JointFriction,
-                                           LegMass, Payload, ServoDeadband, SwingDrag,
+                                           JointFriction, LegMass, Payload, ServoDeadband, SwingDrag,
                                            load_effects, resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
 from littledog_mlsim.robot.servo import PDTorqueServo

@@ -6,7 +6,8 @@ it is (name, kind, primary parameter and unit, screening probe, bounds, neutral 
 says how it turns into effect plug-ins (:meth:`Family.build_effects`), reads in physical words
 (:meth:`Family.physical_params`, :meth:`Family.statement`), maps to the learned model's online
 feature (:meth:`Family.augmentation`), adjusts the start state of a re-simulation
-(:meth:`Family.start_q`) and names what separates it from a rival (:meth:`Family.separation`).
+(:meth:`Family.start_q`, :meth:`Family.start_dq`) and names what separates it from a rival
+(:meth:`Family.separation`).
 :func:`register_family` puts one instance under its name in :data:`FAMILIES`; the search only
 reads these attributes and methods, never a family's name.
 """
@@ -196,6 +197,12 @@ class Family:
         """The joint angles to start a re-simulation from, given the measured ones ``q``
         (returned unchanged, the same object, if the family does not change them)."""
         return q
+
+    def start_dq(self, dq: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
+        """The joint rates to start a re-simulation from (and the encoders' rate filter's
+        state), given the measured ones ``dq`` (returned unchanged, the same object, if the
+        family does not change them)."""
+        return dq
 
     def separation(self, other: "Family") -> Separation | None:
         """Why this family and ``other`` act alike, and what separates them (None: no view)."""

@@ -13,9 +13,7 @@ from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
            "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily",
-           "EncoderScaleFamily",
-           "TimeDrift",
-           "SupplySagDrift",
+           "EncoderScaleFamily", "TimeDrift", "SupplySagDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
 _MEASURED = robot_config("measured")
@@ -323,19 +321,27 @@ class EncoderScaleFamily(Family):
 
     def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
         from ...robot.effects import EncoderScale
-        return [EncoderScale(min(max(float(params[self.primary]), self.bounds[0]),
-                                 self.bounds[1]), _joints(scope))]
+        return [EncoderScale(float(params[self.primary]), _joints(scope))]
 
     def statement(self, where: str, params: Mapping[str, Any]) -> str:
         s = float(params[self.primary])
+        off = (f"{100 * abs(1 - s):.1f} % {'short' if s < 1 else 'over'}" if round(s, 3) != 1
+                 else "within 0.1 %")
         return (f"{_cap(where)}: the encoder reads about {s:.3f} times the true angle "
-                f"({100 * abs(1 - s):.1f} % {'short' if s < 1 else 'over'}; the servo holds "
-                f"the joint at the set-point / {s:.3f} while the report shows it on it)")
+                f"({off}; the servo holds the joint at the set-point / {s:.3f} while the "
+                f"report shows it on it)")
 
     def start_q(self, q: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
         """The measured angle is the true one times the scale: the joints start at the
         measured angle divided by it."""
         out = np.array(q, dtype=float)
+        out[scope_joints(scope)] /= float(params["scale"])
+        return out
+
+    def start_dq(self, dq: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
+        """The measured rate is the true one times the scale: the joints (and the encoders'
+        rate filter) start at the measured rate divided by it."""
+        out = np.array(dq, dtype=float)
         out[scope_joints(scope)] /= float(params["scale"])
         return out
 

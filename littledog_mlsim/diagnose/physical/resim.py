@@ -104,13 +104,21 @@ def simulate(task: Task) -> dict[str, np.ndarray]:
 
 def true_start(initial: Any, hyps: Sequence[tuple[str, str, Mapping[str, Any]]]) -> Any:
     """The state to start a re-simulation from, given the measured one and the hypotheses
-    (each family's :meth:`~.families.Family.start_q`: an encoder offset starts the joints at
-    the measured angle minus it)."""
-    q0 = initial.q
-    q = q0
-    for fam, sc, par in hyps:
-        q = FAMILIES[fam].start_q(q, sc, par)
-    return initial if q is q0 else replace(initial, q=q)
+    (each family's :meth:`~.families.Family.start_q` and :meth:`~.families.Family.start_dq`:
+    an encoder offset starts the joints at the measured angle minus it, an encoder scale at the
+    measured angle and rate divided by it). The readings pass the hypotheses' plug-ins in their
+    order, so their inverses are taken in the reverse order."""
+    q0, dq0, rep0 = initial.q, initial.dq, initial.reported_dq
+    q, dq, rep = q0, dq0, rep0
+    for fam, sc, par in reversed(list(hyps)):
+        f = FAMILIES[fam]
+        q = f.start_q(q, sc, par)
+        dq = f.start_dq(dq, sc, par)
+        if rep is not None:
+            rep = f.start_dq(rep, sc, par)
+    if q is q0 and dq is dq0 and rep is rep0:
+        return initial
+    return replace(initial, q=q, dq=dq, reported_dq=rep)
 
 
 class Runner:
