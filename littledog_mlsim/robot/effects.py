@@ -717,11 +717,34 @@ class EncoderScale(_ServoTorque):
         return np.clip(self._kp * err - self._kd * s * dq, -self._lim0, self._lim0)
 
     def measure(self, obs: dict, t: float) -> dict:
-        for key in ("q", "dq"):
-            v = obs[key].copy()
-            v[self.joints] *= self.scale
-            obs[key] = v
-        return obs
+        return _scaled_readings(obs, self.joints, self.scale)
+
+
+class ReadingScale:
+    """Reported angle and rate = ``scale`` x the true ones on some joints, the servo reading
+    the true ones (a joint-state publisher that converts the encoder's counts with a wrong
+    counts per radian): the joints move as commanded, and their reports are off by
+    (scale - 1) x the angle."""
+
+    changes_world = False     # readings only (LittleDogSim.reset)
+
+    def __init__(self, scale: float, joints: str | list[str] | None = None) -> None:
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(f"ReadingScale: scale must be > 0, got {scale!r}")
+        self.scale = float(scale)
+        self.joints = resolve_joints(joints)
+
+    def measure(self, obs: dict, t: float) -> dict:
+        return _scaled_readings(obs, self.joints, self.scale)
+
+
+def _scaled_readings(obs: dict, joints: np.ndarray, scale: float) -> dict:
+    """``obs`` with the angles and rates of ``joints`` times ``scale``."""
+    for key in ("q", "dq"):
+        v = obs[key].copy()
+        v[joints] *= scale
+        obs[key] = v
+    return obs
 
 
 # ----------------------------------------------------------------------------- loading from YAML

@@ -23,8 +23,9 @@ from littledog_mlsim.layout import (CONTROL_DT, CONTROL_DT_NS, HOME_POSE, JOINT_
 from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE, URDF_PATH,
                                           RobotConfig, per_joint, robot_config)
 from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, EncoderScale,
-                                           JointFriction, LegMass, Payload, ServoDeadband, SwingDrag,
-                                           load_effects, resolve_joints)
+                                           JointFriction, LegMass, Payload, ReadingScale,
+                                           ServoDeadband, SwingDrag, load_effects,
+                                           resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
 from littledog_mlsim.robot.servo import PDTorqueServo
 from littledog_mlsim.robot.sim import InitialState, LittleDogSim, get_sim, simulate_move
@@ -445,6 +446,11 @@ def test_an_encoder_read_through_a_wrong_ratio_moves_the_joint_not_its_reading()
     assert err(scaled) < 1.5 * err(base) + 0.005
     # ... while every knee is bent about 5 % further than its reading: the body stands lower
     assert np.mean(scaled.position[50:, 2]) < np.mean(base.position[50:, 2]) - 0.002
+    # the same ratio in the report only: the robot moves as without it, its reports are scaled
+    report = simulate_move(cmd, robot=quiet(), effects=[ReadingScale(0.95, "knees")])
+    assert np.array_equal(report.position, base.position)
+    assert np.allclose(report.q[:, knees], 0.95 * base.q[:, knees])
+    assert np.array_equal(report.q[:, 0], base.q[:, 0])
 
 
 PLUGIN = textwrap.dedent('''

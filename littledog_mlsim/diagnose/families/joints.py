@@ -13,7 +13,7 @@ from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
            "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily",
-           "EncoderScaleFamily", "TimeDrift", "SupplySagDrift",
+           "EncoderScaleFamily", "ReportScale", "TimeDrift", "SupplySagDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
 _MEASURED = robot_config("measured")
@@ -331,6 +331,11 @@ class EncoderScaleFamily(Family):
                 f"({off}; the servo holds the joint at the set-point / {s:.3f} while the "
                 f"report shows it on it)")
 
+    form: ClassVar[str] = "the servo closes its loop on the reading"
+
+    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
+        return {self.primary: float(_magnitude(c)), "form": self.form}
+
     def start_q(self, q: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
         """The measured angle is the true one times the scale: the joints start at the
         measured angle divided by it."""
@@ -344,6 +349,30 @@ class EncoderScaleFamily(Family):
         out = np.array(dq, dtype=float)
         out[scope_joints(scope)] /= float(params["scale"])
         return out
+
+
+@register_family
+class ReportScale(EncoderScaleFamily):
+    """The encoder's counts are converted to radians with a wrong ratio for the report only
+    (a joint-state publisher's counts per radian): the servo reads the true angle, and the
+    reported angle and rate are the ratio times the true ones."""
+
+    name: ClassVar[str] = "report_scale"
+    reported_as: ClassVar[str] = "encoder_scale"
+    form: ClassVar[str] = "the report only (the servo reads the true angle)"
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import ReadingScale
+        return [ReadingScale(float(params[self.primary]), _joints(scope))]
+
+    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
+        return {self.primary: float(_magnitude(c)), "form": self.form}
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        s = float(params[self.primary])
+        return (f"{_cap(where)}: the joint states report about {s:.3f} times the true angle "
+                f"and rate (the servo reads the true angle; a wrong counts per radian in the "
+                f"report only)")
 
 
 class _Drift(Family):
