@@ -15,7 +15,7 @@ Reads the datasets ``harness/run.py --record-only`` wrote into WORK (``effects/<
 Writes ``check.json`` and ``check.md`` beside this file (or to --out) and exits 1 if a check
 fails.
 
-    PYTHONPATH=. .venv/bin/python benchmarks/blind_zoo/zoos/zoo48/check_visible.py --work /tmp/z48/work
+    PYTHONPATH=. .venv/bin/python benchmarks/blind_zoo/zoos/zoo48/check_visible.py --work WORK
 """
 from __future__ import annotations
 
