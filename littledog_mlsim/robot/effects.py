@@ -693,6 +693,7 @@ class ServoDeadband(_ServoTorque):
         return np.clip(self._kp * (e - np.clip(e, -h, h)) - self._kd * dq,
                        -self._lim0, self._lim0)
 
+
 class EncoderScale(_ServoTorque):
     """Measured angle and rate = ``scale`` x the true ones on some joints (an encoder's counts
     per radian, or the gear ratio it is read through, set wrong), about the encoder's zero.

@@ -318,6 +318,7 @@ class EncoderScaleFamily(Family):
     probe: ClassVar[float] = -0.03
     bounds: ClassVar[tuple[float, float]] = (0.7, 1.3)
     neutral: ClassVar[float] = 1.0
+    form: ClassVar[str] = "the servo closes its loop on the reading"
 
     def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
         from ...robot.effects import EncoderScale
@@ -331,24 +332,25 @@ class EncoderScaleFamily(Family):
                 f"({off}; the servo holds the joint at the set-point / {s:.3f} while the "
                 f"report shows it on it)")
 
-    form: ClassVar[str] = "the servo closes its loop on the reading"
-
     def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
         return {self.primary: float(_magnitude(c)), "form": self.form}
 
     def start_q(self, q: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
         """The measured angle is the true one times the scale: the joints start at the
         measured angle divided by it."""
-        out = np.array(q, dtype=float)
-        out[scope_joints(scope)] /= float(params["scale"])
-        return out
+        return _divided(q, scope, params["scale"])
 
     def start_dq(self, dq: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
         """The measured rate is the true one times the scale: the joints (and the encoders'
         rate filter) start at the measured rate divided by it."""
-        out = np.array(dq, dtype=float)
-        out[scope_joints(scope)] /= float(params["scale"])
-        return out
+        return _divided(dq, scope, params["scale"])
+
+
+def _divided(x: np.ndarray, scope: str, scale: float) -> np.ndarray:
+    """A copy of ``x`` with the scope's joints divided by ``scale``."""
+    out = np.array(x, dtype=float)
+    out[scope_joints(scope)] /= float(scale)
+    return out
 
 
 @register_family
@@ -364,9 +366,6 @@ class ReportScale(EncoderScaleFamily):
     def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
         from ...robot.effects import ReadingScale
         return [ReadingScale(float(params[self.primary]), _joints(scope))]
-
-    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
-        return {self.primary: float(_magnitude(c)), "form": self.form}
 
     def statement(self, where: str, params: Mapping[str, Any]) -> str:
         s = float(params[self.primary])
