@@ -369,6 +369,33 @@ class TorqueLimit(_ServoTorque):
         return np.clip(self._kp * e - self._kd * dq, -lim, lim)
 
 
+class TorqueSpeed(_ServoTorque):
+    """A DC motor's torque-speed line on some joints: while the servo drives a joint the way it
+    moves (motoring, torque x rate > 0), the torque it can give falls with the joint's speed,
+    to clip(``stall_ratio`` x limit x (1 - |dq| / ``no_load_speed_rad_s``), 0, limit) (the
+    supply voltage less the motor's back-EMF); braking torque keeps the normal limit. With
+    ``stall_ratio`` 1 the line starts at the normal limit at rest; above 1 the limit holds up
+    to |dq| = (1 - 1 / stall_ratio) x the no-load speed."""
+
+    def __init__(self, no_load_speed_rad_s: float, joints: str | list[str] | None = None,
+                 stall_ratio: float = 1.0) -> None:
+        if not (np.isfinite(no_load_speed_rad_s) and no_load_speed_rad_s > 0):
+            raise ValueError(f"TorqueSpeed: no_load_speed_rad_s must be > 0, "
+                             f"got {no_load_speed_rad_s!r}")
+        if not (np.isfinite(stall_ratio) and stall_ratio > 0):
+            raise ValueError(f"TorqueSpeed: stall_ratio must be > 0, got {stall_ratio!r}")
+        super().__init__(joints)
+        self.no_load_speed_rad_s = float(no_load_speed_rad_s)
+        self.torque_drop_s_per_rad = 1.0 / self.no_load_speed_rad_s   # the line's slope / stall
+        self.stall_ratio = float(stall_ratio)
+
+    def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
+        tau = np.clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
+        line = self.stall_ratio * self._lim0 * (1.0 - np.abs(dq) * self.torque_drop_s_per_rad)
+        cap = np.clip(line, 0.0, self._lim0)
+        return np.where(tau * dq > 0, np.clip(tau, -cap, cap), tau)
+
+
 class SetpointBacklash:
     """Play of ``width_rad`` between the set-point and the joint: the set-point passes a play
     (backlash) operator y = clip(y, u - width/2, u + width/2), started at the first command."""

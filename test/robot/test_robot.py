@@ -24,7 +24,7 @@ from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE,
                                           RobotConfig, per_joint, robot_config)
 from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, EncoderScale,
                                            JointFriction, LegMass, Payload, ReadingScale,
-                                           ServoDeadband, SwingDrag, load_effects,
+                                           ServoDeadband, SwingDrag, TorqueSpeed, load_effects,
                                            resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
 from littledog_mlsim.robot.servo import PDTorqueServo
@@ -451,6 +451,37 @@ def test_an_encoder_read_through_a_wrong_ratio_moves_the_joint_not_its_reading()
     assert np.array_equal(report.position, base.position)
     assert np.allclose(report.q[:, knees], 0.95 * base.q[:, knees])
     assert np.array_equal(report.q[:, 0], base.q[:, 0])
+
+
+def test_a_motor_torque_speed_line_takes_torque_only_while_motoring_fast():
+    """TorqueSpeed: while the servo drives a joint the way it moves, its torque is capped at
+    stall_ratio x limit x (1 - |rate| / no-load speed); at rest and while braking the normal
+    limit holds; on the robot a slow motor lets the trot fall behind."""
+    ts = TorqueSpeed(4.0, "knees")
+    ts._kp, ts._kd, ts._lim0 = np.full(4, 10.0), np.zeros(4), np.full(4, 2.0)
+    e = np.array([1.0, 1.0, -1.0, 0.01])           # PD torque 10, 10, -10, 0.1 -> 2, 2, -2, 0.1
+    dq = np.array([2.0, -2.0, -3.0, 1.0])
+    # motoring at half the no-load speed: half the limit; braking: the limit; a small torque
+    # under its cap is left alone
+    assert np.allclose(ts.servo(e, dq, 0.0), [1.0, 2.0, -0.5, 0.1])
+    assert np.allclose(ts.servo(e, np.zeros(4), 0.0), [2.0, 2.0, -2.0, 0.1])
+    strong = TorqueSpeed(4.0, "knees", stall_ratio=2.0)
+    strong._kp, strong._kd, strong._lim0 = ts._kp, ts._kd, ts._lim0
+    assert np.allclose(strong.servo(e, dq, 0.0), [2.0, 2.0, -1.0, 0.1])   # cap 2 x 2 x (1 - |dq|/4)
+    for bad in ({"no_load_speed_rad_s": 0.0}, {"no_load_speed_rad_s": np.nan},
+                {"no_load_speed_rad_s": 4.0, "stall_ratio": -1.0}):
+        with pytest.raises(ValueError, match="TorqueSpeed"):
+            TorqueSpeed(joints="knees", **bad)
+    cmd = commands("F", 3)[:300]
+    base = simulate_move(cmd, robot=quiet())
+    fast = simulate_move(cmd, robot=quiet(), effects=[TorqueSpeed(1e6, "all")])
+    assert np.allclose(fast.position, base.position, atol=1e-4)
+    # the knees swing at up to about 4 rad/s: a motor whose no-load speed is 1.5 rad/s cannot
+    # follow, and the trot covers centimetres less ground in 3 s
+    slow = simulate_move(cmd, robot=quiet(), effects=[TorqueSpeed(1.5, "all")])
+    err = lambda r: np.sqrt(np.mean((r.q[51:] - r.cmd[50:]) ** 2))
+    assert err(slow) > 1.1 * err(base)
+    assert slow.position[-1, 0] < base.position[-1, 0] - 0.03
 
 
 PLUGIN = textwrap.dedent('''

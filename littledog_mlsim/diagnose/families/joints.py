@@ -13,7 +13,7 @@ from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
            "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily",
-           "EncoderScaleFamily", "ReportScale", "TimeDrift", "SupplySagDrift",
+           "EncoderScaleFamily", "ReportScale", "TorqueSpeedFamily", "TimeDrift", "SupplySagDrift",
            "NORMAL_TORQUE", "TorqueRatio"]
 
 _MEASURED = robot_config("measured")
@@ -372,6 +372,50 @@ class ReportScale(EncoderScaleFamily):
         return (f"{_cap(where)}: the joint states report about {s:.3f} times the true angle "
                 f"and rate (the servo reads the true angle; a wrong counts per radian in the "
                 f"report only)")
+
+
+@register_family
+class TorqueSpeedFamily(Family):
+    """The motors' torque-speed line: while the servo drives a joint the way it moves, the
+    torque it can give falls with the joint's speed (back-EMF), reaching zero at the no-load
+    speed; braking keeps the normal limit. Fitted as the share of the normal limit lost per
+    rad/s, 1 / no-load speed (0: no loss); a threshold effect (it bites only where a servo
+    pushes hard while the joint moves fast): screened at a second, deeper probe too."""
+
+    name: ClassVar[str] = "torque_speed"
+    kind: ClassVar[str] = "joints"
+    primary: ClassVar[str] = "torque_drop_s_per_rad"
+    unit: ClassVar[str] = "s/rad"
+    probe: ClassVar[float] = 0.25
+    bounds: ClassVar[tuple[float, float]] = (0.0, 1.0)
+    deep_probe: ClassVar[float | None] = 0.5
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import TorqueSpeed
+        drop = float(params[self.primary])
+        return [TorqueSpeed(1.0 / drop, _joints(scope))] if drop > 1e-9 else []
+
+    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
+        drop = float(_magnitude(c))
+        return {"no_load_speed_rad_s": (1.0 / drop) if drop > 1e-9 else None,
+                self.primary: drop}
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        w0 = params.get("no_load_speed_rad_s")
+        if w0 is None:
+            return f"{_cap(where)}: no loss of servo torque with joint speed"
+        return (f"{_cap(where)}: the servo's torque falls with joint speed while it drives the "
+                f"joint the way it moves, by about {100 * params[self.primary]:.0f} % of the "
+                f"normal limit per rad/s ({params[self.primary]:.3f} s/rad), to zero at about "
+                f"{w0:.1f} rad/s (a motor's no-load speed; braking torque unchanged)")
+
+    def separation(self, other: Family) -> Separation | None:
+        if other.name != "torque_saturation":
+            return None
+        return Separation(2, "a torque-speed line takes torque only where a joint moves fast "
+                             "while its servo drives it, a lower limit wherever the servo pushes "
+                             "hard: they differ in fast swings against slow pushes",
+                          EXCITED_MOVES)
 
 
 class _Drift(Family):
