@@ -1244,9 +1244,11 @@ def test_a_rival_family_with_most_of_the_findings_cut_is_named_inseparable():
     """``advice.inseparable`` (the push case's rival, ``test_physical_odom_fixed_force``, slow):
     a rival of another family, significant on its own and with at least INSEPARABLE_SHARE of
     the finding's held-out cut, is named with what would separate them; a weaker or
-    non-significant rival, or another scope of the finding's own family, is not."""
+    non-significant rival is not, nor another scope of the finding's own family below
+    SCOPE_INSEPARABLE_SHARE."""
     from types import SimpleNamespace
-    from littledog_mlsim.diagnose.physical.advice import INSEPARABLE_SHARE, inseparable
+    from littledog_mlsim.diagnose.physical.advice import (INSEPARABLE_SHARE,
+                                                          SCOPE_INSEPARABLE_SHARE, inseparable)
 
     def alt(family, scope, gain, p, **params):
         return {"family": family, "scope": scope, "held_out_total_gain": gain,
@@ -1256,12 +1258,26 @@ def test_a_rival_family_with_most_of_the_findings_cut_is_named_inseparable():
         alt("ground_slope", "body", INSEPARABLE_SHARE + 0.05, 1e-5, slope_deg=0.8),
         alt("body_wrench", "body", 0.95, 0.2, force_N=1.4),          # not significant
         alt("servo_gain", "joint:front_left_knee", 0.5, 1e-6, gain_ratio=0.8),   # weaker
-        alt("odom_force", "leg:front_left", 0.99, 1e-6, force_N=1.5)])  # its own family
+        alt("odom_force", "leg:front_left", SCOPE_INSEPARABLE_SHARE - 0.01, 1e-6,
+            force_N=1.5)])  # its own family, at another scope, a little weaker
     rivals = inseparable(finding, 0.01)
     assert [(r["family"], r["kind"]) for r in rivals] == [("ground_slope", "inseparable")]
     assert rivals[0]["params"] == {"slope_deg": 0.8}
     assert "cannot be told from the accepted odom_force" in rivals[0]["why"]
     assert "IMU" in rivals[0]["recording"], rivals[0]
+    # another scope of the finding's family the held-out moves cannot tell from it: named,
+    # the best such scope only
+    torque = SimpleNamespace(family="torque_speed", scope="type:knees", alternatives=[
+        alt("torque_speed", "type:knees", 20.40, 1e-4, no_load_speed_rad_s=4.9),
+        alt("torque_speed", "all", 20.37, 1e-4, no_load_speed_rad_s=4.9),
+        alt("torque_speed", "leg:front_left", 19.5, 1e-4, no_load_speed_rad_s=4.0),
+        alt("torque_speed", "side:left", 19.9, 0.2, no_load_speed_rad_s=4.0),   # not significant
+        alt("servo_gain", "type:knees", 12.2, 1e-4, gain_ratio=0.89)])
+    rivals = inseparable(torque, 0.01)
+    assert [(r["family"], r["scope"], r["kind"]) for r in rivals] == [
+        ("torque_speed", "all", "inseparable")]
+    assert "instead of all knees" in rivals[0]["why"].lower(), rivals[0]["why"]
+    assert "--excitation" in rivals[0]["recording"]
     # no held-out gain of the finding itself: nothing to compare a rival with
     finding.alternatives[0]["held_out_total_gain"] = 0.0
     assert inseparable(finding, 0.01) == []

@@ -33,12 +33,17 @@ def statement(family: str, scope: str, params: Mapping[str, Any]) -> str:
 
 
 INSEPARABLE_SHARE = 0.8   # a rival with this share of the finding's held-out cut: data can't tell
+# another scope of the finding's own family with this share: the scopes differ in joints the
+# held-out moves hardly drive (scopes of one family share the parameter, so a tighter share)
+SCOPE_INSEPARABLE_SHARE = 0.95
 
 
 def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
-    """Rivals of another family that the held-out moves cannot tell from an accepted finding:
-    significant on their own (adjusted p < alpha) with at least INSEPARABLE_SHARE of its summed
-    held-out SSE cut. Each names what would separate them."""
+    """Rivals that the held-out moves cannot tell from an accepted finding, significant on
+    their own (adjusted p < alpha): another family with at least INSEPARABLE_SHARE of the
+    finding's summed held-out SSE cut, or the finding's own family at another scope with at
+    least SCOPE_INSEPARABLE_SHARE of it (the best such scope; decision 054). Each names what
+    would separate them."""
     mine = vocabulary_family(f.family)
     own = [a for a in f.alternatives
            if a.get("searched_family", a["family"]) == f.family and a["scope"] == f.scope]
@@ -62,7 +67,24 @@ def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
                     "why": (f"cannot be told from the accepted {what} on these data: held-out "
                             f"cut {g:.3g} against {g0:.3g}; {how}"),
                     "recording": rec, "kind": "inseparable"})
+    scopes = [a for a in f.alternatives
+              if a.get("searched_family", a["family"]) == f.family and a["scope"] != f.scope
+              and a["held_out_total_gain"] is not None
+              and a["held_out_total_gain"] >= SCOPE_INSEPARABLE_SHARE * g0
+              and a["held_out_p"] < alpha]
+    if scopes:
+        a = max(scopes, key=lambda a: a["held_out_total_gain"])
+        out.append({"family": a["family"], "scope": a["scope"], "params": a["params"],
+                    "why": (f"the accepted {mine} at {scope_words(a['scope'])} instead of "
+                            f"{scope_words(f.scope)}: held-out cut {a['held_out_total_gain']:.3g} "
+                            f"against {g0:.3g}; the joints where the two scopes differ hardly "
+                            f"take part in these moves"),
+                    "recording": EXCITED, "kind": "inseparable"})
     return out
+
+
+EXCITED = ("littledog-mlsim record --out DIR --moves-per-type 20 --excitation 0.03 "
+           "[same options, a new seed]")
 
 
 def _separation(a: str, b: str) -> tuple[str, str]:
@@ -72,9 +94,7 @@ def _separation(a: str, b: str) -> tuple[str, str]:
     fa, fb = FAMILIES[a], FAMILIES[b]
     views = [v for v in (fa.separation(fb), fb.separation(fa)) if v is not None]
     if not views:
-        return ("both explain the held-out moves about equally well",
-                "littledog-mlsim record --out DIR --moves-per-type 20 --excitation 0.03 "
-                "[same options, a new seed]")
+        return "both explain the held-out moves about equally well", EXCITED
     best = max(views, key=lambda v: v.priority)
     return best.how, best.recording
 
