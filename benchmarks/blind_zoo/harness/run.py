@@ -53,7 +53,7 @@ PRIMARY = {
     "command_delay": "delay_ms", "command_filter": "time_constant_ms", "servo_gain": "gain_ratio",
     "joint_friction": "coulomb_Nm", "backlash": "width_rad",
     "torque_saturation": "torque_limit_Nm", "encoder_offset": "offset_rad",
-    "encoder_scale": "scale",
+    "encoder_scale": "scale", "torque_speed": "no_load_speed_rad_s",
     "odom_force": "force_N", "body_wrench": "force_N", "ground_slope": "slope_deg",
     "mass_com": "added_mass_kg", "leg_difference": "scale", "contact_phase": "magnitude",
     "time_drift": "rate_per_s",
