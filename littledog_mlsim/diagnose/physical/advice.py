@@ -76,8 +76,8 @@ def inseparable(f: Finding, alpha: float) -> list[dict[str, Any]]:
         a = max(scopes, key=lambda a: a["held_out_total_gain"])
         out.append({"family": a["family"], "scope": a["scope"], "params": a["params"],
                     "why": (f"the accepted {mine} at {scope_words(a['scope'])} instead of "
-                            f"{scope_words(f.scope)}: held-out cut {a['held_out_total_gain']:.3g} "
-                            f"against {g0:.3g}; the joints where the two scopes differ hardly "
+                            f"{scope_words(f.scope)}: held-out cut {a['held_out_total_gain']:.4g} "
+                            f"against {g0:.4g}; the joints where the two scopes differ hardly "
                             f"take part in these moves"),
                     "recording": EXCITED, "kind": "inseparable"})
     return out

@@ -2,13 +2,14 @@
 # zoo48's z08 (every motor's torque falling with joint speed) diagnosed again with the family
 # torque_speed (decision 054; not blind: built after reading zoo48's truth), run1's twin
 # and reference. WORK: the run's work directory (the harness's --work); from the repository root:
-#   WORK=... bash benchmarks/blind_zoo/zoos/zoo48/runs/after_decision054/diag.sh
+#   WORK=... [TAG=name] bash benchmarks/blind_zoo/zoos/zoo48/runs/after_decision054/diag.sh
+# TAG (optional) names a later run's log and report beside the first's: z08_TAG.
 set -u
 HERE=benchmarks/blind_zoo/zoos/zoo48/runs/after_decision054
 TWIN=$(ls "$WORK"/calibrated_twin_*.json)
 for pair in "z08 effects/z08"; do
   set -- $pair
-  ID=$1; DATA=$WORK/$2
+  ID=$1${TAG:+_$TAG}; DATA=$WORK/$2
   mkdir -p "$HERE/logs" "$HERE/reports/$ID"
   start=$(date +%s)
   OPENBLAS_NUM_THREADS=1 .venv/bin/python -m littledog_mlsim.cli diagnose --data "$DATA" \
