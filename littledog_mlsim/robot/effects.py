@@ -40,6 +40,11 @@ import yaml
 
 from ..layout import JOINT_NAMES, LEGS, N_JOINTS
 
+try:    # numpy's clip ufunc, which np.clip calls for float arrays with both bounds, without
+    from numpy._core.umath import clip as _clip   # its Python layers (every physics step)
+except ImportError:  # pragma: no cover - another numpy layout
+    _clip = np.clip
+
 HOOKS: tuple[str, ...] = ("reset", "command", "substep", "measure")
 
 
@@ -145,8 +150,7 @@ class JointFriction:
         return -(self.coulomb * np.tanh(dq / self.smoothing) + self.viscous * dq)
 
     def substep(self, sim: Any, t: float) -> None:
-        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
-        dq = np.array([s[1] for s in states])
+        dq = sim.joint_state()[1][self.joints]
         p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL,
                                     forces=self.torque(dq), physicsClientId=sim.client)
 
@@ -288,7 +292,7 @@ class _ServoTorque:
 
     def command(self, u: np.ndarray, t: float) -> np.ndarray:
         from ..layout import JOINT_LOWER, JOINT_UPPER
-        self._q_des = np.clip(u, JOINT_LOWER, JOINT_UPPER)
+        self._q_des = _clip(u, JOINT_LOWER, JOINT_UPPER)
         return u
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
@@ -299,13 +303,13 @@ class _ServoTorque:
     def extra(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         """Torque to add: the changed servo's minus the normal one (both saturate at their
         limits, so a weaker or play-affected servo that saturates anyway changes nothing)."""
-        normal = np.clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
+        normal = _clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
         return self.servo(e, dq, t) - normal
 
     def substep(self, sim: Any, t: float) -> None:
-        states = p.getJointStates(sim.robot, self._ids, physicsClientId=sim.client)
-        e = self._q_des[self.joints] - np.array([s[0] for s in states])
-        tau = self.extra(e, np.array([s[1] for s in states]), t)
+        q, dq = sim.joint_state()
+        e = self._q_des[self.joints] - q[self.joints]
+        tau = self.extra(e, dq[self.joints], t)
         p.setJointMotorControlArray(sim.robot, self._ids, p.TORQUE_CONTROL, forces=tau.tolist(),
                                     physicsClientId=sim.client)
 
@@ -327,7 +331,7 @@ class ServoGain(_ServoTorque):
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         g = (self.gain_ratio * max(0.0, 1.0 + self.drift_per_s * (t + self.time_offset_s))
              if self.drift_per_s else self.gain_ratio)
-        return np.clip(g * self._kp * e - self._kd * dq, -self._lim0, self._lim0)
+        return _clip(g * self._kp * e - self._kd * dq, -self._lim0, self._lim0)
 
 
 class SupplySag(_ServoTorque):
@@ -350,7 +354,7 @@ class SupplySag(_ServoTorque):
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         s = min(1.0, max(0.0, 1.0 + self.rate_per_s * (t + self.time_offset_s)))
-        return s * np.clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
+        return s * _clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
 
 
 class TorqueLimit(_ServoTorque):
@@ -366,7 +370,7 @@ class TorqueLimit(_ServoTorque):
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         lim = np.minimum(self.torque_limit_Nm, self._lim0)
-        return np.clip(self._kp * e - self._kd * dq, -lim, lim)
+        return _clip(self._kp * e - self._kd * dq, -lim, lim)
 
 
 class TorqueSpeed(_ServoTorque):
@@ -390,10 +394,10 @@ class TorqueSpeed(_ServoTorque):
         self.stall_ratio = float(stall_ratio)
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
-        tau = np.clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
+        tau = _clip(self._kp * e - self._kd * dq, -self._lim0, self._lim0)
         line = self.stall_ratio * self._lim0 * (1.0 - np.abs(dq) * self.torque_drop_s_per_rad)
-        cap = np.clip(line, 0.0, self._lim0)
-        return np.where(tau * dq > 0, np.clip(tau, -cap, cap), tau)
+        cap = _clip(line, 0.0, self._lim0)
+        return np.where(tau * dq > 0, _clip(tau, -cap, cap), tau)
 
 
 class SetpointBacklash:
@@ -414,7 +418,7 @@ class SetpointBacklash:
 
     def command(self, u: np.ndarray, t: float) -> np.ndarray:
         h = 0.5 * self.width_rad
-        self._y = u.copy() if self._y is None else np.clip(self._y, u - h, u + h)
+        self._y = u.copy() if self._y is None else _clip(self._y, u - h, u + h)
         out = u.copy()
         out[self.joints] = self._y[self.joints]
         return out
@@ -711,13 +715,13 @@ class ServoDeadband(_ServoTorque):
         h = 0.5 * self.width_rad
         q = obs["q"].copy()
         j = self.joints
-        q[j] += np.clip(self._q_des[j] - q[j], -h, h)
+        q[j] += _clip(self._q_des[j] - q[j], -h, h)
         obs["q"] = q
         return obs
 
     def servo(self, e: np.ndarray, dq: np.ndarray, t: float) -> np.ndarray:
         h = 0.5 * self.width_rad
-        return np.clip(self._kp * (e - np.clip(e, -h, h)) - self._kd * dq,
+        return _clip(self._kp * (e - _clip(e, -h, h)) - self._kd * dq,
                        -self._lim0, self._lim0)
 
 
@@ -742,7 +746,7 @@ class EncoderScale(_ServoTorque):
         # the servo's error from the scaled reading: q_des - s q = (1 - s) q_des + s e
         s = self.scale
         err = (1.0 - s) * self._q_des[self.joints] + s * e
-        return np.clip(self._kp * err - self._kd * s * dq, -self._lim0, self._lim0)
+        return _clip(self._kp * err - self._kd * s * dq, -self._lim0, self._lim0)
 
     def measure(self, obs: dict, t: float) -> dict:
         return _scaled_readings(obs, self.joints, self.scale)

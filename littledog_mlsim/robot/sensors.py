@@ -31,6 +31,7 @@ class JointEncoders:
         self.resolution = None if resolution is None else np.asarray(resolution, dtype=float)
         self._counts_per_rad = None if resolution is None else 1.0 / self.resolution
         self.dt = dt
+        self._rate_scale = 1.0 / dt
         # Exact discretisation of a first-order low-pass sampled at dt.
         self.alpha = 1.0 if filter_hz is None else 1.0 - np.exp(-2.0 * np.pi * filter_hz * dt)
         self.position = np.zeros(12)   # reported angle [rad]
@@ -61,9 +62,9 @@ class JointEncoders:
         if self.resolution is None:
             position = np.asarray(q, dtype=float).copy()
             raw = np.asarray(dq, dtype=float).copy()
-        else:
-            position = self.quantise(q)
-            raw = (position - self.position) * (1.0 / self.dt)
+        else:   # quantise(q), inline: every physics step
+            position = np.rint(q * self._counts_per_rad) * self.resolution
+            raw = (position - self.position) * self._rate_scale
         self.position = position
         self.raw_rate = raw
         if self.alpha == 1.0:

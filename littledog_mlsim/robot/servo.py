@@ -27,12 +27,13 @@ class PDTorqueServo:
         self.kp = per_joint(config.kp)
         self.kd = per_joint(config.kd)
         self.tau_max = per_joint(config.torque_limit)
+        self._tau_min = -self.tau_max
         self.last_torque = np.zeros(12)
 
     def torque(self, q_des: np.ndarray, q_enc: np.ndarray, dq_enc: np.ndarray) -> np.ndarray:
         """Servo torque [N m], (12,)."""
         tau = self.kp * (q_des - q_enc) - self.kd * dq_enc
-        return np.minimum(np.maximum(tau, -self.tau_max), self.tau_max)
+        return np.minimum(np.maximum(tau, self._tau_min), self.tau_max)
 
     def start(self, client: int, body: int, joints: list[int]) -> None:
         """Switch pybullet's default joint velocity motors off (torque mode)."""

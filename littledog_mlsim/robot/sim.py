@@ -179,6 +179,9 @@ class LittleDogSim:
         self.rng = np.random.default_rng(0)
         self._servo = make_servo(self.config)
         self._encoders = self._make_encoders()
+        # the joints are read after every physics step where the servo or the encoders need it
+        self._needs_joints = self._servo.needs_encoders or not self._encoders.exact
+        self._js: tuple[np.ndarray, np.ndarray] | None = None   # joint_state(), this step's
         self._mocap = MotionCapture(self.config.mocap_position_std, self.config.mocap_orientation_std,
                                     self.config.sensor_noise, np.random.default_rng(0))
         self._command_hooks: list[Callable] = []
@@ -205,6 +208,7 @@ class LittleDogSim:
             p.removeState(self._snapshot, physicsClientId=c)
             self._snapshot = -1
         p.resetSimulation(physicsClientId=c)
+        self._js = None
         p.setGravity(0, 0, -GRAVITY, physicsClientId=c)
         p.setPhysicsEngineParameter(fixedTimeStep=self.physics_dt, numSubSteps=0,
                                     numSolverIterations=cfg.solver_iterations, enableConeFriction=0,
@@ -231,6 +235,7 @@ class LittleDogSim:
         otherwise (module doc)."""
         if self._world_as_built and self._snapshot >= 0:
             p.restoreState(self._snapshot, physicsClientId=self.client)
+            self._js = None
             # the robot is back in the air where it was built: a collision pass drops the
             # contact points the last move left (their impulses would warm-start the solver)
             p.performCollisionDetection(physicsClientId=self.client)
@@ -269,6 +274,7 @@ class LittleDogSim:
         c = self.client
         for k, j in enumerate(self.joint_indices):
             p.resetJointState(self.robot, j, HOME_POSE[k], 0.0, physicsClientId=c)
+        self._js = None
         p.resetBasePositionAndOrientation(self.robot, [0, 0, 0.3], [0, 0, 0, 1], physicsClientId=c)
         feet = p.getLinkStates(self.robot, self.foot_links, computeForwardKinematics=True,
                                physicsClientId=c)
@@ -295,6 +301,22 @@ class LittleDogSim:
         states = p.getJointStates(self.robot, self.joint_indices, physicsClientId=self.client)
         return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joints' true angles and rates (12,) each, contract order, read-only: as the last
+        physics step left them, read once per physics step and shared by the servo's encoders
+        and every plug-in that asks between two steps (a plug-in that sets joint states itself
+        calls :meth:`forget_joint_state` after)."""
+        if self._js is None:
+            q, dq = self._joint_state()
+            q.setflags(write=False)
+            dq.setflags(write=False)
+            self._js = (q, dq)
+        return self._js
+
+    def forget_joint_state(self) -> None:
+        """Drop the joint state :meth:`joint_state` keeps (the joints were set since)."""
+        self._js = None
+
     def _write_state(self, s: InitialState) -> None:
         c = self.client
         r = quat_to_matrix(s.orientation)
@@ -304,6 +326,7 @@ class LittleDogSim:
                             (r @ s.angular_velocity).tolist(), physicsClientId=c)
         for k, j in enumerate(self.joint_indices):
             p.resetJointState(self.robot, j, s.q[k], s.dq[k], physicsClientId=c)
+        self._js = None
 
     @property
     def time(self) -> float:
@@ -339,6 +362,7 @@ class LittleDogSim:
         self._world_as_built = all(getattr(e, "changes_world", True) is False for e in effects)
         for hook in resets:
             hook(self)
+        self._js = None     # a reset hook may have set the joints
         if resets:   # a reset hook may have moved the body (e.g. onto a floor it has tilted)
             state = self.true_state()
         # The pose one control step earlier (constant-velocity extrapolation), measured, so that
@@ -368,7 +392,7 @@ class LittleDogSim:
         """
         t = self.time
         u = np.asarray(u, dtype=float)
-        if u.shape != (N_JOINTS,) or not np.all(np.isfinite(u)):
+        if u.shape != (N_JOINTS,) or not np.isfinite(u).all():
             raise ValueError(f"a command must be {N_JOINTS} finite joint angles, got shape {u.shape}")
         for hook in self._command_hooks:
             u = np.asarray(hook(u.copy(), t), dtype=float)
@@ -390,12 +414,13 @@ class LittleDogSim:
         self._servo.apply(self.client, self.robot, self.joint_indices, q_des, self._encoders)
         p.stepSimulation(physicsClientId=self.client)
         self._step_count += 1
-        if self._servo.needs_encoders or not self._encoders.exact:
-            self._encoders.update(*self._joint_state())
+        self._js = None
+        if self._needs_joints:
+            self._encoders.update(*self.joint_state())
 
     def _measure(self) -> dict[str, np.ndarray]:
         if self._encoders.exact:  # not sampled every physics step: sample now
-            self._encoders.update(*self._joint_state())
+            self._encoders.update(*self.joint_state())
         pos, orn = p.getBasePositionAndOrientation(self.robot, physicsClientId=self.client)
         pos_m, orn_m = self._mocap.measure(np.array(pos), np.array(orn))
         lin, ang = twist_from_poses(*self._prev_pose, pos_m, orn_m, CONTROL_DT)
@@ -485,7 +510,7 @@ def simulate_closed_loop(policy: Callable[[dict], np.ndarray], n_steps: int, *,
     cmd = np.empty((int(n_steps), N_JOINTS))
     for k in range(int(n_steps)):
         u = np.asarray(policy(obs[-1]), dtype=float)
-        if u.shape != (N_JOINTS,) or not np.all(np.isfinite(u)):
+        if u.shape != (N_JOINTS,) or not np.isfinite(u).all():
             raise ValueError(f"the policy's command at step {k} is not {N_JOINTS} finite "
                              f"angles (shape {u.shape}, {int(np.sum(~np.isfinite(u)))} "
                              f"not finite)")

@@ -24,8 +24,8 @@ from littledog_mlsim.robot.config import (ENCODER_RESOLUTION, MEASURED_ARMATURE,
                                           RobotConfig, per_joint, robot_config)
 from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOffset, EncoderScale,
                                            JointFriction, LegMass, Payload, ReadingScale,
-                                           ServoDeadband, SwingDrag, TorqueSpeed, load_effects,
-                                           resolve_joints)
+                                           ServoDeadband, ServoGain, SwingDrag, TorqueSpeed,
+                                           load_effects, resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
 from littledog_mlsim.robot.servo import PDTorqueServo
 from littledog_mlsim.robot.sim import InitialState, LittleDogSim, get_sim, simulate_move
@@ -641,4 +641,52 @@ def test_each_move_starts_in_the_world_as_built_restored_or_rebuilt(monkeypatch,
         assert np.array_equal(again, built), effects
         if not declared:
             assert not np.array_equal(changed, built), effects
+    sim.close()
+
+
+class _JointStateWitness:
+    """A plug-in that checks, before every physics step, that the joint state the simulator
+    shares (``sim.joint_state()``) is the one pybullet holds then, bit for bit."""
+
+    changes_world = False
+
+    def __init__(self) -> None:
+        self.checked = 0
+
+    def substep(self, sim, t: float) -> None:
+        q, dq = sim.joint_state()
+        states = p.getJointStates(sim.robot, sim.joint_indices, physicsClientId=sim.client)
+        assert np.array_equal(q, [s[0] for s in states]) and np.array_equal(dq, [s[1] for s in states])
+        assert not q.flags.writeable and not dq.flags.writeable
+        self.checked += 1
+
+
+class _SetsAKnee:
+    """A plug-in that sets a joint's state in its substep and says so (forget_joint_state)."""
+
+    changes_world = False
+
+    def substep(self, sim, t: float) -> None:
+        if t == 0.02:
+            p.resetJointState(sim.robot, sim.joint_indices[2], -1.2, 0.5, physicsClientId=sim.client)
+            sim.forget_joint_state()
+
+
+@pytest.mark.parametrize("robot", ["measured", "nominal"])
+def test_the_joint_state_read_once_per_physics_step_is_what_pybullet_holds(robot):
+    """The simulator reads the joints once after each physics step and shares that reading
+    with its encoders and with plug-ins until the next step (the servo-change and friction
+    families use it): after a reset, from a given start, after a world rebuilt for a changed
+    mass, and after a plug-in that sets a joint itself, it equals a fresh read."""
+    sim = LittleDogSim(robot)
+    home = sim.reset(seed=0)["q"]
+    cmd = home[None] + 0.2 * np.sin(np.arange(40) * 0.2)[:, None]
+    start = None
+    for effects in ([], [LegMass(1.3, "back_left")], [_SetsAKnee()], [ServoGain(0.7, "knees")]):
+        witness = _JointStateWitness()
+        sim.reset(seed=1, initial=start, effects=[*effects, witness])
+        for u in cmd:
+            sim.step(u)
+        assert witness.checked == len(cmd) * sim.substeps
+        start = sim.true_state()
     sim.close()
