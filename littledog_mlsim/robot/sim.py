@@ -298,8 +298,9 @@ class LittleDogSim:
         return InitialState(np.array(pos), np.array(orn), q, dq, r.T @ np.array(lin), r.T @ np.array(ang))
 
     def _joint_state(self) -> tuple[np.ndarray, np.ndarray]:
-        states = p.getJointStates(self.robot, self.joint_indices, physicsClientId=self.client)
-        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
+        q, dq, _, _ = zip(*p.getJointStates(self.robot, self.joint_indices,
+                                           physicsClientId=self.client))
+        return np.array(q), np.array(dq)
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         """The joints' true angles and rates (12,) each, contract order, read-only: as the last
@@ -406,8 +407,9 @@ class LittleDogSim:
             self._physics_step(q_des)
         self._obs = self._measure()
         # a state gone non-finite leaves state a snapshot does not restore: build it again
-        self._world_as_built = as_built and all(
-            np.isfinite(self._obs[k]).all() for k in ("q", "dq", "position", "orientation"))
+        o = self._obs
+        self._world_as_built = as_built and bool(np.isfinite(np.concatenate(
+            (o["q"], o["dq"], o["position"], o["orientation"]))).all())
         return self.observe()
 
     def _physics_step(self, q_des: np.ndarray) -> None:
