@@ -303,10 +303,12 @@ class LittleDogSim:
         return np.array(q), np.array(dq)
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """The joints' true angles and rates (12,) each, contract order, read-only: as the last
-        physics step left them, read once per physics step and shared by the servo's encoders
-        and every plug-in that asks between two steps (a plug-in that sets joint states itself
-        calls :meth:`forget_joint_state` after)."""
+        """The joints' true angles and rates (12,) each, contract order: as the last physics
+        step (or, before a move's first step, the reset) left them, read once and shared by the
+        servo's encoders and every plug-in that asks before the next step. The arrays are
+        shared and read-only (copy before changing). A plug-in that changes joint states itself
+        (``resetJointState`` and the like) in a substep hook calls :meth:`forget_joint_state`
+        after; after the reset hooks the joints are read again anyway."""
         if self._js is None:
             q, dq = self._joint_state()
             q.setflags(write=False)
@@ -407,9 +409,8 @@ class LittleDogSim:
             self._physics_step(q_des)
         self._obs = self._measure()
         # a state gone non-finite leaves state a snapshot does not restore: build it again
-        o = self._obs
-        self._world_as_built = as_built and bool(np.isfinite(np.concatenate(
-            (o["q"], o["dq"], o["position"], o["orientation"]))).all())
+        self._world_as_built = as_built and all(
+            np.isfinite(self._obs[k]).all() for k in ("q", "dq", "position", "orientation"))
         return self.observe()
 
     def _physics_step(self, q_des: np.ndarray) -> None:
@@ -437,6 +438,7 @@ class LittleDogSim:
 
     def close(self) -> None:
         """Disconnect the pybullet client."""
+        self._js = None
         if self.client >= 0:
             p.disconnect(physicsClientId=self.client)
             self.client = -1

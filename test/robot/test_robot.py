@@ -662,14 +662,25 @@ class _JointStateWitness:
 
 
 class _SetsAKnee:
-    """A plug-in that sets a joint's state in its substep and says so (forget_joint_state)."""
+    """A plug-in that sets a joint's state in a substep and says so (forget_joint_state), and
+    at reset after reading the joints, where it need not: the simulator reads them again after
+    the reset hooks."""
 
     changes_world = False
+
+    def __init__(self) -> None:
+        self.set = 0
+
+    def reset(self, sim) -> None:
+        sim.joint_state()
+        p.resetJointState(sim.robot, sim.joint_indices[5], 0.9, -0.4, physicsClientId=sim.client)
+        self.set += 1
 
     def substep(self, sim, t: float) -> None:
         if t == 0.02:
             p.resetJointState(sim.robot, sim.joint_indices[2], -1.2, 0.5, physicsClientId=sim.client)
             sim.forget_joint_state()
+            self.set += 1
 
 
 @pytest.mark.parametrize("robot", ["measured", "nominal"])
@@ -682,11 +693,13 @@ def test_the_joint_state_read_once_per_physics_step_is_what_pybullet_holds(robot
     home = sim.reset(seed=0)["q"]
     cmd = home[None] + 0.2 * np.sin(np.arange(40) * 0.2)[:, None]
     start = None
-    for effects in ([], [LegMass(1.3, "back_left")], [_SetsAKnee()], [ServoGain(0.7, "knees")]):
+    knee = _SetsAKnee()
+    for effects in ([], [LegMass(1.3, "back_left")], [knee], [ServoGain(0.7, "knees")]):
         witness = _JointStateWitness()
         sim.reset(seed=1, initial=start, effects=[*effects, witness])
         for u in cmd:
             sim.step(u)
         assert witness.checked == len(cmd) * sim.substeps
         start = sim.true_state()
+    assert knee.set == 2
     sim.close()
