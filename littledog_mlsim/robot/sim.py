@@ -165,7 +165,8 @@ class LittleDogSim:
     Attributes for effects (docs/interface.md §5): ``client``, ``robot`` (body id),
     ``joint_indices`` (12 pybullet joint indices, contract order), ``physics_dt``, ``control_dt``,
     ``rng`` (numpy Generator of the current move). Also ``config``, ``time`` [s since reset],
-    ``foot_links`` (4 link indices, LEGS order), ``plane`` (ground body id).
+    ``foot_links`` (4 link indices, LEGS order), ``plane`` (ground body id), and
+    :meth:`joint_state` (the joints as the last physics step left them, read once per step).
 
     Use: ``sim.reset(seed=...)``; ``obs = sim.observe()``; ``sim.step(u)``; ... ``sim.close()``.
     """
