@@ -10,30 +10,37 @@ steps faster than one on its feet); the Python pieces do not.
 import sys
 import timeit
 
-import numpy as np
 import pybullet as p
 
-from littledog_mlsim.robot.twin import robot_config_from
 from littledog_mlsim.robot.sim import LittleDogSim
-sim = LittleDogSim(robot_config_from(sys.argv[1]))
-sim.reset()
-q_des = sim.observe()["q"]
-c, r, J = sim.client, sim.robot, sim.joint_indices
-enc, servo = sim._encoders, sim._servo
-q, dq = sim._joint_state()
-tests = {
- "stepSimulation": lambda: p.stepSimulation(physicsClientId=c),
- "getJointStates": lambda: p.getJointStates(r, J, physicsClientId=c),
- "_joint_state": sim._joint_state,
- "joint_state (fresh)": lambda: (sim.forget_joint_state(), sim.joint_state()),
- "encoders.update": lambda: enc.update(q, dq),
- "servo.torque": lambda: servo.torque(q_des, enc.position, enc.raw_rate),
- "servo.apply": lambda: servo.apply(c, r, J, q_des, enc),
- "setJointMotorControlArray": lambda: p.setJointMotorControlArray(r, J, p.TORQUE_CONTROL, forces=[0.0]*12, physicsClientId=c),
- "_physics_step": lambda: sim._physics_step(q_des),
- "step (5 physics steps)": lambda: sim.step(q_des),
- "_measure": sim._measure,
-}
-for k, f in tests.items():
+from littledog_mlsim.robot.twin import robot_config_from
+
+
+def main() -> None:
+    sim = LittleDogSim(robot_config_from(sys.argv[1]))
+    sim.reset()
+    q_des = sim.observe()["q"]
+    c, r, joints = sim.client, sim.robot, sim.joint_indices
+    enc, servo = sim._encoders, sim._servo
+    q, dq = sim._joint_state()
+    pieces = {
+        "stepSimulation": lambda: p.stepSimulation(physicsClientId=c),
+        "getJointStates": lambda: p.getJointStates(r, joints, physicsClientId=c),
+        "_joint_state": sim._joint_state,
+        "joint_state (fresh)": lambda: (sim.forget_joint_state(), sim.joint_state()),
+        "encoders.update": lambda: enc.update(q, dq),
+        "servo.torque": lambda: servo.torque(q_des, enc.position, enc.raw_rate),
+        "servo.apply": lambda: servo.apply(c, r, joints, q_des, enc),
+        "setJointMotorControlArray": lambda: p.setJointMotorControlArray(
+            r, joints, p.TORQUE_CONTROL, forces=[0.0] * 12, physicsClientId=c),
+        "_physics_step": lambda: sim._physics_step(q_des),
+        "step (5 physics steps)": lambda: sim.step(q_des),
+        "_measure": sim._measure,
+    }
     n = 3000
-    print(f"{k:28s} {min(timeit.repeat(f, number=n, repeat=3))/n*1e6:7.1f} us")
+    for name, f in pieces.items():
+        print(f"{name:28s} {min(timeit.repeat(f, number=n, repeat=3)) / n * 1e6:7.1f} us")
+
+
+if __name__ == "__main__":
+    main()

@@ -9,24 +9,42 @@ import time
 
 import pybullet as p
 
-from littledog_mlsim.robot.twin import robot_config_from
-from littledog_mlsim.robot.sim import LittleDogSim
 from littledog_mlsim.data.dataset import load_moves
-robot = robot_config_from(sys.argv[1])
-rec = load_moves(sys.argv[2], split="train")[0]
-sim = LittleDogSim(robot)
-from littledog_mlsim.robot.sim import InitialState
-def full():
-    sim.reset(initial=InitialState.at(rec, 0))
-    for u in rec.cmd: sim.step(u)
-calls = []
-orig = p.stepSimulation
-def timed(**kw):
-    t = time.perf_counter(); orig(**kw); calls.append(time.perf_counter() - t)
-full()
-t = time.perf_counter(); full(); T = time.perf_counter() - t
-import littledog_mlsim.robot.sim as sm
-sm.p.stepSimulation = timed
-full(); sm.p.stepSimulation = orig
-n = len(calls); S = sum(calls)
-print(f"{rec.cmd.shape[0]} control steps, {n} physics steps: all {T*1e3:.0f} ms, stepSimulation {S*1e3:.0f} ms ({S/T:.0%}), {S/n*1e6:.0f} us each; the rest {(T-S)/n*1e6:.0f} us per physics step")
+from littledog_mlsim.robot.sim import InitialState, LittleDogSim
+from littledog_mlsim.robot.twin import robot_config_from
+
+
+def main() -> None:
+    sim = LittleDogSim(robot_config_from(sys.argv[1]))
+    rec = load_moves(sys.argv[2], split="train")[0]
+
+    def move() -> None:
+        sim.reset(initial=InitialState.at(rec, 0))
+        for u in rec.cmd:
+            sim.step(u)
+
+    move()                                   # warm: the world built, the code loaded
+    t0 = time.perf_counter()
+    move()
+    total = time.perf_counter() - t0
+    calls: list[float] = []
+    step = p.stepSimulation
+
+    def timed(**kw) -> None:
+        t = time.perf_counter()
+        step(**kw)
+        calls.append(time.perf_counter() - t)
+
+    p.stepSimulation = timed                 # the simulator calls it through this module
+    try:
+        move()
+    finally:
+        p.stepSimulation = step
+    n, s = len(calls), sum(calls)
+    print(f"{rec.cmd.shape[0]} control steps, {n} physics steps: all {total * 1e3:.0f} ms, "
+          f"stepSimulation {s * 1e3:.0f} ms ({s / total:.0%}), {s / n * 1e6:.0f} us each; "
+          f"the rest {(total - s) / n * 1e6:.0f} us per physics step")
+
+
+if __name__ == "__main__":
+    main()

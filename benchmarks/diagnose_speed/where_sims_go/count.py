@@ -25,17 +25,14 @@ STEPS = ("start_side", "located_variants", "scope_variants", "form_variants", "w
 
 def _step() -> str:
     f = sys._getframe(2)
-    names = []
+    names = []                      # innermost first
     while f is not None:
         if "diagnose/physical" in f.f_code.co_filename.replace("\\", "/"):
             names.append(f.f_code.co_name)
         f = f.f_back
-    for step in STEPS:              # the most specific step on the stack
+    # a fit's magnitude search inside a variant pass is charged to the pass
+    for step in ("located_variants", "scope_variants", "form_variants") + STEPS:
         if step in names:
-            # a fit's magnitude search inside a variant pass is charged to the pass
-            for outer in ("located_variants", "scope_variants", "form_variants"):
-                if outer in names:
-                    return outer
             return step
     return names[0] if names else "?"
 
