@@ -140,13 +140,44 @@ def delayed_recording(rec: MoveRecording, delay_ms: float) -> MoveRecording:
     return dataclasses.replace(rec, cmd=out)
 
 
+#: per recording (by identity) and kind, its starting states by step (:func:`_starts`)
+_STARTS: dict[tuple[int, str], tuple[MoveRecording, dict[int, InitialState]]] = {}
+_STARTS_KEPT = 512     # recordings whose starting states a process keeps
+
+
+def _starts(rec: MoveRecording, ts: Sequence[int], kind: str) -> dict[int, InitialState]:
+    """``InitialState.at(rec, t, kind)`` for each t of ``ts``, kept for the process's life:
+    a calibration re-simulates the same moves from the same states with robot after robot, and
+    the states (a local fit of the poses, for ``"smoothed"``) depend on the recording only.
+    Their arrays are read-only (a replay only reads its start)."""
+    key = (id(rec), kind)
+    entry = _STARTS.get(key)
+    if entry is None or entry[0] is not rec:
+        if len(_STARTS) >= _STARTS_KEPT:
+            _STARTS.clear()
+        entry = _STARTS[key] = (rec, {})
+    got = entry[1]
+    for t in ts:
+        t = int(t)
+        if t not in got:
+            state = InitialState.at(rec, t, kind)
+            for a in vars(state).values():
+                if isinstance(a, np.ndarray):
+                    a.setflags(write=False)
+            got[t] = state
+    return got
+
+
 def _replay(sim: LittleDogSim, rec: MoveRecording, k: int, n: int,
-            effects: Sequence[Any] = (), initial: str = "measured") -> np.ndarray:
+            effects: Sequence[Any] = (), initial: str = "measured",
+            start: InitialState | None = None) -> np.ndarray:
     """States s_{k+1}..s_{k+n} of the robot started in measurement k and fed u_k..u_{k+n-1}
     (with the effect plug-ins ``effects`` switched on, reset at the start); ``initial``: the
     starting state as measured (:meth:`InitialState.from_recording`) or estimated from the
-    measurements around k (:meth:`InitialState.smoothed`)."""
-    obs = [sim.reset(initial=InitialState.at(rec, k, initial), effects=effects)]
+    measurements around k (:meth:`InitialState.smoothed`); ``start``: that state, taken
+    already."""
+    obs = [sim.reset(initial=InitialState.at(rec, k, initial) if start is None else start,
+                     effects=effects)]
     for u in rec.cmd[k:k + n]:
         obs.append(sim.step(u))
     arrays = {f: np.array([o[f] for o in obs], dtype=float) for f in OBS_FIELDS}
@@ -204,11 +235,13 @@ def k_step_predictions(rec: MoveRecording, config: RobotConfig, horizon: int, st
         raise ValueError(f"horizon must be a positive integer, got {horizon!r}")
     sim = _sim_for(_replay_config(config))
     s = states_from_recording(rec)              # row j = s_{j+1}
-    rec = delayed_recording(rec, config.command_delay_ms)
     ts = np.arange(1, rec.n_steps - horizon + 1, stride)
     if ts.size == 0:
         raise ValueError(f"{rec.name}: {rec.n_steps} commands leave no {horizon}-step sample")
-    pred = np.stack([_replay(sim, rec, int(t), int(horizon), effects, initial) for t in ts])
+    starts = _starts(rec, ts, initial)
+    rec = delayed_recording(rec, config.command_delay_ms)
+    pred = np.stack([_replay(sim, rec, int(t), int(horizon), effects, initial, starts[int(t)])
+                     for t in ts])
     true = np.stack([s[t:t + horizon] for t in ts])
     return ts, true, pred
 
@@ -261,6 +294,29 @@ class _MovePool:
         n = len(self.recs)
         return list(self._pool.map(fn, *[[h] * n for h in head], idx))
 
+    def map_many(self, fn: Callable, heads: Sequence[tuple]) -> list[list]:
+        """``[self.map(fn, *head) for head in heads]`` as one batch of work: each head's moves
+        in :func:`move_chunks` (a worker builds the robot of a head once per chunk, as
+        :meth:`map` has each worker do once per head), every chunk of every head queued at
+        once, so no worker waits at the end of one head for the other's last move."""
+        if self._pool is None:
+            return [self.map(fn, *head) for head in heads]
+        chunks = move_chunks(len(self.recs), self.jobs)
+        futures = [[self._pool.submit(_chunk_task, fn, tuple(head), idx) for idx in chunks]
+                   for head in heads]
+        return [[r for f in fs for r in f.result()] for fs in futures]
+
+
+def move_chunks(n: int, jobs: int) -> list[list[int]]:
+    """Moves 0..n-1 in ``jobs`` contiguous chunks of nearly equal size (none empty)."""
+    k = max(1, min(int(jobs), n))
+    return [list(range(n * j // k, n * (j + 1) // k)) for j in range(k)]
+
+
+def _chunk_task(fn: Callable, head: tuple, idx: Sequence[int]) -> list:
+    """``fn(*head, i)`` for each move i of ``idx``, in order, in one worker."""
+    return [fn(*head, i) for i in idx]
+
 
 def _remote_task(fn: Callable, recs: Sequence[MoveRecording], *args: Any) -> Any:
     """``fn(*args)`` on a Dask worker, its recordings (scattered once, the same object for each
@@ -305,6 +361,18 @@ class _DaskMovePool:
         futures = self.client.map(_remote_task, [fn] * n, [self._recs] * n,
                                   *[[h] * n for h in head], list(range(n)), pure=False)
         return self.client.gather(futures)
+
+    def map_many(self, fn: Callable, heads: Sequence[tuple]) -> list[list]:
+        """:meth:`_MovePool.map_many` on the cluster: one task per move of each head."""
+        if not heads:
+            return []
+        n = len(self.recs)
+        jobs = [(head, i) for head in heads for i in range(n)]
+        futures = self.client.map(_remote_task, [fn] * len(jobs), [self._recs] * len(jobs),
+                                  *[list(col) for col in zip(*[(*h, i) for h, i in jobs])],
+                                  pure=False)
+        out = self.client.gather(futures)
+        return [out[k * n:(k + 1) * n] for k in range(len(heads))]
 
 
 def move_pool(recs: Sequence[MoveRecording], jobs: int = 2, scheduler: str | None = None):

@@ -81,8 +81,13 @@ Method
    torque-mode PD is unstable on a swinging leg, ``robot/config.py``); ``"auto"`` fits
    both and keeps the one whose k-step residual on the fitted moves is lower, measured by the
    first stage's objective with the starting robot's weights (the same residuals and the same
-   weights for both, so their costs compare; the TestPool is not used to choose). The report's
-   ``structure`` gives both fits.
+   weights for both, so their costs compare; the TestPool is not used to choose). Both fits
+   are first run for :data:`STRUCTURE_SCREEN_EVALS` evaluations each (the screen); where one
+   structure's best k-step cost there is at least :data:`STRUCTURE_SCREEN_RATIO` times the
+   other's, only the other is fitted on (decision 056). A fit is deterministic, so the one
+   fitted on passes the same points with the screen's evaluations served from memory, and
+   ends where a fit without the screen ends. The report's ``structure`` gives both fits, a
+   screened-out one with its screen (``screened``).
 9. **Adding what the residual asks for** (``add_asked``, ``--add-asked N``). The fitted
    parameters absorb what a parameter left out would explain (a short set-point delay shows
    as stiffer gains), and a diagnosis against that twin then names the left-out parameter as
@@ -228,8 +233,8 @@ from .parameters import (DEFAULT_CALIBRATION_PARAMS, TWIN_PARAMETERS, TwinParame
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
            "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
            "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
-           "calibrate_dataset", "twin_residuals", "weak_directions", "scale_symmetry",
-           "SCALES_WITH_MASS", "weigh"]
+           "calibrate_dataset", "twin_residuals", "twin_residuals_many", "weak_directions",
+           "scale_symmetry", "SCALES_WITH_MASS", "weigh"]
 
 log = logging.getLogger(__name__)
 
@@ -377,6 +382,18 @@ def twin_residuals(pool: Any, config: RobotConfig, stride: int,
                     str(initial))
 
 
+def twin_residuals_many(pool: Any, configs: Sequence[RobotConfig], stride: int,
+                        horizons: tuple[int, ...], initial: str = "measured"
+                        ) -> list[list[np.ndarray]]:
+    """:func:`twin_residuals` of each robot of ``configs``, the same arrays, as one batch of
+    the pool's work (``map_many``: a finite-difference Jacobian's robots side by side); one
+    robot after another where the pool has no ``map_many``."""
+    head = (int(stride), tuple(int(h) for h in horizons), str(initial))
+    if not hasattr(pool, "map_many"):
+        return [twin_residuals(pool, c, stride, horizons, initial) for c in configs]
+    return pool.map_many(_residual_task, [(c, *head) for c in configs])
+
+
 def _weighted(raw: Sequence[np.ndarray], scale: np.ndarray) -> np.ndarray:
     """Residuals divided by their (horizon, element) scale, flattened; non-finite -> large."""
     r = np.concatenate([(m / scale).reshape(-1) for m in raw])
@@ -403,9 +420,11 @@ class _Problem:
     an evaluation budget."""
 
     def __init__(self, pool: Any, base: RobotConfig, params: Sequence[TwinParameter],
-                 options: CalibrationOptions, progress: Callable[[str], None]) -> None:
+                 options: CalibrationOptions, progress: Callable[[str], None],
+                 cache: dict[tuple[float, ...], list[np.ndarray]] | None = None) -> None:
         self.pool, self.base, self.params, self.o, self.say = pool, base, params, options, progress
-        self.cache: dict[tuple[float, ...], list[np.ndarray]] = {}
+        self.cache: dict[tuple[float, ...], list[np.ndarray]] = {} if cache is None else cache
+        self.screen: float = math.inf   # distinct robots simulated before _ScreenDone
         self.scale: np.ndarray | None = None
         self.limit: float = options.max_evals   # distinct robots simulated before _BudgetSpent
         self.lo = np.array([p.x_bounds()[0] for p in params])
@@ -418,28 +437,52 @@ class _Problem:
             cfg = p.set(cfg, float(min(max(p.from_x(float(xi)), lo), hi)))
         return cfg
 
+    @staticmethod
+    def key(x: np.ndarray) -> tuple[float, ...]:
+        return tuple(np.round(np.asarray(x, float), 12))
+
     def raw(self, x: np.ndarray) -> list[np.ndarray]:
-        key = tuple(np.round(np.asarray(x, float), 12))
-        if key not in self.cache:
-            if len(self.cache) >= self.limit:
-                raise _BudgetSpent
+        self.raw_many([x])
+        return self.cache[self.key(x)]
+
+    def raw_many(self, xs: Sequence[np.ndarray]) -> None:
+        """Into the cache: the residuals at each point of ``xs`` not there yet, simulated as
+        one batch (:func:`twin_residuals_many`). Where the budget runs out, the points it still
+        allows are simulated and kept, in order, and then :class:`_BudgetSpent` is raised: the
+        cache ends as evaluating the points one by one leaves it."""
+        new: dict[tuple[float, ...], np.ndarray] = {}
+        for x in xs:
+            k = self.key(x)
+            if k not in self.cache and k not in new:
+                new[k] = np.asarray(x, float)
+        cap = min(self.limit, self.screen)
+        room = max(0, min(len(new), cap - len(self.cache)))   # the limit may be inf
+        spent = len(new) > room
+        todo = list(new.items())[:int(room)]
+        if todo:
             t0 = time.perf_counter()
-            self.cache[key] = twin_residuals(self.pool, self.config(x), self.o.stride,
-                                             self.o.horizons, self.o.initial_state)
-            cost = None if self.scale is None else 0.5 * float(np.sum(self.fun(x) ** 2))
-            self.say(f"  [{len(self.cache)}/{self.o.max_evals}] "
-                     + " ".join(f"{p.name}={p.from_x(float(v)):.4g}"
-                                for p, v in zip(self.params, x))
-                     + ("" if cost is None else f" cost {cost:.1f}")
-                     + f" ({time.perf_counter() - t0:.1f} s)")
-        return self.cache[key]
+            raws = twin_residuals_many(self.pool, [self.config(x) for _, x in todo],
+                                       self.o.stride, self.o.horizons, self.o.initial_state)
+            dt = time.perf_counter() - t0
+            for (k, x), raw in zip(todo, raws):
+                self.cache[k] = raw
+                cost = None if self.scale is None else 0.5 * float(np.sum(self.fun(x) ** 2))
+                self.say(f"  [{len(self.cache)}/{self.o.max_evals}] "
+                         + " ".join(f"{p.name}={p.from_x(float(v)):.4g}"
+                                    for p, v in zip(self.params, x))
+                         + ("" if cost is None else f" cost {cost:.1f}")
+                         + (f" ({dt:.1f} s)" if len(todo) == 1
+                            else f" ({dt / len(todo):.1f} s: one of {len(todo)} in {dt:.1f} s)"))
+        if spent:
+            raise _ScreenDone if self.screen < self.limit else _BudgetSpent
 
     def fun(self, x: np.ndarray) -> np.ndarray:
         return _weighted(self.raw(x), self.scale)
 
     def jac(self, x: np.ndarray) -> np.ndarray:
-        """Central differences of step ``diff_step`` coordinates (one-sided at a bound)."""
-        cols = []
+        """Central differences of step ``diff_step`` coordinates (one-sided at a bound); the
+        points simulated as one batch (:meth:`raw_many`)."""
+        pairs = []
         for k, p in enumerate(self.params):
             h = self.o.diff_step * p.x_scale
             up, down = np.array(x, float), np.array(x, float)
@@ -447,12 +490,19 @@ class _Problem:
             if up[k] == x[k] or down[k] == x[k]:
                 up[k] = x[k] if up[k] == x[k] else up[k]
                 down[k] = x[k] if down[k] == x[k] else down[k]
-            cols.append((self.fun(up) - self.fun(down)) / (up[k] - down[k]))
+            pairs.append((up, down))
+        self.raw_many([v for pair in pairs for v in pair])
+        cols = [(self.fun(up) - self.fun(down)) / (up[k] - down[k])
+                for k, (up, down) in enumerate(pairs)]
         return np.stack(cols, axis=1)
 
 
 class _BudgetSpent(Exception):
     pass
+
+
+class _ScreenDone(Exception):
+    """A structure's screen (:func:`_screen_structure`) has used its evaluations."""
 
 
 _STOPS = {0: "iteration limit", 1: "converged (gradient)", 2: "converged (cost)",
@@ -930,8 +980,11 @@ def _resolve_initial_state(options: "CalibrationOptions", recs: Sequence[MoveRec
 
 def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
                    base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
-                   progress: Callable[[str], None] | None = None) -> Calibration:
+                   progress: Callable[[str], None] | None = None, *,
+                   cache: dict[tuple[float, ...], list[np.ndarray]] | None = None
+                   ) -> Calibration:
     """Fit ``options.params`` of ``base`` to ``train_recs`` (module doc); score on ``test_recs``.
+    ``cache``: the evaluations this very fit made already (a structure's screen, module doc 8).
 
     Returns the calibrated robot (named ``options.name`` or BASE-calibrated), the estimates
     with their 95 % intervals and bounds, the weak directions and a JSON-ready report.
@@ -972,7 +1025,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     base = replace(base, sensor_noise=False)    # re-simulation predicts the noise-free state
     x0 = np.array([p.to_x(p.get(base)) for p in params])
     with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
-        prob = _Problem(pool, base, params, options, say)
+        prob = _Problem(pool, base, params, options, say, cache)
         say(f"fitting {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool moves")
         x, stages = _fit(prob, x0)
         J, r = prob.jac(x), prob.fun(x)
@@ -1073,7 +1126,11 @@ def _structure_cost(cal: Calibration, reference: dict[str, Any]) -> float:
     """The first stage's objective at ``cal``'s optimum with the weights of the starting robot
     ``reference`` (``residual_rms['start']`` of the keep-structure fit): the mean over
     (horizon, element) of (RMS / starting RMS)^2, elements the start leaves at 0 left out."""
-    got = cal.report["residual_rms"]["calibrated"]
+    return _rms_cost(cal.report["residual_rms"]["calibrated"], reference)
+
+
+def _rms_cost(got: dict[str, Any], reference: dict[str, Any]) -> float:
+    """:func:`_structure_cost` of the residual RMS table ``got`` (:func:`_rms_table`)."""
     terms = []
     for h, row in reference.items():
         for name, ref in row.items():
@@ -1084,32 +1141,118 @@ def _structure_cost(cal: Calibration, reference: dict[str, Any]) -> float:
     return float(np.mean(terms)) if terms else math.inf
 
 
+#: decision 056: ``servo="auto"`` first fits each structure for this many evaluations ...
+STRUCTURE_SCREEN_EVALS = 40
+#: ... and fits on only the better one where the other's best k-step cost there is at least
+#: this many times its own
+STRUCTURE_SCREEN_RATIO = 3.0
+
+
+@dataclass
+class _Screen:
+    """A structure's screen: the evaluations its fit made first (the fit's own cache), the
+    residual RMS table at the start, and the lowest k-step cost among the points evaluated
+    (against ``reference``, set by the caller)."""
+
+    servo: str
+    cache: dict[tuple[float, ...], list[np.ndarray]]
+    start_rms: dict[str, Any]
+    tables: list[dict[str, Any]]
+    wall_s: float
+
+    def cost(self, reference: dict[str, Any]) -> float:
+        return min(_rms_cost(t, reference) for t in self.tables)
+
+
+def _rms_table(raw: Sequence[np.ndarray], horizons: Sequence[int]) -> dict[str, Any]:
+    """RMS of the raw residual per horizon and element (:func:`_rms_report`'s tables)."""
+    all_r = np.concatenate(raw, axis=0)
+    with np.errstate(invalid="ignore", over="ignore"):
+        rms = np.sqrt(np.mean(all_r ** 2, axis=0))
+    return {f"h{h}": {n: (float(v) if np.isfinite(v) else None)
+                      for n, v in zip(STATE_NAMES, rms[k])} for k, h in enumerate(horizons)}
+
+
+def _screen_structure(train_recs: Sequence[MoveRecording], base: RobotConfig,
+                      options: CalibrationOptions, say: Callable[[str], None]) -> _Screen:
+    """The first :data:`STRUCTURE_SCREEN_EVALS` evaluations of the fit :func:`calibrate_twin`
+    makes with ``options`` (a structure's servo): the same problem, the same start, stopped
+    when they are spent. Its cache holds only the fit's own points, in its order, so the fit
+    run after it with that cache passes the same points and ends where it would have."""
+    t0 = time.perf_counter()
+    options = _resolve_initial_state(options, train_recs, lambda s: None)
+    start = with_servo(base, options.servo)
+    params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[start.servo], start)
+    start = replace(start, sensor_noise=False)
+    x0 = np.array([p.to_x(p.get(start)) for p in params])
+    with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
+        prob = _Problem(pool, start, params, options, say)
+        prob.screen = STRUCTURE_SCREEN_EVALS
+        say(f"screening {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool "
+            f"moves ({STRUCTURE_SCREEN_EVALS} evaluations)")
+        try:
+            _fit(prob, x0)
+        except _ScreenDone:
+            pass
+        key = prob.key(x0)
+        raw0 = (prob.cache[key] if key in prob.cache else   # not added: the fit's cache only
+                twin_residuals(pool, prob.config(x0), options.stride, options.horizons,
+                               options.initial_state))
+    tables = [_rms_table(r, options.horizons) for r in prob.cache.values()]
+    return _Screen(options.servo, prob.cache, _rms_table(raw0, options.horizons), tables,
+                   round(time.perf_counter() - t0, 1))
+
+
 def _calibrate_structures(train_recs: Sequence[MoveRecording],
                           test_recs: Sequence[MoveRecording], base: RobotConfig,
                           options: CalibrationOptions, say: Callable[[str], None],
                           t0: float) -> Calibration:
-    """``servo="auto"`` (module doc, 8): fit the starting servo and the other one, keep the
-    structure with the lower k-step cost, roll out the TestPool before and after once."""
+    """``servo="auto"`` (module doc, 8): screen the starting servo and the other one, fit on
+    the one the screen leaves or both, keep the structure with the lower k-step cost, roll out
+    the TestPool before and after once."""
     other = "pd_torque" if base.servo == "position" else "position"
-    fits: dict[str, Calibration] = {}
+    screens: dict[str, _Screen] = {}
     for servo in (base.servo, other):
         say(f"servo structure {servo}:")
-        fits[servo] = calibrate_twin(train_recs, [], base, replace(options, servo=servo), say)
-    reference = fits[base.servo].report["residual_rms"]["start"]
+        screens[servo] = _screen_structure(train_recs, base, replace(options, servo=servo), say)
+    reference = screens[base.servo].start_rms
+    screened = {s: sc.cost(reference) for s, sc in screens.items()}
+    lead = min(screened, key=lambda s: (screened[s], s != base.servo))
+    behind = other if lead == base.servo else base.servo
+    out = screened[behind] >= STRUCTURE_SCREEN_RATIO * screened[lead]
+    say(f"servo structures screened: k-step cost {lead} {screened[lead]:.4g}, {behind} "
+        f"{screened[behind]:.4g}: " + (f"fitting {lead} only" if out else "fitting both"))
+    fits: dict[str, Calibration] = {}
+    for servo in ((lead,) if out else (base.servo, other)):
+        say(f"servo structure {servo}:")
+        fits[servo] = calibrate_twin(train_recs, [], base, replace(options, servo=servo), say,
+                                     cache=screens[servo].cache)
     costs = {s: _structure_cost(c, reference) for s, c in fits.items()}
     chosen = min(costs, key=lambda s: (costs[s], s != base.servo))   # a tie keeps the start's
     cal = fits[chosen]
-    say(f"servo structure: {chosen} (k-step cost {costs[chosen]:.4g} against "
-        f"{costs[other if chosen == base.servo else base.servo]:.4g})")
+    if out:
+        say(f"servo structure: {chosen} (k-step cost {costs[chosen]:.4g}; {behind} screened "
+            f"out at {screened[behind]:.4g})")
+    else:
+        say(f"servo structure: {chosen} (k-step cost {costs[chosen]:.4g} against "
+            f"{costs[other if chosen == base.servo else base.servo]:.4g})")
     report = dict(cal.report)
+    candidates = [{"servo": s, "cost": costs[s], "converged": c.report.get("converged"),
+                   "n_evals": c.report.get("n_evals"), "wall_s": c.report.get("wall_s"),
+                   "params": [_estimate_dict(e) for e in c.estimates]}
+                  for s, c in fits.items()]
+    if out:
+        candidates.append({"servo": behind, "cost": screened[behind], "converged": False,
+                           "n_evals": len(screens[behind].cache),
+                           "wall_s": screens[behind].wall_s, "params": [],
+                           "screened": True})
     report["structure"] = {
         "chosen": chosen, "start": base.servo,
         "criterion": "mean over horizon and element of (residual RMS / the starting robot's)^2 "
                      "on the fitted moves",
-        "candidates": [{"servo": s, "cost": costs[s], "converged": c.report.get("converged"),
-                        "n_evals": c.report.get("n_evals"), "wall_s": c.report.get("wall_s"),
-                        "params": [_estimate_dict(e) for e in c.estimates]}
-                       for s, c in fits.items()]}
+        "screen": {"evals": STRUCTURE_SCREEN_EVALS, "ratio": STRUCTURE_SCREEN_RATIO,
+                   "costs": screened, "fitted": [lead] if out else [base.servo, other]},
+        "candidates": candidates}
     _finish(report, test_recs, replace(base, sensor_noise=False), cal.config, options, say, t0)
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
@@ -1265,7 +1408,7 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     ask for, and a refit would then hold a direction the data cannot tell."""
     fitted = {p.name for p in prob.params}
     config = prob.config(x)
-    out = []
+    moved = []
     for par in TWIN_PARAMETERS.values():
         if par.name in fitted or (par.servo is not None and par.servo != config.servo):
             continue
@@ -1284,8 +1427,11 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
         step = secant_step(par, value, prob.o)
         if not lo_x <= xc + step <= hi_x or step == 0:
             continue
-        raw = twin_residuals(prob.pool, par.set(config, par.from_x(xc + step)), prob.o.stride,
-                             prob.o.horizons, prob.o.initial_state)
+        moved.append((par, value, step, par.set(config, par.from_x(xc + step))))
+    raws = twin_residuals_many(prob.pool, [m[3] for m in moved], prob.o.stride,
+                               prob.o.horizons, prob.o.initial_state)
+    out = []
+    for (par, value, step, _), raw in zip(moved, raws):
         w = _weighted(raw, prob.scale)
         if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)):
             continue                  # the moved robot diverges: no slope to read
@@ -1396,15 +1542,8 @@ def _correlation(cov: np.ndarray, params: Sequence[TwinParameter]) -> dict[str, 
 
 def _rms_report(prob: _Problem, x0: np.ndarray, x: np.ndarray) -> dict[str, Any]:
     """RMS of the raw residual per horizon and element, at the start and at the optimum."""
-    out = {}
-    for label, xi in (("start", x0), ("calibrated", x)):
-        all_r = np.concatenate(prob.raw(xi), axis=0)
-        with np.errstate(invalid="ignore", over="ignore"):
-            rms = np.sqrt(np.mean(all_r ** 2, axis=0))
-        out[label] = {f"h{h}": {n: (float(v) if np.isfinite(v) else None)
-                                for n, v in zip(STATE_NAMES, rms[k])}
-                      for k, h in enumerate(prob.o.horizons)}
-    return out
+    return {label: _rms_table(prob.raw(xi), prob.o.horizons)
+            for label, xi in (("start", x0), ("calibrated", x))}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -211,9 +211,15 @@ def _auto_servo(reference: Path, tmp_path: Path, capsys, missing_test: bool) -> 
         assert p.returncode == 0, p.stderr
         twin = load_twin(out)
         st = twin.provenance["calibration"]["structure"]
-        assert [c["servo"] for c in st["candidates"]] == ["position", "pd_torque"]
+        assert sorted(c["servo"] for c in st["candidates"]) == ["pd_torque", "position"]
         costs = {c["servo"]: c["cost"] for c in st["candidates"]}
         assert st["chosen"] == min(costs, key=costs.get) == twin.robot.servo
+        # decision 056: a structure screened out keeps its screen's cost, at least the ratio
+        # times the other's
+        for c in st["candidates"]:
+            if c.get("screened"):
+                assert st["screen"]["fitted"] == [st["chosen"]] != [c["servo"]]
+                assert c["cost"] >= st["screen"]["ratio"] * st["screen"]["costs"][st["chosen"]]
         assert f"servo structure: {st['chosen']}" in p.stdout
         chosen[name] = st["chosen"]
         if missing_test and name == "position":
@@ -692,3 +698,106 @@ def test_a_torque_limit_asked_for_after_the_last_round_gets_a_round(monkeypatch)
         calls.append(1) or (["foot_friction"] if len(calls) == 1 else ["command_delay_ms"])))
     gain = twin_fit.calibrate_twin(recs, [], base, opts)
     assert [r["added"] for r in gain.report["added"]] == [["foot_friction"]]
+
+
+class _CountingPool(_LinearPool):
+    """:class:`_LinearPool` with ``map_many``: records the size of every batch it is given."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.batches: list[int] = []
+
+    def map_many(self, fn, heads):
+        self.batches.append(len(heads))
+        return [self.map(fn, *head) for head in heads]
+
+
+def test_the_jacobian_is_one_batch_and_the_budget_ends_as_one_by_one():
+    """A finite-difference Jacobian simulates its 2 x n points as one batch and gives the
+    columns the one-by-one evaluation gives; where the evaluation budget runs out inside it,
+    the points the budget allows are simulated in order, kept, and the budget error raised,
+    leaving the cache as the one-by-one evaluation leaves it."""
+    import math
+    import numpy as np
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot.twin_fit import CalibrationOptions, _BudgetSpent, _Problem
+
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0)
+    names = ("body_mass", "foot_friction", "command_delay_ms")
+    x = np.array([math.log(2.1), 0.6, 2.0])
+
+    def problem(pool, budget):
+        opts = CalibrationOptions(horizons=(1,), stride=20, max_evals=budget)
+        prob = _Problem(pool, base, twin_parameters(names, base), opts, lambda s: None)
+        prob.scale = np.ones((1, 33))
+        return prob
+
+    batched, single = problem(_CountingPool(), 50), problem(_LinearPool(), 50)
+    prob_x = [p.fun(x) for p in (batched, single)]
+    assert np.array_equal(*prob_x)
+    assert np.array_equal(batched.jac(x), single.jac(x))
+    assert batched.pool.batches == [1, 2 * len(names)]
+    for budget in (3, 5):                      # x itself, then 2 or 4 of the 6 points
+        ends = []
+        for pool in (_CountingPool(), _LinearPool()):
+            prob = problem(pool, budget)
+            prob.fun(x)
+            with pytest.raises(_BudgetSpent):
+                prob.jac(x)
+            ends.append(prob.cache)
+        assert list(ends[0]) == list(ends[1]) and len(ends[0]) == budget
+        assert all(np.array_equal(a, b) for k in ends[0] for a, b in zip(ends[0][k], ends[1][k]))
+
+
+def test_map_many_is_map_per_robot_in_local_processes(reference):
+    """The pool's batch over robots (``map_many``) returns, for each robot, what ``map`` returns
+    for it, bit for bit, in worker processes and in this one."""
+    import numpy as np
+    from littledog_mlsim.data.dataset import load_moves
+    from littledog_mlsim.robot import baseline as bl
+    from littledog_mlsim.robot.twin_fit import _residual_task
+
+    recs = load_moves(reference, "train")[:3]
+    robots = [robot_config("nominal"), TRUTH]
+    heads = [(r, 20, (1, 10), "measured") for r in robots]
+    for jobs in (1, 2):
+        with bl.move_pool(recs, jobs) as pool:
+            one = [pool.map(_residual_task, *h) for h in heads]
+            many = pool.map_many(_residual_task, heads)
+        assert [len(m) for m in many] == [len(recs)] * len(robots)
+        assert all(np.array_equal(a, b) for o, m in zip(one, many) for a, b in zip(o, m))
+    assert bl.move_chunks(5, 2) == [[0, 1], [2, 3, 4]] and bl.move_chunks(1, 4) == [[0]]
+
+
+def test_a_fit_after_its_screen_ends_where_a_fit_without_it_ends():
+    """Decision 056: a structure's screen stops the fit after its evaluations; the fit run
+    after it with the screen's cache passes the same points in the same order and ends at the
+    same optimum, with the same number of evaluations spent."""
+    import math
+    import numpy as np
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot.twin_fit import (CalibrationOptions, _fit, _Problem,
+                                                _ScreenDone)
+
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0)
+    names = ("body_mass", "foot_friction", "command_delay_ms")
+    opts = CalibrationOptions(horizons=(1,), stride=20, max_evals=60)
+    x0 = np.array([math.log(2.4), 0.8, 1.0])
+
+    def problem(cache=None):
+        return _Problem(_CountingPool(), base, twin_parameters(names, base), opts,
+                        lambda s: None, cache)
+
+    plain = problem()
+    x_plain, stages_plain = _fit(plain, x0)
+    for k in (1, 5, 12):
+        screen = problem()
+        screen.screen = k
+        with pytest.raises(_ScreenDone):
+            _fit(screen, x0)
+        assert list(screen.cache) == list(plain.cache)[:k]
+        after = problem(screen.cache)
+        x_after, stages_after = _fit(after, x0)
+        assert np.array_equal(x_after, x_plain) and stages_after == stages_plain
+        assert list(after.cache) == list(plain.cache)
+        assert sum(after.pool.batches) == len(plain.cache) - k     # the screen's not again
