@@ -663,7 +663,7 @@ def test_physical_scopes_and_shortlist():
             a, b = set(scope_joints(scope)), set(scope_joints(r))
             same_leg = r.startswith("joint:") and r.split("_")[:2] == scope.split("_")[:2]
             assert a < b or b < a or (len(a) == len(b) == 1 and same_leg), (scope, r)
-    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 14 * 22 + 8 + 5 * 4
+    assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 15 * 22 + 8 + 5 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
          Candidate("joint_friction", "leg:front_left", 7.0, 0.1),

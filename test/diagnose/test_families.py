@@ -356,3 +356,42 @@ def test_a_scoped_delay_scan_replaces_only_that_scopes_commands(monkeypatch):
     assert np.all(U[:, list(left)] == 7.0)
     assert np.all(np.delete(U, list(left), axis=1) == 0.0)
     assert np.all(seen[0][:, :N_STATE] == 0.0)
+
+
+def test_the_report_only_offset_leaves_the_motion_and_starts_from_the_true_angle():
+    """Decision 055: ``report_offset`` is ``encoder_offset``'s report-only form. Its plug-in
+    offsets the published angle only, so the robot moves as without it; the search starts a
+    re-simulation from the measured state minus the offset, which is the true state, and the
+    re-simulation with the hypothesis then reproduces the recording's motion exactly and its
+    reported angle within rounding."""
+    import dataclasses
+    from littledog_mlsim.diagnose.physical import true_start
+    from littledog_mlsim.gait.trot import sample_trot_params, trot_commands
+    from littledog_mlsim.robot.config import robot_config
+    from littledog_mlsim.robot.effects import EncoderOffset
+    from littledog_mlsim.robot.sim import InitialState, simulate_move
+
+    spec, loop = FAMILIES["report_offset"], FAMILIES["encoder_offset"]
+    assert spec.vocabulary == "encoder_offset" and spec.form != loop.form
+    scope, par = "joint:back_left_knee", {"offset_rad": -0.07}
+    (plug,) = spec.build_effects(scope, par)
+    assert isinstance(plug, EncoderOffset) and not plug.servo_loop and plug.offset_rad == -0.07
+    assert loop.build_effects(scope, par)[0].servo_loop
+    fit = _Fit("report_offset", scope, -0.07, -0.07, None, {})
+    assert spec.physical_params(fit, 0.9)["form"] == spec.form
+    assert "report only" in spec.statement(scope_words(scope), {"offset_rad": -0.07})
+
+    robot = dataclasses.replace(robot_config("measured"), sensor_noise=False)
+    cmd = trot_commands(sample_trot_params("F", np.random.default_rng(3)))[:60]
+    knee = scope_joints(scope)
+    base = simulate_move(cmd, robot=robot)
+    rec = simulate_move(cmd, robot=robot, effects=spec.build_effects(scope, par))
+    assert np.array_equal(rec.position, base.position)
+    assert np.allclose(rec.q[:, knee], base.q[:, knee] - 0.07)
+    start = true_start(InitialState.from_recording(rec, 20), [("report_offset", scope, par)])
+    assert np.allclose(start.q, InitialState.from_recording(base, 20).q)
+    again = simulate_move(cmd[20:], robot=robot, effects=spec.build_effects(scope, par),
+                          initial=start)
+    plain = simulate_move(cmd[20:], robot=robot, initial=InitialState.from_recording(base, 20))
+    assert np.allclose(again.position, plain.position, atol=1e-12)
+    assert np.allclose(again.q[:, knee], plain.q[:, knee] - 0.07)

@@ -13,8 +13,8 @@ from .scopes import scope_group, scope_joints
 
 __all__ = ["CommandDelay", "CommandFilter", "ServoGainFamily", "JointFrictionFamily", "Backlash",
            "MotorBacklash", "SetpointBacklash", "TorqueSaturation", "EncoderOffsetFamily",
-           "EncoderScaleFamily", "ReportScale", "TorqueSpeedFamily", "TimeDrift", "SupplySagDrift",
-           "NORMAL_TORQUE", "TorqueRatio"]
+           "ReportOffset", "EncoderScaleFamily", "ReportScale", "TorqueSpeedFamily", "TimeDrift",
+           "SupplySagDrift", "NORMAL_TORQUE", "TorqueRatio"]
 
 _MEASURED = robot_config("measured")
 # The servos' normal torque limits [N m] by joint type: the measured robot's (robot/config.py).
@@ -287,6 +287,7 @@ class EncoderOffsetFamily(Family):
     unit: ClassVar[str] = "rad"
     probe: ClassVar[float] = 0.03
     bounds: ClassVar[tuple[float, float]] = (-0.3, 0.3)
+    form: ClassVar[str] = "the servo closes its loop on the reading"
 
     def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
         from ...robot.effects import EncoderOffset
@@ -297,6 +298,9 @@ class EncoderOffsetFamily(Family):
                 f"the true angle (the servo holds the joint that far from the set-point while "
                 f"the report shows it on it)")
 
+    def physical_params(self, c: FittedEffect, foot_mu: float) -> dict[str, Any]:
+        return {self.primary: float(_magnitude(c)), "form": self.form}
+
     def start_q(self, q: np.ndarray, scope: str, params: Mapping[str, Any]) -> np.ndarray:
         """The measured angle is the true one plus the offset: the joints start at the
         measured angle minus it (else the legs, and so the body, start in a pose the robot
@@ -304,6 +308,27 @@ class EncoderOffsetFamily(Family):
         out = np.array(q, dtype=float)
         out[scope_joints(scope)] -= float(params["offset_rad"])
         return out
+
+
+@register_family
+class ReportOffset(EncoderOffsetFamily):
+    """The joint states are published a constant off the true angle (a zero set wrong in the
+    report only, decision 055): the servo reads the true angle, and the reported angle is the
+    true one plus the offset; the joints start at the measured angle minus it, as for the
+    servo-loop form."""
+
+    name: ClassVar[str] = "report_offset"
+    reported_as: ClassVar[str] = "encoder_offset"
+    form: ClassVar[str] = "the report only (the servo reads the true angle)"
+
+    def build_effects(self, scope: str, params: Mapping[str, Any]) -> list[Any]:
+        from ...robot.effects import EncoderOffset
+        return [EncoderOffset(params[self.primary], _joints(scope), servo_loop=False)]
+
+    def statement(self, where: str, params: Mapping[str, Any]) -> str:
+        return (f"{_cap(where)}: the joint states report about {params[self.primary]:+.3f} rad "
+                f"off the true angle (the servo reads the true angle; a zero set wrong in the "
+                f"report only)")
 
 
 @register_family
