@@ -474,7 +474,9 @@ def format_calibration(report: dict) -> str:
                          f"{100 * m['cost_share']:.1f} % of the cost): {limit_hint}")
     if "structure" in report:
         st = report["structure"]
-        costs = ", ".join(f"{c['servo']} {c['cost']:.4g}" for c in st["candidates"])
+        costs = ", ".join(f"{c['servo']} {c['cost']:.4g}"
+                          + (" (screened out after its first evaluations)"
+                             if c.get("screened") else "") for c in st["candidates"])
         lines.append(f"servo structure: {st['chosen']} (k-step cost, lower is better: {costs})")
     if not report.get("converged", True):
         lines.append(f"not converged ({report['stop']}): the intervals leave out the distance "

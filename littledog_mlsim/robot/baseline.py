@@ -304,7 +304,13 @@ class _MovePool:
         chunks = move_chunks(len(self.recs), self.jobs)
         futures = [[self._pool.submit(_chunk_task, fn, tuple(head), idx) for idx in chunks]
                    for head in heads]
-        return [[r for f in fs for r in f.result()] for fs in futures]
+        try:
+            return [[r for f in fs for r in f.result()] for fs in futures]
+        except BaseException:            # a failed or interrupted batch leaves nothing queued
+            for fs in futures:
+                for f in fs:
+                    f.cancel()
+            raise
 
 
 def move_chunks(n: int, jobs: int) -> list[list[int]]:

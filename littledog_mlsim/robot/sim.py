@@ -137,7 +137,9 @@ class InitialState:
                          f"got {kind!r}")
 
     def validated(self) -> "InitialState":
-        """A float64 copy, raising ValueError on a wrong shape, NaN or a zero quaternion."""
+        """The state as float64 vectors, the orientation normalised (arrays that are float64
+        vectors already are used as they are: views, read-only where they are); ValueError on
+        a wrong shape, NaN or a zero quaternion."""
         shapes = {"position": 3, "orientation": 4, "q": N_JOINTS, "dq": N_JOINTS,
                   "linear_velocity": 3, "angular_velocity": 3}
         out = {}

@@ -978,6 +978,23 @@ def _resolve_initial_state(options: "CalibrationOptions", recs: Sequence[MoveRec
     return replace(options, initial_state=chosen)
 
 
+def _fit_inputs(train_recs: Sequence[MoveRecording], base: RobotConfig,
+                options: CalibrationOptions) -> list[TwinParameter]:
+    """The parameters a fit of ``base`` (its servo structure set) fits; ValueError (one line)
+    for parameters it does not have, a weighing without a mass among them, no TrainPool move,
+    or moves too short for the horizon."""
+    params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[base.servo], base)
+    if options.weighed_mass is not None and not any(p.name in _MASSES for p in params):
+        raise ValueError("--weighed-mass needs a mass among the fitted parameters (body_mass, "
+                         "leg_mass or mass_scale)")
+    if not train_recs:
+        raise ValueError("calibration needs at least one TrainPool move")
+    short = [r.name for r in train_recs if r.n_steps <= max(options.horizons)]
+    if short:
+        raise ValueError(f"moves too short for horizon {max(options.horizons)}: {short}")
+    return params
+
+
 def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
                    base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
                    progress: Callable[[str], None] | None = None, *,
@@ -1006,21 +1023,12 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     if options.add_asked:
         return _calibrate_adding_asked(train_recs, test_recs, base, options, say, t0)
     if options.servo == "auto":
-        if options.params:          # valid for both structures, or refused before any fit
-            for servo in ("position", "pd_torque"):
-                twin_parameters(options.params, with_servo(base, servo))
+        for servo in ("position", "pd_torque"):   # both refused before any fit or screen
+            _fit_inputs(train_recs, with_servo(base, servo), options)
         return _calibrate_structures(train_recs, test_recs, base, options, say, t0)
     original = replace(base, sensor_noise=False)     # "before" is the robot as given
     base = with_servo(base, options.servo)
-    params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[base.servo], base)
-    if options.weighed_mass is not None and not any(p.name in _MASSES for p in params):
-        raise ValueError("--weighed-mass needs a mass among the fitted parameters (body_mass, "
-                         "leg_mass or mass_scale)")
-    if not train_recs:
-        raise ValueError("calibration needs at least one TrainPool move")
-    short = [r.name for r in train_recs if r.n_steps <= max(options.horizons)]
-    if short:
-        raise ValueError(f"moves too short for horizon {max(options.horizons)}: {short}")
+    params = _fit_inputs(train_recs, base, options)
     start_robot = base
     base = replace(base, sensor_noise=False)    # re-simulation predicts the noise-free state
     x0 = np.array([p.to_x(p.get(base)) for p in params])
@@ -1145,7 +1153,7 @@ def _rms_cost(got: dict[str, Any], reference: dict[str, Any]) -> float:
 STRUCTURE_SCREEN_EVALS = 40
 #: ... and fits on only the better one where the other's best k-step cost there is at least
 #: this many times its own
-STRUCTURE_SCREEN_RATIO = 3.0
+STRUCTURE_SCREEN_RATIO = 5.0
 
 
 @dataclass

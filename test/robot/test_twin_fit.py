@@ -76,6 +76,9 @@ def test_calibrate_recovers_two_parameters_within_their_intervals(reference, tmp
     (["--robot", "nominal.json"], "no such file"),
     (["--max-evals", "2"], "max_evals must be >= 4"),
     (["--servo", "auto", "--params", "position_gain"], "acts on the position servo"),
+    # refused before either structure's screen simulates anything (decision 056)
+    (["--servo", "auto", "--params", "torque_limit_knee", "--weighed-mass", "3"],
+     "--weighed-mass needs a mass among the fitted parameters"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(reference, tmp_path, capsys, argv, fragment):
     out = tmp_path / "twin.json"
@@ -732,21 +735,55 @@ def test_the_jacobian_is_one_batch_and_the_budget_ends_as_one_by_one():
         prob.scale = np.ones((1, 33))
         return prob
 
-    batched, single = problem(_CountingPool(), 50), problem(_LinearPool(), 50)
-    prob_x = [p.fun(x) for p in (batched, single)]
-    assert np.array_equal(*prob_x)
+    class OneByOne(_Problem):
+        """The evaluation one point at a time, as before the batches: each new point checks
+        the budget, then is simulated."""
+
+        def raw(self, x):
+            key = self.key(x)
+            if key not in self.cache:
+                if len(self.cache) >= self.limit:
+                    raise _BudgetSpent
+                self.cache[key] = twin_fit.twin_residuals(self.pool, self.config(x), 20, (1,))
+            return self.cache[key]
+
+        def jac(self, x):
+            cols = []
+            for k, p in enumerate(self.params):
+                h = self.o.diff_step * p.x_scale
+                up, down = np.array(x, float), np.array(x, float)
+                up[k], down[k] = min(x[k] + h, self.hi[k]), max(x[k] - h, self.lo[k])
+                cols.append((self.fun(up) - self.fun(down)) / (up[k] - down[k]))
+            return np.stack(cols, axis=1)
+
+    from littledog_mlsim.robot import twin_fit
+    batched = problem(_CountingPool(), 50)
+    single = OneByOne(_LinearPool(), base, twin_parameters(names, base),
+                      CalibrationOptions(horizons=(1,), stride=20, max_evals=50), lambda s: None)
+    single.scale = np.ones((1, 33))
+    assert np.array_equal(batched.fun(x), single.fun(x))
     assert np.array_equal(batched.jac(x), single.jac(x))
     assert batched.pool.batches == [1, 2 * len(names)]
-    for budget in (3, 5):                      # x itself, then 2 or 4 of the 6 points
-        ends = []
-        for pool in (_CountingPool(), _LinearPool()):
-            prob = problem(pool, budget)
-            prob.fun(x)
-            with pytest.raises(_BudgetSpent):
-                prob.jac(x)
-            ends.append(prob.cache)
-        assert list(ends[0]) == list(ends[1]) and len(ends[0]) == budget
-        assert all(np.array_equal(a, b) for k in ends[0] for a, b in zip(ends[0][k], ends[1][k]))
+    x_edge = x.copy()
+    x_edge[1] = batched.hi[1]                  # at a bound: one point of its pair is x itself
+    for budget in range(1, 9):
+        for at in (x, x_edge):
+            ends = []
+            for prob in (problem(_CountingPool(), budget),
+                         OneByOne(_LinearPool(), base, twin_parameters(names, base),
+                                  CalibrationOptions(horizons=(1,), stride=20,
+                                                     max_evals=budget), lambda s: None)):
+                prob.scale = np.ones((1, 33))
+                prob.limit = budget
+                raised = []
+                for step in (prob.fun, prob.jac):
+                    try:
+                        step(at)
+                    except _BudgetSpent:
+                        raised.append(step.__name__)
+                        break
+                ends.append((list(prob.cache), raised))
+            assert ends[0] == ends[1], (budget, ends)
 
 
 def test_map_many_is_map_per_robot_in_local_processes(reference):
