@@ -283,3 +283,30 @@ def bags_to_time(data: Path | None, moves_per_type: int, tmp: str, name: str) ->
     if not bags:
         sys.exit(f"{name}: no bags under {data}")
     return bags
+
+
+class StepSimulationTimer:
+    """While entered, every ``pybullet.stepSimulation`` call (the simulator calls it through
+    the module) is timed into ``calls`` [s]."""
+
+    def __init__(self) -> None:
+        self.calls: list[float] = []
+
+    def __enter__(self) -> "StepSimulationTimer":
+        import time
+
+        import pybullet as p
+        self._step = step = p.stepSimulation
+
+        def timed(**kw) -> None:
+            t = time.perf_counter()
+            step(**kw)
+            self.calls.append(time.perf_counter() - t)
+
+        p.stepSimulation = timed
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        import pybullet as p
+        p.stepSimulation = self._step
+

@@ -16,9 +16,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import statistics
+import sys
 import time
+from pathlib import Path
 
-import pybullet as p
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))   # benchmarks/, for _common
+from _common import StepSimulationTimer  # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.robot import baseline as bl
@@ -47,29 +50,18 @@ def main() -> None:
             pool_s.append(time.perf_counter() - t0)
     bl._init_worker(recs)
     serial_s, build_s, step_s = [], [], []
-    calls: list[float] = []
-    step = p.stepSimulation
-
-    def timed(**kw) -> None:
-        t = time.perf_counter()
-        step(**kw)
-        calls.append(time.perf_counter() - t)
-
     for r in robots[a.repeats + 1:]:
-        calls.clear()
-        p.stepSimulation = timed
-        try:
+        with StepSimulationTimer() as timer:
             t0 = time.perf_counter()
             bl._sim_for(bl._replay_config(r))
             t1 = time.perf_counter()
             for i in range(len(recs)):
                 _residual_task(r, 20, (1, 10), "smoothed", i)
             t2 = time.perf_counter()
-        finally:
-            p.stepSimulation = step
         build_s.append(t1 - t0)
         serial_s.append(t2 - t0)
-        step_s.append(sum(calls))
+        step_s.append(sum(timer.calls))
+        calls = timer.calls
     med = statistics.median
     print(f"{len(recs)} moves, robot {cfg.name}, {a.repeats} evaluations each way (medians):")
     print(f"  in a pool of {a.jobs} processes: {med(pool_s):.3f} s wall per evaluation "

@@ -6,8 +6,10 @@ pybullet's physics step, and the rest per physics step.
 """
 import sys
 import time
+from pathlib import Path
 
-import pybullet as p
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))   # benchmarks/, for _common
+from _common import StepSimulationTimer  # noqa: E402
 
 from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.robot.sim import InitialState, LittleDogSim
@@ -27,20 +29,9 @@ def main() -> None:
     t0 = time.perf_counter()
     move()
     total = time.perf_counter() - t0
-    calls: list[float] = []
-    step = p.stepSimulation
-
-    def timed(**kw) -> None:
-        t = time.perf_counter()
-        step(**kw)
-        calls.append(time.perf_counter() - t)
-
-    p.stepSimulation = timed                 # the simulator calls it through this module
-    try:
+    with StepSimulationTimer() as timer:
         move()
-    finally:
-        p.stepSimulation = step
-    n, s = len(calls), sum(calls)
+    n, s = len(timer.calls), sum(timer.calls)
     print(f"{rec.cmd.shape[0]} control steps, {n} physics steps: all {total * 1e3:.0f} ms, "
           f"stepSimulation {s * 1e3:.0f} ms ({s / total:.0%}), {s / n * 1e6:.0f} us each; "
           f"the rest {(total - s) / n * 1e6:.0f} us per physics step")
