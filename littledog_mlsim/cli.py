@@ -853,8 +853,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "costs two per parameter)")
     cb.add_argument("--servo", choices=("keep", "position", "pd_torque", "auto"), default="keep",
                     help="servo structure fitted: the starting robot's (keep, default), the "
-                         "position servo, the torque-mode PD, or auto: fit both and keep the "
-                         "one with the lower k-step residual (twice the time)")
+                         "position servo, the torque-mode PD, or auto: screen both (40 "
+                         "evaluations each), fit the one far ahead or both, and keep the one "
+                         "with the lower k-step residual")
     cb.add_argument("--no-missing-test", action="store_true",
                     help="skip the score test of the parameters not fitted (one re-simulation "
                          "each) that names what else the residual asks for")
