@@ -373,10 +373,9 @@ class _DaskMovePool:
         if not heads:
             return []
         n = len(self.recs)
-        jobs = [(head, i) for head in heads for i in range(n)]
-        futures = self.client.map(_remote_task, [fn] * len(jobs), [self._recs] * len(jobs),
-                                  *[list(col) for col in zip(*[(*h, i) for h, i in jobs])],
-                                  pure=False)
+        args = [(*head, i) for head in heads for i in range(n)]   # one task per row
+        futures = self.client.map(_remote_task, [fn] * len(args), [self._recs] * len(args),
+                                  *map(list, zip(*args)), pure=False)
         out = self.client.gather(futures)
         return [out[k * n:(k + 1) * n] for k in range(len(heads))]
 

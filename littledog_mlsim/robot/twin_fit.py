@@ -995,6 +995,18 @@ def _fit_inputs(train_recs: Sequence[MoveRecording], base: RobotConfig,
     return params
 
 
+def _fit_start(train_recs: Sequence[MoveRecording], base: RobotConfig,
+               options: CalibrationOptions
+               ) -> tuple[RobotConfig, RobotConfig, list[TwinParameter], np.ndarray]:
+    """(the starting robot in ``options.servo``'s structure, the same without sensor noise,
+    which re-simulation predicts, the parameters fitted, their starting coordinates):
+    what :func:`calibrate_twin` and a structure's screen start a fit from."""
+    start_robot = with_servo(base, options.servo)
+    params = _fit_inputs(train_recs, start_robot, options)
+    base = replace(start_robot, sensor_noise=False)
+    return start_robot, base, params, np.array([p.to_x(p.get(base)) for p in params])
+
+
 def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
                    base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
                    progress: Callable[[str], None] | None = None, *,
@@ -1027,11 +1039,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
             _fit_inputs(train_recs, with_servo(base, servo), options)
         return _calibrate_structures(train_recs, test_recs, base, options, say, t0)
     original = replace(base, sensor_noise=False)     # "before" is the robot as given
-    base = with_servo(base, options.servo)
-    params = _fit_inputs(train_recs, base, options)
-    start_robot = base
-    base = replace(base, sensor_noise=False)    # re-simulation predicts the noise-free state
-    x0 = np.array([p.to_x(p.get(base)) for p in params])
+    start_robot, base, params, x0 = _fit_start(train_recs, base, options)
     with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
         prob = _Problem(pool, base, params, options, say, cache)
         say(f"fitting {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool moves")
@@ -1162,7 +1170,6 @@ class _Screen:
     residual RMS table at the start, and the lowest k-step cost among the points evaluated
     (against ``reference``, set by the caller)."""
 
-    servo: str
     cache: dict[tuple[float, ...], list[np.ndarray]]
     start_rms: dict[str, Any]
     tables: list[dict[str, Any]]
@@ -1189,10 +1196,7 @@ def _screen_structure(train_recs: Sequence[MoveRecording], base: RobotConfig,
     run after it with that cache passes the same points and ends where it would have."""
     t0 = time.perf_counter()
     options = _resolve_initial_state(options, train_recs, lambda s: None)
-    start = with_servo(base, options.servo)
-    params = twin_parameters(options.params or DEFAULT_CALIBRATION_PARAMS[start.servo], start)
-    start = replace(start, sensor_noise=False)
-    x0 = np.array([p.to_x(p.get(start)) for p in params])
+    _, start, params, x0 = _fit_start(train_recs, base, options)
     with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
         prob = _Problem(pool, start, params, options, say)
         prob.screen = STRUCTURE_SCREEN_EVALS
@@ -1207,7 +1211,7 @@ def _screen_structure(train_recs: Sequence[MoveRecording], base: RobotConfig,
                 twin_residuals(pool, prob.config(x0), options.stride, options.horizons,
                                options.initial_state))
     tables = [_rms_table(r, options.horizons) for r in prob.cache.values()]
-    return _Screen(options.servo, prob.cache, _rms_table(raw0, options.horizons), tables,
+    return _Screen(prob.cache, _rms_table(raw0, options.horizons), tables,
                    round(time.perf_counter() - t0, 1))
 
 
