@@ -88,11 +88,17 @@ def _vertex(evals: Mapping[float, float]) -> float | None:
     return xm if all(abs(xm - m) > 1e-6 for m in evals) else None
 
 
+#: decision 057: the midpoint steps of a fit on the screening moves that a refit on every fit
+#: move follows (:func:`wide_magnitude`, which searches its own +-30-40 % around the result)
+SCREENING_HALVINGS = 0
+
+
 def fit_magnitude(obj: Objective, c: Candidate, F: Sequence[int],
-                  known: Mapping[float, float] | None = None) -> Candidate:
+                  known: Mapping[float, float] | None = None, halvings: int = 2) -> Candidate:
     """1-D fit of the magnitude: a grid around the first-order estimate (extended once or
     twice if the minimum is at its edge), a parabola through the best point and its
-    neighbours, then the midpoints between the best point and its neighbours, twice.
+    neighbours, then the midpoints between the best point and its neighbours, ``halvings``
+    times (:data:`SCREENING_HALVINGS` where a refit on every fit move follows, decision 057).
     ``known``: J already evaluated on these moves with these weights, by magnitude; a grid
     point found there is not simulated again."""
     w = obj.weights(F, segments_only(c.family))
@@ -105,7 +111,7 @@ def fit_magnitude(obj: Objective, c: Candidate, F: Sequence[int],
         if new is None:
             break
         _evaluate(obj, c, [new], F, w, evals)
-    _settle(obj, c, F, w, evals, halvings=2)
+    _settle(obj, c, F, w, evals, halvings=halvings)
     best = min(evals, key=evals.get)
     return replace(c, fitted=best, J=evals[best], J0=J0,
                    profile=[{"magnitude": m, "J_relative": evals[m] / J0} for m in sorted(evals)])
@@ -217,16 +223,19 @@ def refine_wide(obj: Objective, c: Candidate, F: Sequence[int],
 
 
 def refine_direction(obj: Objective, c: Candidate, F: Sequence[int],
-                     steps_deg: Sequence[float] = (30.0, 12.0)) -> Candidate:
+                     steps_deg: Sequence[float] = (30.0, 12.0), halvings: int = 2
+                     ) -> Candidate:
     """A vector family's first-order direction searched around it (biased where the response
     is not linear in the components): turned by +-30 deg, then +-12 deg around the best so far,
-    at the fitted magnitude; then the magnitude refitted along the best direction."""
+    at the fitted magnitude; then the magnitude refitted along the best direction
+    (:func:`fit_magnitude` with ``halvings``)."""
     if c.direction is None or c.fitted is None or len(c.direction) != 2:
         return c
     turned = _turn(obj, c, F, obj.weights(F), steps_deg)
     if turned is None:
         return c
-    return fit_magnitude(obj, replace(turned, magnitude=float(turned.fitted)), F)
+    return fit_magnitude(obj, replace(turned, magnitude=float(turned.fitted)), F,
+                         halvings=halvings)
 
 
 def _turn(obj: Objective, c: Candidate, F: Sequence[int], w: np.ndarray,
@@ -259,14 +268,16 @@ def _turn(obj: Objective, c: Candidate, F: Sequence[int], w: np.ndarray,
 def refine_position(obj: Objective, c: Candidate, F: Sequence[int],
                     steps_m: Sequence[tuple[float, float]] = ((0.04, 0.03), (0.02, 0.015)),
                     step_up_m: float = 0.03,
-                    valley_steps: Sequence[float] = (1.5, 1.2)) -> Candidate:
+                    valley_steps: Sequence[float] = (1.5, 1.2), halvings: int = 2
+                    ) -> Candidate:
     """Where a family that acts at a position (a payload) acts, searched around the best
     screening position at the fitted mass: +-4 cm ahead and +-3 cm to the side, then +-2 and
     +-1.5 cm around the best so far, then 3 cm higher or lower, within the body's reach
     (:func:`~..families.body.within_reach`); then along the valley of a constant first moment
     (a lighter mass further out tilts the body as a heavier one nearer in does): the mass
     scaled by each step in ``valley_steps`` and its offset divided by it, while the fit
-    improves. The mass is refitted at the best position."""
+    improves. The mass is refitted at the best position (:func:`fit_magnitude` with
+    ``halvings``)."""
     if not FAMILIES[c.family].searches_position or c.fitted is None or c.J is None:
         return c
     w = obj.weights(F)
@@ -282,7 +293,7 @@ def refine_position(obj: Objective, c: Candidate, F: Sequence[int],
     if best_J >= c.J:
         return c
     return fit_magnitude(obj, replace(c, extra={**c.extra, "com_offset_m": best},
-                                      magnitude=mass), F)
+                                      magnitude=mass), F, halvings=halvings)
 
 
 def _position_steps(J_at, best: tuple[float, ...], best_J: float,
@@ -324,10 +335,13 @@ def _position_valley(J_at, best: tuple[float, ...], best_J: float, mass: float,
 
 def fit(obj: Objective, c: Candidate, FS: Sequence[int], F: Sequence[int]) -> Candidate:
     """Step 4 of the method for one hypothesis: magnitude, direction and position on the
-    screening moves ``FS``, then body and leg magnitudes on all fit moves ``F``."""
-    c = fit_magnitude(obj, c, FS)
-    c = refine_direction(obj, c, FS)
-    c = refine_position(obj, c, FS)
+    screening moves ``FS``, then body and leg magnitudes on all fit moves ``F`` (joint
+    magnitudes are refitted on them by the driver, once the scope is chosen); the magnitude
+    fits on ``FS`` stop at their parabola's vertex (decision 057)."""
+    h = SCREENING_HALVINGS
+    c = fit_magnitude(obj, c, FS, halvings=h)
+    c = refine_direction(obj, c, FS, halvings=h)
+    c = refine_position(obj, c, FS, halvings=h)
     if not segments_only(c.family):
         c = refine_wide(obj, c, F)
     return c
@@ -374,7 +388,8 @@ def scope_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
             if (c.family, scope) in have:
                 continue
             v, side = start_side(obj, Candidate(c.family, scope, 0.0, float(c.fitted)), F)
-            variants.append(fit_magnitude(obj, v, F, known=side))
+            variants.append(fit_magnitude(obj, v, F, known=side,
+                                          halvings=SCREENING_HALVINGS))
             have.add((c.family, scope))
         if not variants:
             continue
@@ -399,7 +414,8 @@ def form_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int],
         for form in FAMILIES[c.family].other_forms:
             if (form, c.scope) in have or (allowed is not None and form not in allowed):
                 continue
-            v = fit_magnitude(obj, Candidate(form, c.scope, c.score, float(c.fitted)), F)
+            v = fit_magnitude(obj, Candidate(form, c.scope, c.score, float(c.fitted)), F,
+                              halvings=SCREENING_HALVINGS if segments_only(form) else 2)
             have.add((form, c.scope))
             if v.J is not None and v.J <= 1.1 * c.J:
                 out.append(v)
@@ -438,7 +454,7 @@ def located_variants(obj: Objective, top: Sequence[Candidate], scopes: Sequence[
             m0 = (float(c0.magnitude) if c0 is not None and c0.score > 0
                   else spec.neutral + spec.probe)
             v, side = start_side(obj, Candidate(name, scope, 0.0, m0), F)
-            out.append(fit_magnitude(obj, v, F, known=side))
+            out.append(fit_magnitude(obj, v, F, known=side, halvings=SCREENING_HALVINGS))
             have.add((name, scope))
     out = [c for c in out if c.J is not None]
     if into is not None:
