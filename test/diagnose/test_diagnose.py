@@ -868,6 +868,33 @@ def test_signed_family_starts_its_scope_fit_on_the_better_side():
     assert fits[0][:2] == fits[1][:2] and fits[1][2] == fits[0][2] - 1
 
 
+def test_a_screening_fit_that_a_wide_refit_follows_stops_at_its_vertex():
+    """Decision 057: a magnitude fit on the screening moves that a refit on every fit move
+    follows ends at its parabola's vertex, without the midpoint steps a fit on its own takes;
+    the refit on every fit move then ends as near the truth either way. A stand-in objective
+    that is not a parabola (lowest at 0.08 N m, |m - 0.08|^1.5)."""
+    from littledog_mlsim.diagnose.physical import Candidate, fit, fit_magnitude, wide_magnitude
+    from littledog_mlsim.diagnose.physical.fit import SCREENING_HALVINGS
+
+    def J(hyp):
+        return abs(hyp[2]["coulomb_Nm"] - 0.08) ** 1.5 + 0.01
+
+    assert SCREENING_HALVINGS == 0
+    for m0 in (0.03, 0.05, 0.2):
+        c = Candidate("joint_friction", "all", 1.0, m0)
+        alone, screening = FakeObjective(J), FakeObjective(J)
+        settled = fit_magnitude(alone, c, [0])
+        quick = fit(screening, c, [0], [0, 1])      # a joint family: the screening fit only
+        assert screening.n_evaluated() <= alone.n_evaluated() - 3
+        assert quick.J >= settled.J and quick.fitted == pytest.approx(0.08, rel=0.03)
+        refits = [wide_magnitude(FakeObjective(J), x, [0, 1]) for x in (settled, quick)]
+        assert all(r.fitted == pytest.approx(0.08, rel=0.03) for r in refits)
+        # the screening fit is fit_magnitude at SCREENING_HALVINGS, point for point
+        same = FakeObjective(J)
+        fit_magnitude(same, c, [0], halvings=SCREENING_HALVINGS)
+        assert [h for h, _, _ in same.calls] == [h for h, _, _ in screening.calls]
+
+
 def test_every_joint_family_is_fitted_where_the_excess_lives():
     """Decision 051: where the fit moves' excess over the reference lives at a joint, every
     joint family and form is fitted at that joint and its leg; the best joins the shortlist if

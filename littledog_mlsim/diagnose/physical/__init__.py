@@ -36,10 +36,13 @@ Method
    channels (each channel weighted by its baseline SSE). Vector body families (an odom force
    (fx, fy), a body-frame force, a slope (two tilt angles)) fit their components jointly.
 4. **Parameter by re-simulation.** The best few (family, scope) pairs are fitted in 1-D (the
-   magnitude along the fitted direction) by re-simulating a short grid around the first-order
-   estimate, a parabola through the best three and two bisection steps (joint families on the
-   1 s segments' channels only); vector families then search their direction around the
-   first-order one and refit the magnitude (:func:`.fit.refine_direction`).
+   magnitude along the fitted direction) on the screening moves by re-simulating a short grid
+   around the first-order estimate and the vertex of a parabola through the best three (joint
+   families on the 1 s segments' channels only); vector families then search their direction
+   around the first-order one and refit the magnitude (:func:`.fit.refine_direction`). Every
+   magnitude kept is then refitted on all fit moves (:func:`.fit.wide_magnitude`: body and
+   leg families in :func:`.fit.refine_wide`, joint families once their scope is chosen), which
+   is why the fits on the screening moves take no bisection steps (decision 057).
    This is the transducer: the parameter is the plug-in's value that reproduces the data.
    A family with other physical forms (a gain drift and a supply sag) has each form fitted at
    the scope its screen chose (:func:`.fit.form_variants`); step 5 chooses the form. The best
