@@ -7,8 +7,8 @@ hypothesis looked like at every stage the search passes it through, and what eac
 - the located pass (`located_variants`): each family's J at the side it starts from
   (`start_side`) and its J/J0 after its fit;
 - the held-out decision: every hypothesis's mean per-move cut, and which was chosen;
-- every map call's re-simulations and wall time, charged to the step that asked for it (as
-  `../where_sims_go/count.py`).
+- every map call's re-simulations and wall time, charged to the step that asked for it
+  (`../where_sims_go/count.py`'s `_step`).
 
 The diagnosis is unchanged: the wrappers only record. Writes OUT (JSON).
 
@@ -19,6 +19,7 @@ The diagnosis is unchanged: the wrappers only record. Writes OUT (JSON).
 from __future__ import annotations
 
 import collections
+import importlib
 import json
 import subprocess
 import sys
@@ -26,30 +27,13 @@ import time
 from pathlib import Path
 
 from littledog_mlsim import cli
-import importlib
-
 from littledog_mlsim.diagnose.physical import driver, resim
 from littledog_mlsim.diagnose.physical.fit import segments_only
 
 fit = importlib.import_module("littledog_mlsim.diagnose.physical.fit")
 
-STEPS = ("start_side", "located_variants", "scope_variants", "form_variants", "wide_magnitude",
-         "refine_wide", "refine_direction", "refine_position", "fit_magnitude", "fit", "screen",
-         "validate", "reference_check", "unexplained", "_changed_alternative", "_rebase",
-         "identify")
-
-
-def _step() -> str:
-    f = sys._getframe(2)
-    names = []
-    while f is not None:
-        if "diagnose/physical" in f.f_code.co_filename.replace("\\", "/"):
-            names.append(f.f_code.co_name)
-        f = f.f_back
-    for step in ("located_variants", "scope_variants", "form_variants") + STEPS:
-        if step in names:
-            return step
-    return names[0] if names else "?"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "where_sims_go"))
+from count import _step  # noqa: E402  (charges a map call to the search step that asked)
 
 
 def _inside(name: str) -> bool:
