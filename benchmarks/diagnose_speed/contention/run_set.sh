@@ -4,7 +4,7 @@
 # reports). WORK50: zoo50's recordings (benchmarks/blind_zoo/zoos/zoo50/README.md, the
 # harness's --record-only command); NAMES: effects/zNN or clean/sNNN_eE, space-separated.
 #
-#   WORK50=/tmp/z50w OUT=/tmp/cont/after NAMES="effects/z05 clean/s413_e0" \
+#   WORK50=DIR OUT=DIR NAMES="effects/z05 clean/s413_e0" \
 #       sh benchmarks/diagnose_speed/contention/run_set.sh
 set -e
 : "${WORK50:?}" "${OUT:?}" "${NAMES:?}"
