@@ -57,9 +57,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     rp.add_argument("--alpha", type=float, default=None, help="alpha of alpha-PROJ (0.5)")
     rp.add_argument("--radius", type=float, default=None,
                     help="gated alpha-PROJ radius (default 0: plain alpha-PROJ)")
-    rp.add_argument("--physics", default=None, metavar="ROBOT|CONFIG.json",
-                    help="add the physics baseline: a robot name (nominal, measured) or a "
-                         "robot config file (littledog-mlsim diagnose/reproduce)")
+    rp.add_argument("--physics", default=None, metavar="ROBOT|TWIN.json",
+                    help="add the physics baseline: a robot name (nominal, measured), a twin "
+                         "file (littledog-mlsim calibrate) or a robot config file "
+                         "(littledog-mlsim diagnose/reproduce)")
     rp.add_argument("--paused", action="store_true", help="start the replay paused")
     v = p.add_argument_group("view")
     v.add_argument("--host", default="127.0.0.1",
@@ -123,11 +124,12 @@ def _replay_plan(a: argparse.Namespace) -> tuple[list[str], Callable[[], list]]:
     elif projection is not None:
         raise ViewError("--projection needs --model or --rollout")
     if a.physics is not None:
-        config = a.physics
-        if a.physics.endswith(".json") or Path(a.physics).is_file():
-            from ..robot.baseline import load_robot_config
+        from ..robot.twin import robot_config_from
 
-            config = load_robot_config(a.physics)
+        try:
+            config = robot_config_from(a.physics)
+        except ValueError as e:
+            raise ViewError(f"--physics: {e}") from None
         label = f"physics ({Path(str(a.physics)).stem})"
         labels.append(label)
         steps.append(lambda: physics_track(rec, config, label=label))

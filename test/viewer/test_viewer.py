@@ -238,3 +238,46 @@ def test_primitive_meshes_are_closed_outward_and_on_their_shapes():
             assert np.all(on_side | on_cap)
     with pytest.raises(ValueError, match="no mesh for shape 'cone'"):
         shape_mesh("cone", (1.0,))
+
+
+def test_view_physics_takes_a_name_a_twin_file_or_a_robot_config_file(tmp_path, monkeypatch):
+    """``view --physics`` resolves its robot as every other place that takes one
+    (``robot_config_from``): a robot name, a twin file or a robot config file, the robot handed
+    to the physics track; anything else is one ``--physics`` error before any replay."""
+    import argparse
+    from dataclasses import replace
+
+    from littledog_mlsim.robot.baseline import save_robot_config
+    from littledog_mlsim.robot.config import robot_config
+    from littledog_mlsim.robot.twin import Twin, save_twin
+    from littledog_mlsim.viewer import app, tracks
+
+    class Rec:
+        name = "F_01"
+
+    seen = []
+    monkeypatch.setattr(tracks, "load_recording", lambda bag, data, move: Rec())
+    monkeypatch.setattr(tracks, "measured_track", lambda rec, label: label)
+    monkeypatch.setattr(tracks, "physics_track", lambda rec, config, label: seen.append(config))
+    heavier = replace(robot_config("nominal"), body_mass=2.5)
+    twin = save_twin(Twin(heavier, {}), tmp_path / "twin.json")
+    conf = tmp_path / "conf.json"
+    save_robot_config(heavier, conf)
+
+    def plan(physics):
+        a = argparse.Namespace(model=None, data=tmp_path, move="F_01", projection=None,
+                               alpha=None, radius=None, rollout=None, bag=None, physics=physics)
+        labels, run = app._replay_plan(a)
+        run()
+        return labels
+
+    assert plan("nominal") == ["measured", "physics (nominal)"]
+    assert plan(str(twin)) == ["measured", "physics (twin)"]
+    assert plan(str(conf)) == ["measured", "physics (conf)"]
+    assert seen == [robot_config("nominal"), heavier, heavier]
+    for bad in ("nomnal", str(tmp_path / "missing.json")):
+        with pytest.raises(app.ViewError, match="--physics"):
+            plan(bad)
+    (tmp_path / "junk.json").write_text("{")
+    with pytest.raises(app.ViewError, match="junk.json"):
+        plan(str(tmp_path / "junk.json"))
