@@ -406,6 +406,15 @@ def format_calibration(report: dict) -> str:
                          for n, b in widened))
     if boot.get("error"):
         lines.append(f"the bootstrap stopped: {boot['error']}")
+    cont = report.get("continued")
+    if cont:
+        lines.append("the fit stopped on its budget, so no bias was taken out (--bootstrap "
+                     "corrects an optimum only): fitted on from there with the bootstrap's "
+                     f"{cont['max_evals']} evaluations, "
+                     + (f"which failed ({cont['error']})" if cont.get("error") else
+                        f"k-step cost {num(cont['k_step_cost_before'])} -> "
+                        f"{num(cont['k_step_cost_after'])}, "
+                        + ("converged" if cont.get("converged") else "not converged either")))
     consider = report.get("consider") or {}
     if consider.get("considered"):
         lines.append(f"the intervals include the {len(consider['considered'])} parameters not "

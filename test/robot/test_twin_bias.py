@@ -161,6 +161,53 @@ def test_bootstrap_takes_out_the_estimators_own_bias(monkeypatch):
         dataclasses.replace(opts, bootstrap=-1).check()
 
 
+def test_a_fit_its_budget_stopped_is_continued_not_corrected(monkeypatch):
+    """A fit stopped by its evaluation budget is not at its optimum, so the refits' shift (the
+    bias of a converged fit) is not its error: with ``bootstrap`` it is fitted on from where it
+    stopped with the bootstrap's evaluations, converges to the plain fit's optimum (0.05
+    e-folds high on the stand-in) and no bias is taken out; the report and the printout say so.
+    A continuation that fails keeps the stopped fit and says why."""
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_fit
+
+    recs, base, opts = _biased_case(monkeypatch)
+    plain = twin_fit.calibrate_twin(recs, [], base, opts)
+    short = dataclasses.replace(opts, max_evals=4)
+    stopped = twin_fit.calibrate_twin(recs, [], base, short)
+    assert stopped.report["converged"] is False
+    said = []
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(short, bootstrap=1),
+                                  said.append)
+    assert cal.estimates[0].value == pytest.approx(plain.estimates[0].value, rel=1e-3)
+    assert cal.config.body_mass == pytest.approx(cal.estimates[0].value)
+    cont = cal.report["continued"]
+    assert cont["converged"] and cont["max_evals"] == 8 * 3
+    assert cont["from"]["body_mass"] == pytest.approx(stopped.estimates[0].value)
+    assert cont["k_step_cost_after"] < cont["k_step_cost_before"]
+    assert cal.report["converged"] and not cont["stop_before"].startswith("converged")
+    assert "not converged" in cal.report["bootstrap"]["skipped"]
+    assert cal.report["bootstrap"]["iterations"] == 0 and "params" not in cal.report["bootstrap"]
+    assert cal.report["settings"]["bootstrap"] == 1
+    assert any("fitting on from there" in s for s in said)
+    text = format_calibration(cal.report)
+    assert "fitted on from there" in text and "converged" in text
+    assert "is taken out" not in text
+
+    calls = []
+
+    def failing_pool(recs, jobs=2, scheduler=None):
+        calls.append(1)
+        if len(calls) > 1:
+            raise RuntimeError("the pool is gone")
+        return contextlib.nullcontext(_BiasedPool(recs))
+
+    monkeypatch.setattr(twin_fit._bl, "move_pool", failing_pool)
+    kept = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(short, bootstrap=1))
+    assert kept.estimates[0].value == pytest.approx(stopped.estimates[0].value)
+    assert "the pool is gone" in kept.report["continued"]["error"]
+    assert "which failed (RuntimeError: the pool is gone)" in format_calibration(kept.report)
+
+
 def test_bootstrap_replicates_measure_the_estimators_spread(monkeypatch):
     """On the biased stand-in whose refits scatter with their noise seed (+-0.02 e-folds around
     the bias, far more than the data's sd), two replicates per iteration: the bias is their mean
