@@ -66,6 +66,11 @@ def main() -> None:
     ap.add_argument("--truth", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--also", action="append", default=[], metavar="NAME=TWIN.json",
+                    help="one more point: another twin file (its physical fields), repeatable")
+    ap.add_argument("--pre-bootstrap", action="store_true",
+                    help="one more point: the twin's fit before its bootstrap correction "
+                         "(its report's bootstrap.params.<name>.fitted)")
     a = ap.parse_args()
 
     twin_file = load_twin(a.twin)
@@ -80,6 +85,16 @@ def main() -> None:
     for g, fields in GROUPS.items():
         points[f"fitted, truth's {g}"] = with_fields(twin, truth, fields)
         points[f"truth, fitted {g}"] = with_fields(truth, twin, fields)
+    if a.pre_bootstrap:
+        from littledog_mlsim.robot.parameters import TWIN_PARAMETERS
+        pre = twin
+        for name, b in twin_file.provenance["calibration"]["bootstrap"]["params"].items():
+            pre = TWIN_PARAMETERS[name].set(pre, b["fitted"])
+        points["fitted, before its bootstrap"] = pre
+    for spec in a.also:
+        name, _, path = spec.partition("=")
+        other = replace(robot_config_from(path), sensor_noise=False)
+        points[name] = with_fields(twin, other, [f for g in GROUPS.values() for f in g])
     recs = bl.first_per_type(load_moves(a.data, "train"), 2)
     stride, horizons = int(settings["stride"]), tuple(settings["horizons"])
     initial = settings["initial_state"]
