@@ -1417,28 +1417,29 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
     except Exception as e:          # the fit stands; say why it was not continued
         entry["error"] = f"{type(e).__name__}: {e}"
         say(f"continuing the fit failed ({e}); keeping it where its budget stopped it")
-        report = dict(cal.report)
-        report["continued"] = entry
-        report["bootstrap"] = {"skipped": reason, "iterations": 0}
-        return Calibration(cal.config, cal.estimates, cal.weak, report)
-    entry.update({"k_step_cost_after": _structure_cost(refit, weights),
-                  "converged": refit.report.get("converged"), "stop": refit.report.get("stop"),
-                  "n_evals": refit.report.get("n_evals"),
-                  "wall_s": round(time.perf_counter() - t0, 1)})
-    report = dict(refit.report)
-    for key in ("structure", "added"):
-        if key in cal.report:
-            report[key] = cal.report[key]
-    report["n_evals_total"] = ((cal.report.get("n_evals_total") or cal.report.get("n_evals")
-                                or 0) + (refit.report.get("n_evals") or 0))
-    kept = {k: v for k, v in cal.report.get("settings", {}).items()
-            if k in ("add_asked", "threshold_round", "servo")}   # the fit's, not the refit's
-    report["settings"] = {**report.get("settings", {}), **kept,
-                          "bootstrap": options.bootstrap,
-                          "bootstrap_replicates": options.bootstrap_replicates}
+        refit = None
+    if refit is None:
+        result, report = cal, dict(cal.report)
+    else:
+        entry.update({"k_step_cost_after": _structure_cost(refit, weights),
+                      "converged": refit.report.get("converged"),
+                      "stop": refit.report.get("stop"), "n_evals": refit.report.get("n_evals"),
+                      "wall_s": round(time.perf_counter() - t0, 1)})
+        result, report = refit, dict(refit.report)
+        for key in ("structure", "added"):
+            if key in cal.report:
+                report[key] = cal.report[key]
+        report["n_evals_total"] = ((cal.report.get("n_evals_total")
+                                    or cal.report.get("n_evals") or 0)
+                                   + (refit.report.get("n_evals") or 0))
+        kept = {k: v for k, v in cal.report.get("settings", {}).items()
+                if k in ("add_asked", "threshold_round", "servo")}   # the fit's, not the refit's
+        report["settings"] = {**report.get("settings", {}), **kept,
+                              "bootstrap": options.bootstrap,
+                              "bootstrap_replicates": options.bootstrap_replicates}
     report["continued"] = entry
     report["bootstrap"] = {"skipped": reason, "iterations": 0}
-    return Calibration(refit.config, refit.estimates, refit.weak, report)
+    return Calibration(result.config, result.estimates, result.weak, report)
 
 
 def secant_step(par: TwinParameter, value: float, options: CalibrationOptions) -> float:
