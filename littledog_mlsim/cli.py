@@ -354,7 +354,7 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  consider_spread=a.consider_spread, bootstrap=a.bootstrap,
                                  bootstrap_replicates=a.bootstrap_replicates,
                                  weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd,
-                                 weigh_in_fit=a.weigh_in_fit)
+                                 weigh_in_fit=a.weigh_in_fit, split_starts=a.split_starts)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -415,6 +415,21 @@ def format_calibration(report: dict) -> str:
                         f"k-step cost {num(cont['k_step_cost_before'])} -> "
                         f"{num(cont['k_step_cost_after'])}, "
                         + ("converged" if cont.get("converged") else "not converged either")))
+    split = report.get("split_starts") or {}
+    if split.get("candidates"):
+        others = [c for c in split["candidates"]
+                  if c["start"] != split["chosen"] and not c.get("error")]
+        lines.append("second starts across the masses' split (--split-starts): kept the "
+                     f"{split['chosen']} minimum, k-step cost " + ", ".join(
+                         f"{c['start']} " + (f"failed ({c['error']})" if c.get("error") else
+                                             num(c["k_step_cost"]))
+                         for c in split["candidates"])
+                     + (f"; the data do not tell it from {', '.join(split['tied'])}, so the "
+                        "intervals cover " + ("both" if len(split["tied"]) == 1 else "all")
+                        if split.get("tied") else
+                        "; the data tell it from the others" if others else ""))
+    elif split.get("skipped"):
+        lines.append(f"no second starts (--split-starts): {split['skipped']}")
     consider = report.get("consider") or {}
     if consider.get("considered"):
         lines.append(f"the intervals include the {len(consider['considered'])} parameters not "
@@ -901,6 +916,11 @@ def build_parser() -> argparse.ArgumentParser:
                          "one more residual, so that the parameters off the common scale are "
                          "fitted where the scale is (off by default: measured, the rollouts "
                          "were worse)")
+    cb.add_argument("--split-starts", type=float, default=0.0, metavar="F",
+                    help="after the fit (and its --add-asked rounds), fit its parameters again "
+                         "from the legs x(1-F) and x(1+F), the body taking the difference, and "
+                         "keep the lowest k-step cost; intervals cover the minima the data do "
+                         "not tell apart (default 0: off; 0.15 costs two more fits)")
     cb.add_argument("--weighed-mass-sd", type=float, default=0.01, metavar="KG",
                     help="the weighing's standard deviation (default 0.01 kg)")
     cb.add_argument("--initial-state", choices=("auto", "smoothed", "measured"), default="auto",

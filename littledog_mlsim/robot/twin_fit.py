@@ -218,6 +218,29 @@ Method
    ``scale_symmetry.weighed`` gives the weighing, both masses, the steps, the sds and the cost
    before and after the move (equal where the scale is an exact symmetry).
 
+14. **Second starts across the masses' split** (``split_starts``, ``--split-starts F``; off by
+   default). The k-step objective can have more than one minimum along the split of the mass
+   between the body and the legs (the total is fixed by the weighing of 13, the split is not):
+   the servo gains, dampings and rotor inertias take up a wrong split, and a fit from the
+   nominal robot can end in the wrong basin (benchmarks/calibrate, "Two basins along the
+   masses' split": on three gap robots the fit from the nominal robot ended with the legs 12 to
+   33 % off, and a fit started across the split ended at a lower cost with the smaller mass
+   error). With F > 0 the fit (after its rounds, 9) is fitted again, with the same parameters
+   and a round's budget, from two more starts: its optimum with the legs x(1 - F) and x(1 + F),
+   the body taking the difference so that the total stays (:func:`split_start`). The lowest
+   k-step cost (the measure of 8, the first fit's weights) is kept. Each other minimum is then
+   compared with it on the fitted moves (:func:`minima_compared`): both re-simulated, weighted
+   at the kept one, the per-move cost differences summed over their standard error (the moves
+   independent, the states of a move not, as the intervals' clustering by move). Where that z
+   is below :data:`SPLIT_TIE_Z` the data do not tell the two apart, and every interval becomes
+   the hull of its own and that minimum's, with its value (after the bootstrap, which corrects
+   the kept minimum only). The report's ``split_starts`` has each start (its masses, cost,
+   convergence, evaluations, estimates and comparison), ``chosen``, ``tied`` and
+   ``widened``; a fit without both masses is left alone and says so (``skipped``). It costs
+   two fits of the last round's parameters (each up to a round's budget) and two
+   re-simulations per comparison; a start that fails is reported and left out. The bootstrap
+   (11) corrects, or continues, the kept fit.
+
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
 from __future__ import annotations
@@ -244,7 +267,7 @@ __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_column
            "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
            "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "twin_residuals_many", "weak_directions",
-           "scale_symmetry", "SCALES_WITH_MASS", "weigh"]
+           "scale_symmetry", "SCALES_WITH_MASS", "weigh", "split_start", "minima_compared"]
 
 log = logging.getLogger(__name__)
 
@@ -279,6 +302,7 @@ class CalibrationOptions:
     weighed_mass: float | None = None       # the robot's weighed mass [kg] (doc, 13)
     weighed_mass_sd: float = 0.01           # the weighing's standard deviation [kg]
     weigh_in_fit: bool = False              # the weighing a residual of the fit (doc, 13)
+    split_starts: float = 0.0               # second starts across the masses' split (doc, 14)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -320,6 +344,9 @@ class CalibrationOptions:
         if self.add_asked and not self.test_missing:
             raise ValueError("add_asked needs the score test of the parameters not fitted "
                              "(test_missing)")
+        if not (math.isfinite(self.split_starts) and 0 <= self.split_starts <= 0.5):
+            raise ValueError("split_starts must be a fraction of the leg mass in [0, 0.5] "
+                             f"(0: off), got {self.split_starts!r}")
         if self.initial_state not in ("auto",) + _bl.INITIAL_STATES:
             raise ValueError("initial_state must be one of auto, "
                              f"{', '.join(_bl.INITIAL_STATES)}, got {self.initial_state!r}")
@@ -1042,6 +1069,13 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
             cal = _continued(cal, train_recs, options, say)
         else:
             cal = bias_corrected(cal, train_recs, options, say)
+        cal = _hull_over_tied(cal)                   # after the correction's intervals (14)
+        _finish(cal.report, test_recs, replace(base, sensor_noise=False), cal.config, options,
+                say, t0)
+        return cal
+    if options.split_starts:
+        cal = calibrate_twin(train_recs, [], base, replace(options, split_starts=0.0), say)
+        cal = _hull_over_tied(_split_started(cal, train_recs, options, say))
         _finish(cal.report, test_recs, replace(base, sensor_noise=False), cal.config, options,
                 say, t0)
         return cal
@@ -1410,7 +1444,7 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
     say(f"the fit stopped on its budget: fitting on from there with the bootstrap's {budget} "
         "evaluations instead of measuring a bias at a point that is not an optimum")
     inner = replace(options, params=names, servo="keep", add_asked=0, bootstrap=0,
-                    bootstrap_replicates=1, name=cal.config.name,
+                    bootstrap_replicates=1, name=cal.config.name, split_starts=0.0,
                     max_evals=max(options.max_evals, budget))
     try:
         refit = calibrate_twin(train_recs, [], cal.config, inner, say)
@@ -1426,20 +1460,180 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
                       "stop": refit.report.get("stop"), "n_evals": refit.report.get("n_evals"),
                       "wall_s": round(time.perf_counter() - t0, 1)})
         result, report = refit, dict(refit.report)
-        for key in ("structure", "added"):
+        for key in ("structure", "added", "split_starts"):
             if key in cal.report:
                 report[key] = cal.report[key]
         report["n_evals_total"] = ((cal.report.get("n_evals_total")
                                     or cal.report.get("n_evals") or 0)
                                    + (refit.report.get("n_evals") or 0))
-        kept = {k: v for k, v in cal.report.get("settings", {}).items()
-                if k in ("add_asked", "threshold_round", "servo")}   # the fit's, not the refit's
+        kept = {k: v for k, v in cal.report.get("settings", {}).items()   # the fit's
+                if k in ("add_asked", "threshold_round", "servo", "split_starts")}
         report["settings"] = {**report.get("settings", {}), **kept,
                               "bootstrap": options.bootstrap,
                               "bootstrap_replicates": options.bootstrap_replicates}
     report["continued"] = entry
     report["bootstrap"] = {"skipped": reason, "iterations": 0}
     return Calibration(result.config, result.estimates, result.weak, report)
+
+
+#: module doc 14: a second minimum whose per-move cost difference from the kept one is below
+#: this many of its standard errors is not told apart from it by the data
+SPLIT_TIE_Z = Z95
+
+
+def split_start(config: RobotConfig, factor: float) -> RobotConfig:
+    """``config`` with its legs ``factor`` times as heavy and its body heavier by what the four
+    legs give up, so that the total mass stays (module doc, 14); both inside their bounds."""
+    body, leg = TWIN_PARAMETERS["body_mass"], TWIN_PARAMETERS["leg_mass"]
+    b, m = body.get(config), leg.get(config)
+    new_m = min(max(m * factor, leg.bounds[0]), leg.bounds[1])
+    new_b = min(max(b + 4.0 * (m - new_m), body.bounds[0]), body.bounds[1])
+    new_m = min(max(m + (b - new_b) / 4.0, leg.bounds[0]), leg.bounds[1])   # the body's bound
+    return body.set(leg.set(config, new_m), new_b)
+
+
+def minima_compared(train_recs: Sequence[MoveRecording], kept: RobotConfig,
+                    other: RobotConfig, options: CalibrationOptions) -> dict[str, Any]:
+    """Whether the fitted moves tell two minima apart (module doc, 14): both re-simulate the
+    moves, every residual weighted by its (horizon, element) RMS at ``kept``; per move, d is
+    the other's cost minus the kept one's (half the sum of squares), and z is their sum over
+    its standard error, sqrt(n) times the moves' sample sd (the moves independent, the states
+    of one move not: the intervals' clustering by move). Told apart where z exceeds
+    :data:`SPLIT_TIE_Z`; never with fewer than two moves."""
+    with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
+        raw_k = twin_residuals(pool, replace(kept, sensor_noise=False), options.stride,
+                               options.horizons, options.initial_state)
+        raw_o = twin_residuals(pool, replace(other, sensor_noise=False), options.stride,
+                               options.horizons, options.initial_state)
+    scale = _rms_scale(raw_k)
+    d = np.array([0.5 * (float(_weighted([o], scale) @ _weighted([o], scale))
+                         - float(_weighted([k], scale) @ _weighted([k], scale)))
+                  for k, o in zip(raw_k, raw_o)])
+    n = len(d)
+    se = float(np.std(d, ddof=1) * math.sqrt(n)) if n > 1 else math.nan
+    total = float(d.sum())
+    z = total / se if n > 1 and se > 0 else (math.inf if n > 1 and total > 0 else math.nan)
+    return {"cost_difference": total, "se": se, "z": z, "moves": n,
+            "told_apart": bool(n > 1 and z > SPLIT_TIE_Z)}
+
+
+def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
+                   options: CalibrationOptions, say: Callable[[str], None]) -> Calibration:
+    """The fit ``cal`` and two more of its parameters, started across the masses' split (legs
+    x(1 - step) and x(1 + step), the body taking the difference), the lowest k-step cost kept
+    (module doc, 14); the report gains ``split_starts``. A fit without both masses is kept as
+    it is, and says so."""
+    t0 = time.perf_counter()
+    names = tuple(e.name for e in cal.estimates)
+    step = float(options.split_starts)
+    if not {"body_mass", "leg_mass"} <= set(names):
+        report = dict(cal.report)
+        report["split_starts"] = {"step": step, "skipped": "the body and leg masses are not "
+                                  "both fitted: there is no split to start across"}
+        return Calibration(cal.config, cal.estimates, cal.weak, report)
+    weights = cal.report["residual_rms"]["start"]
+    inner = replace(options, params=names, servo="keep", add_asked=0, bootstrap=0,
+                    bootstrap_replicates=1, split_starts=0.0, name=cal.config.name,
+                    max_evals=max(options.max_evals,
+                                  ROUND_EVALS_PER_COLUMN * (2 * len(names) + 1)))
+    body, leg = TWIN_PARAMETERS["body_mass"], TWIN_PARAMETERS["leg_mass"]
+
+    def entry(label: str, c: Calibration, start: RobotConfig) -> dict[str, Any]:
+        return {"start": label, "from": {"body_mass": body.get(start), "leg_mass": leg.get(start)},
+                "k_step_cost": _structure_cost(c, weights), "converged": c.report.get("converged"),
+                "n_evals": c.report.get("n_evals"), "wall_s": c.report.get("wall_s"),
+                "params": [_estimate_dict(e) for e in c.estimates]}
+
+    fits = {"fit": cal}
+    entries = [entry("fit", cal, cal.config)]
+    for factor in (1.0 - step, 1.0 + step):
+        label = f"legs x{factor:g}"
+        start = split_start(cal.config, factor)
+        say(f"a second start across the masses' split: {label} (body {body.get(start):.4g} kg, "
+            f"legs {leg.get(start):.4g} kg, the total kept), fitting {len(names)} parameters")
+        try:
+            fits[label] = calibrate_twin(train_recs, [], start, inner, say)
+            entries.append(entry(label, fits[label], start))
+        except Exception as e:      # the other starts stand; say why this one did not
+            say(f"the start {label} failed ({e})")
+            entries.append({"start": label, "from": {"body_mass": body.get(start),
+                                                     "leg_mass": leg.get(start)},
+                            "error": f"{type(e).__name__}: {e}"})
+    done = [e for e in entries if "error" not in e]
+    chosen = min(done, key=lambda e: (e["k_step_cost"], e["start"] != "fit"))["start"]
+    kept = fits[chosen]
+    tied = []
+    for e in done:
+        if e["start"] == chosen:
+            e["compared"] = None
+            continue
+        try:
+            e["compared"] = minima_compared(train_recs, kept.config, fits[e["start"]].config,
+                                            options)
+        except Exception as err:    # not compared: not counted as told apart either
+            e["compared"] = {"error": f"{type(err).__name__}: {err}", "told_apart": False}
+        if not e["compared"]["told_apart"]:
+            tied.append(e["start"])
+    say(f"masses' split: kept {chosen} (k-step cost {_structure_cost(kept, weights):.4g}; "
+        + ", ".join(f"{e['start']} {e['k_step_cost']:.4g}" for e in done if e["start"] != chosen)
+        + ")" + (f"; the data do not tell it from {', '.join(tied)}: the intervals cover both"
+                 if tied else ""))
+    report = dict(kept.report)
+    if chosen != "fit":
+        for key in ("structure", "added"):
+            if key in cal.report:
+                report[key] = cal.report[key]
+        kept_settings = {k: v for k, v in cal.report.get("settings", {}).items()
+                         if k in ("add_asked", "threshold_round", "servo")}
+        report["settings"] = {**report.get("settings", {}), **kept_settings}
+    report["n_evals_total"] = ((cal.report.get("n_evals_total") or cal.report.get("n_evals") or 0)
+                               + sum(fits[e["start"]].report.get("n_evals") or 0
+                                     for e in done if e["start"] != "fit"))
+    report["settings"] = {**report.get("settings", {}), "split_starts": step}
+    report["split_starts"] = {
+        "step": step, "chosen": chosen, "tied": tied, "tie_z": SPLIT_TIE_Z,
+        "criterion": "mean over horizon and element of (residual RMS / the first fit's starting "
+                     "robot's)^2 on the fitted moves; told apart by the per-move cost difference "
+                     "weighted at the kept minimum (z over its standard error)",
+        "candidates": entries, "wall_s": round(time.perf_counter() - t0, 1)}
+    return Calibration(kept.config, kept.estimates, kept.weak, report)
+
+
+def _hull(a: Sequence[float | None], b: Sequence[float | None], v: float
+          ) -> tuple[float | None, float | None]:
+    """The smallest interval holding the intervals ``a`` and ``b`` and the value ``v``; an open
+    end (None) stays open."""
+    lo = None if a[0] is None or b[0] is None else min(a[0], b[0], v)
+    hi = None if a[1] is None or b[1] is None else max(a[1], b[1], v)
+    return lo, hi
+
+
+def _hull_over_tied(cal: Calibration) -> Calibration:
+    """``cal`` with every interval covering the minima the data do not tell from it (module
+    doc, 14: ``split_starts.tied``): each the hull of its own and theirs, with their values;
+    ``split_starts.widened`` names the intervals that grew."""
+    split = cal.report.get("split_starts") or {}
+    others = [c for c in split.get("candidates", []) if c["start"] in (split.get("tied") or [])]
+    if not others:
+        return cal
+    estimates, widened = [], []
+    for e in cal.estimates:
+        ci, ci_data = e.ci95, e.ci95_data
+        for c in others:
+            o = next((p for p in c["params"] if p["name"] == e.name), None)
+            if o is None:
+                continue
+            ci = _hull(ci, o["ci95"], o["value"])
+            if ci_data is not None:
+                ci_data = _hull(ci_data, o.get("ci95_data") or o["ci95"], o["value"])
+        if tuple(ci) != tuple(e.ci95):
+            widened.append(e.name)
+        estimates.append(replace(e, ci95=tuple(ci),
+                                 ci95_data=None if ci_data is None else tuple(ci_data)))
+    report = dict(cal.report)
+    report["params"] = [_estimate_dict(e) for e in estimates]
+    report["split_starts"] = {**split, "widened": widened}
+    return Calibration(cal.config, estimates, cal.weak, report)
 
 
 def secant_step(par: TwinParameter, value: float, options: CalibrationOptions) -> float:
