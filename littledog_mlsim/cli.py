@@ -419,8 +419,10 @@ def format_calibration(report: dict) -> str:
     if split.get("candidates"):
         others = [c for c in split["candidates"]
                   if c["start"] != split["chosen"] and not c.get("error")]
-        lines.append("second starts across the masses' split (--split-starts): kept the "
-                     f"{split['chosen']} minimum, k-step cost " + ", ".join(
+        kept = ("the fit's own" if split["chosen"] == "fit"
+                else f"the {split['chosen']} start's")
+        lines.append(f"second starts across the masses' split (--split-starts): kept {kept} "
+                     "minimum, k-step cost " + ", ".join(
                          f"{c['start']} " + (f"failed ({c['error']})" if c.get("error") else
                                              num(c["k_step_cost"]))
                          for c in split["candidates"])

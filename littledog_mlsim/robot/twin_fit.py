@@ -228,7 +228,7 @@ Method
    error). With F > 0 the fit (after its rounds, 9) is fitted again, with the same parameters
    and a round's budget, from two more starts: its optimum with the legs x(1 - F) and x(1 + F),
    the body taking the difference so that the total stays (:func:`split_start`). The lowest
-   k-step cost (the measure of 8, the first fit's weights) is kept. Each other minimum is then
+   k-step cost (the measure of 8, with the weights of the last round's starting robot) is kept. Each other minimum is then
    compared with it on the fitted moves (:func:`minima_compared`): both re-simulated, weighted
    at the kept one, the per-move cost differences summed over their standard error (the moves
    independent, the states of a move not, as the intervals' clustering by move). Where that z
@@ -1592,9 +1592,9 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
     report["settings"] = {**report.get("settings", {}), "split_starts": step}
     report["split_starts"] = {
         "step": step, "chosen": chosen, "tied": tied, "tie_z": SPLIT_TIE_Z,
-        "criterion": "mean over horizon and element of (residual RMS / the first fit's starting "
-                     "robot's)^2 on the fitted moves; told apart by the per-move cost difference "
-                     "weighted at the kept minimum (z over its standard error)",
+        "criterion": "mean over horizon and element of (residual RMS / the last round's "
+                     "starting robot's)^2 on the fitted moves; told apart by the per-move cost "
+                     "difference weighted at the kept minimum (z over its standard error)",
         "candidates": entries, "wall_s": round(time.perf_counter() - t0, 1)}
     return Calibration(kept.config, kept.estimates, kept.weak, report)
 

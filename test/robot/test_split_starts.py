@@ -108,7 +108,7 @@ def test_the_second_start_finds_the_deeper_minimum_and_the_data_tell_it(monkeypa
     assert not legs.contains(LEGS0)
     assert any("kept legs x0.85" in s for s in said)
     text = format_calibration(cal.report)
-    assert "kept the legs x0.85 minimum" in text and "the data tell it from the others" in text
+    assert "kept the legs x0.85 start's minimum" in text and "the data tell it from the others" in text
 
 
 def test_minima_the_data_do_not_tell_apart_widen_the_intervals_over_both(monkeypatch):
