@@ -419,17 +419,24 @@ def format_calibration(report: dict) -> str:
     if split.get("candidates"):
         others = [c for c in split["candidates"]
                   if c["start"] != split["chosen"] and not c.get("error")]
+        failed = [c["start"] for c in others if (c.get("compared") or {}).get("error")]
+        tied = [t for t in split.get("tied") or [] if t not in failed]
         kept = ("the fit's own" if split["chosen"] == "fit"
                 else f"the {split['chosen']} start's")
-        lines.append(f"second starts across the masses' split (--split-starts): kept {kept} "
-                     "minimum, k-step cost " + ", ".join(
-                         f"{c['start']} " + (f"failed ({c['error']})" if c.get("error") else
-                                             num(c["k_step_cost"]))
-                         for c in split["candidates"])
-                     + (f"; the data do not tell it from {', '.join(split['tied'])}, so the "
-                        "intervals cover " + ("both" if len(split["tied"]) == 1 else "all")
-                        if split.get("tied") else
-                        "; the data tell it from the others" if others else ""))
+        text = (f"second starts across the masses' split (--split-starts): kept {kept} "
+                "minimum, k-step cost " + ", ".join(
+                    f"{c['start']} " + (f"failed ({c['error']})" if c.get("error") else
+                                        num(c["k_step_cost"]))
+                    for c in split["candidates"]))
+        if tied:
+            text += f"; the data do not tell it from {', '.join(tied)}"
+        elif others and not failed:
+            text += "; the data tell it from the others"
+        if failed:
+            text += f"; not compared with {', '.join(failed)} (the comparison failed)"
+        if split.get("widened"):
+            text += (f"; intervals widened over both: {', '.join(split['widened'])}")
+        lines.append(text)
     elif split.get("skipped"):
         lines.append(f"no second starts (--split-starts): {split['skipped']}")
     consider = report.get("consider") or {}

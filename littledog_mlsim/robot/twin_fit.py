@@ -228,18 +228,22 @@ Method
    error). With F > 0 the fit (after its rounds, 9) is fitted again, with the same parameters
    and a round's budget, from two more starts: its optimum with the legs x(1 - F) and x(1 + F),
    the body taking the difference so that the total stays (:func:`split_start`). The lowest
-   k-step cost (the measure of 8, with the weights of the last round's starting robot) is kept. Each other minimum is then
-   compared with it on the fitted moves (:func:`minima_compared`): both re-simulated, weighted
-   at the kept one, the per-move cost differences summed over their standard error (the moves
-   independent, the states of a move not, as the intervals' clustering by move). Where that z
-   is below :data:`SPLIT_TIE_Z` the data do not tell the two apart, and every interval becomes
-   the hull of its own and that minimum's, with its value (after the bootstrap, which corrects
-   the kept minimum only). The report's ``split_starts`` has each start (its masses, cost,
-   convergence, evaluations, estimates and comparison), ``chosen``, ``tied`` and
-   ``widened``; a fit without both masses is left alone and says so (``skipped``). It costs
-   two fits of the last round's parameters (each up to a round's budget) and two
-   re-simulations per comparison; a start that fails is reported and left out. The bootstrap
-   (11) corrects, or continues, the kept fit.
+   k-step cost (the measure of 8, with the weights of the last round's starting robot) is
+   kept. Each other minimum is then compared with it on the fitted moves
+   (:func:`minima_compared`): both re-simulated, weighted at the kept one, the per-move cost
+   differences summed over their standard error (the moves independent, the states of a move
+   not, as the intervals' clustering by move). Where that z is below the two-sided 95 %
+   quantile of Student's t (:data:`SPLIT_TIE_LEVEL`, n - 1 degrees of freedom for n moves) the
+   data do not tell the two apart, and every interval becomes the hull of its own and that
+   minimum's, with its value (after the bootstrap, which corrects the kept minimum only). A
+   comparison that fails counts as not told apart. The report's ``split_starts`` has each
+   start (its masses (the fit's: its optimum), cost, convergence, evaluations, estimates and
+   comparison), ``chosen``, ``tied`` and ``widened``; a fit without both masses is left alone
+   and says so (``skipped``). A kept start that had not converged is continued by the
+   bootstrap (11), and the others are compared again with where it ended
+   (``compared_after``). It costs two fits of the last round's parameters (each up to a
+   round's budget) and two re-simulations per comparison; a start that fails is reported and
+   left out.
 
 The twin file (:mod:`.twin`) is written atomically, only when the fit succeeded.
 """
@@ -1067,6 +1071,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                              replace(options, bootstrap=0, bootstrap_replicates=1), say)
         if cal.report.get("converged") is False:      # only an optimum is corrected (11)
             cal = _continued(cal, train_recs, options, say)
+            if (cal.report.get("continued") or {}).get("converged") is not None:
+                cal = _split_recompared(cal, train_recs, options)   # it moved (14)
         else:
             cal = bias_corrected(cal, train_recs, options, say)
         cal = _hull_over_tied(cal)                   # after the correction's intervals (14)
@@ -1477,8 +1483,9 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
 
 
 #: module doc 14: a second minimum whose per-move cost difference from the kept one is below
-#: this many of its standard errors is not told apart from it by the data
-SPLIT_TIE_Z = Z95
+#: the two-sided quantile of Student's t at this level (n - 1 degrees of freedom for n moves),
+#: in standard errors, is not told apart from it by the data
+SPLIT_TIE_LEVEL = 0.95
 
 
 def split_start(config: RobotConfig, factor: float) -> RobotConfig:
@@ -1498,8 +1505,11 @@ def minima_compared(train_recs: Sequence[MoveRecording], kept: RobotConfig,
     moves, every residual weighted by its (horizon, element) RMS at ``kept``; per move, d is
     the other's cost minus the kept one's (half the sum of squares), and z is their sum over
     its standard error, sqrt(n) times the moves' sample sd (the moves independent, the states
-    of one move not: the intervals' clustering by move). Told apart where z exceeds
-    :data:`SPLIT_TIE_Z`; never with fewer than two moves."""
+    of one move not: the intervals' clustering by move). Told apart where z exceeds the
+    two-sided :data:`SPLIT_TIE_LEVEL` quantile of Student's t with n - 1 degrees of freedom
+    (``threshold``); never with fewer than two moves."""
+    from scipy.stats import t as student_t
+
     with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
         raw_k = twin_residuals(pool, replace(kept, sensor_noise=False), options.stride,
                                options.horizons, options.initial_state)
@@ -1513,8 +1523,10 @@ def minima_compared(train_recs: Sequence[MoveRecording], kept: RobotConfig,
     se = float(np.std(d, ddof=1) * math.sqrt(n)) if n > 1 else math.nan
     total = float(d.sum())
     z = total / se if n > 1 and se > 0 else (math.inf if n > 1 and total > 0 else math.nan)
-    return {"cost_difference": total, "se": se, "z": z, "moves": n,
-            "told_apart": bool(n > 1 and z > SPLIT_TIE_Z)}
+    threshold = (float(student_t.ppf(0.5 + SPLIT_TIE_LEVEL / 2, n - 1)) if n > 1
+                 else math.inf)
+    return {"cost_difference": total, "se": se, "z": z, "moves": n, "threshold": threshold,
+            "told_apart": bool(n > 1 and z > threshold)}
 
 
 def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
@@ -1562,18 +1574,7 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
     done = [e for e in entries if "error" not in e]
     chosen = min(done, key=lambda e: (e["k_step_cost"], e["start"] != "fit"))["start"]
     kept = fits[chosen]
-    tied = []
-    for e in done:
-        if e["start"] == chosen:
-            e["compared"] = None
-            continue
-        try:
-            e["compared"] = minima_compared(train_recs, kept.config, fits[e["start"]].config,
-                                            options)
-        except Exception as err:    # not compared: not counted as told apart either
-            e["compared"] = {"error": f"{type(err).__name__}: {err}", "told_apart": False}
-        if not e["compared"]["told_apart"]:
-            tied.append(e["start"])
+    tied = _compare_minima(entries, chosen, kept.config, train_recs, options)
     say(f"masses' split: kept {chosen} (k-step cost {_structure_cost(kept, weights):.4g}; "
         + ", ".join(f"{e['start']} {e['k_step_cost']:.4g}" for e in done if e["start"] != chosen)
         + ")" + (f"; the data do not tell it from {', '.join(tied)}: the intervals cover both"
@@ -1591,12 +1592,57 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
                                      for e in done if e["start"] != "fit"))
     report["settings"] = {**report.get("settings", {}), "split_starts": step}
     report["split_starts"] = {
-        "step": step, "chosen": chosen, "tied": tied, "tie_z": SPLIT_TIE_Z,
+        "step": step, "chosen": chosen, "tied": tied, "tie_level": SPLIT_TIE_LEVEL,
         "criterion": "mean over horizon and element of (residual RMS / the last round's "
                      "starting robot's)^2 on the fitted moves; told apart by the per-move cost "
                      "difference weighted at the kept minimum (z over its standard error)",
         "candidates": entries, "wall_s": round(time.perf_counter() - t0, 1)}
     return Calibration(kept.config, kept.estimates, kept.weak, report)
+
+
+def _candidate_config(config: RobotConfig, entry: dict[str, Any]) -> RobotConfig:
+    """``config`` with the estimates of a split start's ``entry`` (its ``params``)."""
+    for p in entry["params"]:
+        par = TWIN_PARAMETERS[p["name"]]
+        config = par.set(config, min(max(p["value"], par.bounds[0]), par.bounds[1]))
+    return config
+
+
+def _compare_minima(entries: list[dict[str, Any]], chosen: str, kept: RobotConfig,
+                    train_recs: Sequence[MoveRecording], options: CalibrationOptions
+                    ) -> list[str]:
+    """Each split start's ``compared`` (:func:`minima_compared`, against ``kept``, null for
+    the ``chosen`` one) set in ``entries``; returns the starts not told apart from it. A
+    comparison that fails counts as not told apart, with its ``error``."""
+    tied = []
+    for e in entries:
+        if "error" in e:
+            continue
+        if e["start"] == chosen:
+            e["compared"] = None
+            continue
+        try:
+            e["compared"] = minima_compared(train_recs, kept, _candidate_config(kept, e), options)
+        except Exception as err:    # not compared: not counted as told apart either
+            e["compared"] = {"error": f"{type(err).__name__}: {err}", "told_apart": False}
+        if not e["compared"]["told_apart"]:
+            tied.append(e["start"])
+    return tied
+
+
+def _split_recompared(cal: Calibration, train_recs: Sequence[MoveRecording],
+                      options: CalibrationOptions) -> Calibration:
+    """After the kept start was fitted on (:func:`_continued`), the other minima compared
+    again with where it ended (module doc, 14); ``split_starts.compared_after`` says so."""
+    split = cal.report.get("split_starts") or {}
+    if not split.get("candidates"):
+        return cal
+    entries = [dict(e) for e in split["candidates"]]
+    tied = _compare_minima(entries, split["chosen"], cal.config, train_recs, options)
+    report = dict(cal.report)
+    report["split_starts"] = {**split, "candidates": entries, "tied": tied,
+                              "compared_after": "continued"}
+    return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
 def _hull(a: Sequence[float | None], b: Sequence[float | None], v: float
@@ -1632,7 +1678,9 @@ def _hull_over_tied(cal: Calibration) -> Calibration:
                                  ci95_data=None if ci_data is None else tuple(ci_data)))
     report = dict(cal.report)
     report["params"] = [_estimate_dict(e) for e in estimates]
-    report["split_starts"] = {**split, "widened": widened}
+    # an interval hulled before the bootstrap and not recomputed by it stays in the list
+    report["split_starts"] = {**split, "widened": sorted(set(split.get("widened") or [])
+                                                         | set(widened))}
     return Calibration(cal.config, estimates, cal.weak, report)
 
 

@@ -169,3 +169,68 @@ def test_split_starts_run_once_before_the_bootstrap(monkeypatch):
     assert len(cal.report["split_starts"]["tied"]) == 2
     legs = next(e for e in cal.estimates if e.name == "leg_mass")
     assert legs.contains(LEGS0) and legs.contains(LEGS_B)
+
+
+def _with_bootstrap_standins(monkeypatch, fail: bool = False):
+    from littledog_mlsim.robot import twin_bias
+
+    def synthetic(recs, config, replicate=0):
+        if fail:
+            raise RuntimeError("no synthetic recording")
+        return recs
+
+    monkeypatch.setattr(twin_bias, "synthetic_recordings", synthetic)
+    monkeypatch.setattr(twin_bias, "recording_sensing", lambda recs: {
+        "sensor_noise": False, "mocap_position_std": 0.0, "mocap_orientation_std": 0.0,
+        "encoder_resolution": None})
+
+
+def test_the_kept_start_is_the_one_bootstrapped_and_a_tie_stays_widened(monkeypatch):
+    """With added rounds and a bootstrap, the deeper minimum found by a second start is the
+    twin the bootstrap corrects (on the stand-in its own recordings are the recording: no
+    bias), and the report keeps the rounds' entries and settings. With a tie and a bootstrap
+    that fails, the intervals hulled before it stay hulled and ``widened`` still names them.
+    Bad steps are refused with a one-line error naming the option."""
+    from littledog_mlsim.robot import twin_fit
+
+    recs, base, opts = _case(monkeypatch, depth=0.5)
+    _with_bootstrap_standins(monkeypatch)
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(
+        opts, split_starts=0.15, bootstrap=1, add_asked=1, test_missing=True))
+    assert cal.report["split_starts"]["chosen"] == "legs x0.85"
+    assert cal.config.leg_mass == pytest.approx(LEGS_B, rel=1e-3)
+    assert cal.report["bootstrap"]["iterations"] == 1
+    assert cal.report["added"] == [] and cal.report["settings"]["add_asked"] == 1
+    assert cal.report["settings"]["split_starts"] == 0.15
+
+    recs, base, opts = _case(monkeypatch, depth=0.0)
+    _with_bootstrap_standins(monkeypatch, fail=True)
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(
+        opts, split_starts=0.15, bootstrap=1))
+    assert "no synthetic recording" in cal.report["bootstrap"]["error"]
+    assert "leg_mass" in cal.report["split_starts"]["widened"]
+    legs = next(e for e in cal.estimates if e.name == "leg_mass")
+    assert legs.contains(LEGS0) and legs.contains(LEGS_B)
+    for bad in (-0.1, math.nan, math.inf):
+        with pytest.raises(ValueError, match="split_starts"):
+            dataclasses.replace(opts, split_starts=bad).check()
+
+
+def test_a_kept_start_its_budget_stopped_is_continued_and_compared_again(monkeypatch):
+    """Every start stopped by a budget of a few evaluations: the bootstrap continues the kept
+    one (decision 058) and the other minima are compared again with where it ended."""
+    from littledog_mlsim.robot import twin_fit
+
+    recs, base, opts = _case(monkeypatch, depth=0.5)
+    _with_bootstrap_standins(monkeypatch)
+    monkeypatch.setattr(twin_fit, "ROUND_EVALS_PER_COLUMN", 1)
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(
+        opts, split_starts=0.15, bootstrap=1, max_evals=6))
+    split = cal.report["split_starts"]
+    chosen = next(c for c in split["candidates"] if c["start"] == split["chosen"])
+    assert chosen["converged"] is False
+    assert cal.report["continued"]["n_evals"] > 0
+    assert split["compared_after"] == "continued"
+    for c in split["candidates"]:
+        if c["start"] != split["chosen"]:
+            assert c["compared"]["moves"] == len(recs) and "z" in c["compared"]
