@@ -1430,6 +1430,18 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
+def _evals_so_far(report: dict[str, Any]) -> int:
+    """The re-simulations of every fit a calibration's ``report`` has finished: its
+    ``n_evals_total`` where the rounds counted them, else both servo structures' fits (a
+    screened-out one's screen) with ``servo="auto"``, else its own fit's."""
+    if report.get("n_evals_total") is not None:
+        return int(report["n_evals_total"])
+    structure = report.get("structure")
+    if structure:
+        return int(sum(c.get("n_evals") or 0 for c in structure["candidates"]))
+    return int(report.get("n_evals") or 0)
+
+
 def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
                options: CalibrationOptions, say: Callable[[str], None]) -> Calibration:
     """A fit the evaluation budget stopped, fitted on from where it stopped with the
@@ -1469,8 +1481,7 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
         for key in ("structure", "added", "split_starts"):
             if key in cal.report:
                 report[key] = cal.report[key]
-        report["n_evals_total"] = ((cal.report.get("n_evals_total")
-                                    or cal.report.get("n_evals") or 0)
+        report["n_evals_total"] = (_evals_so_far(cal.report)
                                    + (refit.report.get("n_evals") or 0))
         kept = {k: v for k, v in cal.report.get("settings", {}).items()   # the fit's
                 if k in ("add_asked", "threshold_round", "servo", "split_starts")}
@@ -1587,7 +1598,7 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
         kept_settings = {k: v for k, v in cal.report.get("settings", {}).items()
                          if k in ("add_asked", "threshold_round", "servo")}
         report["settings"] = {**report.get("settings", {}), **kept_settings}
-    report["n_evals_total"] = ((cal.report.get("n_evals_total") or cal.report.get("n_evals") or 0)
+    report["n_evals_total"] = (_evals_so_far(cal.report)
                                + sum(fits[e["start"]].report.get("n_evals") or 0
                                      for e in done if e["start"] != "fit"))
     report["settings"] = {**report.get("settings", {}), "split_starts": step}

@@ -234,3 +234,16 @@ def test_a_kept_start_its_budget_stopped_is_continued_and_compared_again(monkeyp
     for c in split["candidates"]:
         if c["start"] != split["chosen"]:
             assert c["compared"]["moves"] == len(recs) and "z" in c["compared"]
+
+
+def test_the_evaluations_so_far_count_both_structures_where_no_round_counted_them():
+    """A calibration's count before its split starts or continuation: the rounds' total where
+    there is one, else both servo structures' fits (the screened-out one's screen), else the
+    fit's own."""
+    from littledog_mlsim.robot.twin_fit import _evals_so_far
+
+    structure = {"candidates": [{"servo": "pd_torque", "n_evals": 136},
+                                {"servo": "position", "n_evals": 40, "screened": True}]}
+    assert _evals_so_far({"n_evals": 136, "structure": structure}) == 176
+    assert _evals_so_far({"n_evals": 188, "n_evals_total": 595, "structure": structure}) == 595
+    assert _evals_so_far({"n_evals": 31}) == 31
