@@ -1588,8 +1588,8 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
     tied = _compare_minima(entries, chosen, kept.config, train_recs, options)
     say(f"masses' split: kept {chosen} (k-step cost {_structure_cost(kept, weights):.4g}; "
         + ", ".join(f"{e['start']} {e['k_step_cost']:.4g}" for e in done if e["start"] != chosen)
-        + ")" + (f"; the data do not tell it from {', '.join(tied)}: the intervals cover both"
-                 if tied else ""))
+        + ")" + (f"; the data do not tell it from {', '.join(tied)}: the intervals cover "
+                 + ("both" if len(tied) == 1 else "all") if tied else ""))
     report = dict(kept.report)
     if chosen != "fit":
         for key in ("structure", "added"):

@@ -122,9 +122,12 @@ def test_minima_the_data_do_not_tell_apart_widen_the_intervals_over_both(monkeyp
     recs, base, opts = _case(monkeypatch, depth=0.0)
     plain = twin_fit.calibrate_twin(recs, [], base, opts)
     assert not next(e for e in plain.estimates if e.name == "leg_mass").contains(LEGS_B)
-    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, split_starts=0.15))
+    said = []
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, split_starts=0.15),
+                                  said.append)
     split = cal.report["split_starts"]
     assert len(split["tied"]) == 2 and "leg_mass" in split["widened"]
+    assert any("the intervals cover all" in s for s in said)
     legs = next(e for e in cal.estimates if e.name == "leg_mass")
     assert legs.contains(LEGS0) and legs.contains(LEGS_B)
     assert "do not tell it from" in format_calibration(cal.report)
