@@ -435,7 +435,7 @@ def format_calibration(report: dict) -> str:
         if failed:
             text += f"; not compared with {', '.join(failed)} (the comparison failed)"
         if split.get("widened"):
-            text += (f"; intervals widened over both: {', '.join(split['widened'])}")
+            text += f"; intervals widened over the tied minima: {', '.join(split['widened'])}"
         lines.append(text)
     elif split.get("skipped"):
         lines.append(f"no second starts (--split-starts): {split['skipped']}")

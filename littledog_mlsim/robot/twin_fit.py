@@ -1442,6 +1442,20 @@ def _evals_so_far(report: dict[str, Any]) -> int:
     return int(report.get("n_evals") or 0)
 
 
+def _carried(report: dict[str, Any], earlier: dict[str, Any]) -> dict[str, Any]:
+    """``report`` of a fit made from the calibration ``earlier`` reports, with that
+    calibration's history: its structure choice, rounds and second starts, and its settings
+    of them (the later fit's own are those of one inner fit)."""
+    report = dict(report)
+    for key in ("structure", "added", "split_starts"):
+        if key in earlier:
+            report[key] = earlier[key]
+    kept = {k: v for k, v in earlier.get("settings", {}).items()
+            if k in ("add_asked", "threshold_round", "servo", "split_starts")}
+    report["settings"] = {**report.get("settings", {}), **kept}
+    return report
+
+
 def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
                options: CalibrationOptions, say: Callable[[str], None]) -> Calibration:
     """A fit the evaluation budget stopped, fitted on from where it stopped with the
@@ -1477,16 +1491,10 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
                       "converged": refit.report.get("converged"),
                       "stop": refit.report.get("stop"), "n_evals": refit.report.get("n_evals"),
                       "wall_s": round(time.perf_counter() - t0, 1)})
-        result, report = refit, dict(refit.report)
-        for key in ("structure", "added", "split_starts"):
-            if key in cal.report:
-                report[key] = cal.report[key]
+        result, report = refit, _carried(refit.report, cal.report)
         report["n_evals_total"] = (_evals_so_far(cal.report)
                                    + (refit.report.get("n_evals") or 0))
-        kept = {k: v for k, v in cal.report.get("settings", {}).items()   # the fit's
-                if k in ("add_asked", "threshold_round", "servo", "split_starts")}
-        report["settings"] = {**report.get("settings", {}), **kept,
-                              "bootstrap": options.bootstrap,
+        report["settings"] = {**report["settings"], "bootstrap": options.bootstrap,
                               "bootstrap_replicates": options.bootstrap_replicates}
     report["continued"] = entry
     report["bootstrap"] = {"skipped": reason, "iterations": 0}
@@ -1519,17 +1527,25 @@ def minima_compared(train_recs: Sequence[MoveRecording], kept: RobotConfig,
     of one move not: the intervals' clustering by move). Told apart where z exceeds the
     two-sided :data:`SPLIT_TIE_LEVEL` quantile of Student's t with n - 1 degrees of freedom
     (``threshold``); never with fewer than two moves."""
+    with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
+        raw_k, raw_o = twin_residuals_many(pool, [replace(kept, sensor_noise=False),
+                                                  replace(other, sensor_noise=False)],
+                                           options.stride, options.horizons,
+                                           options.initial_state)
+    return _paired(raw_k, raw_o)
+
+
+def _paired(raw_k: Sequence[np.ndarray], raw_o: Sequence[np.ndarray]) -> dict[str, Any]:
+    """:func:`minima_compared` of the kept minimum's and the other's raw residuals per move."""
     from scipy.stats import t as student_t
 
-    with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
-        raw_k = twin_residuals(pool, replace(kept, sensor_noise=False), options.stride,
-                               options.horizons, options.initial_state)
-        raw_o = twin_residuals(pool, replace(other, sensor_noise=False), options.stride,
-                               options.horizons, options.initial_state)
     scale = _rms_scale(raw_k)
-    d = np.array([0.5 * (float(_weighted([o], scale) @ _weighted([o], scale))
-                         - float(_weighted([k], scale) @ _weighted([k], scale)))
-                  for k, o in zip(raw_k, raw_o)])
+
+    def cost(raw: np.ndarray) -> float:
+        w = _weighted([raw], scale)
+        return 0.5 * float(w @ w)
+
+    d = np.array([cost(o) - cost(k) for k, o in zip(raw_k, raw_o)])
     n = len(d)
     se = float(np.std(d, ddof=1) * math.sqrt(n)) if n > 1 else math.nan
     total = float(d.sum())
@@ -1590,14 +1606,7 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
         + ", ".join(f"{e['start']} {e['k_step_cost']:.4g}" for e in done if e["start"] != chosen)
         + ")" + (f"; the data do not tell it from {', '.join(tied)}: the intervals cover "
                  + ("both" if len(tied) == 1 else "all") if tied else ""))
-    report = dict(kept.report)
-    if chosen != "fit":
-        for key in ("structure", "added"):
-            if key in cal.report:
-                report[key] = cal.report[key]
-        kept_settings = {k: v for k, v in cal.report.get("settings", {}).items()
-                         if k in ("add_asked", "threshold_round", "servo")}
-        report["settings"] = {**report.get("settings", {}), **kept_settings}
+    report = _carried(kept.report, cal.report)
     report["n_evals_total"] = (_evals_so_far(cal.report)
                                + sum(fits[e["start"]].report.get("n_evals") or 0
                                      for e in done if e["start"] != "fit"))
@@ -1626,16 +1635,30 @@ def _compare_minima(entries: list[dict[str, Any]], chosen: str, kept: RobotConfi
     the ``chosen`` one) set in ``entries``; returns the starts not told apart from it. A
     comparison that fails counts as not told apart, with its ``error``."""
     tied = []
+    others = [e for e in entries if "error" not in e and e["start"] != chosen]
     for e in entries:
-        if "error" in e:
-            continue
         if e["start"] == chosen:
             e["compared"] = None
-            continue
-        try:
-            e["compared"] = minima_compared(train_recs, kept, _candidate_config(kept, e), options)
-        except Exception as err:    # not compared: not counted as told apart either
-            e["compared"] = {"error": f"{type(err).__name__}: {err}", "told_apart": False}
+    if not others:
+        return tied
+    try:
+        with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
+            def residuals(config: RobotConfig) -> list[np.ndarray]:
+                return twin_residuals(pool, replace(config, sensor_noise=False),
+                                      options.stride, options.horizons, options.initial_state)
+
+            raw_k = residuals(kept)      # once, for every comparison
+            for e in others:
+                try:
+                    e["compared"] = _paired(raw_k, residuals(_candidate_config(kept, e)))
+                except Exception as err:    # not compared: not counted as told apart either
+                    e["compared"] = {"error": f"{type(err).__name__}: {err}",
+                                     "told_apart": False}
+    except Exception as err:                # the kept minimum itself did not re-simulate
+        for e in others:
+            e.setdefault("compared", {"error": f"{type(err).__name__}: {err}",
+                                      "told_apart": False})
+    for e in others:
         if not e["compared"]["told_apart"]:
             tied.append(e["start"])
     return tied

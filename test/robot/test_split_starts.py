@@ -102,6 +102,10 @@ def test_the_second_start_finds_the_deeper_minimum_and_the_data_tell_it(monkeypa
     assert starts["legs x0.85"]["k_step_cost"] < starts["fit"]["k_step_cost"]
     assert starts["fit"]["compared"]["told_apart"] and starts["fit"]["compared"]["z"] > 1.96
     assert starts["legs x0.85"]["compared"] is None
+    # the public comparison gives what the calibration recorded
+    again = twin_fit.minima_compared(recs, cal.config, plain.config, opts)
+    assert again["z"] == pytest.approx(starts["fit"]["compared"]["z"], rel=0.05)
+    assert again["told_apart"]
     assert cal.report["n_evals_total"] == sum(c["n_evals"] for c in split["candidates"])
     assert cal.report["settings"]["split_starts"] == 0.15
     legs = next(e for e in cal.estimates if e.name == "leg_mass")
