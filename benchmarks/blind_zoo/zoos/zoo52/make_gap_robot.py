@@ -5,9 +5,10 @@ size between a few per cent and a few tens of per cent), all drawn from this scr
 ``command_delay_ms`` (zero on ``measured``) gets a few milliseconds. Draws that would leave the
 robot unable to walk (knee or hip torque limit outside its walking range, a contact friction
 product outside its range) are drawn again from the same generator, so the robot is a pure
-function of the seed. Writes ``gap_robot.json`` beside this script::
+function of the seed. Writes ``gap_robot.json`` beside this script (from the
+repository's root)::
 
-    cd /work/main && OPENBLAS_NUM_THREADS=1 .venv/bin/python \\
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \\
         benchmarks/blind_zoo/zoos/zoo52/make_gap_robot.py
 """
 from __future__ import annotations

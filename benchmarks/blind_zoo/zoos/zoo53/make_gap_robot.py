@@ -7,9 +7,9 @@ mass narrower, the gains, armature, frictions, filter and noise wider). ``comman
 (zero on ``measured``) is drawn as a few milliseconds. One draw (the two frictions together) is
 repeated from the same generator while the contact's friction product falls outside a walkable
 span, so the robot is a pure function of the seed. Writes ``gap_robot.json`` beside this
-script::
+script (from the repository's root)::
 
-    cd /work/main && OPENBLAS_NUM_THREADS=1 .venv/bin/python \\
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \\
         benchmarks/blind_zoo/zoos/zoo53/make_gap_robot.py
 """
 from __future__ import annotations

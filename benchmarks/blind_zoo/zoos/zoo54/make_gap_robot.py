@@ -8,9 +8,9 @@ from this script's own seed; a draw outside a walking range (a torque limit, the
 friction product) is drawn again from the same generator, so the robot is a pure function of
 the seed. This is the author's second seed: the first seed's draw failed the walk check
 (three moving types under 0.1 m on average at the reference's seed 457, nothing fallen). Writes
-``gap_robot.json`` beside this script::
+``gap_robot.json`` beside this script (from the repository's root)::
 
-    cd /work/main && OPENBLAS_NUM_THREADS=1 .venv/bin/python \\
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \\
         benchmarks/blind_zoo/zoos/zoo54/make_gap_robot.py
 """
 from __future__ import annotations
