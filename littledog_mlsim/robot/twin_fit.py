@@ -1667,14 +1667,16 @@ def _compare_minima(entries: list[dict[str, Any]], chosen: str, kept: RobotConfi
 def _split_recompared(cal: Calibration, train_recs: Sequence[MoveRecording],
                       options: CalibrationOptions) -> Calibration:
     """After the kept start was fitted on (:func:`_continued`), the other minima compared
-    again with where it ended (module doc, 14); ``split_starts.compared_after`` says so."""
+    again with where it ended (module doc, 14); ``split_starts.compared_after`` says so. The
+    continued fit's intervals are its own, so ``widened`` starts empty again: the hull over
+    the minima tied now (:func:`_hull_over_tied`) names what it widens."""
     split = cal.report.get("split_starts") or {}
     if not split.get("candidates"):
         return cal
     entries = [dict(e) for e in split["candidates"]]
     tied = _compare_minima(entries, split["chosen"], cal.config, train_recs, options)
     report = dict(cal.report)
-    report["split_starts"] = {**split, "candidates": entries, "tied": tied,
+    report["split_starts"] = {**split, "candidates": entries, "tied": tied, "widened": [],
                               "compared_after": "continued"}
     return Calibration(cal.config, cal.estimates, cal.weak, report)
 

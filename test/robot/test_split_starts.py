@@ -254,3 +254,28 @@ def test_the_evaluations_so_far_count_both_structures_where_no_round_counted_the
     assert _evals_so_far({"n_evals": 136, "structure": structure}) == 176
     assert _evals_so_far({"n_evals": 188, "n_evals_total": 595, "structure": structure}) == 595
     assert _evals_so_far({"n_evals": 31}) == 31
+
+
+def test_a_continued_fit_names_only_the_intervals_its_own_hull_widens(monkeypatch):
+    """The continued fit's intervals are its own: where the minima tied before the
+    continuation are told apart after it, no interval is hulled and none is named widened
+    (zoo53 run3: `widened` had kept the 15 hulled before, and the printout said both)."""
+    from littledog_mlsim.robot import twin_fit
+    from littledog_mlsim.robot.twin_fit import Calibration, Estimate
+
+    est = [Estimate("body_mass", "kg", 2.0, 2.1, (2.0, 2.2), None),
+           Estimate("leg_mass", "kg", 0.2, 0.21, (0.2, 0.22), None)]
+    other = {"start": "legs x0.85", "params": [
+        {"name": "body_mass", "value": 2.3, "ci95": [2.25, 2.35]},
+        {"name": "leg_mass", "value": 0.18, "ci95": [0.17, 0.19]}]}
+    split = {"chosen": "fit", "tied": ["legs x0.85"], "widened": ["body_mass", "leg_mass"],
+             "candidates": [{"start": "fit", "params": []}, other]}
+    cal = Calibration(robot_config("nominal"), est, [], {"split_starts": split})
+    for told_apart, widened in ((True, []), (False, ["body_mass", "leg_mass"])):
+        monkeypatch.setattr(twin_fit, "_compare_minima",
+                            lambda *a, t=told_apart, **k: [] if t else ["legs x0.85"])
+        out = twin_fit._hull_over_tied(twin_fit._split_recompared(cal, [], None))
+        assert out.report["split_starts"]["widened"] == widened
+        assert out.report["split_starts"]["compared_after"] == "continued"
+        body = next(e for e in out.estimates if e.name == "body_mass")
+        assert body.ci95 == ((2.0, 2.2) if told_apart else (2.0, 2.35))
