@@ -354,7 +354,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  consider_spread=a.consider_spread, bootstrap=a.bootstrap,
                                  bootstrap_replicates=a.bootstrap_replicates,
                                  weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd,
-                                 weigh_in_fit=a.weigh_in_fit, split_starts=a.split_starts)
+                                 weigh_in_fit=a.weigh_in_fit, split_starts=a.split_starts,
+                                 bootstrap_continued=a.bootstrap_continued)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -408,13 +409,18 @@ def format_calibration(report: dict) -> str:
         lines.append(f"the bootstrap stopped: {boot['error']}")
     cont = report.get("continued")
     if cont:
-        lines.append("the fit stopped on its budget, so no bias was taken out (--bootstrap "
-                     "corrects an optimum only): fitted on from there with the bootstrap's "
-                     f"{cont['max_evals']} evaluations, "
+        corrected = "skipped" not in boot
+        lines.append(("the fit stopped on its budget: fitted on from there"
+                      if corrected else
+                      "the fit stopped on its budget, so no bias was taken out (--bootstrap "
+                      "corrects an optimum only): fitted on from there")
+                     + f" with the bootstrap's {cont['max_evals']} evaluations, "
                      + (f"which failed ({cont['error']})" if cont.get("error") else
                         f"k-step cost {num(cont['k_step_cost_before'])} -> "
                         f"{num(cont['k_step_cost_after'])}, "
-                        + ("converged" if cont.get("converged") else "not converged either")))
+                        + ("converged" if cont.get("converged") else "not converged either"))
+                     + ("; the converged fit's bias then measured (--bootstrap-continued)"
+                        if corrected else ""))
     split = report.get("split_starts") or {}
     if split.get("candidates"):
         others = [c for c in split["candidates"]
@@ -915,6 +921,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --bootstrap: R noise seeds per iteration (default 1); the bias "
                          "is their mean, and where they scatter more than the data's interval "
                          "says, the intervals take their spread (R refits per iteration)")
+    cb.add_argument("--bootstrap-continued", action="store_true",
+                    help="with --bootstrap: a fit that stopped on its budget is fitted on from "
+                         "there (always), and where that converges its bias is then taken out "
+                         "as well (off by default: the bootstrap's refits come on top of the "
+                         "continuation's time)")
     cb.add_argument("--weighed-mass", type=float, default=None, metavar="KG",
                     help="the robot's mass on a scale: motion under gravity cannot tell the "
                          "common scale of every mass and servo torque, so the fitted twin is "

@@ -322,6 +322,7 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
         f"{sensing['encoder_resolution'] or 'none'}) and is fitted again, {n_it} time(s)"
         + (f", {n_rep} noise seeds each" if n_rep > 1 else ""))
     inner = replace(options, params=tuple(names), servo="keep", add_asked=0, bootstrap=0,
+                    bootstrap_continued=False,
                     bootstrap_replicates=1, test_missing=False, name=cal.config.name,
                     split_starts=0.0,
                     max_evals=max(options.max_evals,

@@ -169,7 +169,11 @@ Method
    15). Such a fit is **continued** instead (:func:`_continued`): fitted again from where it
    stopped, with the evaluations the bootstrap would have spent (N x R refits of a round's
    budget, 9); the report's ``continued`` says from where, the cost before and after and
-   whether it converged, and ``bootstrap.skipped`` why no bias was taken out.
+   whether it converged, and ``bootstrap.skipped`` why no bias was taken out. With
+   ``bootstrap_continued`` (``--bootstrap-continued``; off by default) a continuation that
+   converged is an optimum, and its bias is then taken out as above: ``continued`` stays, the
+   report's ``bootstrap`` is the correction's and ``settings.bootstrap_continued`` is true. It
+   costs the bootstrap's refits on top of the continuation.
 
 12. **The common scale** (``scale_symmetry``). A robot whose every mass, rotor inertia and
    servo torque (gains, dampings, limits) scale by one factor moves the same way under gravity
@@ -307,6 +311,7 @@ class CalibrationOptions:
     weighed_mass_sd: float = 0.01           # the weighing's standard deviation [kg]
     weigh_in_fit: bool = False              # the weighing a residual of the fit (doc, 13)
     split_starts: float = 0.0               # second starts across the masses' split (doc, 14)
+    bootstrap_continued: bool = False       # a continued fit that converged: its bias too (11)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -338,6 +343,8 @@ class CalibrationOptions:
                              f"{self.bootstrap_replicates!r}")
         if self.bootstrap_replicates > 1 and not self.bootstrap:
             raise ValueError("bootstrap_replicates needs bootstrap (at least 1 iteration)")
+        if self.bootstrap_continued and not self.bootstrap:
+            raise ValueError("bootstrap_continued needs bootstrap (at least 1 iteration)")
         if self.weighed_mass is not None and not (
                 math.isfinite(self.weighed_mass) and 0.5 <= self.weighed_mass <= 30.0):
             raise ValueError("weighed_mass must be the robot's mass in kg (0.5 to 30), got "
@@ -1068,11 +1075,15 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     if options.bootstrap:
         from .twin_bias import bias_corrected
         cal = calibrate_twin(train_recs, [], base,
-                             replace(options, bootstrap=0, bootstrap_replicates=1), say)
+                             replace(options, bootstrap=0, bootstrap_replicates=1,
+                                     bootstrap_continued=False), say)
         if cal.report.get("converged") is False:      # only an optimum is corrected (11)
             cal = _continued(cal, train_recs, options, say)
-            if (cal.report.get("continued") or {}).get("converged") is not None:
+            ended = (cal.report.get("continued") or {}).get("converged")
+            if ended is not None:
                 cal = _split_recompared(cal, train_recs, options)   # it moved (14)
+            if ended and options.bootstrap_continued:   # an optimum now: corrected as one
+                cal = _continued_corrected(cal, train_recs, options, say)
         else:
             cal = bias_corrected(cal, train_recs, options, say)
         cal = _hull_over_tied(cal)                   # after the correction's intervals (14)
@@ -1476,6 +1487,7 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
     say(f"the fit stopped on its budget: fitting on from there with the bootstrap's {budget} "
         "evaluations instead of measuring a bias at a point that is not an optimum")
     inner = replace(options, params=names, servo="keep", add_asked=0, bootstrap=0,
+                    bootstrap_continued=False,
                     bootstrap_replicates=1, name=cal.config.name, split_starts=0.0,
                     max_evals=max(options.max_evals, budget))
     try:
@@ -1499,6 +1511,20 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
     report["continued"] = entry
     report["bootstrap"] = {"skipped": reason, "iterations": 0}
     return Calibration(result.config, result.estimates, result.weak, report)
+
+
+def _continued_corrected(cal: Calibration, train_recs: Sequence[MoveRecording],
+                         options: CalibrationOptions, say: Callable[[str], None]) -> Calibration:
+    """A continued fit that converged, with its bias taken out as any optimum's
+    (``bootstrap_continued``, module doc 11); the report keeps ``continued``, its
+    ``bootstrap`` is the correction's and ``settings.bootstrap_continued`` is set."""
+    from .twin_bias import bias_corrected
+    say("the continued fit converged: taking out its bias as an optimum's "
+        "(--bootstrap-continued)")
+    out = bias_corrected(cal, train_recs, options, say)
+    report = dict(out.report)
+    report["settings"] = {**report.get("settings", {}), "bootstrap_continued": True}
+    return Calibration(out.config, out.estimates, out.weak, report)
 
 
 #: module doc 14: a second minimum whose per-move cost difference from the kept one is below
@@ -1572,6 +1598,7 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
         return Calibration(cal.config, cal.estimates, cal.weak, report)
     weights = cal.report["residual_rms"]["start"]
     inner = replace(options, params=names, servo="keep", add_asked=0, bootstrap=0,
+                    bootstrap_continued=False,
                     bootstrap_replicates=1, split_starts=0.0, name=cal.config.name,
                     max_evals=max(options.max_evals,
                                   ROUND_EVALS_PER_COLUMN * (2 * len(names) + 1)))

@@ -208,6 +208,42 @@ def test_a_fit_its_budget_stopped_is_continued_not_corrected(monkeypatch):
     assert "which failed (RuntimeError: the pool is gone)" in format_calibration(kept.report)
 
 
+def test_a_continued_fit_that_converged_is_corrected_with_bootstrap_continued(monkeypatch):
+    """With ``bootstrap_continued`` the budget-stopped fit is continued as before, and once the
+    continuation converged (the plain fit's optimum, 0.05 e-folds high) it is an optimum and
+    its bias is taken out as one: two iterations land where the converged fit's bootstrap does
+    (0.0125 over, the truth inside). ``continued`` stays; the bootstrap entry, the setting and
+    the printout say what was done. The option without a bootstrap is refused."""
+    from littledog_mlsim.cli import format_calibration
+    from littledog_mlsim.robot import twin_fit
+
+    recs, base, opts = _biased_case(monkeypatch)
+    short = dataclasses.replace(opts, max_evals=4, bootstrap=2)
+    said = []
+    cal = twin_fit.calibrate_twin(recs, [], base,
+                                  dataclasses.replace(short, bootstrap_continued=True),
+                                  said.append)
+    cont = cal.report["continued"]
+    assert cont["converged"] and not cont["stop_before"].startswith("converged")
+    mass = cal.estimates[0]
+    assert math.log(mass.value / 2.0) == pytest.approx(0.0125, abs=1e-3) and mass.contains(2.0)
+    assert cal.config.body_mass == pytest.approx(mass.value)
+    boot = cal.report["bootstrap"]
+    assert "skipped" not in boot and boot["iterations"] == 2
+    assert boot["params"]["body_mass"]["applied"]
+    assert boot["params"]["body_mass"]["fitted"] == pytest.approx(2.0 * math.exp(0.05), rel=1e-3)
+    assert cal.report["settings"]["bootstrap_continued"] is True
+    assert any("--bootstrap-continued" in s for s in said)
+    text = format_calibration(cal.report)
+    assert "the converged fit's bias then measured" in text and "so no bias" not in text
+    assert "is taken out: body_mass" in text
+    without = twin_fit.calibrate_twin(recs, [], base, short)
+    assert "skipped" in without.report["bootstrap"]
+    assert "bootstrap_continued" not in without.report["settings"]
+    with pytest.raises(ValueError, match="bootstrap_continued needs bootstrap"):
+        dataclasses.replace(opts, bootstrap_continued=True).check()
+
+
 def test_bootstrap_replicates_measure_the_estimators_spread(monkeypatch):
     """On the biased stand-in whose refits scatter with their noise seed (+-0.02 e-folds around
     the bias, far more than the data's sd), two replicates per iteration: the bias is their mean
