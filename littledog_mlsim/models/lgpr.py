@@ -120,6 +120,11 @@ uses it). Shared hyperparameters: one m x m factor per cluster (k m^2 8 bytes); 
 of them per cluster, so only a few clusters fit in the cache (sizes and times:
 ``benchmarks/lgpr_design/README.md``). :meth:`LGPR.cluster_rows` gives each cluster's training
 rows (the learned simulator's gate shortcut uses them as candidate TrainPool states).
+A batch of queries without the std (the batched simulator's rollouts) is grouped by cluster
+and predicted by ``LGPR._batch_mean``: one kernel-row GEMM and one product with alpha per
+cluster visited, everything else (the queries' scaling, |a|^2, the kernel rows' elementwise
+steps in one compiled pass (:mod:`.kernel_rows`), one ``exp``, the output units) once over the
+whole batch; the mean is the per-cluster loop's bit for bit.
 
 Parallel fitting
 ----------------
@@ -477,6 +482,7 @@ class LGPR(Regressor):
         sf2, _, sn2 = unpack_log_params(self.log_params_)
         self._prior_var = sf2 + sn2  # (k, p) in standardised units
         self._rows = [self._row_factors(c) for c in range(k)]
+        self._stacked = self._stacked_rows()
         self._chol: OrderedDict[int, list[np.ndarray]] = OrderedDict()
         self._chol_bytes = 0
         self._variance_prepared = False
@@ -564,6 +570,60 @@ class LGPR(Regressor):
         return (shift, inv_l, np.ascontiguousarray(Z.T), np.einsum("ij,ij->i", Z, Z),
                 float(sf2[0]), float(sn2[0]))
 
+    def _stacked_rows(self) -> dict[str, np.ndarray] | None:
+        """Every cluster's row factors side by side for :meth:`_batch_mean` (shift and 1 / l
+        (k, d), the |z|^2 of all clusters in one array with each cluster's start, sf2 (k,));
+        None where a cluster has per-output kernels."""
+        if any(r is None for r in self._rows):
+            return None
+        zz = [r[3] for r in self._rows]
+        return {"shift": np.stack([r[0] for r in self._rows]),
+                "inv_l": np.stack([r[1] for r in self._rows]),
+                "zz": np.concatenate(zz),
+                "zz_start": np.concatenate([[0], np.cumsum([z.shape[0] for z in zz])[:-1]]
+                                           ).astype(np.int64),
+                "width": np.array([z.shape[0] for z in zz], dtype=np.int64),
+                "sf2": np.array([r[4] for r in self._rows])}
+
+    def _batch_mean(self, X: np.ndarray, labels: np.ndarray) -> np.ndarray:
+        """The mean of :meth:`_by_cluster` (without the variance), bit for bit, with the
+        per-cluster NumPy calls cut to the two products: the queries' scaling, |a|^2 and the
+        output units over the whole batch, the kernel rows' elementwise steps in one compiled
+        pass (:mod:`.kernel_rows`) and one ``exp`` (the batched simulator's hot path,
+        ``benchmarks/sim_node_20x``)."""
+        from .kernel_rows import before_exp, scale_blocks
+
+        st = self._stacked
+        ns, p = X.shape[0], self.n_outputs_
+        order = np.argsort(labels, kind="stable")
+        lab = labels[order]
+        cut = np.flatnonzero(np.diff(lab)) + 1
+        r0 = np.concatenate([[0], cut]).astype(np.int64)
+        r1 = np.concatenate([cut, [ns]]).astype(np.int64)
+        cl = lab[r0]
+        A = (X[order] - st["shift"][lab]) * st["inv_l"][lab]
+        aa = np.einsum("ij,ij->i", A, A)
+        width = st["width"][cl]
+        size = (r1 - r0) * width
+        b1 = np.cumsum(size)
+        b0 = b1 - size
+        K = np.empty(int(b1[-1]))
+        mean = np.empty((ns, p))
+        for b in range(cl.shape[0]):
+            np.matmul(A[r0[b]:r1[b]], self._rows[cl[b]][2],
+                      out=K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]))
+        before_exp(K, b0, r0, r1, width, st["zz_start"][cl], aa, st["zz"])
+        np.exp(K, out=K)
+        scale_blocks(K, b0, b1, st["sf2"][cl])
+        for b in range(cl.shape[0]):
+            np.matmul(K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]), self._alpha[cl[b]],
+                      out=mean[r0[b]:r1[b]])
+        mean *= self.y_std_[lab]
+        mean += self.y_mean_[lab]
+        out = np.empty((ns, p))
+        out[order] = mean
+        return out
+
     def kernel_rows(self, c: int, Xq: np.ndarray) -> tuple[np.ndarray, float, float]:
         """The kernel rows (nq, n_c) of queries Xq against shared-kernel cluster c's training
         inputs by one GEMM, with the kernel's signal and noise variances (sf2, sn2)."""
@@ -620,6 +680,8 @@ class LGPR(Regressor):
         ns, p = X.shape[0], self.n_outputs_
         if ns == 1:
             return self._local(int(labels[0]), X, want_var)
+        if not want_var and getattr(self, "_stacked", None) is not None:   # ns > 1
+            return self._batch_mean(X, labels), None
         mean = np.empty((ns, p))
         var = np.empty((ns, p)) if want_var else None
         order = np.argsort(labels, kind="stable")

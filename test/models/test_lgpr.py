@@ -416,3 +416,35 @@ def test_float32_variance_factors_keep_the_mean_and_bound_the_std_change():
     np.testing.assert_array_equal(lg.predict(Q, return_std=True)[1], s64)
     with pytest.raises(ValueError):
         lg.prepare_variance(dtype="float16")
+
+
+def test_batch_mean_is_the_per_cluster_loop_bit_for_bit():
+    """The batched mean (``LGPR._batch_mean``: the queries' scaling and output units over the
+    whole batch, the kernel rows' elementwise steps compiled, one exp) equals the per-cluster
+    loop bit for bit: on batches of 2 to 300 rows over every cluster, with repeated rows, a row
+    far outside the data and a NaN row (NaN out, as before); the mean with the std (the loop)
+    is the same; one row takes the single-cluster path, equal to rounding."""
+    rng = np.random.default_rng(11)
+    d = 45
+    X = rng.standard_normal((600, d))
+    Y = np.column_stack([np.sin(X[:, 0]) + 0.3 * X[:, 1] * X[:, 2], np.cos(X[:, 3]),
+                         0.2 * X[:, 4] ** 2, X[:, 5] - X[:, 6]])
+    lg = LGPR(n_clusters=6, max_iter=3, n_hyperparameter_points=40).fit(X, Y)
+    assert lg._stacked is not None
+    Q = rng.standard_normal((300, d))
+    Q[7] = Q[3]
+    Q[11] = 40.0
+    Q[20, 5] = np.nan
+    assert len(np.unique(lg.nearest_cluster(np.nan_to_num(Q)))) == lg.n_clusters_
+    stacked = lg._stacked
+    for n in (2, 3, 17, 64, 300):
+        got = lg.predict(Q[:n])
+        lg._stacked = None                       # the per-cluster loop
+        want = lg.predict(Q[:n])
+        lg._stacked = stacked
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(got, lg.predict(Q[:n], return_std=True)[0])
+    assert np.isnan(got[20]).all() and np.isfinite(np.delete(got, 20, axis=0)).all()
+    # one row is the single-cluster path: a GEMM over one row may round its last bits
+    # differently from one over several (as before)
+    np.testing.assert_allclose(lg.predict(Q[:1]), got[:1], rtol=1e-9, atol=1e-12)
