@@ -409,9 +409,10 @@ def format_calibration(report: dict) -> str:
         lines.append(f"the bootstrap stopped: {boot['error']}")
     cont = report.get("continued")
     if cont:
-        corrected = "skipped" not in boot
+        corrected = "skipped" not in boot and boot.get("iterations", 0) > 0
+        failed = "skipped" not in boot and not corrected       # its correction's refit failed
         lines.append(("the fit stopped on its budget: fitted on from there"
-                      if corrected else
+                      if corrected or failed else
                       "the fit stopped on its budget, so no bias was taken out (--bootstrap "
                       "corrects an optimum only): fitted on from there")
                      + f" with the bootstrap's {cont['max_evals']} evaluations, "
@@ -420,7 +421,9 @@ def format_calibration(report: dict) -> str:
                         f"{num(cont['k_step_cost_after'])}, "
                         + ("converged" if cont.get("converged") else "not converged either"))
                      + ("; the converged fit's bias then measured (--bootstrap-continued)"
-                        if corrected else ""))
+                        if corrected else
+                        "; measuring the converged fit's bias then failed (--bootstrap-continued)"
+                        if failed else ""))
     split = report.get("split_starts") or {}
     if split.get("candidates"):
         others = [c for c in split["candidates"]

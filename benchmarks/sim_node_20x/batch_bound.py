@@ -54,7 +54,8 @@ CONTROL_DT_S = 0.01
 
 
 def record(model_path: str, data: str, N: int, steps: int):
-    """(per-step visits [(cluster, queries)], per-step CPU ms of the whole step, the LGPR)."""
+    """(per-step visits [(cluster, queries)], per-step queries, per-step CPU ms of the whole
+    step, the LGPR). A blended LGPR is refused: its steps visit several clusters per query."""
     from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.models.onestep import OneStepModel
     from littledog_mlsim.rollout.simulate import prepare_test_moves
@@ -64,6 +65,9 @@ def record(model_path: str, data: str, N: int, steps: int):
     lgpr = model.estimator
     if not hasattr(lgpr, "_local"):
         raise SystemExit(f"{model_path}: not an LGPR model ({type(lgpr).__name__})")
+    if lgpr.blend and int(lgpr.n_blend) > 1 and lgpr.n_clusters_ > 1:
+        raise SystemExit(f"{model_path}: a blended LGPR; this script reads the nearest-cluster "
+                         "prediction only")
     radius = model.gate_radius()[0]
     projection = model.projection("alpha", alpha=0.5, radius=radius)
     projection.nn.prepare()

@@ -124,7 +124,8 @@ A batch of queries without the std (the batched simulator's rollouts) is grouped
 and predicted by ``LGPR._batch_mean``: one kernel-row GEMM and one product with alpha per
 cluster visited, everything else (the queries' scaling, |a|^2, the kernel rows' elementwise
 steps in one compiled pass (:mod:`.kernel_rows`), one ``exp``, the output units) once over the
-whole batch; the mean is the per-cluster loop's bit for bit.
+whole batch; the mean is the per-cluster loop's bit for bit. It holds the batch's kernel rows
+at once, so batches above ``BATCH_MEAN_MAX_ROWS`` queries take the per-cluster loop.
 
 Parallel fitting
 ----------------
@@ -167,6 +168,11 @@ from .gp import (
     unpack_log_params,
 )
 from .clustering import _sqdist_to_centres, balanced_clusters, nearest_rows
+
+#: batches of at most this many queries without the std take ``LGPR._batch_mean``, which holds
+#: the whole batch's kernel rows at once (4096 queries x about 1,000 training points of their
+#: clusters: about 33 MB); larger ones (a dataset's scores) the per-cluster loop
+BATCH_MEAN_MAX_ROWS = 4096
 from .parallel import run_tasks
 from .persistence import register
 
@@ -680,7 +686,8 @@ class LGPR(Regressor):
         ns, p = X.shape[0], self.n_outputs_
         if ns == 1:
             return self._local(int(labels[0]), X, want_var)
-        if not want_var and getattr(self, "_stacked", None) is not None:   # ns > 1
+        if (not want_var and ns <= BATCH_MEAN_MAX_ROWS
+                and getattr(self, "_stacked", None) is not None):   # ns > 1
             return self._batch_mean(X, labels), None
         mean = np.empty((ns, p))
         var = np.empty((ns, p)) if want_var else None

@@ -209,6 +209,7 @@ class OneStepModel:
         if self.train_states is not None:
             x[:N_STATE] = self.train_states[0]
         self.predict(x, return_std=return_std)
+        self.predict(np.stack([x, x]))    # a batch's path too (LGPR compiles its kernel rows)
 
     # -- projection data
 

@@ -172,8 +172,8 @@ Method
    whether it converged, and ``bootstrap.skipped`` why no bias was taken out. With
    ``bootstrap_continued`` (``--bootstrap-continued``; off by default) a continuation that
    converged is an optimum, and its bias is then taken out as above: ``continued`` stays, the
-   report's ``bootstrap`` is the correction's and ``settings.bootstrap_continued`` is true. It
-   costs the bootstrap's refits on top of the continuation.
+   report's ``bootstrap`` is the correction's; ``settings.bootstrap_continued`` records the
+   option. It costs the bootstrap's refits on top of the continuation.
 
 12. **The common scale** (``scale_symmetry``). A robot whose every mass, rotor inertia and
    servo torque (gains, dampings, limits) scale by one factor moves the same way under gravity
@@ -239,7 +239,8 @@ Method
    not, as the intervals' clustering by move). Where that z is below the two-sided 95 %
    quantile of Student's t (:data:`SPLIT_TIE_LEVEL`, n - 1 degrees of freedom for n moves) the
    data do not tell the two apart, and every interval becomes the hull of its own and that
-   minimum's, with its value (after the bootstrap, which corrects the kept minimum only). A
+   minimum's, with its value (after the bootstrap, which corrects the kept minimum only, or
+   continues it, and with ``bootstrap_continued`` corrects it once it converged, 11). A
    comparison that fails counts as not told apart. The report's ``split_starts`` has each
    start (its masses (the fit's: its optimum), cost, convergence, evaluations, estimates and
    comparison), ``chosen``, ``tied`` and ``widened``; a fit without both masses is left alone
@@ -1086,6 +1087,8 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                 cal = _continued_corrected(cal, train_recs, options, say)
         else:
             cal = bias_corrected(cal, train_recs, options, say)
+        cal.report["settings"] = {**cal.report.get("settings", {}),
+                                  "bootstrap_continued": bool(options.bootstrap_continued)}
         cal = _hull_over_tied(cal)                   # after the correction's intervals (14)
         _finish(cal.report, test_recs, replace(base, sensor_noise=False), cal.config, options,
                 say, t0)
@@ -1517,14 +1520,11 @@ def _continued_corrected(cal: Calibration, train_recs: Sequence[MoveRecording],
                          options: CalibrationOptions, say: Callable[[str], None]) -> Calibration:
     """A continued fit that converged, with its bias taken out as any optimum's
     (``bootstrap_continued``, module doc 11); the report keeps ``continued``, its
-    ``bootstrap`` is the correction's and ``settings.bootstrap_continued`` is set."""
+    ``bootstrap`` is the correction's."""
     from .twin_bias import bias_corrected
     say("the continued fit converged: taking out its bias as an optimum's "
         "(--bootstrap-continued)")
-    out = bias_corrected(cal, train_recs, options, say)
-    report = dict(out.report)
-    report["settings"] = {**report.get("settings", {}), "bootstrap_continued": True}
-    return Calibration(out.config, out.estimates, out.weak, report)
+    return bias_corrected(cal, train_recs, options, say)
 
 
 #: module doc 14: a second minimum whose per-move cost difference from the kept one is below

@@ -437,6 +437,7 @@ def test_batch_mean_is_the_per_cluster_loop_bit_for_bit():
     Q[20, 5] = np.nan
     assert len(np.unique(lg.nearest_cluster(np.nan_to_num(Q)))) == lg.n_clusters_
     stacked = lg._stacked
+    means = {}
     for n in (2, 3, 17, 64, 300):
         got = lg.predict(Q[:n])
         lg._stacked = None                       # the per-cluster loop
@@ -444,7 +445,20 @@ def test_batch_mean_is_the_per_cluster_loop_bit_for_bit():
         lg._stacked = stacked
         np.testing.assert_array_equal(got, want)
         np.testing.assert_array_equal(got, lg.predict(Q[:n], return_std=True)[0])
+        means[n] = got
     assert np.isnan(got[20]).all() and np.isfinite(np.delete(got, 20, axis=0)).all()
     # one row is the single-cluster path: a GEMM over one row may round its last bits
     # differently from one over several (as before)
     np.testing.assert_allclose(lg.predict(Q[:1]), got[:1], rtol=1e-9, atol=1e-12)
+    # a batch above the cap takes the loop (the batched mean holds all its kernel rows)
+    cap = lgpr.BATCH_MEAN_MAX_ROWS
+    try:
+        lgpr.BATCH_MEAN_MAX_ROWS = 16
+
+        def refuse(*args):
+            raise AssertionError("the batched mean ran above the cap")
+        lg._batch_mean = refuse
+        np.testing.assert_array_equal(lg.predict(Q[:64]), means[64])
+    finally:
+        lgpr.BATCH_MEAN_MAX_ROWS = cap
+        del lg._batch_mean

@@ -239,7 +239,11 @@ def test_a_continued_fit_that_converged_is_corrected_with_bootstrap_continued(mo
     assert "is taken out: body_mass" in text
     without = twin_fit.calibrate_twin(recs, [], base, short)
     assert "skipped" in without.report["bootstrap"]
-    assert "bootstrap_continued" not in without.report["settings"]
+    assert without.report["settings"]["bootstrap_continued"] is False
+    failed = {**cal.report, "bootstrap": {"iterations": 0, "replicates": 1, "params": {},
+                                          "error": "iteration 1: RuntimeError: the pool is gone"}}
+    text = format_calibration(failed)
+    assert "measuring the converged fit's bias then failed" in text and "then measured" not in text
     with pytest.raises(ValueError, match="bootstrap_continued needs bootstrap"):
         dataclasses.replace(opts, bootstrap_continued=True).check()
 

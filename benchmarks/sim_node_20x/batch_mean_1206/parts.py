@@ -38,7 +38,7 @@ orig = est.predict
 def rec(X, return_std=False):
     Xs.append(np.array(X)); return orig(X, return_std=return_std)
 est.predict = rec
-for t in range(300): sim.step(u[:, t])
+for t in range(300): sim.step(u[:, t % u.shape[1]])
 est.predict = orig
 self = est
 T = {k: 0 for k in ("labels","prep","gemm1","before","exp","scale","gemm2","out")}
