@@ -26,25 +26,20 @@ import numpy as np  # noqa: E402
 from benchmarks._common import batch_robots  # noqa: E402
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--model", required=True)
-    p.add_argument("--data", required=True)
-    p.add_argument("--n", type=int, default=64)
-    p.add_argument("--steps", type=int, default=300)
-    p.add_argument("--repeats", type=int, default=5)
-    a = p.parse_args()
+def recorded_queries(model_path: str, data: str, n: int, steps: int):
+    """(the LGPR, the estimator's queries of each of ``steps`` steps of the batched simulator
+    over ``n`` robots): the robots of ``run.py``'s batch phase, std off, gated alpha-PROJ."""
     from littledog_mlsim.data.dataset import load_moves
     from littledog_mlsim.models.onestep import OneStepModel
     from littledog_mlsim.rollout.simulate import prepare_test_moves
     from littledog_mlsim.rollout.vector_sim import VectorLearnedSimulator
 
-    model = OneStepModel.load(a.model)
+    model = OneStepModel.load(model_path)
     radius = model.gate_radius()[0]
     projection = model.projection("alpha", alpha=0.5, radius=radius)
     projection.nn.prepare()
-    moves = prepare_test_moves(load_moves(a.data, split="test"))
-    s0, u, pose0 = batch_robots(moves, a.n)
+    moves = prepare_test_moves(load_moves(data, split="test"))
+    s0, u, pose0 = batch_robots(moves, n)
     sim = VectorLearnedSimulator(model, projection, s0, pose0, trust_radius=radius)
     est = model.estimator
     queries = []
@@ -54,9 +49,21 @@ def main() -> int:
         queries.append(np.array(X))
         return predict(X, return_std=return_std)
     est.predict = logged
-    for t in range(a.steps):
+    for t in range(steps):
         sim.step(u[:, t % u.shape[1]])
     del est.predict
+    return est, queries
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--model", required=True)
+    p.add_argument("--data", required=True)
+    p.add_argument("--n", type=int, default=64)
+    p.add_argument("--steps", type=int, default=300)
+    p.add_argument("--repeats", type=int, default=5)
+    a = p.parse_args()
+    est, queries = recorded_queries(a.model, a.data, a.n, a.steps)
     stacked = est._stacked
     loop, batch = [], []
     for _ in range(a.repeats):

@@ -1,53 +1,48 @@
 """Where the batched mean's time goes: ``LGPR._batch_mean``'s parts timed one by one (thread CPU
-time) on the queries of 300 steps of the batched simulator (the robots of ``run.py``'s batch
-phase, std off, gated alpha-PROJ).
+time) on the queries of 300 steps of the batched simulator (``alternate.recorded_queries``: the
+robots of ``run.py``'s batch phase, std off, gated alpha-PROJ).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/sim_node_20x/batch_mean_1206/parts.py \
         --model MODEL --data DATA --n 64
 
-The parts repeat ``_batch_mean``'s code (keep the two the same); the result is checked equal to
-the model's own batched mean.
+The parts repeat ``_batch_mean``'s code with a clock between them (keep the two the same); each
+step's result is checked equal to the model's own batched mean.
 """
-import argparse, os, sys, time
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
 from pathlib import Path
+
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
-ap = argparse.ArgumentParser()
-ap.add_argument("--model", required=True)
-ap.add_argument("--data", required=True)
-ap.add_argument("--n", type=int, default=64)
-a = ap.parse_args()
-import numpy as np
-from littledog_mlsim.data.dataset import load_moves
-from littledog_mlsim.models.onestep import OneStepModel
-from littledog_mlsim.rollout.simulate import prepare_test_moves
-from littledog_mlsim.rollout.vector_sim import VectorLearnedSimulator
-from littledog_mlsim.models.kernel_rows import before_exp, scale_blocks
-from littledog_mlsim.models.clustering import nearest_rows
-from benchmarks._common import batch_robots
-model = OneStepModel.load(a.model)
-radius = model.gate_radius()[0]
-projection = model.projection("alpha", alpha=0.5, radius=radius)
-projection.nn.prepare()
-moves = prepare_test_moves(load_moves(a.data, split="test"))
-s0, u, pose0 = batch_robots(moves, a.n)
-sim = VectorLearnedSimulator(model, projection, s0, pose0, trust_radius=radius)
-est = model.estimator
-Xs = []
-orig = est.predict
-def rec(X, return_std=False):
-    Xs.append(np.array(X)); return orig(X, return_std=return_std)
-est.predict = rec
-for t in range(300): sim.step(u[:, t % u.shape[1]])
-est.predict = orig
-self = est
-T = {k: 0 for k in ("labels","prep","gemm1","before","exp","scale","gemm2","out")}
-for X in Xs:
-    t0 = time.thread_time_ns()
-    labels = nearest_rows(X, self.centers_)
-    t1 = time.thread_time_ns(); T["labels"] += t1 - t0
-    st = self._stacked
-    ns, p = X.shape[0], self.n_outputs_
+
+import numpy as np  # noqa: E402
+
+from alternate import recorded_queries  # noqa: E402
+
+PARTS = ("labels", "prep", "gemm1", "before", "exp", "scale", "gemm2", "out")
+
+
+def timed_batch_mean(est, X: np.ndarray, spent: dict[str, int]) -> np.ndarray:
+    """``est._batch_mean(X, est.nearest_cluster(X))``, its parts' thread CPU ns added to
+    ``spent``."""
+    from littledog_mlsim.models.clustering import nearest_rows
+    from littledog_mlsim.models.kernel_rows import before_exp, scale_blocks
+
+    clock = [time.thread_time_ns()]
+
+    def tick(part: str) -> None:
+        now = time.thread_time_ns()
+        spent[part] += now - clock[0]
+        clock[0] = now
+    labels = nearest_rows(X, est.centers_)
+    tick("labels")
+    st = est._stacked
+    ns, p = X.shape[0], est.n_outputs_
     order = np.argsort(labels, kind="stable")
     lab = labels[order]
     cut = np.flatnonzero(np.diff(lab)) + 1
@@ -58,26 +53,56 @@ for X in Xs:
     aa = np.einsum("ij,ij->i", A, A)
     width = st["width"][cl]
     size = (r1 - r0) * width
-    b1 = np.cumsum(size); b0 = b1 - size
-    K = np.empty(int(b1[-1])); mean = np.empty((ns, p))
-    t2 = time.thread_time_ns(); T["prep"] += t2 - t1
+    b1 = np.cumsum(size)
+    b0 = b1 - size
+    K = np.empty(int(b1[-1]))
+    mean = np.empty((ns, p))
+    tick("prep")
     for b in range(cl.shape[0]):
-        np.matmul(A[r0[b]:r1[b]], self._rows[cl[b]][2], out=K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]))
-    t3 = time.thread_time_ns(); T["gemm1"] += t3 - t2
+        np.matmul(A[r0[b]:r1[b]], est._rows[cl[b]][2],
+                  out=K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]))
+    tick("gemm1")
     before_exp(K, b0, r0, r1, width, st["zz_start"][cl], aa, st["zz"])
-    t4 = time.thread_time_ns(); T["before"] += t4 - t3
+    tick("before")
     np.exp(K, out=K)
-    t5 = time.thread_time_ns(); T["exp"] += t5 - t4
+    tick("exp")
     scale_blocks(K, b0, b1, st["sf2"][cl])
-    t6 = time.thread_time_ns(); T["scale"] += t6 - t5
+    tick("scale")
     for b in range(cl.shape[0]):
-        np.matmul(K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]), self._alpha[cl[b]], out=mean[r0[b]:r1[b]])
-    t7 = time.thread_time_ns(); T["gemm2"] += t7 - t6
-    mean *= self.y_std_[lab]; mean += self.y_mean_[lab]
-    out = np.empty((ns, p)); out[order] = mean
-    T["out"] += time.thread_time_ns() - t7
-    assert np.array_equal(out, self._batch_mean(X, labels), equal_nan=True)
-n = len(Xs)
-print(f"N={a.n}, {n} steps: us per step (mean)", {k: round(v / n / 1e3, 1) for k, v in T.items()},
-      "; clusters per step (mean)", round(float(np.mean([len(np.unique(nearest_rows(X, est.centers_))) for X in Xs])), 1),
-      "; load", os.getloadavg())
+        np.matmul(K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]), est._alpha[cl[b]],
+                  out=mean[r0[b]:r1[b]])
+    tick("gemm2")
+    mean *= est.y_std_[lab]
+    mean += est.y_mean_[lab]
+    out = np.empty((ns, p))
+    out[order] = mean
+    tick("out")
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--model", required=True)
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--n", type=int, default=64)
+    ap.add_argument("--steps", type=int, default=300)
+    a = ap.parse_args()
+    est, queries = recorded_queries(a.model, a.data, a.n, a.steps)
+    spent = dict.fromkeys(PARTS, 0)
+    clusters = []
+    for X in queries:
+        got = timed_batch_mean(est, X, spent)
+        labels = est.nearest_cluster(X)
+        if not np.array_equal(got, est._batch_mean(X, labels), equal_nan=True):
+            raise SystemExit("the timed parts differ from LGPR._batch_mean")
+        clusters.append(len(np.unique(labels)))
+    n = len(queries)
+    print(f"N={a.n}, {n} steps: us per step (mean)",
+          {k: round(v / n / 1e3, 1) for k, v in spent.items()},
+          "; clusters per step (mean)", round(float(np.mean(clusters)), 1),
+          "; load", os.getloadavg())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
