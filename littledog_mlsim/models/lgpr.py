@@ -143,7 +143,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import OrderedDict
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -591,14 +591,18 @@ class LGPR(Regressor):
                 "width": np.array([z.shape[0] for z in zz], dtype=np.int64),
                 "sf2": np.array([r[4] for r in self._rows])}
 
-    def _batch_mean(self, X: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    def _batch_mean(self, X: np.ndarray, labels: np.ndarray,
+                    tick: Callable[[str], None] | None = None) -> np.ndarray:
         """The mean of :meth:`_by_cluster` (without the variance), bit for bit, with the
         per-cluster NumPy calls cut to the two products: the queries' scaling, |a|^2 and the
         output units over the whole batch, the kernel rows' elementwise steps in one compiled
         pass (:mod:`.kernel_rows`) and one ``exp`` (the batched simulator's hot path,
-        ``benchmarks/sim_node_20x``)."""
+        ``benchmarks/sim_node_20x``). ``tick(part)``, where given, is called after each part
+        (``prep``, ``gemm1``, ``before``, ``exp``, ``scale``, ``gemm2``, ``out``): a profiler's
+        clock (``benchmarks/sim_node_20x/batch_mean_1206/parts.py``)."""
         from .kernel_rows import before_exp, scale_blocks
 
+        tick = tick or (lambda part: None)
         st = self._stacked
         ns, p = X.shape[0], self.n_outputs_
         order = np.argsort(labels, kind="stable")
@@ -615,19 +619,26 @@ class LGPR(Regressor):
         b0 = b1 - size
         K = np.empty(int(b1[-1]))
         mean = np.empty((ns, p))
+        tick("prep")
         for b in range(cl.shape[0]):
             np.matmul(A[r0[b]:r1[b]], self._rows[cl[b]][2],
                       out=K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]))
+        tick("gemm1")
         before_exp(K, b0, r0, r1, width, st["zz_start"][cl], aa, st["zz"])
+        tick("before")
         np.exp(K, out=K)
+        tick("exp")
         scale_blocks(K, b0, b1, st["sf2"][cl])
+        tick("scale")
         for b in range(cl.shape[0]):
             np.matmul(K[b0[b]:b1[b]].reshape(r1[b] - r0[b], width[b]), self._alpha[cl[b]],
                       out=mean[r0[b]:r1[b]])
+        tick("gemm2")
         mean *= self.y_std_[lab]
         mean += self.y_mean_[lab]
         out = np.empty((ns, p))
         out[order] = mean
+        tick("out")
         return out
 
     def kernel_rows(self, c: int, Xq: np.ndarray) -> tuple[np.ndarray, float, float]:
