@@ -168,13 +168,13 @@ from .gp import (
     unpack_log_params,
 )
 from .clustering import _sqdist_to_centres, balanced_clusters, nearest_rows
+from .parallel import run_tasks
+from .persistence import register
 
 #: batches of at most this many queries without the std take ``LGPR._batch_mean``, which holds
 #: the whole batch's kernel rows at once (4096 queries x about 1,000 training points of their
 #: clusters: about 33 MB); larger ones (a dataset's scores) the per-cluster loop
 BATCH_MEAN_MAX_ROWS = 4096
-from .parallel import run_tasks
-from .persistence import register
 
 HYPERPARAMETER_MODES = ("shared", "per_output")
 INIT_MODES = ("warm", "cold")

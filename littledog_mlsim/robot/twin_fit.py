@@ -1084,7 +1084,9 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
             if ended is not None:
                 cal = _split_recompared(cal, train_recs, options)   # it moved (14)
             if ended and options.bootstrap_continued:   # an optimum now: corrected as one
-                cal = _continued_corrected(cal, train_recs, options, say)
+                say("the continued fit converged: taking out its bias as an optimum's "
+                    "(--bootstrap-continued)")
+                cal = bias_corrected(cal, train_recs, options, say)
         else:
             cal = bias_corrected(cal, train_recs, options, say)
         cal.report["settings"] = {**cal.report.get("settings", {}),
@@ -1514,17 +1516,6 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
     report["continued"] = entry
     report["bootstrap"] = {"skipped": reason, "iterations": 0}
     return Calibration(result.config, result.estimates, result.weak, report)
-
-
-def _continued_corrected(cal: Calibration, train_recs: Sequence[MoveRecording],
-                         options: CalibrationOptions, say: Callable[[str], None]) -> Calibration:
-    """A continued fit that converged, with its bias taken out as any optimum's
-    (``bootstrap_continued``, module doc 11); the report keeps ``continued``, its
-    ``bootstrap`` is the correction's."""
-    from .twin_bias import bias_corrected
-    say("the continued fit converged: taking out its bias as an optimum's "
-        "(--bootstrap-continued)")
-    return bias_corrected(cal, train_recs, options, say)
 
 
 #: module doc 14: a second minimum whose per-move cost difference from the kept one is below
