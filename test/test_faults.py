@@ -460,8 +460,8 @@ def test_simulator_killed_mid_run(ros, work, model_path, dataset, node, graph):
 # a command flood with NaN in every tenth message, sim_node in lockstep
 
 
-FLOOD_HZ = 10_000.0        # what the flood aims at
-FLOOD_FLOOR_HZ = 3_000.0   # what it must reach here (a Python publisher on a shared 2-core box)
+FLOOD_HZ = 10_000.0        # what the flood aims at; a flood is one the node cannot keep pace
+                           # with (asserted), whatever rate a loaded machine lets it reach
 ANSWER_BOUND_S = 2.0       # a service call during the flood answers within this (10-200 ms)
 
 
@@ -538,6 +538,8 @@ def test_lockstep_flood_with_nan_loses_no_good_command(ros, work, dataset, model
                 fut = probe.pause_client.call_async(SetBool.Request(data=False))
                 fut.add_done_callback(on_answer)
         rate = (len(out) - 1) / (time.perf_counter() - t0)
+        with probe.cond:
+            stepped_when_sent = max(probe.state, default=0)
         t_end = n_good * CONTROL_DT_NS
         probe.wait(lambda: bool(answered), timeout=ANSWER_BOUND_S, what="the service answer")
         latency = answered[0][0] - t_call
@@ -545,7 +547,8 @@ def test_lockstep_flood_with_nan_loses_no_good_command(ros, work, dataset, model
         st = probe.wait_counter("cmd_received", len(msgs))
         print(f"flood: {len(msgs)} commands ({n_bad} NaN) at {rate:.0f} Hz; service answered "
               f"in {latency * 1e3:.1f} ms; stats {st}")
-        assert rate >= FLOOD_FLOOR_HZ, f"the flood reached only {rate:.0f} Hz"
+        assert stepped_when_sent < t_end, (
+            f"the node kept pace with the flood ({rate:.0f} Hz): nothing was queued")
         assert fut.result().success and latency <= ANSWER_BOUND_S
         assert answered[0][1] < t_end, "answered only after the flood was stepped"
         # ~/stats counts every message, each good one as one step, each NaN one as refused
