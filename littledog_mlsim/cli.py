@@ -355,7 +355,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  bootstrap_replicates=a.bootstrap_replicates,
                                  weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd,
                                  weigh_in_fit=a.weigh_in_fit, split_starts=a.split_starts,
-                                 bootstrap_continued=a.bootstrap_continued)
+                                 bootstrap_continued=a.bootstrap_continued,
+                                 threshold_up=not a.no_threshold_up)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -905,6 +906,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="after the fit, up to N times: add the parameters the score test asks "
                          "for and fit all again from the optimum (default 0; each round costs "
                          "up to --max-evals more re-simulations)")
+    cb.add_argument("--no-threshold-up", action="store_true",
+                    help="score-test a torque limit not fitted by lowering it only (by default "
+                         "it is raised too: a limit that binds in the twin and not in the robot "
+                         "shows only raised)")
     cb.add_argument("--no-threshold-round", action="store_true",
                     help="with --add-asked N: do not give a torque limit the score test asks "
                          "for after the N rounds one more round of its own (by default it gets "

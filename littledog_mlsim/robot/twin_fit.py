@@ -273,7 +273,7 @@ from .parameters import (DEFAULT_CALIBRATION_PARAMS, TWIN_PARAMETERS, TwinParame
                          twin_parameters)
 
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
-           "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
+           "raised_columns", "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
            "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "twin_residuals_many", "weak_directions",
            "scale_symmetry", "SCALES_WITH_MASS", "weigh", "split_start", "minima_compared"]
@@ -313,6 +313,7 @@ class CalibrationOptions:
     weigh_in_fit: bool = False              # the weighing a residual of the fit (doc, 13)
     split_starts: float = 0.0               # second starts across the masses' split (doc, 14)
     bootstrap_continued: bool = False       # a continued fit that converged: its bias too (11)
+    threshold_up: bool = True               # a torque limit's secant upwards too (doc, 7)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -1121,9 +1122,11 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
             say("testing the parameters not fitted")
             try:
                 columns = unfitted_columns(prob, x, r)
-                missing = missing_parameters(prob, x, J, r, options.ask_share, columns)
+                raised = raised_columns(prob, x, r) if options.threshold_up else []
+                missing = missing_parameters(prob, x, J, r, options.ask_share, columns,
+                                             raised)
                 consider_cov, consider = consider_analysis(J, params, columns,
-                                                           options.consider_spread)
+                                                           options.consider_spread, raised)
             except Exception as e:       # the fit is done; its twin is not lost to the test
                 log.warning("the test of the parameters not fitted failed: %s", e)
                 missing = [{"error": f"{type(e).__name__}: {e}"}]
@@ -1172,6 +1175,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                            "weak_halfwidth": options.weak_halfwidth,
                            "initial_state": options.initial_state,
                            "consider_spread": options.consider_spread,
+                           "threshold_up": options.threshold_up,
                            "weighed_mass": options.weighed_mass,
                            "weighed_mass_sd": options.weighed_mass_sd,
                            "weigh_in_fit": options.weigh_in_fit,
@@ -1812,18 +1816,64 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     return out
 
 
+def raised_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
+                   ) -> list[tuple[TwinParameter, float, np.ndarray]]:
+    """The thresholds ``prob`` did not fit with their secant *upwards* at ``x`` (module doc,
+    7): raised by as much as :func:`secant_step` lowers them, kept inside the bounds, one
+    re-simulation each. A limit that binds in the twin where the robot's does not leaves the
+    residual a trace that only raising it reads. A limit no torque reaches changes nothing
+    raised (a zero column) and is left out, as is a diverging or bound-blocked one."""
+    if prob.o.consider_spread <= 0:
+        return []
+    fitted = {p.name for p in prob.params}
+    config = prob.config(x)
+    moved = []
+    for par in TWIN_PARAMETERS.values():
+        if (not par.threshold or par.name in fitted or par.renames(fitted)
+                or (par.servo is not None and par.servo != config.servo)):
+            continue
+        try:
+            value = par.get(config)
+        except ValueError:
+            continue
+        lo, hi = par.bounds
+        if not lo <= value <= hi:
+            continue
+        xc = par.to_x(value)
+        step = min(-secant_step(par, value, prob.o), par.x_bounds()[1] - xc)
+        if step <= 0:
+            continue
+        moved.append((par, value, step, par.set(config, par.from_x(xc + step))))
+    raws = twin_residuals_many(prob.pool, [m[3] for m in moved], prob.o.stride,
+                               prob.o.horizons, prob.o.initial_state)
+    out = []
+    for (par, value, step, _), raw in zip(moved, raws):
+        w = _weighted(raw, prob.scale)
+        if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)) or np.all(w == r):
+            continue
+        out.append((par, value, (w - r) / step))
+    return out
+
+
 def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.ndarray,
                        ask_share: float = 0.01,
-                       columns: Sequence[tuple[TwinParameter, float, np.ndarray]] | None = None
+                       columns: Sequence[tuple[TwinParameter, float, np.ndarray]] | None = None,
+                       raised: Sequence[tuple[TwinParameter, float, np.ndarray]] = ()
                        ) -> list[dict[str, Any]]:
     """Score tests of the registry's parameters ``prob`` did not fit (module doc, 7), most
     asked for first: name, unit, value now, suggested value, statistic, p-value, the cost
     share a step would remove, and ``asks``. ``columns``: :func:`unfitted_columns` at ``x``
-    if already computed."""
+    if already computed. ``raised``: :func:`raised_columns`; a threshold with one is tested
+    both ways, the raised column only for a higher value, and its entry is the side with the
+    larger statistic (``side``: "lowered" or "raised"); every column counts in the level."""
     from scipy.stats import chi2
 
     if columns is None:
         columns = unfitted_columns(prob, x, r)
+    up = {par.name for par, _, _ in raised}
+    columns = ([(par, value, col, "lowered" if par.name in up else None)
+                for par, value, col in columns]
+               + [(par, value, col, "raised") for par, value, col in raised])
     if not columns:
         return []
     u, sv, _ = np.linalg.svd(J, full_matrices=False)     # the fitted columns' span (a column
@@ -1832,9 +1882,11 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
     n_c = r.size // cluster
     sse = float(r @ r)
     out = []
-    for par, value, col in columns:
+    for par, value, col, side in columns:
         xc = par.to_x(value)
         lo_x, hi_x = par.x_bounds()
+        if side == "raised":          # a secant upwards reads only a higher limit
+            lo_x = xc
         perp = col - q @ (q.T @ col)
         norm2 = float(perp @ perp)
         if not np.isfinite(norm2) or norm2 <= 1e-12 * max(float(col @ col), 1e-300):
@@ -1850,11 +1902,16 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
         share = max(0.0, -(2 * delta * score + delta ** 2 * norm2)) / sse if sse > 0 else 0.0
         suggested = par.from_x(x_new)
         out.append({"name": par.name, "unit": par.unit, "value": value, "suggested": suggested,
-                    "statistic": stat, "p": float(chi2.sf(stat, 1)), "cost_share": share})
+                    "statistic": stat, "p": float(chi2.sf(stat, 1)), "cost_share": share,
+                    **({"side": side} if side else {})})
     level = 1e-3 / max(len(out), 1)
+    best: dict[str, dict[str, Any]] = {}
     for m in out:
         m["asks"] = bool(m["p"] < level and m["cost_share"] >= ask_share)
-    return sorted(out, key=lambda m: (not m["asks"], -m["cost_share"]))
+        kept = best.get(m["name"])
+        if kept is None or (m["asks"], m["statistic"]) > (kept["asks"], kept["statistic"]):
+            best[m["name"]] = m
+    return sorted(best.values(), key=lambda m: (not m["asks"], -m["cost_share"]))
 
 
 def consider_sd(par: TwinParameter, value: float, spread: float) -> float:
@@ -1866,35 +1923,48 @@ def consider_sd(par: TwinParameter, value: float, spread: float) -> float:
 
 def consider_analysis(J: np.ndarray, params: Sequence[TwinParameter],
                       columns: Sequence[tuple[TwinParameter, float, np.ndarray]],
-                      spread: float) -> tuple[np.ndarray, dict[str, Any]]:
+                      spread: float,
+                      raised: Sequence[tuple[TwinParameter, float, np.ndarray]] = ()
+                      ) -> tuple[np.ndarray, dict[str, Any]]:
     """The covariance the parameters not fitted add to the fitted ones' (module doc, 10):
     S C S^T with S = (J^T J)^-1 J^T J_c, the shift of the optimum per unit of each unfitted
     parameter, and C its a-priori variance (:func:`consider_sd`). A parameter whose
-    ``same_as`` are all fitted is another name for them and left out.
+    ``same_as`` are all fitted is another name for them and left out. A threshold with a
+    ``raised`` column (:func:`raised_columns`) acts by one column below its value and by the
+    other above; its a-priori spread is symmetric, so each side carries half its variance.
 
     Returns (covariance in fit coordinates, report): the report has ``spread``, ``considered``
     (name, value, a-priori sd in the fit coordinate) and, per fitted parameter, its consider
     sd and the unfitted parameters that give most of it (``by``: name -> sd share, the
     largest first)."""
     fitted = {p.name for p in params}
-    kept = [(par, value, col) for par, value, col in columns if not par.renames(fitted)]
+    up = {par.name for par, _, _ in raised if not par.renames(fitted)}
+    kept = [(par, value, col, math.sqrt(0.5) if par.name in up else 1.0)
+            for par, value, col in list(columns) + list(raised) if not par.renames(fitted)]
     report: dict[str, Any] = {"spread": spread, "considered": [], "params": {}}
     p = len(params)
     if not kept or spread <= 0:
         return np.zeros((p, p)), report
-    Jc = np.stack([col for _, _, col in kept], axis=1)
-    sd_c = np.array([consider_sd(par, value, spread) for par, value, _ in kept])
+    Jc = np.stack([col for _, _, col, _ in kept], axis=1)
+    sd_c = np.array([consider_sd(par, value, spread) for par, value, _, _ in kept])
+    half = np.array([f for _, _, _, f in kept])
     S = np.linalg.pinv(J.T @ J) @ (J.T @ Jc)                   # (p, m)
-    contrib = S * sd_c[None, :]                                   # (p, m): sd of each source
+    contrib = S * (sd_c * half)[None, :]                          # (p, m): sd of each source
     cov = contrib @ contrib.T
-    report["considered"] = [{"name": par.name, "value": value, "sd_coordinate": float(s)}
-                            for (par, value, _), s in zip(kept, sd_c)]
+    names = list(dict.fromkeys(par.name for par, _, _, _ in kept))
+    report["considered"] = []
+    for name in names:
+        par, value = next((c[0], c[1]) for c in kept if c[0].name == name)
+        report["considered"].append({"name": name, "value": value,
+                                     "sd_coordinate": consider_sd(par, value, spread),
+                                     **({"sides": 2} if name in up else {})})
+    idx = {name: [j for j, c in enumerate(kept) if c[0].name == name] for name in names}
     for k, par in enumerate(params):
-        order = np.argsort(-np.abs(contrib[k]))
+        by = {name: float(np.sqrt(np.sum(contrib[k, js] ** 2))) for name, js in idx.items()}
+        top = sorted(by, key=lambda n: -by[n])[:3]
         report["params"][par.name] = {
             "sd_coordinate": float(math.sqrt(max(cov[k, k], 0.0))),
-            "by": {kept[j][0].name: float(abs(contrib[k, j])) for j in order[:3]
-                   if abs(contrib[k, j]) > 0}}
+            "by": {n: by[n] for n in top if by[n] > 0}}
     return cov, report
 
 

@@ -386,6 +386,79 @@ def test_a_torque_limit_not_reached_is_read_by_a_secant():
             assert limit is None or np.abs(limit).max() == 0.0
 
 
+class _TieredLimitRobot(_LinearPool):
+    """A hip pitch torque limit that cuts two groups of torques the motion asks for: those
+    above 1.9 N m (direction A) and the many more above 1.6 N m (direction B, 20 times as
+    strong), as sum (log tau - log limit)+ per group. The robot's limit is 2.2 N m, the
+    twin's 1.7: the twin cuts group A where the robot cuts nothing."""
+
+    def __init__(self) -> None:
+        import numpy as np
+        super().__init__()
+        rng = np.random.default_rng(11)
+        self.tiers = [(1.9, 1.0, [rng.normal(size=self.shape) for _ in self.noise]),
+                      (1.6, 20.0, [rng.normal(size=self.shape) for _ in self.noise])]
+
+    def _cut(self, config):
+        import math
+        limit = config.torque_limit[1]
+        return [sum(w * max(0.0, math.log(tau) - math.log(limit)) * d[i]
+                    for tau, w, d in self.tiers) for i in range(len(self.noise))]
+
+    def map(self, fn, config, stride, horizons, initial="measured"):
+        tl = config.torque_limit
+        truth = dataclasses.replace(config, torque_limit=(tl[0], 2.2, tl[2]))
+        robot, twin = self._cut(truth), self._cut(config)
+        return [t - b + e for t, b, e in zip(twin, robot, self.noise)]
+
+
+def test_a_torque_limit_lower_than_the_robots_is_read_by_a_secant_upwards():
+    """A twin whose hip pitch limit (1.7 N m) cuts torques the robot's (2.2) does not: the
+    secant down mostly reads the torques between 1.26 and 1.7 that neither robot cuts, and
+    asks for nothing; the secant up reads exactly what the twin cuts and the robot does not,
+    and asks for a higher limit (``side`` "raised"). Without ``threshold_up`` there is no
+    raised column and the limit is not asked for. The consider analysis gives each side half
+    the limit's a-priori variance and reports the limit once."""
+    import math
+    import numpy as np
+    from littledog_mlsim.robot.parameters import twin_parameters
+    from littledog_mlsim.robot import twin_fit
+    from littledog_mlsim.robot.twin_fit import CalibrationOptions, _Problem
+
+    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0,
+                               torque_limit=(1.7, 1.7, 1.0))
+    opts = CalibrationOptions(horizons=(1,), stride=20)
+    params = twin_parameters(("body_mass",), base)
+    prob = _Problem(_TieredLimitRobot(), base, params, opts, lambda s: None)
+    prob.scale = np.ones((1, 33))
+    x = np.array([math.log(2.0)])
+    J, r = prob.jac(x), prob.fun(x)
+    down = twin_fit.unfitted_columns(prob, x, r)
+    up = twin_fit.raised_columns(prob, x, r)
+    assert [c[0].name for c in up] == ["torque_limit_hip_pitch"]    # the others cut nothing
+    only_down = {m["name"]: m for m in twin_fit.missing_parameters(prob, x, J, r, columns=down)}
+    assert not only_down["torque_limit_hip_pitch"]["asks"]
+    assert "side" not in only_down["torque_limit_hip_pitch"]
+    both = {m["name"]: m for m in twin_fit.missing_parameters(prob, x, J, r, columns=down,
+                                                              raised=up)}
+    limit = both["torque_limit_hip_pitch"]
+    assert limit["asks"] and limit["side"] == "raised" and limit["suggested"] > 1.9
+    assert [m["name"] for m in both.values()].count("torque_limit_hip_pitch") == 1
+    # the consider analysis: one entry, each side at half the a-priori variance
+    cov_d, rep_d = twin_fit.consider_analysis(J, params, down, 0.15)
+    cov_b, rep_b = twin_fit.consider_analysis(J, params, down, 0.15, up)
+    names = [c["name"] for c in rep_b["considered"]]
+    assert names.count("torque_limit_hip_pitch") == 1
+    assert {c["name"]: c for c in rep_b["considered"]}["torque_limit_hip_pitch"]["sides"] == 2
+    def shift(col):                    # the optimum's shift per unit of the limit
+        return float((np.linalg.pinv(J.T @ J) @ (J.T @ col))[0])
+    s_down = shift({c[0].name: c[2] for c in down}["torque_limit_hip_pitch"])
+    s_up = shift(up[0][2])
+    # the lowered side's full variance becomes half of each side's
+    change = 0.15 ** 2 * (0.5 * s_down ** 2 + 0.5 * s_up ** 2 - s_down ** 2)
+    assert cov_b[0, 0] == pytest.approx(cov_d[0, 0] + change, rel=1e-9)
+
+
 def test_add_asked_refits_with_what_the_score_test_asks_for(monkeypatch):
     """``add_asked`` (module doc, 9) on the linear stand-in: a fit of the body mass alone
     leaves the foot friction's share in the residual; the score test asks for it, the refit
