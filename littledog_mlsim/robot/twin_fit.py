@@ -71,7 +71,15 @@ Method
    the twin's motion asks for has a derivative of zero, however much lower the robot's own
    limit is (``benchmarks/blind_zoo``, zoo36: the hip pitch's limit 24 % below its assumed
    value was never asked for, and the gains, dampings and masses took up its effect); the
-   secant sees a limit the motion would reach within the plausible range.
+   secant sees a limit the motion would reach within the plausible range. With
+   ``threshold_up`` (on by default; ``--no-threshold-up``) a limit is also raised by as much
+   (:func:`raised_columns`, one more re-simulation each): a twin whose limit cuts torques
+   the robot's does not shows it only there, since the secant down is dominated by the
+   torques between its two points, which neither cuts (benchmarks/calibrate,
+   ``interval_honesty/hip_limits_probe``: zoo56's hip limits 1.81 and 1.77 N m against the
+   twin's 1.7 biased the hip roll's rotor inertia by -18 %). The raised column only reads a
+   higher limit; the limit's entry is the side with the larger statistic (``side``), and every
+   column counts in the level. A limit that raising changes nothing is tested downwards only.
 8. **Servo structure** (``servo``). A twin can have the wrong servo structure: the nominal
    robot's idealised position servo against a robot whose joints run a torque-mode PD. Its
    parameters then absorb what the structure cannot express, and the rollout can end further off
@@ -140,8 +148,10 @@ Method
    with the other) is another name for them and is left out. The default spread is the size
    of the gap between a calibrated twin and a real robot that the project's gap robots are
    built to (a few per cent to a few tens of per cent); a user with a datasheet sets it
-   smaller. The report's ``consider`` names the parameters considered and, per fitted
-   parameter, its consider sd and the three that give most of it; ``ci95`` is the widened
+   smaller. A torque limit with a raised column (7) acts by one column below its value and by
+   the other above; its a-priori spread is symmetric, so each carries half its variance
+   (``sides`` 2 in ``considered``). The report's ``consider`` names the parameters considered
+   and, per fitted parameter, its consider sd and the three that give most of it; ``ci95`` is the widened
    interval and ``ci95_data`` the data's alone. Weak directions (5) stay the data's. Without
    the score test (``test_missing=False``) there are no columns and the intervals are the
    data's.
