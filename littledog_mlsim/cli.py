@@ -356,7 +356,8 @@ def cmd_calibrate(a: argparse.Namespace) -> int:
                                  weighed_mass=a.weighed_mass, weighed_mass_sd=a.weighed_mass_sd,
                                  weigh_in_fit=a.weigh_in_fit, split_starts=a.split_starts,
                                  bootstrap_continued=a.bootstrap_continued,
-                                 threshold_up=not a.no_threshold_up)
+                                 threshold_up=not a.no_threshold_up,
+                                 jackknife=not a.no_jackknife)
     say = (lambda s: None) if a.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     cal = calibrate_dataset(a.data, a.robot, a.out, options, test_per_type=a.test_moves,
                             progress=say)
@@ -906,6 +907,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="after the fit, up to N times: add the parameters the score test asks "
                          "for and fit all again from the optimum (default 0; each round costs "
                          "up to --max-evals more re-simulations)")
+    cb.add_argument("--no-jackknife", action="store_true",
+                    help="leave the leave-one-move-out jackknife out of the intervals' standard "
+                         "deviations (by default it is among them, and the widest is used: the "
+                         "per-move sandwich is too narrow for a parameter that few moves pin)")
     cb.add_argument("--no-threshold-up", action="store_true",
                     help="score-test a torque limit not fitted by lowering it only (by default "
                          "it is raised too: a limit that binds in the twin and not in the robot "

@@ -36,7 +36,14 @@ Method
    elements and horizons, may be correlated) and by move (every state of a move may be: a
    systematic error of the twin repeats along a move); the 95 % interval is x +- 1.96 sd in the
    fit's coordinate with the widest of the three sd (so a log parameter's interval is a
-   factor, and stays positive), cut to the parameter's bounds. The intervals
+   factor, and stays positive), cut to the parameter's bounds. With ``jackknife`` (on by
+   default; ``--no-jackknife``) the leave-one-move-out jackknife (CR3, :func:`_jackknife`;
+   report ``sd_coordinate_jackknife``) is a fourth among them: the per-move sandwich is too
+   narrow when the moves are few against the parameters and a parameter is pinned by a few of
+   them (22 moves and 15-16 parameters here), and the jackknife is not, to first order
+   (benchmarks/calibrate, ``interval_honesty/jackknife.py``: over ten split-start runs it
+   was 1.05-1.26 times the per-move sandwich's sd, median per parameter, and brought 5 of 16
+   misses inside). The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
    fit, not the robot; the parameters not fitted widen them (10). Nor do they cover what the
@@ -324,6 +331,7 @@ class CalibrationOptions:
     split_starts: float = 0.0               # second starts across the masses' split (doc, 14)
     bootstrap_continued: bool = False       # a continued fit that converged: its bias too (11)
     threshold_up: bool = True               # a torque limit's secant upwards too (doc, 7)
+    jackknife: bool = True                  # the per-move jackknife among the sd (doc, 4)
 
     def check(self) -> None:
         if self.servo not in SERVO_CHOICES:
@@ -642,27 +650,46 @@ def _sandwich(J: np.ndarray, r: np.ndarray, bread: np.ndarray, sizes: Sequence[i
     return bread @ (g.T @ g) @ bread * (c / max(c - 1, 1))
 
 
+def _jackknife(J: np.ndarray, r: np.ndarray, sizes: Sequence[int]) -> np.ndarray:
+    """The leave-one-cluster-out jackknife covariance of the fit coordinates (CR3): with each
+    cluster g of ``sizes`` consecutive residuals left out in turn, the Gauss-Newton step
+    delta_g = (J^T J - J_g^T J_g)^-1 J_g^T r_g moves the optimum by it, and the covariance is
+    (G - 1) / G sum_g (delta_g - mean)(delta_g - mean)^T (module doc, 4)."""
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    A = J.T @ J
+    g = np.add.reduceat(J * r[:, None], starts, axis=0)          # (G, p)
+    d = np.array([np.linalg.pinv(A - J[s:s + n].T @ J[s:s + n]) @ g[k]
+                  for k, (s, n) in enumerate(zip(starts, sizes))])
+    d -= d.mean(axis=0)
+    c = len(sizes)
+    return (c - 1) / c * (d.T @ d)
+
+
 def _covariances(J: np.ndarray, r: np.ndarray, cluster: int,
-                 move_sizes: Sequence[int] | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, float, int, np.ndarray | None]:
-    """(plain, per-state robust) covariance of the fit coordinates, s^2, the d.o.f. and the
-    per-move robust covariance (None without ``move_sizes``).
+                 move_sizes: Sequence[int] | None = None, jackknife: bool = False
+                 ) -> tuple[np.ndarray, np.ndarray, float, int, np.ndarray | None,
+                            np.ndarray | None]:
+    """(plain, per-state robust) covariance of the fit coordinates, s^2, the d.o.f., the
+    per-move robust covariance and, with ``jackknife``, the per-move jackknife (None without
+    ``move_sizes``).
 
     plain = s^2 (J^T J)^-1, s^2 = SSE / (n - p). The robust ones are sandwiches clustered by
     sampled state (``cluster`` consecutive residuals each: every horizon and element of one
     state), which lets the residuals of one state be correlated, and by move (``move_sizes``:
     the residuals of each move, in order), which lets every state of a move be (module doc,
-    4)."""
+    4); :func:`_jackknife` over the moves as well."""
     n, p = J.shape
     dof = max(n - p, 1)
     s2 = float(np.sum(r ** 2)) / dof
     bread = np.linalg.pinv(J.T @ J)
     c = n // cluster
     robust = _sandwich(J[:c * cluster], r[:c * cluster], bread, [cluster] * c)
-    by_move = None
+    by_move = jack = None
     if move_sizes is not None and len(move_sizes) > 1 and sum(move_sizes) == n:
         by_move = _sandwich(J, r, bread, list(move_sizes))
-    return s2 * bread, robust, s2, dof, by_move
+        if jackknife:
+            jack = _jackknife(J, r, list(move_sizes))
+    return s2 * bread, robust, s2, dof, by_move, jack
 
 
 def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
@@ -672,13 +699,16 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     the per-move robust interval, widened by the ``consider`` covariance of the parameters not
     fitted (module doc, 10) where given."""
     sizes = [m.size for m in prob.raw(x)]
-    plain, robust, s2, dof, by_move = _covariances(J, r, len(prob.o.horizons) * len(STATE_NAMES),
-                                                   sizes)
+    plain, robust, s2, dof, by_move, jack = _covariances(
+        J, r, len(prob.o.horizons) * len(STATE_NAMES), sizes, prob.o.jackknife)
     sd_plain = np.sqrt(np.clip(np.diag(plain), 0, None))
     sd = np.maximum(sd_plain, np.sqrt(np.clip(np.diag(robust), 0, None)))
     sd_move = None if by_move is None else np.sqrt(np.clip(np.diag(by_move), 0, None))
     if sd_move is not None:
         sd = np.maximum(sd, sd_move)
+    sd_jack = None if jack is None else np.sqrt(np.clip(np.diag(jack), 0, None))
+    if sd_jack is not None:
+        sd = np.maximum(sd, sd_jack)
     sd_data = sd
     if consider is not None:
         sd = np.sqrt(sd ** 2 + np.clip(np.diag(consider), 0, None))
@@ -701,7 +731,11 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
              "sd_coordinate_data": {p.name: float(v) for p, v in zip(prob.params, sd_data)}}
     if sd_move is not None:
         stats["sd_coordinate_by_move"] = {p.name: float(v) for p, v in zip(prob.params, sd_move)}
-    return out, stats, [plain, robust] + ([] if by_move is None else [by_move])
+    if sd_jack is not None:
+        stats["sd_coordinate_jackknife"] = {p.name: float(v)
+                                            for p, v in zip(prob.params, sd_jack)}
+    return out, stats, ([plain, robust] + ([] if by_move is None else [by_move])
+                        + ([] if jack is None else [jack]))
 
 
 def _interval(par: TwinParameter, x: float, sd: float) -> tuple[float, float]:
@@ -1186,6 +1220,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                            "initial_state": options.initial_state,
                            "consider_spread": options.consider_spread,
                            "threshold_up": options.threshold_up,
+                           "jackknife": options.jackknife,
                            "weighed_mass": options.weighed_mass,
                            "weighed_mass_sd": options.weighed_mass_sd,
                            "weigh_in_fit": options.weigh_in_fit,
