@@ -1819,6 +1819,46 @@ def _limit_starts(report: dict[str, Any], asked: Sequence[str], options: Calibra
     return out
 
 
+def _not_fitted(prob: "_Problem", config: RobotConfig) -> list[tuple[TwinParameter, float]]:
+    """The registry's parameters ``prob`` did not fit, that the servo of ``config`` has, that
+    are not another name for fitted ones (parameters.py) and whose value there is inside their
+    bounds, with that value."""
+    fitted = {p.name for p in prob.params}
+    out = []
+    for par in TWIN_PARAMETERS.values():
+        if (par.name in fitted or (par.servo is not None and par.servo != config.servo)
+                or par.renames(fitted)):
+            continue
+        try:
+            value = par.get(config)
+        except ValueError:
+            continue
+        lo, hi = par.bounds
+        if lo <= value <= hi:
+            out.append((par, value))
+    return out
+
+
+def _secant_columns(prob: "_Problem", config: RobotConfig, r: np.ndarray,
+                    steps: Sequence[tuple[TwinParameter, float, float]]
+                    ) -> list[tuple[TwinParameter, float, np.ndarray]]:
+    """(parameter, value, column) for each (parameter, value, step) of ``steps``: the
+    weighted residual of ``config`` with the parameter moved by ``step`` in its coordinate,
+    less ``r``, over ``step``; the moved robots re-simulated as one batch. A moved robot that
+    diverges where ``r``'s did not has no slope to read and is left out."""
+    raws = twin_residuals_many(
+        prob.pool, [par.set(config, par.from_x(par.to_x(value) + step))
+                    for par, value, step in steps],
+        prob.o.stride, prob.o.horizons, prob.o.initial_state)
+    out = []
+    for (par, value, step), raw in zip(steps, raws):
+        w = _weighted(raw, prob.scale)
+        if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)):
+            continue
+        out.append((par, value, (w - r) / step))
+    return out
+
+
 def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
                      ) -> list[tuple[TwinParameter, float, np.ndarray]]:
     """The registry's parameters ``prob`` did not fit (and that the servo has) with their value
@@ -1828,37 +1868,16 @@ def unfitted_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     ``same_as`` are all fitted: another name for them (``mass_scale`` with both masses), which a
     finite-difference column shows as a small effect of its own that the score test would
     ask for, and a refit would then hold a direction the data cannot tell."""
-    fitted = {p.name for p in prob.params}
     config = prob.config(x)
-    moved = []
-    for par in TWIN_PARAMETERS.values():
-        if par.name in fitted or (par.servo is not None and par.servo != config.servo):
-            continue
-        if par.renames(fitted):
-            continue                  # another name for fitted ones (parameters.py)
-        try:
-            value = par.get(config)
-        except ValueError:
-            continue
-        lo, hi = par.bounds
-        if not lo <= value <= hi:
-            continue
+    steps = []
+    for par, value in _not_fitted(prob, config):
         xc = par.to_x(value)
         lo_x, hi_x = par.x_bounds()
         # a threshold: a secant down by the plausible range (a limit not reached has no slope)
         step = secant_step(par, value, prob.o)
-        if not lo_x <= xc + step <= hi_x or step == 0:
-            continue
-        moved.append((par, value, step, par.set(config, par.from_x(xc + step))))
-    raws = twin_residuals_many(prob.pool, [m[3] for m in moved], prob.o.stride,
-                               prob.o.horizons, prob.o.initial_state)
-    out = []
-    for (par, value, step, _), raw in zip(moved, raws):
-        w = _weighted(raw, prob.scale)
-        if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)):
-            continue                  # the moved robot diverges: no slope to read
-        out.append((par, value, (w - r) / step))
-    return out
+        if lo_x <= xc + step <= hi_x and step != 0:
+            steps.append((par, value, step))
+    return _secant_columns(prob, config, r, steps)
 
 
 def raised_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
@@ -1870,34 +1889,14 @@ def raised_columns(prob: "_Problem", x: np.ndarray, r: np.ndarray
     raised (a zero column) and is left out, as is a diverging or bound-blocked one."""
     if prob.o.consider_spread <= 0:
         return []
-    fitted = {p.name for p in prob.params}
     config = prob.config(x)
-    moved = []
-    for par in TWIN_PARAMETERS.values():
-        if (not par.threshold or par.name in fitted or par.renames(fitted)
-                or (par.servo is not None and par.servo != config.servo)):
-            continue
-        try:
-            value = par.get(config)
-        except ValueError:
-            continue
-        lo, hi = par.bounds
-        if not lo <= value <= hi:
-            continue
-        xc = par.to_x(value)
-        step = min(-secant_step(par, value, prob.o), par.x_bounds()[1] - xc)
-        if step <= 0:
-            continue
-        moved.append((par, value, step, par.set(config, par.from_x(xc + step))))
-    raws = twin_residuals_many(prob.pool, [m[3] for m in moved], prob.o.stride,
-                               prob.o.horizons, prob.o.initial_state)
-    out = []
-    for (par, value, step, _), raw in zip(moved, raws):
-        w = _weighted(raw, prob.scale)
-        if np.any((w == DIVERGED_RESIDUAL) & (r != DIVERGED_RESIDUAL)) or np.all(w == r):
-            continue
-        out.append((par, value, (w - r) / step))
-    return out
+    steps = []
+    for par, value in _not_fitted(prob, config):
+        if par.threshold:
+            step = min(-secant_step(par, value, prob.o), par.x_bounds()[1] - par.to_x(value))
+            if step > 0:
+                steps.append((par, value, step))
+    return [c for c in _secant_columns(prob, config, r, steps) if np.any(c[2] != 0)]
 
 
 def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.ndarray,
