@@ -40,10 +40,13 @@ Method
    default; ``--no-jackknife``) the leave-one-move-out jackknife (CR3, :func:`_jackknife`;
    report ``sd_coordinate_jackknife``) is a fourth among them: the per-move sandwich is too
    narrow when the moves are few against the parameters and a parameter is pinned by a few of
-   them (22 moves and 15-16 parameters here), and the jackknife is not, to first order
+   them (22 moves and 15-16 parameters here), and the jackknife less so
    (benchmarks/calibrate, ``interval_honesty/jackknife.py``: over ten split-start runs it
    was 1.05-1.26 times the per-move sandwich's sd, median per parameter, and brought 5 of 16
-   misses inside). The intervals
+   misses inside). Where leaving some move out leaves a direction without information (a
+   parameter only that move informs), the jackknife cannot say how far it moves and is left
+   out (``jackknife_skipped`` says so). It is not among the forms of the weak directions (5).
+   The intervals
    hold for a twin of the right structure; a twin of the wrong structure (the nominal position
    servo against a torque-mode PD) has systematic residuals, and its intervals then measure the
    fit, not the robot; the parameters not fitted widen them (10). Nor do they cover what the
@@ -85,8 +88,11 @@ Method
    torques between its two points, which neither cuts (benchmarks/calibrate,
    ``interval_honesty/hip_limits_probe``: zoo56's hip limits 1.81 and 1.77 N m against the
    twin's 1.7 biased the hip roll's rotor inertia by -18 %). The raised column only reads a
-   higher limit; the limit's entry is the side with the larger statistic (``side``), and every
-   column counts in the level. A limit that raising changes nothing is tested downwards only.
+   higher limit and the secant down then only a lower one (a side whose step leaves its side
+   has no statistic); the limit's entry is the side that asks, else the one with the larger
+   cost share (``side``, present only where both sides were read), and every column counts in
+   the level. A limit that raising changes nothing is tested downwards only, as before, and
+   there is no raised side without a consider spread (``consider_spread`` 0).
 8. **Servo structure** (``servo``). A twin can have the wrong servo structure: the nominal
    robot's idealised position servo against a robot whose joints run a torque-mode PD. Its
    parameters then absorb what the structure cannot express, and the rollout can end further off
@@ -127,7 +133,9 @@ Method
    fails, for any reason, keeps the fit before it, and says why. **A torque limit asked for**
    starts its round at the value the score test suggests (its Gauss-Newton step, along the
    secant of 7), but no lower than the secant's own point, the lowest value the test
-   re-simulated: where the limit was, no torque reaches it and a difference there has no slope.
+   re-simulated: where the limit was, no torque reaches it and a difference there has no slope;
+   one asked for on its raised side (7) starts no higher than the raised secant's point, since
+   above every torque it has no slope either.
    The round's ``started_at`` gives each such limit's value before, the suggestion and the
    start. If that refit ends above the k-step cost before the round, the round is fitted again
    from the previous optimum (``restarted`` gives the first refit's cost). A limit the
@@ -157,7 +165,9 @@ Method
    built to (a few per cent to a few tens of per cent); a user with a datasheet sets it
    smaller. A torque limit with a raised column (7) acts by one column below its value and by
    the other above; its a-priori spread is symmetric, so each carries half its variance
-   (``sides`` 2 in ``considered``). The report's ``consider`` names the parameters considered
+   (``sides`` 2 in ``considered``). A limit that raising changes nothing keeps its full
+   variance on the lowered column: wider than the half its upper side would carry, on purpose.
+   The report's ``consider`` names the parameters considered
    and, per fitted parameter, its consider sd and the three that give most of it; ``ci95`` is the widened
    interval and ``ci95_data`` the data's alone. Weak directions (5) stay the data's. Without
    the score test (``test_missing=False``) there are no columns and the intervals are the
@@ -650,16 +660,28 @@ def _sandwich(J: np.ndarray, r: np.ndarray, bread: np.ndarray, sizes: Sequence[i
     return bread @ (g.T @ g) @ bread * (c / max(c - 1, 1))
 
 
-def _jackknife(J: np.ndarray, r: np.ndarray, sizes: Sequence[int]) -> np.ndarray:
+def _jackknife(J: np.ndarray, r: np.ndarray, sizes: Sequence[int]) -> np.ndarray | None:
     """The leave-one-cluster-out jackknife covariance of the fit coordinates (CR3): with each
-    cluster g of ``sizes`` consecutive residuals left out in turn, the Gauss-Newton step
-    delta_g = (J^T J - J_g^T J_g)^-1 J_g^T r_g moves the optimum by it, and the covariance is
-    (G - 1) / G sum_g (delta_g - mean)(delta_g - mean)^T (module doc, 4)."""
+    cluster g of ``sizes`` consecutive residuals left out in turn, the Gauss-Newton step of the
+    fit without it from here, delta_g = (J^T J - J_g^T J_g)^-1 (J^T r - J_g^T r_g), and the
+    covariance (G - 1) / G sum_g (delta_g - mean)(delta_g - mean)^T (module doc, 4). None
+    where leaving some cluster out leaves a direction without information (a parameter only
+    that cluster informs): the jackknife cannot say how far it moves."""
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
     A = J.T @ J
     g = np.add.reduceat(J * r[:, None], starts, axis=0)          # (G, p)
-    d = np.array([np.linalg.pinv(A - J[s:s + n].T @ J[s:s + n]) @ g[k]
-                  for k, (s, n) in enumerate(zip(starts, sizes))])
+    total = g.sum(axis=0)
+    diag = np.diag(A)
+    unit = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 1.0)
+    scaled = unit[:, None] * unit[None, :]     # ranks of the correlation-scaled matrices:
+    rank = np.linalg.matrix_rank(A * scaled)   # the coordinates' units do not count
+    d = []
+    for k, (s, n) in enumerate(zip(starts, sizes)):
+        A_k = A - J[s:s + n].T @ J[s:s + n]
+        if np.linalg.matrix_rank(A_k * scaled) < rank:
+            return None
+        d.append(np.linalg.pinv(A_k) @ (total - g[k]))
+    d = np.array(d)
     d -= d.mean(axis=0)
     c = len(sizes)
     return (c - 1) / c * (d.T @ d)
@@ -734,8 +756,12 @@ def _estimates(prob: _Problem, x: np.ndarray, J: np.ndarray, r: np.ndarray,
     if sd_jack is not None:
         stats["sd_coordinate_jackknife"] = {p.name: float(v)
                                             for p, v in zip(prob.params, sd_jack)}
-    return out, stats, ([plain, robust] + ([] if by_move is None else [by_move])
-                        + ([] if jack is None else [jack]))
+    elif prob.o.jackknife and by_move is not None:
+        stats["jackknife_skipped"] = ("leaving a move out leaves a direction without "
+                                      "information: a parameter only that move informs")
+    # the weak directions (5) are the plain and sandwich forms' (the jackknife is not among
+    # them: one move that pins a direction would make it weak)
+    return out, stats, [plain, robust] + ([] if by_move is None else [by_move])
 
 
 def _interval(par: TwinParameter, x: float, sd: float) -> tuple[float, float]:
@@ -1813,9 +1839,12 @@ def _limit_starts(report: dict[str, Any], asked: Sequence[str], options: Calibra
         if name not in asked or not TWIN_PARAMETERS[name].threshold or "suggested" not in m:
             continue
         par, value = TWIN_PARAMETERS[name], float(m["value"])
-        floor = par.from_x(par.to_x(value) + min(secant_step(par, value, options), 0.0))
-        out[name] = {"value": value, "suggested": float(m["suggested"]),
-                     "start": max(float(m["suggested"]), floor)}
+        xc, down = par.to_x(value), secant_step(par, value, options)
+        floor = par.from_x(xc + min(down, 0.0))
+        start = max(float(m["suggested"]), floor)
+        if m.get("side") == "raised":   # no higher than the raised secant's point either
+            start = min(start, par.from_x(xc + min(-down, par.x_bounds()[1] - xc)))
+        out[name] = {"value": value, "suggested": float(m["suggested"]), "start": start}
     return out
 
 
@@ -1929,8 +1958,10 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
     for par, value, col, side in columns:
         xc = par.to_x(value)
         lo_x, hi_x = par.x_bounds()
-        if side == "raised":          # a secant upwards reads only a higher limit
+        if side == "raised":          # a secant upwards reads only a higher limit,
             lo_x = xc
+        elif side == "lowered":       # and where there is one, the secant down a lower one
+            hi_x = xc
         perp = col - q @ (q.T @ col)
         norm2 = float(perp @ perp)
         if not np.isfinite(norm2) or norm2 <= 1e-12 * max(float(col @ col), 1e-300):
@@ -1942,6 +1973,8 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
         # the Gauss-Newton step, kept inside the bounds: at a bound, a residual that asks to go
         # beyond it asks for nothing this parameter can give
         x_new = float(min(max(xc - score / norm2, lo_x), hi_x))
+        if side and x_new == xc:
+            stat = 0.0                # the side's step leaves its side: it asks for nothing
         delta = x_new - xc
         share = max(0.0, -(2 * delta * score + delta ** 2 * norm2)) / sse if sse > 0 else 0.0
         suggested = par.from_x(x_new)
@@ -1953,7 +1986,8 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
     for m in out:
         m["asks"] = bool(m["p"] < level and m["cost_share"] >= ask_share)
         kept = best.get(m["name"])
-        if kept is None or (m["asks"], m["statistic"]) > (kept["asks"], kept["statistic"]):
+        if kept is None or ((m["asks"], m["cost_share"], m["statistic"])
+                            > (kept["asks"], kept["cost_share"], kept["statistic"])):
             best[m["name"]] = m
     return sorted(best.values(), key=lambda m: (not m["asks"], -m["cost_share"]))
 

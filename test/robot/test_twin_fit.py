@@ -65,8 +65,8 @@ def test_calibrate_recovers_two_parameters_within_their_intervals(reference, tmp
     # the jackknife over moves is among the intervals' sd by default (module doc, 4)
     cal = prov["calibration"]
     assert cal["settings"]["jackknife"] is True and cal["settings"]["threshold_up"] is True
-    for name in FITTED:
-        assert 0 < cal["sd_coordinate_jackknife"][name] <= cal["sd_coordinate_data"][name]
+    assert set(cal["sd_coordinate_jackknife"]) == set(FITTED)
+    assert all(cal["sd_coordinate_jackknife"][n] > 0 for n in FITTED)
     assert "position_gain" in p.stdout and "TestPool rollout final (x, y) error" in p.stdout
     # the twin runs where a robot name does
     p = cli(capsys, "record", "--out", tmp_path / "again", "--moves-per-type", "1",
@@ -91,6 +91,25 @@ def test_bad_input_is_one_line_and_writes_nothing(reference, tmp_path, capsys, a
     assert p.returncode == 2 and fragment in p.stderr, p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
     assert sorted(tmp_path.iterdir()) == []
+
+
+def test_the_calibrate_flags_reach_its_options(reference, tmp_path, capsys, monkeypatch):
+    """``--no-threshold-up`` and ``--no-jackknife`` switch off what is on by default (module
+    doc, 4 and 7); the calibration itself is a stand-in that stops at once."""
+    from littledog_mlsim.robot import twin_fit
+
+    seen = []
+
+    def stop(data, robot, out, options, **kwargs):
+        seen.append(options)
+        raise ValueError("stopped before fitting")
+    monkeypatch.setattr(twin_fit, "calibrate_dataset", stop)
+    for argv in ([], ["--no-threshold-up", "--no-jackknife"]):
+        p = cli(capsys, "calibrate", "--data", reference, "--robot", "nominal", "--out",
+                tmp_path / "twin.json", *argv)
+        assert p.returncode != 0 and "stopped before fitting" in p.stderr
+    assert [(o.threshold_up, o.jackknife) for o in seen] == [(True, True), (False, False)]
+    assert not (tmp_path / "twin.json").exists()
 
 
 def test_a_good_file_is_never_replaced_by_a_failed_fit(reference, tmp_path, capsys):
@@ -397,9 +416,10 @@ class _TieredLimitRobot(_LinearPool):
     strong), as sum (log tau - log limit)+ per group. The robot's limit is 2.2 N m, the
     twin's 1.7: the twin cuts group A where the robot cuts nothing."""
 
-    def __init__(self) -> None:
+    def __init__(self, robot_limit: float = 2.2) -> None:
         import numpy as np
         super().__init__()
+        self.robot_limit = robot_limit
         rng = np.random.default_rng(11)
         self.tiers = [(1.9, 1.0, [rng.normal(size=self.shape) for _ in self.noise]),
                       (1.6, 20.0, [rng.normal(size=self.shape) for _ in self.noise])]
@@ -412,7 +432,7 @@ class _TieredLimitRobot(_LinearPool):
 
     def map(self, fn, config, stride, horizons, initial="measured"):
         tl = config.torque_limit
-        truth = dataclasses.replace(config, torque_limit=(tl[0], 2.2, tl[2]))
+        truth = dataclasses.replace(config, torque_limit=(tl[0], self.robot_limit, tl[2]))
         robot, twin = self._cut(truth), self._cut(config)
         return [t - b + e for t, b, e in zip(twin, robot, self.noise)]
 
@@ -462,6 +482,23 @@ def test_a_torque_limit_lower_than_the_robots_is_read_by_a_secant_upwards():
     # the lowered side's full variance becomes half of each side's
     change = 0.15 ** 2 * (0.5 * s_down ** 2 + 0.5 * s_up ** 2 - s_down ** 2)
     assert cov_b[0, 0] == pytest.approx(cov_d[0, 0] + change, rel=1e-9)
+    # a round starts the raised limit no higher than the raised secant's point (1.7 e^0.3)
+    start = twin_fit._limit_starts({"missing": [{**limit, "suggested": 4.0}]},
+                                   ["torque_limit_hip_pitch"], opts)["torque_limit_hip_pitch"]
+    assert start["start"] == pytest.approx(1.7 * math.exp(0.3))
+    # a robot whose limit is below the twin's: the raised side's step points down, so it has
+    # no statistic and the lowered side is the entry, asking for a lower limit
+    prob = _Problem(_TieredLimitRobot(robot_limit=1.45), base, params, opts, lambda s: None)
+    prob.scale = np.ones((1, 33))
+    J, r = prob.jac(x), prob.fun(x)
+    down, up = twin_fit.unfitted_columns(prob, x, r), twin_fit.raised_columns(prob, x, r)
+    low = {m["name"]: m for m in twin_fit.missing_parameters(prob, x, J, r, columns=down,
+                                                             raised=up)}
+    low = low["torque_limit_hip_pitch"]
+    assert low["side"] == "lowered" and low["asks"] and low["suggested"] < 1.7
+    only_up = twin_fit.missing_parameters(prob, x, J, r, columns=[], raised=up)
+    assert [(m["side"], m["statistic"], m["p"], m["asks"]) for m in only_up] == [
+        ("raised", 0.0, 1.0, False)]
 
 
 def test_add_asked_refits_with_what_the_score_test_asks_for(monkeypatch):
@@ -566,7 +603,9 @@ def test_the_move_jackknife_covers_a_parameter_that_one_move_pins():
     along each move and grows with that parameter's regressor: over repeated draws the per-move
     sandwich gives that parameter's sd at about a third of its true spread, the jackknife at
     least its true spread; on the parameters every move informs the two agree. With
-    ``jackknife`` false there is none; it is zero for a single cluster's error."""
+    ``jackknife`` false there is none. It matches the exact leave-one-move-out refits of the
+    linear problem, and where leaving a move out leaves a parameter without information it is
+    None (left out)."""
     import numpy as np
 
     from littledog_mlsim.robot.twin_fit import _covariances
@@ -593,6 +632,20 @@ def test_the_move_jackknife_covers_a_parameter_that_one_move_pins():
     np.testing.assert_allclose(sd3[others], sd1[others], rtol=0.15)
     np.testing.assert_allclose(sd1[others], true[others], rtol=0.3)
     assert _covariances(J, r, cluster, sizes)[5] is None
+    # the exact leave-one-move-out refits of the last draw
+    from littledog_mlsim.robot.twin_fit import _jackknife
+    starts = np.cumsum([0] + sizes[:-1])
+    shifts = []
+    for s0, n in zip(starts, sizes):
+        keep = np.r_[0:s0, s0 + n:sum(sizes)]
+        shifts.append(np.linalg.lstsq(J[keep], e[keep], rcond=None)[0] - b)
+    shifts = np.array(shifts) - np.mean(shifts, axis=0)
+    np.testing.assert_allclose(_jackknife(J, r, sizes),
+                               (moves - 1) / moves * shifts.T @ shifts, rtol=1e-8, atol=1e-14)
+    # a parameter only the first move informs: the jackknife cannot say
+    J1 = J.copy()
+    J1[sizes[0]:, 5] = 0.0
+    assert _jackknife(J1, r, sizes) is None
 
 
 def test_pose_noise_reads_the_motion_capture_noise_and_auto_follows_it():
