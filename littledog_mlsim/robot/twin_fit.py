@@ -42,7 +42,7 @@ Method
    narrow when the moves are few against the parameters and a parameter is pinned by a few of
    them (22 moves and 15-16 parameters here), and the jackknife less so
    (benchmarks/calibrate, ``interval_honesty/jackknife.py``: over ten split-start runs it
-   was 1.05-1.26 times the per-move sandwich's sd, median per parameter, and brought 5 of 16
+   was 1.02-1.17 times the per-move sandwich's sd, median per parameter, and brought 3 of 16
    misses inside). Where leaving some move out leaves a direction without information (a
    parameter only that move informs), the jackknife cannot say how far it moves and is left
    out (``jackknife_skipped`` says so). It is not among the forms of the weak directions (5).
