@@ -167,9 +167,9 @@ Method
    the other above; its a-priori spread is symmetric, so each carries half its variance
    (``sides`` 2 in ``considered``). A limit that raising changes nothing keeps its full
    variance on the lowered column: wider than the half its upper side would carry, on purpose.
-   The report's ``consider`` names the parameters considered
-   and, per fitted parameter, its consider sd and the three that give most of it; ``ci95`` is the widened
-   interval and ``ci95_data`` the data's alone. Weak directions (5) stay the data's. Without
+   The report's ``consider`` names the parameters considered and, per fitted parameter, its
+   consider sd and the three that give most of it; ``ci95`` is the widened interval and
+   ``ci95_data`` the data's alone. Weak directions (5) stay the data's. Without
    the score test (``test_missing=False``) there are no columns and the intervals are the
    data's.
 11. **The fit's own bias** (``bootstrap``, ``--bootstrap N``; :mod:`.twin_bias`). Starting states
@@ -300,7 +300,8 @@ from .parameters import (DEFAULT_CALIBRATION_PARAMS, TWIN_PARAMETERS, TwinParame
                          twin_parameters)
 
 __all__ = ["SERVO_CHOICES", "with_servo", "missing_parameters", "unfitted_columns",
-           "raised_columns", "consider_analysis", "consider_sd", "blamed_by_intervals", "CalibrationOptions",
+           "raised_columns", "consider_analysis", "consider_sd", "blamed_by_intervals",
+           "CalibrationOptions",
            "Estimate", "WeakDirection", "Calibration", "calibrate_twin",
            "calibrate_dataset", "twin_residuals", "twin_residuals_many", "weak_directions",
            "scale_symmetry", "SCALES_WITH_MASS", "weigh", "split_start", "minima_compared"]
@@ -672,7 +673,7 @@ def _jackknife(J: np.ndarray, r: np.ndarray, sizes: Sequence[int]) -> np.ndarray
     g = np.add.reduceat(J * r[:, None], starts, axis=0)          # (G, p)
     total = g.sum(axis=0)
     diag = np.diag(A)
-    unit = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 1.0)
+    unit = 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0))
     scaled = unit[:, None] * unit[None, :]     # ranks of the correlation-scaled matrices:
     rank = np.linalg.matrix_rank(A * scaled)   # the coordinates' units do not count
     d = []
@@ -1937,8 +1938,9 @@ def missing_parameters(prob: "_Problem", x: np.ndarray, J: np.ndarray, r: np.nda
     asked for first: name, unit, value now, suggested value, statistic, p-value, the cost
     share a step would remove, and ``asks``. ``columns``: :func:`unfitted_columns` at ``x``
     if already computed. ``raised``: :func:`raised_columns`; a threshold with one is tested
-    both ways, the raised column only for a higher value, and its entry is the side with the
-    larger statistic (``side``: "lowered" or "raised"); every column counts in the level."""
+    both ways, each side only for its own direction (a side whose step leaves it has no
+    statistic), and its entry is the side that asks, else the one with the larger cost share
+    (``side``: "lowered" or "raised"); every column counts in the level."""
     from scipy.stats import chi2
 
     if columns is None:
