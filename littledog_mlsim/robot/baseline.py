@@ -111,11 +111,14 @@ _SIM: LittleDogSim | None = None  # one robot per process, rebuilt when the conf
 
 
 def _sim_for(config: RobotConfig) -> LittleDogSim:
+    """The process's replay robot for ``config``: its world built again in the same pybullet
+    client when the config changes, and stood up only if a move starts at home (a replay
+    starts from measured states; ``LittleDogSim(stand_up=False)``)."""
     global _SIM
-    if _SIM is None or _SIM.config != config or _SIM.client < 0:
-        if _SIM is not None:
-            _SIM.close()
-        _SIM = LittleDogSim(config)
+    if _SIM is None or _SIM.client < 0:
+        _SIM = LittleDogSim(config, stand_up=False)
+    elif _SIM.config != config:
+        _SIM.reconfigure(config, stand_up=False)
     return _SIM
 
 

@@ -6,10 +6,13 @@ servo update, ``stepSimulation``, one encoder sample.
 
 World reuse and determinism: the robot stands up once per :class:`LittleDogSim` (``settle_time``
 of holding HOME_POSE from a pose with the feet just touching the ground) and that settled state is
-stored. Each :meth:`LittleDogSim.reset` starts from the world as it was built: restored from a
-pybullet snapshot taken when it was built (``restoreState`` and a collision pass that drops the
-last move's contact points), or built again (``resetSimulation`` and a reload) after a move that
-may have changed it: one with an effect that does not declare ``changes_world = False``
+stored; with ``stand_up=False`` only when a move first starts at home, in a world built again
+for it (a replay, which starts from measured states, never stands up).
+:meth:`LittleDogSim.reconfigure` builds the world again in the same client for another config,
+as a new robot of that config would be. Each :meth:`LittleDogSim.reset` starts from the world
+as it was built: restored from a pybullet snapshot taken when it was built (``restoreState``
+and a collision pass that drops the last move's contact points), or built again
+(``resetSimulation`` and a reload) after a move that may have changed it: one with an effect that does not declare ``changes_world = False``
 (docs/interface.md §5), one cut short inside a step, or one whose state became non-finite. It
 then writes the stored (or a given :class:`InitialState`) state into it, so every move is a pure
 function of (config, initial state, commands, effects, seed), whatever ran before in that
@@ -173,12 +176,25 @@ class LittleDogSim:
     Use: ``sim.reset(seed=...)``; ``obs = sim.observe()``; ``sim.step(u)``; ... ``sim.close()``.
     """
 
-    def __init__(self, config: RobotConfig | str = "measured") -> None:
-        self.config = as_config(config)
+    def __init__(self, config: RobotConfig | str = "measured", *, stand_up: bool = True) -> None:
+        """``stand_up`` False: the settled home stance is found when a move first starts from
+        it (:meth:`reset` without ``initial``), not now; a robot only ever started from given
+        states (a replay) then never stands up."""
+        self.client = p.connect(p.DIRECT)
+        self._snapshot = -1              # pybullet state saved as the world was built
+        self._configure(as_config(config), stand_up)
+
+    def reconfigure(self, config: RobotConfig | str, *, stand_up: bool = True) -> None:
+        """This client's world built again for ``config``: afterwards the robot is what
+        ``LittleDogSim(config, stand_up=stand_up)`` would be, move for move, without a new
+        pybullet client (a calibration re-simulates robot after robot)."""
+        self._configure(as_config(config), stand_up)
+
+    def _configure(self, config: RobotConfig, stand_up: bool) -> None:
+        self.config = config
         self.physics_dt = self.config.physics_dt
         self.control_dt = CONTROL_DT
         self.substeps = self.config.substeps
-        self.client = p.connect(p.DIRECT)
         self.rng = np.random.default_rng(0)
         self._servo = make_servo(self.config)
         self._encoders = self._make_encoders()
@@ -193,10 +209,18 @@ class LittleDogSim:
         self._step_count = 0
         self._obs: dict[str, np.ndarray] = {}
         self._prev_pose: tuple[np.ndarray, np.ndarray] = (np.zeros(3), np.array([0, 0, 0, 1.0]))
-        self._snapshot = -1              # pybullet state saved as the world was built
         self._world_as_built = False     # only poses, velocities and contacts changed since
         self._build_world()
-        self._home = self._stand_up()
+        self._home: InitialState | None = self._stand_up() if stand_up else None
+
+    def _home_state(self) -> InitialState:
+        """The settled home stance, found now if it was not when the robot was built: in a
+        world built again first, exactly as the constructor finds it."""
+        if self._home is None:
+            self._build_world()
+            self._encoders = self._make_encoders()
+            self._home = self._stand_up()
+        return self._home
 
     # ----------------------------------------------------------------------------- world set-up
     def _make_encoders(self) -> JointEncoders:
@@ -350,7 +374,7 @@ class LittleDogSim:
             seed: seeds the sensor noise and ``self.rng`` (given to effects), independently.
             effects: plug-ins (docs/interface.md §5), any of reset/command/substep/measure.
         """
-        state = self._home if initial is None else initial.validated()
+        state = self._home_state() if initial is None else initial.validated()
         sensor_seed, effect_seed = np.random.SeedSequence(seed).spawn(2)
         self.rng = np.random.default_rng(effect_seed)
         self._mocap.rng = np.random.default_rng(sensor_seed)

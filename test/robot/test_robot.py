@@ -28,7 +28,7 @@ from littledog_mlsim.robot.effects import (CommandDelay, ConstantWind, EncoderOf
                                            load_effects, resolve_joints)
 from littledog_mlsim.robot.sensors import JointEncoders
 from littledog_mlsim.robot.servo import PDTorqueServo
-from littledog_mlsim.robot.sim import InitialState, LittleDogSim, get_sim, simulate_move
+from littledog_mlsim.robot.sim import OBS_FIELDS, InitialState, LittleDogSim, get_sim, simulate_move
 
 # Body collision box of the URDF (centre offset and half extents in base_link).
 BOX_CENTRE = np.array([0.0, 0.0, 0.045])
@@ -178,6 +178,35 @@ def test_deterministic_for_a_seed_whatever_ran_before():
     d = simulate_move(cmd, seed=8)
     np.testing.assert_array_equal(a.q, d.q)                    # same physics ...
     assert np.abs(a.position - d.position).max() > 1e-5       # ... other noise
+
+
+def test_a_robot_built_again_in_its_client_or_stood_up_late_moves_as_a_new_one():
+    """``reconfigure`` (a calibration's replay robot, robot after robot in one client) and
+    ``stand_up=False`` (the home stance found when a move first starts there) give a robot
+    that moves as ``LittleDogSim(config)`` does, bit for bit, from home and from a given
+    state."""
+    cmd = commands("FL", 3)[:60]
+    nominal, measured = robot_config("nominal"), robot_config("measured")
+    heavier = dataclasses.replace(measured, body_mass=2.6, kp=(8.0, 7.0, 6.0))
+
+    def run(sim: LittleDogSim, initial: InitialState | None) -> list[dict]:
+        return [sim.reset(seed=5, initial=initial)] + [sim.step(u) for u in cmd]
+
+    with LittleDogSim(measured) as a:
+        a.reset(seed=0)
+        for u in cmd[:30]:
+            a.step(u)
+        start = a.true_state()                   # mid-move: moving, feet on the ground
+    with LittleDogSim(nominal, stand_up=False) as reused:
+        for config in (heavier, nominal, measured):
+            reused.reconfigure(config, stand_up=False)
+            for initial in (start, None, start):     # home found late, between given starts
+                with LittleDogSim(config) as fresh:
+                    want = run(fresh, initial)
+                got = run(reused, initial)
+                for w, g in zip(want, got):
+                    for field in OBS_FIELDS:
+                        np.testing.assert_array_equal(w[field], g[field], err_msg=field)
 
 
 def test_sensor_noise_on_and_off():
