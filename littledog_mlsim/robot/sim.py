@@ -15,8 +15,9 @@ and a collision pass that drops the last move's contact points), or built again
 (``resetSimulation`` and a reload) after a move that may have changed it: one with an effect
 that does not declare ``changes_world = False`` (docs/interface.md §5), one cut short inside a
 step, or one whose state became non-finite. It then writes the stored (or a given
-:class:`InitialState`) state into it, so every move is a pure function of (config, initial state, commands, effects, seed), whatever ran before in that
-process; effects may add bodies or constraints in their ``reset`` without cleaning up.
+:class:`InitialState`) state into it, so every move is a pure function of (config, initial
+state, commands, effects, seed), whatever ran before in that process; effects may add bodies or
+constraints in their ``reset`` without cleaning up.
 """
 from __future__ import annotations
 
