@@ -353,7 +353,8 @@ def bias_corrected(cal: "Calibration", train_recs: Sequence[MoveRecording],
                                              i * n_rep + j)
                 # the twin's own recordings come with its own mass on the scale
                 rc = tf.calibrate_twin(synth, [], twin, inner if options.weighed_mass is None
-                                       else replace(inner, weighed_mass=total_mass(twin)), say)
+                                       else replace(inner, weighed_mass=total_mass(twin)), say,
+                                       weights="start")
                 refits.append(np.array([p.to_x(p.get(rc.config)) for p in params]) - x)
                 stops.append(rc.report.get("stop"))
                 at_refit, at_twin = cost_rise(synth, rc.config, twin, inner)

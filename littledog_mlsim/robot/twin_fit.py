@@ -1012,24 +1012,37 @@ def _unbounded(estimates: list[Estimate], weak: Sequence[WeakDirection],
     return _without_interval(estimates, free)
 
 
-def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
-    """Two weighted stages (module doc, 2-3); returns the optimum and the stages' costs."""
+def _fit(prob: _Problem, x0: np.ndarray, weights: dict[str, Any] | str | None = None
+         ) -> tuple[np.ndarray, dict[str, Any]]:
+    """Two weighted stages (module doc, 2-3); returns the optimum and the stages' costs.
+    ``weights``: one stage only, weighted at the start (``"start"``) or by a residual RMS
+    table (:func:`_rms_table`, the weights of a fit this one belongs to; module doc 2)."""
     p = len(prob.params)
     prob.limit = prob.o.max_evals - 2 * p      # keep 2p evaluations for the final Jacobian
     weighing = (_WeighingRow(prob) if prob.o.weighed_mass is not None and prob.o.weigh_in_fit
                 and any(q.name in _MASSES for q in prob.params) else None)
     if weighing is not None:                   # start on the weighed scale (module doc, 13)
         x0 = weighing.start(x0)
-    prob.scale = _rms_scale(prob.raw(x0))
+    prob.scale = (_rms_scale(prob.raw(x0)) if weights is None or weights == "start"
+                  else _scale_from_table(weights, prob.o.horizons))
     n = prob.fun(x0).size
-    stages = {"n_residuals": int(n), "cost_start_stage1": 0.5 * n}
-    x1, stages["stop_stage1"] = _least_squares(
-        prob, x0, max_nfev=max(2, (2 * prob.o.max_evals) // (3 * (2 * p + 1))), weighing=weighing)
-    stages["cost_end_stage1"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
-    prob.scale = _rms_scale(prob.raw(x1))      # reweight by the noise left at the first fit
-    stages["cost_start_stage2"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
-    x2, stop = _least_squares(prob, x1, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)),
-                              weighing=weighing)
+    stages: dict[str, Any] = {"n_residuals": int(n), "cost_start_stage1": (
+        0.5 * n if weights is None or weights == "start"
+        else 0.5 * float(np.sum(prob.fun(x0) ** 2)))}
+    if weights is not None:
+        stages["weights"] = "start" if weights == "start" else "given"
+        x2, stop = _least_squares(prob, x0, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)),
+                                  weighing=weighing)
+        stages["stop_stage1"] = stop
+    else:
+        x1, stages["stop_stage1"] = _least_squares(
+            prob, x0, max_nfev=max(2, (2 * prob.o.max_evals) // (3 * (2 * p + 1))),
+            weighing=weighing)
+        stages["cost_end_stage1"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
+        prob.scale = _rms_scale(prob.raw(x1))      # reweight by the noise left at the first fit
+        stages["cost_start_stage2"] = 0.5 * float(np.sum(prob.fun(x1) ** 2))
+        x2, stop = _least_squares(prob, x1, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)),
+                                  weighing=weighing)
     stages["cost_end"] = 0.5 * float(np.sum(prob.fun(x2) ** 2))
     stages["stop"], stages["converged"] = stop, stop.startswith("converged")
     if weighing is not None:
@@ -1038,6 +1051,21 @@ def _fit(prob: _Problem, x0: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
                                      "residual_end": float(weighing.fun(x2)[0])}
     prob.limit = math.inf
     return x2, stages
+
+
+def _scale_from_table(table: dict[str, Any], horizons: Sequence[int]) -> np.ndarray:
+    """The (horizon, element) weights of a residual RMS table (:func:`_rms_table`), as
+    :func:`_rms_scale` gives them (an element at 0 or missing counts as 1)."""
+    out = np.ones((len(horizons), len(STATE_NAMES)))
+    for k, h in enumerate(horizons):
+        row = table.get(f"h{h}")
+        if row is None:
+            raise ValueError(f"the weights have no horizon {h}")
+        for j, name in enumerate(STATE_NAMES):
+            v = row.get(name)
+            if v is not None and math.isfinite(v) and v > 0:
+                out[k, j] = v
+    return out
 
 
 def _rollouts(test_recs: Sequence[MoveRecording], before: RobotConfig, after: RobotConfig,
@@ -1131,10 +1159,13 @@ def _fit_start(train_recs: Sequence[MoveRecording], base: RobotConfig,
 def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[MoveRecording],
                    base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
                    progress: Callable[[str], None] | None = None, *,
-                   cache: dict[tuple[float, ...], list[np.ndarray]] | None = None
-                   ) -> Calibration:
+                   cache: dict[tuple[float, ...], list[np.ndarray]] | None = None,
+                   weights: dict[str, Any] | str | None = None) -> Calibration:
     """Fit ``options.params`` of ``base`` to ``train_recs`` (module doc); score on ``test_recs``.
     ``cache``: the evaluations this very fit made already (a structure's screen, module doc 8).
+    ``weights``: one weighted stage, not two (module doc 2): weighted at the start
+    (``"start"``, the bootstrap's refits) or by a residual RMS table (a split start, by its
+    fit's weights at the optimum).
 
     Returns the calibrated robot (named ``options.name`` or BASE-calibrated), the estimates
     with their 95 % intervals and bounds, the weak directions and a JSON-ready report.
@@ -1184,7 +1215,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
         prob = _Problem(pool, base, params, options, say, cache)
         say(f"fitting {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool moves")
-        x, stages = _fit(prob, x0)
+        x, stages = _fit(prob, x0, weights)
         J, r = prob.jac(x), prob.fun(x)
         n_evals = len(prob.cache)
         missing = consider = consider_cov = None
@@ -1685,7 +1716,8 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
         say(f"a second start across the masses' split: {label} (body {body.get(start):.4g} kg, "
             f"legs {leg.get(start):.4g} kg, the total kept), fitting {len(names)} parameters")
         try:
-            fits[label] = calibrate_twin(train_recs, [], start, inner, say)
+            fits[label] = calibrate_twin(train_recs, [], start, inner, say,
+                                         weights=cal.report["residual_rms"]["calibrated"])
             entries.append(entry(label, fits[label], start))
         except Exception as e:      # the other starts stand; say why this one did not
             say(f"the start {label} failed ({e})")

@@ -178,6 +178,36 @@ def test_split_starts_run_once_before_the_bootstrap(monkeypatch):
     assert legs.contains(LEGS0) and legs.contains(LEGS_B)
 
 
+def test_the_second_starts_and_the_refits_fit_one_stage_with_their_fits_weights(monkeypatch):
+    """A second start is one weighted stage with the weights of the fit it starts from (its
+    residual RMS at the optimum), so that both minimise one objective; a bootstrap refit is
+    one stage weighted at its start, the twin; the fit itself keeps its two stages."""
+    from littledog_mlsim.robot import twin_fit
+
+    recs, base, opts = _case(monkeypatch, depth=0.5)
+    _with_bootstrap_standins(monkeypatch)
+    seen = []
+    real = twin_fit._fit
+
+    def spy(prob, x0, weights=None):
+        x, stages = real(prob, x0, weights)
+        seen.append((weights, prob.scale.copy(), stages, prob.raw(x)))
+        return x, stages
+
+    monkeypatch.setattr(twin_fit, "_fit", spy)
+    cal = twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(
+        opts, split_starts=0.15, bootstrap=1))
+    assert all("error" not in c for c in cal.report["split_starts"]["candidates"])
+    kinds = [w if w is None or w == "start" else "table" for w, *_ in seen]
+    assert kinds == [None, "table", "table", "start"]
+    assert "cost_start_stage2" in seen[0][2] and "weights" not in seen[0][2]
+    assert [s[2]["weights"] for s in seen[1:]] == ["given", "given", "start"]
+    assert all("cost_start_stage2" not in s[2] for s in seen[1:])
+    # the starts' weights: the fit's residual RMS at its optimum, per (horizon, element)
+    np.testing.assert_allclose(seen[1][1], twin_fit._rms_scale(seen[0][3]), rtol=1e-12)
+    np.testing.assert_array_equal(seen[1][1], seen[2][1])
+
+
 def _with_bootstrap_standins(monkeypatch, fail: bool = False):
     from littledog_mlsim.robot import twin_bias
 
