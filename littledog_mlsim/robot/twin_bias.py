@@ -16,7 +16,9 @@ parameter fitted, the masses and servo parameters ended 1-4 % off, outside inter
    twin's own share of it out (the twin records the moves with the noise so far and is read the
    same way), so that the synthetic recordings carry the recording's noise, not more.
 2. **Refit.** The same parameters are fitted to the synthetic recording, from the twin's own
-   values, with the same options (starting states, horizons, stride); the refit's optimum
+   values, with the same options (starting states, horizons, stride), in one stage weighted at
+   the twin (module doc 2 of :mod:`.twin_fit`: the twin is the refit's truth, so its weights
+   are those of the optimum but for the bias); the refit's optimum
    differs from the twin by the estimator's bias b (plus its noise). With a weighed mass
    (``weighed_mass``, module doc 13 of :mod:`.twin_fit`) each refit is weighed at the twin's
    own total mass, with the weighing's sd.

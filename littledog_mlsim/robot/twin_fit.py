@@ -22,7 +22,14 @@ Method
 2. **Weights.** Each (horizon, element) residual is divided by its RMS: first at the starting
    robot, then, after a first fit, at that fit's optimum, and the fit is run again from there
    (two-stage weighted least squares, so that every channel counts by its own noise level and
-   the residual variance of the final fit estimates the noise, about 1).
+   the residual variance of the final fit estimates the noise, about 1). Two kinds of fit start
+   where those weights are known already and run one stage (``weights`` of
+   :func:`calibrate_twin`; the report's ``weights``): a second start across the masses' split
+   (14) takes the weights of the fit it starts from, its residual RMS at the optimum, so that
+   both minimise one objective; a bootstrap refit (11) is weighted at its own start, the twin,
+   which is its truth (a second stage would reweight at a point a bias away). Their evaluations
+   then go to one stage's iterations, not two (benchmarks/calibrate, ``fit_progress``: 0-3 of
+   the 2-7 Jacobians of those fits went to their second stage on zoo55-zoo59).
 3. **Fit.** ``scipy.optimize.least_squares`` (trust region, bounds) over the parameters'
    coordinates: the logarithm of scale-like parameters (gains, masses, limits), the value of the
    others (friction coefficients, armature). The Jacobian is central differences of step
@@ -177,7 +184,8 @@ Method
    by a few per cent even where the twin's structure is the robot's, more than the intervals of
    4 allow (benchmarks/blind_zoo, zoo32). With N > 0 the fitted twin records the fitted moves
    again with their commands and the recording's sensing and is fitted again from its own
-   values; the shift is subtracted, and with N > 1 measured again at the corrected twin (a
+   values (in one weighted stage, 2); the shift is subtracted, and with N > 1 measured again
+   at the corrected twin (a
    fixed-point iteration); the intervals gain the shift's uncertainty. With
    ``bootstrap_replicates`` R > 1 each iteration refits R recordings with their own noise
    seeds: the bias is their mean, and their spread, where larger than the data's sd, is the
@@ -256,8 +264,9 @@ Method
    nominal robot can end in the wrong basin (benchmarks/calibrate, "Two basins along the
    masses' split": on three gap robots the fit from the nominal robot ended with the legs 12 to
    33 % off, and a fit started across the split ended at a lower cost with the smaller mass
-   error). With F > 0 the fit (after its rounds, 9) is fitted again, with the same parameters
-   and a round's budget, from two more starts: its optimum with the legs x(1 - F) and x(1 + F),
+   error). With F > 0 the fit (after its rounds, 9) is fitted again, with the same parameters,
+   a round's budget and the fit's weights at its optimum (one stage, 2), from two more starts:
+   its optimum with the legs x(1 - F) and x(1 + F),
    the body taking the difference so that the total stays (:func:`split_start`). The lowest
    k-step cost (the measure of 8, with the weights of the last round's starting robot) is
    kept. Each other minimum is then compared with it on the fitted moves
