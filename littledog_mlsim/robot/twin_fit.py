@@ -1042,7 +1042,8 @@ def _fit(prob: _Problem, x0: np.ndarray, weights: dict[str, Any] | str | None = 
         stages["weights"] = "start" if weights == "start" else "given"
         x2, stop = _least_squares(prob, x0, max_nfev=max(2, prob.o.max_evals // (2 * p + 1)),
                                   weighing=weighing)
-        stages["stop_stage1"] = stop
+        stages.update({"stop_stage1": stop, "cost_end_stage1": 0.5 * float(np.sum(
+            prob.fun(x2) ** 2)), "cost_start_stage2": None})     # the one stage is the first
     else:
         x1, stages["stop_stage1"] = _least_squares(
             prob, x0, max_nfev=max(2, (2 * prob.o.max_evals) // (3 * (2 * p + 1))),

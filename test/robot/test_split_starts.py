@@ -202,7 +202,8 @@ def test_the_second_starts_and_the_refits_fit_one_stage_with_their_fits_weights(
     assert kinds == [None, "table", "table", "start"]
     assert "cost_start_stage2" in seen[0][2] and "weights" not in seen[0][2]
     assert [s[2]["weights"] for s in seen[1:]] == ["given", "given", "start"]
-    assert all("cost_start_stage2" not in s[2] for s in seen[1:])
+    assert all(s[2]["cost_start_stage2"] is None for s in seen[1:])
+    assert all(s[2]["cost_end_stage1"] == s[2]["cost_end"] for s in seen[1:])
     # the starts' weights: the fit's residual RMS at its optimum, per (horizon, element)
     np.testing.assert_allclose(seen[1][1], twin_fit._rms_scale(seen[0][3]), rtol=1e-12)
     np.testing.assert_array_equal(seen[1][1], seen[2][1])
