@@ -37,13 +37,7 @@ Method
    contact-rich re-simulation is rough at small steps and curved at large ones, and forward
    differences then overstate the slope, so that Gauss-Newton creeps (seen on the CI case:
    forward differences left the gains a third of the way from the truth after 24
-   re-simulations, central ones reached it). A re-simulated robot is a pure function of the
-   robot, the recordings and the settings (stride, horizons, starting states), so a fit that
-   starts from another's optimum (a round, 9; a continuation, 11) and the comparison of the
-   split's minima (14) take the robots it simulated already (its last Jacobian's, the score
-   test's columns) from it (:class:`Evaluations`) instead of re-simulating them: the same
-   numbers, bit for bit, so the same fit, sooner. They count among the fit's evaluations
-   (``n_evals``, the budget) as before; ``n_evals_reused`` says how many were taken.
+   re-simulations, central ones reached it).
 4. **Uncertainty.** At the optimum, cov = s^2 (J^T J)^-1 with s^2 = SSE / (n - p), the residual
    variance, and its sandwich forms clustered by sampled state (the residuals of one state, all
    elements and horizons, may be correlated) and by move (every state of a move may be: a
@@ -452,42 +446,6 @@ class Calibration:
     estimates: list[Estimate]
     weak: list[WeakDirection]
     report: dict[str, Any] = field(default_factory=dict)
-    #: the re-simulations of the fit that made it (:class:`Evaluations`), for the fits that
-    #: start from it; not in the report
-    evaluations: "Evaluations | None" = field(default=None, repr=False, compare=False)
-
-
-class Evaluations:
-    """Re-simulations a fit made: raw residuals by robot, on its recordings and settings. A
-    later fit on the same recordings and settings takes a robot's residuals from here instead
-    of re-simulating it: the same robot gives the same numbers, bit for bit (module doc 3)."""
-
-    def __init__(self, recs: Sequence[MoveRecording], options: "CalibrationOptions") -> None:
-        self.recs = list(recs)
-        self.settings = _settings_key(options)
-        self.raws: dict[RobotConfig, list[np.ndarray]] = {}
-
-    @staticmethod
-    def key(config: RobotConfig) -> RobotConfig:
-        """The robot as its residuals see it: neither its name nor its sensor noise (a
-        replay is noise-free) changes them."""
-        return replace(config, name="", sensor_noise=False)
-
-    def add(self, config: RobotConfig, raw: list[np.ndarray]) -> None:
-        self.raws[self.key(config)] = raw
-
-    def get(self, recs: Sequence[MoveRecording], options: "CalibrationOptions",
-            config: RobotConfig) -> list[np.ndarray] | None:
-        """``config``'s residuals on ``recs`` at ``options``' settings, if this holds them."""
-        if (_settings_key(options) != self.settings or len(recs) != len(self.recs)
-                or any(a is not b for a, b in zip(recs, self.recs))):
-            return None
-        return self.raws.get(self.key(config))
-
-
-def _settings_key(options: "CalibrationOptions") -> tuple:
-    return (int(options.stride), tuple(int(h) for h in options.horizons),
-            str(options.initial_state))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -551,15 +509,9 @@ class _Problem:
 
     def __init__(self, pool: Any, base: RobotConfig, params: Sequence[TwinParameter],
                  options: CalibrationOptions, progress: Callable[[str], None],
-                 cache: dict[tuple[float, ...], list[np.ndarray]] | None = None,
-                 recs: Sequence[MoveRecording] = (),
-                 earlier: Sequence[Evaluations] = ()) -> None:
+                 cache: dict[tuple[float, ...], list[np.ndarray]] | None = None) -> None:
         self.pool, self.base, self.params, self.o, self.say = pool, base, params, options, progress
         self.cache: dict[tuple[float, ...], list[np.ndarray]] = {} if cache is None else cache
-        # the robots this fit simulated or took from ``earlier`` fits on ``recs``
-        self.evaluations = Evaluations(recs, options)
-        self.earlier = [e for e in earlier if e is not None]
-        self.reused = 0                 # robots taken from ``earlier``, not re-simulated
         self.screen: float = math.inf   # distinct robots simulated before _ScreenDone
         self.scale: np.ndarray | None = None
         self.limit: float = options.max_evals   # distinct robots simulated before _BudgetSpent
@@ -596,52 +548,21 @@ class _Problem:
         spent = len(new) > room
         todo = list(new.items())[:int(room)]
         if todo:
-            configs = [self.config(x) for _, x in todo]
-            found = [self._earlier(c) for c in configs]
             t0 = time.perf_counter()
-            run = [c for c, f in zip(configs, found) if f is None]
-            simulated = iter(twin_residuals_many(self.pool, run, self.o.stride, self.o.horizons,
-                                                 self.o.initial_state) if run else [])
+            raws = twin_residuals_many(self.pool, [self.config(x) for _, x in todo],
+                                       self.o.stride, self.o.horizons, self.o.initial_state)
             dt = time.perf_counter() - t0
-            batch = len(todo) > 1
-            for (k, x), config, f in zip(todo, configs, found):
-                raw = next(simulated) if f is None else f
+            for (k, x), raw in zip(todo, raws):
                 self.cache[k] = raw
-                self.evaluations.add(config, raw)
-                self.reused += f is not None
                 cost = None if self.scale is None else 0.5 * float(np.sum(self.fun(x) ** 2))
                 self.say(f"  [{len(self.cache)}/{self.o.max_evals}] "
                          + " ".join(f"{p.name}={p.from_x(float(v)):.4g}"
                                     for p, v in zip(self.params, x))
                          + ("" if cost is None else f" cost {cost:.1f}")
-                         + ((" (from an earlier fit" + (f"; one of {len(todo)})" if batch
-                                                       else ")")) if f is not None
-                            else f" ({dt / len(run):.1f} s: one of {len(run)} in {dt:.1f} s)"
-                            if batch else f" ({dt:.1f} s)"))
+                         + (f" ({dt:.1f} s)" if len(todo) == 1
+                            else f" ({dt / len(todo):.1f} s: one of {len(todo)} in {dt:.1f} s)"))
         if spent:
             raise _ScreenDone if self.screen < self.limit else _BudgetSpent
-
-    def simulate(self, configs: Sequence[RobotConfig]) -> list[list[np.ndarray]]:
-        """The residuals of robots outside the fit's budget (the score test's columns), each
-        taken from an earlier fit where it has it, kept in ``evaluations``."""
-        found = [self._earlier(c) for c in configs]
-        run = [c for c, f in zip(configs, found) if f is None]
-        simulated = iter(twin_residuals_many(self.pool, run, self.o.stride, self.o.horizons,
-                                             self.o.initial_state) if run else [])
-        out = []
-        for c, f in zip(configs, found):
-            raw = next(simulated) if f is None else f
-            self.evaluations.add(c, raw)
-            self.reused += f is not None
-            out.append(raw)
-        return out
-
-    def _earlier(self, config: RobotConfig) -> list[np.ndarray] | None:
-        for e in self.earlier:
-            got = e.get(self.evaluations.recs, self.o, config)
-            if got is not None:
-                return got
-        return None
 
     def fun(self, x: np.ndarray) -> np.ndarray:
         return _weighted(self.raw(x), self.scale)
@@ -1249,14 +1170,12 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                    base: RobotConfig, options: CalibrationOptions = CalibrationOptions(),
                    progress: Callable[[str], None] | None = None, *,
                    cache: dict[tuple[float, ...], list[np.ndarray]] | None = None,
-                   weights: dict[str, Any] | str | None = None,
-                   earlier: Evaluations | None = None) -> Calibration:
+                   weights: dict[str, Any] | str | None = None) -> Calibration:
     """Fit ``options.params`` of ``base`` to ``train_recs`` (module doc); score on ``test_recs``.
     ``cache``: the evaluations this very fit made already (a structure's screen, module doc 8).
     ``weights``: one weighted stage, not two (module doc 2): weighted at the start
     (``"start"``, the bootstrap's refits) or by a residual RMS table (a split start, by its
-    fit's weights at the optimum). ``earlier``: the re-simulations of the fit this one starts
-    from (its :attr:`Calibration.evaluations`); a robot found there is not re-simulated.
+    fit's weights at the optimum).
 
     Returns the calibrated robot (named ``options.name`` or BASE-calibrated), the estimates
     with their 95 % intervals and bounds, the weak directions and a JSON-ready report.
@@ -1304,8 +1223,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     original = replace(base, sensor_noise=False)     # "before" is the robot as given
     start_robot, base, params, x0 = _fit_start(train_recs, base, options)
     with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
-        prob = _Problem(pool, base, params, options, say, cache, train_recs,
-                        [earlier] if earlier is not None else [])
+        prob = _Problem(pool, base, params, options, say, cache)
         say(f"fitting {', '.join(p.name for p in params)} on {len(train_recs)} TrainPool moves")
         x, stages = _fit(prob, x0, weights)
         J, r = prob.jac(x), prob.fun(x)
@@ -1363,8 +1281,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
                                    "halfwidth95": w.halfwidth95} for w in weak],
               "singular_values": sv, **stats,
               "correlation": _correlation(covs[1], params), **stages,
-              "n_evals": n_evals, "n_evals_reused": prob.reused,
-              "train_moves": [r.name for r in train_recs],
+              "n_evals": n_evals, "train_moves": [r.name for r in train_recs],
               "settings": {"stride": options.stride, "horizons": list(options.horizons),
                            "max_evals": options.max_evals, "diff_step": options.diff_step,
                            "weak_halfwidth": options.weak_halfwidth,
@@ -1379,7 +1296,7 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
               "residual_rms": _rms_report(prob, x0, x), "missing": missing,
               "consider": consider, "scale_symmetry": symmetry}
     _finish(report, test_recs, original, calibrated, options, say, t0)
-    return Calibration(calibrated, estimates, weak, report, prob.evaluations)
+    return Calibration(calibrated, estimates, weak, report)
 
 
 def _finish(report: dict[str, Any], test_recs: Sequence[MoveRecording], before: RobotConfig,
@@ -1535,7 +1452,7 @@ def _calibrate_structures(train_recs: Sequence[MoveRecording],
                    "costs": screened, "fitted": [lead] if out else [base.servo, other]},
         "candidates": candidates}
     _finish(report, test_recs, replace(base, sensor_noise=False), cal.config, options, say, t0)
-    return Calibration(cal.config, cal.estimates, cal.weak, report, cal.evaluations)
+    return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
 def asked_for(report: dict[str, Any]) -> list[str]:
@@ -1615,8 +1532,7 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
         for n, v in moved.items():
             start = TWIN_PARAMETERS[n].set(start, v["start"])
         try:
-            refit = calibrate_twin(train_recs, [], start, round_options, say,
-                                   earlier=cal.evaluations)
+            refit = calibrate_twin(train_recs, [], start, round_options, say)
             after = _structure_cost(refit, weights)
             if moved and after > rnd["k_step_cost_before"]:
                 # the limits' start led somewhere worse than the fit before the round: the
@@ -1625,8 +1541,7 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
                     "fitting again from the optimum")
                 rnd["restarted"] = {"k_step_cost": after}
                 total_evals += refit.report.get("n_evals") or 0
-                refit = calibrate_twin(train_recs, [], cal.config, round_options, say,
-                                       earlier=cal.evaluations)
+                refit = calibrate_twin(train_recs, [], cal.config, round_options, say)
         except Exception as e:        # the fit before it stands; say why the refit did not
             rnd["error"] = f"{type(e).__name__}: {e}"
             rounds.append(rnd)
@@ -1645,7 +1560,7 @@ def _calibrate_adding_asked(train_recs: Sequence[MoveRecording],
     if structure is not None:
         report["structure"] = structure
     _finish(report, test_recs, replace(base, sensor_noise=False), cal.config, options, say, t0)
-    return Calibration(cal.config, cal.estimates, cal.weak, report, cal.evaluations)
+    return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
 def _evals_so_far(report: dict[str, Any]) -> int:
@@ -1698,7 +1613,7 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
                     bootstrap_replicates=1, name=cal.config.name, split_starts=0.0,
                     max_evals=max(options.max_evals, budget))
     try:
-        refit = calibrate_twin(train_recs, [], cal.config, inner, say, earlier=cal.evaluations)
+        refit = calibrate_twin(train_recs, [], cal.config, inner, say)
     except Exception as e:          # the fit stands; say why it was not continued
         entry["error"] = f"{type(e).__name__}: {e}"
         say(f"continuing the fit failed ({e}); keeping it where its budget stopped it")
@@ -1717,7 +1632,7 @@ def _continued(cal: Calibration, train_recs: Sequence[MoveRecording],
                               "bootstrap_replicates": options.bootstrap_replicates}
     report["continued"] = entry
     report["bootstrap"] = {"skipped": reason, "iterations": 0}
-    return Calibration(result.config, result.estimates, result.weak, report, result.evaluations)
+    return Calibration(result.config, result.estimates, result.weak, report)
 
 
 #: module doc 14: a second minimum whose per-move cost difference from the kept one is below
@@ -1822,8 +1737,7 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
     done = [e for e in entries if "error" not in e]
     chosen = min(done, key=lambda e: (e["k_step_cost"], e["start"] != "fit"))["start"]
     kept = fits[chosen]
-    tied = _compare_minima(entries, chosen, kept.config, train_recs, options,
-                           [c.evaluations for c in fits.values()])
+    tied = _compare_minima(entries, chosen, kept.config, train_recs, options)
     say(f"masses' split: kept {chosen} (k-step cost {_structure_cost(kept, weights):.4g}; "
         + ", ".join(f"{e['start']} {e['k_step_cost']:.4g}" for e in done if e["start"] != chosen)
         + ")" + (f"; the data do not tell it from {', '.join(tied)}: the intervals cover "
@@ -1839,7 +1753,7 @@ def _split_started(cal: Calibration, train_recs: Sequence[MoveRecording],
                      "starting robot's)^2 on the fitted moves; told apart by the per-move cost "
                      "difference weighted at the kept minimum (z over its standard error)",
         "candidates": entries, "wall_s": round(time.perf_counter() - t0, 1)}
-    return Calibration(kept.config, kept.estimates, kept.weak, report, kept.evaluations)
+    return Calibration(kept.config, kept.estimates, kept.weak, report)
 
 
 def _candidate_config(config: RobotConfig, entry: dict[str, Any]) -> RobotConfig:
@@ -1851,12 +1765,11 @@ def _candidate_config(config: RobotConfig, entry: dict[str, Any]) -> RobotConfig
 
 
 def _compare_minima(entries: list[dict[str, Any]], chosen: str, kept: RobotConfig,
-                    train_recs: Sequence[MoveRecording], options: CalibrationOptions,
-                    earlier: Sequence[Evaluations | None] = ()) -> list[str]:
+                    train_recs: Sequence[MoveRecording], options: CalibrationOptions
+                    ) -> list[str]:
     """Each split start's ``compared`` (:func:`minima_compared`, against ``kept``, null for
     the ``chosen`` one) set in ``entries``; returns the starts not told apart from it. A
-    comparison that fails counts as not told apart, with its ``error``. A minimum whose
-    residuals its fit's ``earlier`` evaluations hold is not re-simulated."""
+    comparison that fails counts as not told apart, with its ``error``."""
     tied = []
     others = [e for e in entries if "error" not in e and e["start"] != chosen]
     for e in entries:
@@ -1867,10 +1780,6 @@ def _compare_minima(entries: list[dict[str, Any]], chosen: str, kept: RobotConfi
     try:
         with _bl.move_pool(train_recs, options.jobs, options.scheduler) as pool:
             def residuals(config: RobotConfig) -> list[np.ndarray]:
-                for e in earlier:
-                    got = None if e is None else e.get(train_recs, options, config)
-                    if got is not None:
-                        return got
                 return twin_residuals(pool, replace(config, sensor_noise=False),
                                       options.stride, options.horizons, options.initial_state)
 
@@ -1901,12 +1810,11 @@ def _split_recompared(cal: Calibration, train_recs: Sequence[MoveRecording],
     if not split.get("candidates"):
         return cal
     entries = [dict(e) for e in split["candidates"]]
-    tied = _compare_minima(entries, split["chosen"], cal.config, train_recs, options,
-                           [cal.evaluations])
+    tied = _compare_minima(entries, split["chosen"], cal.config, train_recs, options)
     report = dict(cal.report)
     report["split_starts"] = {**split, "candidates": entries, "tied": tied, "widened": [],
                               "compared_after": "continued"}
-    return Calibration(cal.config, cal.estimates, cal.weak, report, cal.evaluations)
+    return Calibration(cal.config, cal.estimates, cal.weak, report)
 
 
 def _hull(a: Sequence[float | None], b: Sequence[float | None], v: float
@@ -2010,8 +1918,10 @@ def _secant_columns(prob: "_Problem", config: RobotConfig, r: np.ndarray,
     weighted residual of ``config`` with the parameter moved by ``step`` in its coordinate,
     less ``r``, over ``step``; the moved robots re-simulated as one batch. A moved robot that
     diverges where ``r``'s did not has no slope to read and is left out."""
-    raws = prob.simulate([par.set(config, par.from_x(par.to_x(value) + step))
-                          for par, value, step in steps])
+    raws = twin_residuals_many(
+        prob.pool, [par.set(config, par.from_x(par.to_x(value) + step))
+                    for par, value, step in steps],
+        prob.o.stride, prob.o.horizons, prob.o.initial_state)
     out = []
     for (par, value, step), raw in zip(steps, raws):
         w = _weighted(raw, prob.scale)

@@ -841,8 +841,8 @@ def test_a_torque_limit_asked_for_after_the_last_round_gets_a_round(monkeypatch)
     # again from the optimum (here the stand-in's refit from the lowered limit made to look worse)
     real_fit = twin_fit.calibrate_twin
 
-    def worse_from_a_lowered_limit(recs_, test_, start, options, say=None, **kw):
-        got = real_fit(recs_, test_, start, options, say, **kw)
+    def worse_from_a_lowered_limit(recs_, test_, start, options, say=None):
+        got = real_fit(recs_, test_, start, options, say)
         if start.torque_limit[1] < 1.5:
             rms = got.report["residual_rms"]["calibrated"]
             got.report["residual_rms"]["calibrated"] = {
@@ -1005,52 +1005,3 @@ def test_a_fit_after_its_screen_ends_where_a_fit_without_it_ends():
         assert np.array_equal(x_after, x_plain) and stages_after == stages_plain
         assert list(after.cache) == list(plain.cache)
         assert sum(after.pool.batches) == len(plain.cache) - k     # the screen's not again
-
-
-def test_a_round_takes_the_robots_its_fit_simulated_already_and_ends_the_same(monkeypatch):
-    """A round starts at its fit's optimum, where that fit's last Jacobian and the score
-    test's columns were simulated already: those robots are taken from it
-    (``Calibration.evaluations``, ``n_evals_reused``), not re-simulated, and the round ends
-    exactly where it ends when it re-simulates them. A fit on other recordings, or at other
-    settings, takes nothing from it."""
-    import contextlib
-    from types import SimpleNamespace
-    import numpy as np
-    from littledog_mlsim.robot import twin_fit
-
-    pool = _LimitRobot()
-    pool.truth_fields = {"body_mass": 2.0, "foot_friction": 0.5}
-    simulated = []
-    real_map = pool.map
-
-    def counting_map(fn, config, stride, horizons, initial="measured"):
-        simulated.append(1)
-        return real_map(fn, config, stride, horizons, initial)
-
-    pool.map = counting_map
-    monkeypatch.setattr(twin_fit._bl, "move_pool",
-                        lambda recs, jobs=2, scheduler=None: contextlib.nullcontext(pool))
-    recs = [SimpleNamespace(name=f"F_0{i}", n_steps=400, position=np.zeros((400, 3)))
-            for i in range(3)]
-    base = dataclasses.replace(robot_config("nominal"), rate_filter_hz=100.0, foot_friction=0.6,
-                               torque_limit=(1.7, 1.7, 1.0))
-    opts = twin_fit.CalibrationOptions(params=("body_mass",), horizons=(1,),
-                                       initial_state="measured", add_asked=1,
-                                       consider_spread=0.0)   # no limit moves the round's start
-    cal = twin_fit.calibrate_twin(recs, [], base, opts)
-    with_reuse = len(simulated)
-    assert [r["added"] for r in cal.report["added"]] == [["foot_friction"]]
-    assert cal.report["n_evals_reused"] >= 2         # the fitted mass's column at the optimum
-    # other recordings (even equal ones) or another stride: nothing is taken
-    ev = cal.evaluations
-    assert ev.get(recs, opts, cal.config) is not None
-    assert ev.get(list(recs), dataclasses.replace(opts, stride=40), cal.config) is None
-    assert ev.get([SimpleNamespace(**vars(r)) for r in recs], opts, cal.config) is None
-    simulated.clear()
-    monkeypatch.setattr(twin_fit.Evaluations, "get", lambda self, recs, options, config: None)
-    plain = twin_fit.calibrate_twin(recs, [], base, opts)
-    assert plain.report["n_evals_reused"] == 0
-    assert len(simulated) == with_reuse + cal.report["n_evals_reused"]
-    assert [e.value for e in plain.estimates] == [e.value for e in cal.estimates]
-    assert [e.ci95 for e in plain.estimates] == [e.ci95 for e in cal.estimates]
-    assert plain.report["n_evals"] == cal.report["n_evals"]
