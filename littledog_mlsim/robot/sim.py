@@ -188,8 +188,14 @@ class LittleDogSim:
     def reconfigure(self, config: RobotConfig | str, *, stand_up: bool = True) -> None:
         """This client's world built again for ``config``: afterwards the robot is what
         ``LittleDogSim(config, stand_up=stand_up)`` would be, move for move, without a new
-        pybullet client (a calibration re-simulates robot after robot)."""
-        self._configure(as_config(config), stand_up)
+        pybullet client (a calibration re-simulates robot after robot). A config that fails
+        to build closes the robot (``client`` -1) before its error propagates: a robot half
+        built for it never passes for it."""
+        try:
+            self._configure(as_config(config), stand_up)
+        except BaseException:
+            self.close()
+            raise
 
     def _configure(self, config: RobotConfig, stand_up: bool) -> None:
         self.config = config

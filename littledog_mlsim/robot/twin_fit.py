@@ -25,9 +25,10 @@ Method
    the residual variance of the final fit estimates the noise, about 1). Two kinds of fit start
    where those weights are known already and run one stage (``weights`` of
    :func:`calibrate_twin`; the report's ``weights``): a second start across the masses' split
-   (14) takes the weights of the fit it starts from, its residual RMS at the optimum, so that
-   both minimise one objective; a bootstrap refit (11) is weighted at its own start, the twin,
-   which is its truth (a second stage would reweight at a point a bias away). Their evaluations
+   (14) takes the weights of the fit it starts from at that fit's optimum (its residual RMS
+   there: the noise left at the fit, where the fit's own second stage is weighted at the end
+   of its first); a bootstrap refit (11) is weighted at its own start, the twin, which is its
+   truth (a second stage would reweight at a point a bias away). Their evaluations
    then go to one stage's iterations, not two (benchmarks/calibrate, ``fit_progress``: 0-3 of
    the 2-7 Jacobians of those fits went to their second stage on zoo55-zoo59).
 3. **Fit.** ``scipy.optimize.least_squares`` (trust region, bounds) over the parameters'
@@ -1184,6 +1185,10 @@ def calibrate_twin(train_recs: Sequence[MoveRecording], test_recs: Sequence[Move
     """
     t0 = time.perf_counter()
     options.check()
+    if weights is not None and (options.bootstrap or options.split_starts or options.add_asked
+                                or options.servo == "auto"):
+        raise ValueError("weights apply to one fit: not with bootstrap, split_starts, "
+                         "add_asked or servo auto")
     say = progress or (lambda s: None)
     options = _resolve_initial_state(options, train_recs, say)
     if options.bootstrap:

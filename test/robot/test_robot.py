@@ -209,6 +209,32 @@ def test_a_robot_built_again_in_its_client_or_stood_up_late_moves_as_a_new_one()
                         np.testing.assert_array_equal(w[field], g[field], err_msg=field)
 
 
+def test_a_robot_that_fails_to_be_built_again_is_closed_not_passed_off(monkeypatch):
+    """A config that fails to build (here a servo with two gains for three joint kinds)
+    closes the robot: the replay robot of ``baseline._sim_for`` is then built anew, and its
+    numbers are a new robot's; it never replays with the old robot under the new name."""
+    from littledog_mlsim.robot import baseline
+
+    measured = robot_config("measured")
+    bad = dataclasses.replace(measured, kp=(1.0, 2.0))
+    sim = baseline._sim_for(measured)
+    with pytest.raises(ValueError):
+        baseline._sim_for(bad)
+    assert sim.client == -1
+    with pytest.raises(ValueError):          # asked again, it fails again: never the old robot
+        baseline._sim_for(bad)
+    other = dataclasses.replace(measured, kp=(8.0, 7.0, 6.0))
+    got = baseline._sim_for(other)
+    assert got is not sim and got.config == other
+    cmd = commands("F", 1)[:20]
+    with LittleDogSim(other) as fresh:
+        want = [fresh.reset(seed=2)] + [fresh.step(u) for u in cmd]
+    mine = [got.reset(seed=2)] + [got.step(u) for u in cmd]
+    for w, g in zip(want, mine):
+        for field in OBS_FIELDS:
+            np.testing.assert_array_equal(w[field], g[field], err_msg=field)
+
+
 def test_sensor_noise_on_and_off():
     cmd = commands("DL", 2)
     noisy = simulate_move(cmd, robot="measured", seed=4)

@@ -207,6 +207,12 @@ def test_the_second_starts_and_the_refits_fit_one_stage_with_their_fits_weights(
     # the starts' weights: the fit's residual RMS at its optimum, per (horizon, element)
     np.testing.assert_allclose(seen[1][1], twin_fit._rms_scale(seen[0][3]), rtol=1e-12)
     np.testing.assert_array_equal(seen[1][1], seen[2][1])
+    # weights apply to one fit; a calibration of several refuses them in one line
+    for extra in ({"add_asked": 1, "test_missing": True}, {"bootstrap": 1},
+                  {"split_starts": 0.15}, {"servo": "auto"}):
+        with pytest.raises(ValueError, match="weights apply to one fit"):
+            twin_fit.calibrate_twin(recs, [], base, dataclasses.replace(opts, **extra),
+                                    weights="start")
 
 
 def _with_bootstrap_standins(monkeypatch, fail: bool = False):
