@@ -180,6 +180,14 @@ def test_deterministic_for_a_seed_whatever_ran_before():
     assert np.abs(a.position - d.position).max() > 1e-5       # ... other noise
 
 
+def _assert_same_observations(want: list[dict], got: list[dict]) -> None:
+    """Two moves' observations equal, field by field, bit for bit."""
+    assert len(want) == len(got)
+    for w, g in zip(want, got):
+        for field in OBS_FIELDS:
+            np.testing.assert_array_equal(w[field], g[field], err_msg=field)
+
+
 def test_a_robot_built_again_in_its_client_or_stood_up_late_moves_as_a_new_one():
     """``reconfigure`` (a calibration's replay robot, robot after robot in one client) and
     ``stand_up=False`` (the home stance found when a move first starts there) give a robot
@@ -203,13 +211,10 @@ def test_a_robot_built_again_in_its_client_or_stood_up_late_moves_as_a_new_one()
             for initial in (start, None, start):     # home found late, between given starts
                 with LittleDogSim(config) as fresh:
                     want = run(fresh, initial)
-                got = run(reused, initial)
-                for w, g in zip(want, got):
-                    for field in OBS_FIELDS:
-                        np.testing.assert_array_equal(w[field], g[field], err_msg=field)
+                _assert_same_observations(want, run(reused, initial))
 
 
-def test_a_robot_that_fails_to_be_built_again_is_closed_not_passed_off(monkeypatch):
+def test_a_robot_that_fails_to_be_built_again_is_closed_not_passed_off():
     """A config that fails to build (here a servo with two gains for three joint kinds)
     closes the robot: the replay robot of ``baseline._sim_for`` is then built anew, and its
     numbers are a new robot's; it never replays with the old robot under the new name."""
@@ -229,10 +234,7 @@ def test_a_robot_that_fails_to_be_built_again_is_closed_not_passed_off(monkeypat
     cmd = commands("F", 1)[:20]
     with LittleDogSim(other) as fresh:
         want = [fresh.reset(seed=2)] + [fresh.step(u) for u in cmd]
-    mine = [got.reset(seed=2)] + [got.step(u) for u in cmd]
-    for w, g in zip(want, mine):
-        for field in OBS_FIELDS:
-            np.testing.assert_array_equal(w[field], g[field], err_msg=field)
+    _assert_same_observations(want, [got.reset(seed=2)] + [got.step(u) for u in cmd])
 
 
 def test_sensor_noise_on_and_off():

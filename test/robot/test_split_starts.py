@@ -179,9 +179,9 @@ def test_split_starts_run_once_before_the_bootstrap(monkeypatch):
 
 
 def test_the_second_starts_and_the_refits_fit_one_stage_with_their_fits_weights(monkeypatch):
-    """A second start is one weighted stage with the weights of the fit it starts from (its
-    residual RMS at the optimum), so that both minimise one objective; a bootstrap refit is
-    one stage weighted at its start, the twin; the fit itself keeps its two stages."""
+    """A second start is one weighted stage with the weights of the fit it starts from at
+    that fit's optimum (its residual RMS there); a bootstrap refit is one stage weighted at its
+    start, the twin; the fit itself keeps its two stages."""
     from littledog_mlsim.robot import twin_fit
 
     recs, base, opts = _case(monkeypatch, depth=0.5)
