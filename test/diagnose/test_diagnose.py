@@ -815,6 +815,55 @@ def test_mass_com_position_walks_the_valley_of_constant_first_moment():
     assert not within_reach((-0.709, 0.0, 0.253))
 
 
+def test_a_payloads_mass_is_searched_along_its_ridge_of_constant_moment():
+    """Decision 060: the data fix a payload's horizontal first moment (mass x offset) well and
+    its mass less well; ``ridge_mass`` walks the mass along the ridge of constant moment on
+    the fit moves, the height kept. A stand-in objective: the moment's valley -0.004 kg m
+    ahead and -0.008 kg m to the side, lowest along it at 0.2 kg; the fit starts at 0.1 kg on
+    the ridge (zoo62's z07 stopped there)."""
+    import math
+    from littledog_mlsim.diagnose.families.body import mass_com_of, within_reach
+    from littledog_mlsim.diagnose.physical import Candidate, ridge_mass
+
+    def J(hyp):
+        m, (x, y, z) = mass_com_of(hyp[2])
+        return (1e4 * ((m * x + 0.004) ** 2 + (m * y + 0.008) ** 2)
+                + math.log(m / 0.2) ** 2 + (z - 0.02) ** 2 + 0.1)
+
+    c = Candidate("mass_com", "body", 1.0, 0.1, fitted=0.1, J0=1.0,
+                  extra={"com_offset_m": (-0.04, -0.08, 0.01)})
+    c = replace(c, J=J(c.hyp()))
+    obj = FakeObjective(J)
+    r = ridge_mass(obj, c, [0, 1, 2])
+    m, (x, y, z) = mass_com_of(r.params())
+    assert m == pytest.approx(0.2, rel=0.05) and r.magnitude == r.fitted
+    assert m * x == pytest.approx(-0.004, rel=5e-3) and m * y == pytest.approx(-0.008, rel=5e-3)
+    assert z == 0.01 and r.J == pytest.approx(J(r.hyp()))          # the height is kept
+    assert r.J < c.J and len(r.profile) == obj.n_evaluated() <= 2 + 4 + 1
+    assert all(n == 3 for _, n, seg in obj.calls) and not any(seg for _, _, seg in obj.calls)
+    assert c.fitted == 0.1 and c.extra["com_offset_m"] == (-0.04, -0.08, 0.01)  # not changed
+    # at the ridge's floor already: the same candidate back
+    at_floor = replace(c, fitted=0.2, extra={"com_offset_m": (-0.02, -0.04, 0.01)})
+    at_floor = replace(at_floor, J=J(at_floor.hyp()))
+    assert ridge_mass(FakeObjective(J), at_floor, [0]) is at_floor
+    # no horizontal offset, no ridge: nothing is simulated
+    centred = replace(c, extra={"com_offset_m": (0.0, 0.0, 0.02)})
+    obj = FakeObjective(J)
+    assert ridge_mass(obj, centred, [0]) is centred and obj.n_evaluated() == 0
+    # an objective that always prefers a lighter mass further out: the walk stays in reach
+    seen = []
+
+    def lighter(hyp):
+        m, pos = mass_com_of(hyp[2])
+        seen.append(pos)
+        return m
+    c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.2, J=0.2,
+                  extra={"com_offset_m": (-0.1, 0.0, 0.0)})
+    r = ridge_mass(FakeObjective(lighter), c, [0])
+    assert seen and all(within_reach(p) for p in seen) and r.fitted < 0.2
+    assert within_reach(r.extra["com_offset_m"])
+
+
 def test_a_world_fixed_force_is_turned_toward_the_direction_that_fits():
     """``refine_direction`` (the push's fit; the re-simulated cases are ``slow``:
     ``test_physical_odom_fixed_force`` and ``test_reference.py``'s tether): a force fitted

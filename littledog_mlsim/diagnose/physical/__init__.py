@@ -70,7 +70,7 @@ from .channels import CHANNELS, DEFAULT_HORIZONS_S, N_CH, horizon_errors
 from .context import Objective, SearchContext
 from .driver import PhysicalOptions, identify, pick_moves
 from .fit import (fit, fit_magnitude, refine_direction, refine_position, refine_wide,
-                  scope_variants, form_variants, located_variants, start_side,
+                  ridge_mass, scope_variants, form_variants, located_variants, start_side,
                   wide_magnitude)
 from .records import Candidate, Finding, HeldOutDecision, Hypothesis, PhysIdResult
 from .resim import Memo, Move, Runner, Transducer, build_effects, simulate, true_start
@@ -80,7 +80,7 @@ from .validate import push_twin, validate
 __all__ = ["identify", "PhysicalOptions", "PhysIdResult", "Finding", "Candidate", "Hypothesis",
            "SearchContext", "Objective", "Transducer", "Runner", "Memo", "Move", "simulate",
            "true_start", "build_effects", "screen", "shortlist", "fit", "fit_magnitude",
-           "refine_direction", "refine_position", "refine_wide", "wide_magnitude",
+           "refine_direction", "refine_position", "refine_wide", "ridge_mass", "wide_magnitude",
            "start_side", "scope_variants", "form_variants", "located_variants", "validate",
            "push_twin", "physical_params",
            "statement", "inseparable", "suspicions", "INSEPARABLE_SHARE", "horizon_errors",

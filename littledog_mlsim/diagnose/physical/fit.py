@@ -21,7 +21,7 @@ from .context import Objective
 from .records import Candidate, Hypothesis
 
 __all__ = ["fit", "fit_magnitude", "refine_wide", "wide_magnitude", "refine_direction",
-           "refine_position", "start_side", "scope_variants", "form_variants", "located_variants",
+           "refine_position", "ridge_mass", "start_side", "scope_variants", "form_variants", "located_variants",
            "segments_only"]
 
 
@@ -344,7 +344,77 @@ def fit(obj: Objective, c: Candidate, FS: Sequence[int], F: Sequence[int]) -> Ca
     c = refine_position(obj, c, FS, halvings=h)
     if not segments_only(c.family):
         c = refine_wide(obj, c, F)
+        c = ridge_mass(obj, c, F)
     return c
+
+
+#: decision 060: the ridge search's first steps (factors of the mass) and how often it follows
+#: a minimum at the edge of what it has tried
+RIDGE_FACTORS: tuple[float, float] = (0.7, 1.4)
+RIDGE_STEPS = 4
+
+
+def ridge_mass(obj: Objective, c: Candidate, F: Sequence[int]) -> Candidate:
+    """A payload's mass searched along its ridge of constant horizontal first moment on every
+    fit move ``F`` (decision 060): the mass times each of :data:`RIDGE_FACTORS` with its
+    horizontal offset divided by it (the height kept), a minimum at the edge followed outwards
+    (x1.4 or x0.7, at most :data:`RIDGE_STEPS` times, within the family's range and the body's
+    reach), then the vertex of the parabola in log mass through the best and its neighbours.
+    The data fix the moment the weight makes about the body's centre well and the mass less
+    well; the position search on the screening moves and the magnitude refit at a fixed
+    position (:func:`refine_wide`) both leave the mass where it started along that ridge, which
+    was low in most blind payloads. ``c`` unchanged if it has no horizontal offset or nothing
+    along the ridge fits better."""
+    spec = FAMILIES[c.family]
+    if not spec.searches_position or c.fitted is None or c.J is None or len(F) == 0:
+        return c
+    lo, hi = spec.bounds
+    m0 = float(c.fitted)
+    x0, y0, z0 = (float(v) for v in c.extra.get("com_offset_m", (0.0, 0.0, 0.0)))
+    if abs(x0) + abs(y0) < 1e-6:
+        return c
+    w = obj.weights(F)
+
+    def pos(f: float) -> tuple[float, float, float]:
+        return (round(x0 / f, 4), round(y0 / f, 4), z0)
+
+    evals: dict[float, float] = {1.0: float(c.J)}
+
+    def tried(fs: Sequence[float]) -> list[float]:
+        new = [f for f in fs if all(abs(f - g) > 1e-9 for g in evals)
+               and lo <= m0 * f <= hi and within_reach(pos(f))]
+        if new:
+            hyps = [Hypothesis(c.family, c.scope, {**c.params(m0 * f), "com_offset_m": pos(f)})
+                    for f in new]
+            evals.update(zip(new, obj.evaluate(hyps, F, w)))
+        return new
+
+    tried(RIDGE_FACTORS)
+    for _ in range(RIDGE_STEPS):
+        best = min(evals, key=evals.get)
+        fs = sorted(evals)
+        if best == fs[-1] and len(fs) > 1:
+            step = RIDGE_FACTORS[1]
+        elif best == fs[0] and len(fs) > 1:
+            step = RIDGE_FACTORS[0]
+        else:
+            break
+        new = tried([best * step])
+        if not new or evals[new[0]] >= evals[best]:
+            break
+    logs = {math.log(f): j for f, j in evals.items()}
+    v = _vertex(logs)
+    if v is not None:
+        tried([math.exp(v)])
+    best = min(evals, key=evals.get)
+    if best == 1.0:
+        return c
+    J0 = c.J0 if c.J0 is not None else obj.baseline(F, w)
+    ridge = [{"magnitude": m0 * f, "J_relative": evals[f] / J0, "moves": len(F),
+              "com_offset_m": list(pos(f))} for f in sorted(evals) if f != 1.0]
+    return replace(c, fitted=m0 * best, magnitude=m0 * best, J=evals[best],
+                   extra={**c.extra, "com_offset_m": pos(best)},
+                   profile=list(c.profile or []) + ridge)
 
 
 def start_side(obj: Objective, c: Candidate, F: Sequence[int]
