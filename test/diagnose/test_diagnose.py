@@ -657,12 +657,18 @@ def test_physical_scopes_and_shortlist():
         "side:left", "all"]
     assert related_scopes("leg:front_right") == ["side:right", "all"]
     assert related_scopes("side:left") == ["leg:front_left", "leg:back_left", "all"]
+    # decision 061: a joint type's neighbours are the other joint types (for the best-fitting
+    # joint hypothesis only: scope_variants asks for them with other_types)
+    assert related_scopes("type:knees") == ["type:hip_rolls", "type:hip_pitches", "all"]
+    assert related_scopes("type:knees", other_types=False) == ["all"]
     for scope in ("joint:front_right_hip_roll", "leg:back_right", "side:right", "type:knees",
                   "all"):   # each neighbour holds the scope or is held by it
         for r in related_scopes(scope):   # or, for one joint, is a joint of the same leg
-            a, b = set(scope_joints(scope)), set(scope_joints(r))
+            a, b = set(scope_joints(scope)), set(scope_joints(r))   # or another joint type
             same_leg = r.startswith("joint:") and r.split("_")[:2] == scope.split("_")[:2]
-            assert a < b or b < a or (len(a) == len(b) == 1 and same_leg), (scope, r)
+            other_type = scope.startswith("type:") and r.startswith("type:") and not a & b
+            assert (a < b or b < a or (len(a) == len(b) == 1 and same_leg)
+                    or (other_type and len(a) == len(b) == 4)), (scope, r)
     assert library_size() == sum(len(scopes_for(f)) for f in FAMILIES) == 15 * 22 + 8 + 5 * 4
     c = [Candidate("ground_slope", "body", 9.0, 2.0, np.array([1.0, 0.0])),
          Candidate("odom_force", "body", 8.0, 1.0, np.array([1.0, 0.0])),
@@ -1013,6 +1019,30 @@ def test_every_fitted_joint_hypothesis_has_its_scope_checked():
     def worse(hyp):
         return 0.99 if hyp[0] == "supply_sag" else J(hyp)
     assert scope_variants(FakeObjective(worse), [play, sag], [0, 1]) == []
+
+
+def test_the_best_joint_type_hypothesis_is_tried_at_the_other_joint_types():
+    """Decision 061: zoo62's hip pitch encoders, read 4 % long, were named read 2.5 % short at
+    the knees; a joint type's scope check now tries the other joint types, each on the side of
+    neutral that fits it better, for the best-fitting joint hypothesis only."""
+    from littledog_mlsim.diagnose.physical import Candidate, scope_variants
+
+    def J(hyp):
+        fam, scope, par = hyp
+        if fam != "encoder_scale":
+            return 0.9 if scope == "type:hip_rolls" else 1.5
+        return {"type:hip_pitches": 0.62 + 50 * (par["scale"] - 1.04) ** 2,
+                "type:knees": 0.70 + 50 * (par["scale"] - 0.975) ** 2}.get(scope, 1.0)
+    knees = Candidate("encoder_scale", "type:knees", 0.0, 0.975, fitted=0.975, J=0.70)
+    drift = Candidate("time_drift", "type:hip_rolls", 0.0, -0.02, fitted=-0.02, J=0.9)
+    obj = FakeObjective(J)
+    out = scope_variants(obj, [drift, knees], [0, 1])
+    assert [(c.family, c.scope) for c in out] == [("encoder_scale", "type:hip_pitches")]
+    assert out[0].fitted == pytest.approx(1.04, abs=0.005) and out[0].J < knees.J
+    tried = {(h[0], h[1]) for hyps, _, _ in obj.calls for h in hyps}
+    assert ("encoder_scale", "type:hip_rolls") in tried
+    # the other joint hypothesis (not the best) is not tried at the other joint types
+    assert not {("time_drift", "type:hip_pitches"), ("time_drift", "type:knees")} & tried
 
 
 def test_a_minimum_at_the_edge_of_the_refit_is_followed():

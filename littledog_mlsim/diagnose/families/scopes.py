@@ -83,12 +83,15 @@ def scope_words(scope: str) -> str:
     return f"{leg.replace('_', '-')} {_JOINT_WORDS[what[len(leg) + 1:]]}"
 
 
-def related_scopes(scope: str) -> list[str]:
+def related_scopes(scope: str, other_types: bool = True) -> list[str]:
     """The scopes a joint finding is compared with before it is named: for a single joint, the
     other joints of its leg (an offset or a fault on one joint of a leg moves the foot much as
     one on its neighbour does, and the linear screen can prefer the wrong one:
-    docs/decisions/013-scope-check-and-signed-start.md) and the groups that hold it; the
-    coarser groups of a group; the finer groups of ``all``."""
+    docs/decisions/013-scope-check-and-signed-start.md) and the groups that hold it; for a
+    joint type, the other joint types (the same in every leg at once: an encoder read long at
+    the hip pitches was named short at the knees, decision 061; left out if not
+    ``other_types``) and ``all``; the coarser groups of a leg or a side; the finer groups of
+    ``all``."""
     if scope == "all":
         return ["side:left", "side:right"] + [f"type:{t}" for t in TYPE_SCOPES]
     kind, _, what = scope.partition(":")
@@ -103,4 +106,6 @@ def related_scopes(scope: str) -> list[str]:
         return [f"side:{'left' if what.endswith('left') else 'right'}", "all"]
     if kind == "side":
         return [f"leg:{g}" for g in LEGS if g.endswith(what)] + ["all"]
+    if kind == "type" and other_types:
+        return [f"type:{t}" for t in TYPE_SCOPES if t != what] + ["all"]
     return ["all"]

@@ -454,7 +454,7 @@ def scope_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
     out = []
     for k, c in enumerate(joint):
         variants = []
-        for scope in related_scopes(c.scope):
+        for scope in related_scopes(c.scope, other_types=k == 0):
             if (c.family, scope) in have:
                 continue
             v, side = start_side(obj, Candidate(c.family, scope, 0.0, float(c.fitted)), F)
