@@ -736,8 +736,15 @@ def _physical_figures(out: Path, doc: dict) -> dict[str, list[str]]:
         axes[0].set_title("physics re-simulation, TestPool", fontsize=9)
         prof = ev.get("magnitude_profile") or []
         ax = axes[2]
-        if prof:
-            ax.plot([p["magnitude"] for p in prof], [p["J_relative"] for p in prof], "o-")
+        mag = [p for p in prof if "along" not in p]
+        ridge = [p for p in prof if p.get("along") == "ridge"]
+        if mag:
+            ax.plot([p["magnitude"] for p in mag], [p["J_relative"] for p in mag], "o-",
+                    label="at the fitted position")
+        if ridge:   # decision 060: a payload's mass along its ridge of constant moment
+            ax.plot([p["magnitude"] for p in ridge], [p["J_relative"] for p in ridge], "s--",
+                    label="along the ridge of constant moment")
+            ax.legend(fontsize=7)
         ax.set_xlabel(f"{e['physical']['family']} magnitude")
         ax.set_ylabel("weighted output SSE / without")
         ax.set_title("magnitude fit (fit moves)", fontsize=9)

@@ -842,7 +842,8 @@ def test_a_payloads_mass_is_searched_along_its_ridge_of_constant_moment():
     obj = FakeObjective(J)
     r = ridge_mass(obj, c, [0, 1, 2])
     m, (x, y, z) = mass_com_of(r.params())
-    assert m == pytest.approx(0.2, rel=0.05) and r.magnitude == r.fitted
+    assert m == pytest.approx(0.2, rel=0.05) and r.magnitude == c.magnitude
+    assert all(p["along"] == "ridge" for p in r.profile)
     assert m * x == pytest.approx(-0.004, rel=5e-3) and m * y == pytest.approx(-0.008, rel=5e-3)
     assert z == 0.01 and r.J == pytest.approx(J(r.hyp()))          # the height is kept
     assert r.J < c.J and len(r.profile) == obj.n_evaluated() <= 2 + 4 + 1
@@ -865,9 +866,19 @@ def test_a_payloads_mass_is_searched_along_its_ridge_of_constant_moment():
         return m
     c = Candidate("mass_com", "body", 1.0, 0.2, fitted=0.2, J=0.2,
                   extra={"com_offset_m": (-0.1, 0.0, 0.0)})
-    r = ridge_mass(FakeObjective(lighter), c, [0])
-    assert seen and all(within_reach(p) for p in seen) and r.fitted < 0.2
-    assert within_reach(r.extra["com_offset_m"])
+    obj = FakeObjective(lighter)
+    r = ridge_mass(obj, c, [0])
+    # x0.7 (0.14 kg at -14.3 cm) fits better, x1.4 does not; the next x0.7 would put it at
+    # -20.4 cm, beyond the body's reach, so it is not simulated and the walk stops
+    assert r.fitted == pytest.approx(0.14) and obj.n_evaluated() == 2
+    assert seen and all(within_reach(p) for p in seen)
+    assert r.extra["com_offset_m"] == (-0.1429, 0.0, 0.0)
+    # a mass beyond the family's range is not tried either
+    obj = FakeObjective(lambda hyp: -mass_com_of(hyp[2])[0])
+    heavy = Candidate("mass_com", "body", 1.0, 2.5, fitted=2.5, J=-2.5,
+                      extra={"com_offset_m": (-0.01, 0.0, 0.0)})
+    # (x1.4 is 3.5 kg, above the range's 3 kg: only x0.7 is tried, and it fits worse)
+    assert ridge_mass(obj, heavy, [0]) is heavy and obj.n_evaluated() == 1
 
 
 def test_a_world_fixed_force_is_turned_toward_the_direction_that_fits():

@@ -18,7 +18,8 @@ from littledog_mlsim.diagnose.physical import resim
 
 #: the search steps a task is charged to (function names in diagnose/physical), innermost first
 STEPS = ("start_side", "located_variants", "scope_variants", "form_variants", "wide_magnitude",
-         "refine_wide", "refine_direction", "refine_position", "fit_magnitude", "fit", "screen",
+         "refine_wide", "ridge_mass", "refine_direction", "refine_position", "fit_magnitude", "fit",
+         "screen",
          "validate", "reference_check", "unexplained", "_changed_alternative", "_rebase",
          "identify")
 

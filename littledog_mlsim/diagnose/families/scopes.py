@@ -90,8 +90,8 @@ def related_scopes(scope: str, other_types: bool = True) -> list[str]:
     docs/decisions/013-scope-check-and-signed-start.md) and the groups that hold it; for a
     joint type, the other joint types (the same in every leg at once: an encoder read long at
     the hip pitches was named short at the knees, decision 061; left out if not
-    ``other_types``) and ``all``; the coarser groups of a leg or a side; the finer groups of
-    ``all``."""
+    ``other_types``) and ``all``; for a leg, its side and ``all``; for a side, its legs and
+    ``all``; for ``all``, the sides and the joint types."""
     if scope == "all":
         return ["side:left", "side:right"] + [f"type:{t}" for t in TYPE_SCOPES]
     kind, _, what = scope.partition(":")

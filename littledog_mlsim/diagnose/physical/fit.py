@@ -21,8 +21,8 @@ from .context import Objective
 from .records import Candidate, Hypothesis
 
 __all__ = ["fit", "fit_magnitude", "refine_wide", "wide_magnitude", "refine_direction",
-           "refine_position", "ridge_mass", "start_side", "scope_variants", "form_variants", "located_variants",
-           "segments_only"]
+           "refine_position", "ridge_mass", "start_side", "scope_variants", "form_variants",
+           "located_variants", "segments_only"]
 
 
 def segments_only(family: str) -> bool:
@@ -358,8 +358,10 @@ def ridge_mass(obj: Objective, c: Candidate, F: Sequence[int]) -> Candidate:
     """A payload's mass searched along its ridge of constant horizontal first moment on every
     fit move ``F`` (decision 060): the mass times each of :data:`RIDGE_FACTORS` with its
     horizontal offset divided by it (the height kept), a minimum at the edge followed outwards
-    (x1.4 or x0.7, at most :data:`RIDGE_STEPS` times, within the family's range and the body's
-    reach), then the vertex of the parabola in log mass through the best and its neighbours.
+    (x1.4 or x0.7, at most :data:`RIDGE_STEPS` times; a step beyond the family's range or the
+    body's reach is not taken, so the walk can stop up to 30 % short of either), then the vertex
+    of the parabola in log mass through the best and its neighbours. Where the mass moves, the
+    points tried join the candidate's profile, tagged ``"along": "ridge"``.
     The data fix the moment the weight makes about the body's centre well and the mass less
     well; the position search on the screening moves and the magnitude refit at a fixed
     position (:func:`refine_wide`) both leave the mass where it started along that ridge, which
@@ -411,8 +413,9 @@ def ridge_mass(obj: Objective, c: Candidate, F: Sequence[int]) -> Candidate:
         return c
     J0 = c.J0 if c.J0 is not None else obj.baseline(F, w)
     ridge = [{"magnitude": m0 * f, "J_relative": evals[f] / J0, "moves": len(F),
-              "com_offset_m": list(pos(f))} for f in sorted(evals) if f != 1.0]
-    return replace(c, fitted=m0 * best, magnitude=m0 * best, J=evals[best],
+              "com_offset_m": list(pos(f)), "along": "ridge"}
+             for f in sorted(evals) if f != 1.0]
+    return replace(c, fitted=m0 * best, J=evals[best],
                    extra={**c.extra, "com_offset_m": pos(best)},
                    profile=list(c.profile or []) + ridge)
 
@@ -445,7 +448,8 @@ def scope_variants(obj: Objective, top: Sequence[Candidate], F: Sequence[int]
     screen pointed, was never tried on every joint, where it acted). A family signed about
     neutral (an encoder offset, a servo gain) starts each scope's fit on the side that fits it
     better (:func:`start_side`): the neighbouring joint's offset that best imitates the true one
-    can have the other sign."""
+    can have the other sign. For a joint type, the other joint types are tried for the
+    best-fitting joint hypothesis only (decision 061)."""
     joint = sorted((c for c in top if segments_only(c.family) and c.J is not None),
                    key=lambda c: c.J)
     if not joint:

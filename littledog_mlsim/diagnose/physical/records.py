@@ -37,7 +37,7 @@ class Candidate:
     fitted: float | None = None      # after the 1-D re-simulation fit
     J: float | None = None           # weighted SSE on the fit moves after the fit
     J0: float | None = None
-    profile: list[dict[str, float]] = field(default_factory=list)
+    profile: list[dict[str, Any]] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)   # fixed parameters (mass position)
 
     def params(self, mag: float | None = None) -> dict[str, Any]:
