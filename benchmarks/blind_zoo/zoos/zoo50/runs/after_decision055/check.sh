@@ -1,19 +1,6 @@
 #!/bin/bash
-# zoo50 datasets diagnosed one after the other with the arguments of the harness's arm
-# calibrated+reference (run1's twin and reference), from a checkout CLONE of the code to test:
-#   WORK=... CLONE=... OUT=... bash benchmarks/blind_zoo/zoos/zoo50/runs/after_decision055/check.sh effects/z08 clean/s411_e0.05
-# WORK: zoo50 run1's work directory (the harness's --record-only command, zoo50's README).
-set -u
-REPO=$(cd "$(dirname "$0")/../../../../../.." && pwd)
-export OPENBLAS_NUM_THREADS=1
-mkdir -p "$OUT"
-for d in "$@"; do
-  n=$(echo "$d" | tr / _)
-  { date -u; uptime; } > "$OUT/$n.start"
-  ( cd "$CLONE" && /usr/bin/time -f "%e s wall, %U user, %S sys" env PYTHONPATH="$CLONE" \
-      "$REPO/.venv/bin/python" -P -m littledog_mlsim.cli diagnose --data "$WORK/$d" \
-      --out "$OUT/out_$n" --no-figures --jobs 2 \
-      --twin "$REPO/benchmarks/blind_zoo/zoos/zoo50/runs/run1/calibrated_twin.json" \
-      --reference "$WORK/reference" > "$OUT/$n.log" 2>&1 )
-  { date -u; uptime; } > "$OUT/$n.end"
-done
+# zoo50 datasets diagnosed again with run1's calibrated twin and reference, from a checkout CLONE
+# of the code to test (WORK: zoo50 run1's work directory; see harness/diagnose_again.sh):
+#   WORK=... CLONE=... OUT=... bash benchmarks/blind_zoo/zoos/zoo50/runs/after_decision055/check.sh effects/z08 ...
+HERE=$(cd "$(dirname "$0")" && pwd)
+TWIN="$HERE/../run1/calibrated_twin.json" exec bash "$HERE/../../../../harness/diagnose_again.sh" "$@"
