@@ -414,6 +414,32 @@ def test_the_excess_left_is_located_and_named_other_where_it_lives():
     assert sus["recording"].startswith("record more moves") and "--excitation" in sus["recording"]
 
 
+def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
+    """Decision 062: one knee's angles twice the reference's on every held-out move, and one
+    move's error four times over every channel (material pooled), leave the pooled rank test
+    not significant and the per-channel one significant: the excess is named ``other`` at that
+    knee, and its words give the per-channel p. Not material, it is only suspected."""
+    import numpy as np
+    from littledog_mlsim.diagnose.physical.channels import channels_of
+    from littledog_mlsim.diagnose.physical.driver import exceeds, left_suspicion, name_left, unexplained
+    V, R = list(range(12)), list(range(12, 24))
+    rng = np.random.default_rng(4)
+    S = np.exp(rng.normal(0.0, 0.2, (24, 1)) + rng.normal(0.0, 0.2, (24, 36)))
+    S[np.ix_(V, channels_of("joint:back_left_knee"))] *= 2.0
+    S[V[0], :] *= 4.0
+    left = name_left(unexplained(_Sse(S), V, R, 0.01))
+    assert not left["significant"] and left["channel_significant"] and left["material"], left
+    assert exceeds(left) and left["named"] and left["scope"] == "joint:back_left_knee", left
+    assert left["vocabulary"]["family"] == "other"
+    assert "per channel p = " in left["statement"] and "pooled p = " in left["statement"]
+    (sus,) = left_suspicion(left, capped=False)
+    assert "named other at joint:back_left_knee" in sus["why"] and "per channel p" in sus["why"]
+    small = {**left, "material": False}
+    assert not exceeds(small) and not name_left(small)["named"]
+    (sus,) = left_suspicion(small, capped=False)
+    assert "exceeds the reference's" in sus["why"]
+
+
 def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_concentrated():
     """Decision 052: against a reference recorded under another command excitation, an excess
     on the body or spread over the joints is not named (the twin's own error under the data's

@@ -204,11 +204,12 @@ def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Sp
                             ) -> tuple[list[Finding], dict[str, Any]]:
     """(the findings, what is left): :func:`unexplained` with every finding in the twin; where
     that is significant and material, the same without the findings (the twin errors kept)
-    reads them (:func:`remainder`, decision 045) and each finding carries it."""
+    reads them (:func:`remainder`, decision 045) and each finding carries it. Significant:
+    pooled or in a few channels (:func:`exceeds`, decision 062)."""
     if findings and findings[-1].hyp not in ctx.base:
         ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
     left = unexplained(ctx, sp.V, sp.R, o.alpha)
-    if findings and left["significant"] and left["material"] and _compared(left, _conditions(o)):
+    if findings and exceeds(left) and _compared(left, _conditions(o)):
         found = [f.hyp for f in findings]
         without = _rebase(ctx, tuple(h for h in ctx.base if h not in found))
         rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
@@ -361,13 +362,15 @@ def _changed_alternative(before: SearchContext, after: SearchContext, held: Held
 
 
 def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
-    """The ``suspected`` entry (kind ``unexplained``) for what :func:`unexplained` leaves: a
-    pooled excess over the reference that is significant and material, or one in a few
-    channels (``channel_significant``); none if the data do not exceed the reference.
-    ``capped``: the search stopped at the most corrections the reference may cancel."""
+    """The ``suspected`` entry (kind ``unexplained``) for what :func:`unexplained` leaves: an
+    excess over the reference that is material and significant, pooled or in a few channels
+    (:func:`exceeds`); one that is material and not significant either way (the data cannot
+    tell it from chance); one that is significant in a few channels but not material; none if
+    the data do not exceed the reference. ``capped``: the search stopped at the most
+    corrections the reference may cancel."""
     from ..excess import RECORDINGS
-    pooled = left["significant"] and left["material"]
-    untold = left["material"] and not left["significant"]
+    pooled = exceeds(left)
+    untold = left["material"] and not _significant(left)
     if not (pooled or untold or left.get("channel_significant")):
         return []
     where = ", ".join(c["channel"] for c in left["channels"][:4])
@@ -375,16 +378,17 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     apart = cond.get("comparable") is False and not left.get("concentrated")
     if pooled and apart:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
-               f"reference's (p = {left['p_value']:.2g}), most on {where}, but "
+               f"reference's ({_p_words(left)}), most on {where}, but "
                f"{cond['statement']}: the twin's own error under the data's excitation is not "
                "in the reference, so the excess is not named")
     elif pooled:
         why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
                f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
-               f"(p = {left['p_value']:.2g}), most on {where}")
+               f"({_p_words(left)}), most on {where}")
     elif untold:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's, "
-               f"material, but the data cannot tell it from chance (p = {left['p_value']:.2g}), "
+               f"material, but the data cannot tell it from chance (p = {left['p_value']:.2g}, "
+               f"per channel p = {left['channel_p_value']:.2g}), "
                f"most on {where}")
     else:
         why = (f"the data's re-simulation error exceeds the reference's on {where} (per channel "
@@ -408,6 +412,28 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
 #: the data's re-simulation error against the reference's above which the difference is
 #: material (the blind benchmark's "within 1.25x of clean")
 UNEXPLAINED_RATIO = 1.25
+
+
+def _significant(left: dict[str, Any]) -> bool:
+    """Whether :func:`unexplained`'s excess is significant, pooled over the channels or in a
+    few of them (the smallest channel's p times the number of channels)."""
+    return bool(left["significant"] or left.get("channel_significant"))
+
+
+def exceeds(left: dict[str, Any]) -> bool:
+    """Whether the data's held-out error exceeds the reference's (:func:`unexplained`)
+    significantly, pooled or in a few channels, and materially (decision 062: an excess that
+    lives on one joint's angle or the body's path is significant in those channels while the
+    pooled rank test over all 36, each move's mean ratio, is not)."""
+    return bool(_significant(left) and left["material"])
+
+
+def _p_words(left: dict[str, Any]) -> str:
+    """The test that makes ``left`` significant, in words: the pooled p, or the per-channel p
+    with the pooled one beside it."""
+    if left["significant"] or not left.get("channel_significant"):
+        return f"p = {left['p_value']:.2g}"
+    return f"per channel p = {left['channel_p_value']:.2g}; pooled p = {left['p_value']:.2g}"
 
 #: the share of the excess over the reference (pooled ratio minus 1) that findings must remove
 #: to be read as part of the change rather than a stand-in for it (decision 045)
@@ -493,8 +519,8 @@ def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
 
 def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     """``left`` (:func:`unexplained`) with its reading (decision 047): where the data's error
-    significantly and materially exceeds the reference's with every finding in the twin, the
-    excess is named in the vocabulary as ``other`` at the scope where it lives (``named``,
+    significantly (pooled or in a few channels, decision 062: :func:`exceeds`) and materially
+    exceeds the reference's with every finding in the twin, the excess is named in the vocabulary as ``other`` at the scope where it lives (``named``,
     ``vocabulary``, ``statement``): something changed that the library does not hold, or not
     all of it. Otherwise ``named`` is false.
 
@@ -505,7 +531,7 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     excitation over every joint does not give (decision 052, the physical route's reading of
     decisions 031 and 033); ``conditions`` is then kept in ``left``, with ``comparable``
     false, and ``concentrated`` says which reading was taken."""
-    named = bool(left["significant"] and left["material"])
+    named = exceeds(left)
     out = {**left, "named": named, "statement": _left_statement(left)}
     out.pop("vocabulary", None)
     if conditions is not None and not conditions.comparable:
@@ -530,7 +556,7 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
 def _left_statement(left: dict[str, Any]) -> str:
     from ..excess import where_words
     return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times the "
-            f"reference's (p = {left['p_value']:.2g}) with every finding in the twin, most on "
+            f"reference's ({_p_words(left)}) with every finding in the twin, most on "
             f"{where_words(left)}")
 
 
