@@ -418,10 +418,14 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     """Decision 062: one knee's angles twice the reference's on every held-out move, and one
     move's error four times over every channel (material pooled), leave the pooled rank test
     not significant and the per-channel one significant: the excess is named ``other`` at that
-    knee, and its words give the per-channel p. Not material, it is only suspected."""
+    knee, and its words give the per-channel p. Not material pooled, or material only through
+    channels that are not significant, it is only suspected; a finding's remainder quotes the
+    test that makes it significant."""
     import numpy as np
     from littledog_mlsim.diagnose.physical.channels import channels_of
-    from littledog_mlsim.diagnose.physical.driver import exceeds, left_suspicion, name_left, unexplained
+    from littledog_mlsim.diagnose.physical.driver import (_p_words, exceeds, left_suspicion,
+                                                          name_left, remainder, unexplained)
+    from littledog_mlsim.diagnose.report import remainder_words
     V, R = list(range(12)), list(range(12, 24))
     rng = np.random.default_rng(4)
     S = np.exp(rng.normal(0.0, 0.2, (24, 1)) + rng.normal(0.0, 0.2, (24, 36)))
@@ -429,15 +433,31 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     S[V[0], :] *= 4.0
     left = name_left(unexplained(_Sse(S), V, R, 0.01))
     assert not left["significant"] and left["channel_significant"] and left["material"], left
+    sig = {c["channel"] for c in left["significant_channels"]}
+    assert sig and sig <= {"short:q_back_left_knee", "long:q_back_left_knee"}, sig
+    assert all(c["ratio"] >= 1.25 and c["p_value"] < 0.01 for c in left["significant_channels"])
     assert exceeds(left) and left["named"] and left["scope"] == "joint:back_left_knee", left
     assert left["vocabulary"]["family"] == "other"
     assert "per channel p = " in left["statement"] and "pooled p = " in left["statement"]
     (sus,) = left_suspicion(left, capped=False)
     assert "named other at joint:back_left_knee" in sus["why"] and "per channel p" in sus["why"]
+    # material pooled, but the significant channels' own excess is not
+    weak = {**left, "significant_channels": [{**c, "ratio": 1.1}
+                                             for c in left["significant_channels"]]}
+    assert not exceeds(weak) and not name_left(weak)["named"]
     small = {**left, "material": False}
     assert not exceeds(small) and not name_left(small)["named"]
     (sus,) = left_suspicion(small, capped=False)
     assert "exceeds the reference's" in sus["why"]
+    untold = {**left, "channel_significant": False, "significant_channels": []}
+    (sus,) = left_suspicion(untold, capped=False)
+    assert "cannot tell it from chance" in sus["why"] and "per channel p = " in sus["why"]
+    both = {**left, "significant": True}
+    assert _p_words(both) == f"p = {left['p_value']:.2g}"
+    # a finding's remainder, significant per channel only, quotes that test
+    rem = remainder({**left, "pooled_ratio": 2.0}, left)
+    assert rem["channel_significant"] and not rem["significant"]
+    assert "per channel p = " in remainder_words(rem)
 
 
 def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_concentrated():

@@ -215,7 +215,7 @@ def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Sp
         rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
         findings = [replace(f, remainder=rem) for f in findings]
         say(f"physics: the findings leave the data's error {rem['ratio_after']:.2f}x the "
-            f"reference's (p = {rem['p_value']:.2g}; {rem['ratio_before']:.2f}x without "
+            f"reference's ({_p_words(rem)}; {rem['ratio_before']:.2f}x without "
             f"them): {rem['reading']}")
     return findings, left
 
@@ -364,24 +364,25 @@ def _changed_alternative(before: SearchContext, after: SearchContext, held: Held
 def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     """The ``suspected`` entry (kind ``unexplained``) for what :func:`unexplained` leaves: an
     excess over the reference that is material and significant, pooled or in a few channels
-    (:func:`exceeds`); one that is material and not significant either way (the data cannot
-    tell it from chance); one that is significant in a few channels but not material; none if
-    the data do not exceed the reference. ``capped``: the search stopped at the most
+    (:func:`exceeds`); one that is material and not significant by either test (the data
+    cannot tell it from chance); one that is significant in a few channels but not material
+    there; none otherwise (neither significant nor material, or significant pooled only and
+    not material). ``capped``: the search stopped at the most
     corrections the reference may cancel."""
     from ..excess import RECORDINGS
-    pooled = exceeds(left)
+    exceeding = exceeds(left)
     untold = left["material"] and not _significant(left)
-    if not (pooled or untold or left.get("channel_significant")):
+    if not (exceeding or untold or left.get("channel_significant")):
         return []
     where = ", ".join(c["channel"] for c in left["channels"][:4])
     cond = left.get("conditions") or {}
     apart = cond.get("comparable") is False and not left.get("concentrated")
-    if pooled and apart:
+    if exceeding and apart:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
                f"reference's ({_p_words(left)}), most on {where}, but "
                f"{cond['statement']}: the twin's own error under the data's excitation is not "
                "in the reference, so the excess is not named")
-    elif pooled:
+    elif exceeding:
         why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
                f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
                f"({_p_words(left)}), most on {where}")
@@ -393,7 +394,7 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     else:
         why = (f"the data's re-simulation error exceeds the reference's on {where} (per channel "
                f"p = {left['channel_p_value']:.2g}; {left['pooled_ratio']:.2f}x pooled)")
-    if apart and not pooled:
+    if apart and not exceeding:
         why += f"; {cond['statement']}"
     if capped:
         why += "; the search stopped at the most twin errors the reference may cancel"
@@ -422,18 +423,27 @@ def _significant(left: dict[str, Any]) -> bool:
 
 def exceeds(left: dict[str, Any]) -> bool:
     """Whether the data's held-out error exceeds the reference's (:func:`unexplained`)
-    significantly, pooled or in a few channels, and materially (decision 062: an excess that
-    lives on one joint's angle or the body's path is significant in those channels while the
-    pooled rank test over all 36, each move's mean ratio, is not)."""
-    return bool(_significant(left) and left["material"])
+    significantly and materially (decision 062): the pooled test significant and the pooled
+    ratio at least :data:`UNEXPLAINED_RATIO`, or, where only the per-channel test is, the
+    pooled ratio and a significant channel's ratio both at least that (material where it is
+    significant, not only through other moves or channels). An excess that lives on one
+    joint's angles or the body's path is significant in those channels while the pooled rank
+    test over all 36, each move's mean ratio, is not."""
+    if not left["material"]:
+        return False
+    if left["significant"]:
+        return True
+    return bool(left.get("channel_significant") and any(
+        c["ratio"] >= UNEXPLAINED_RATIO for c in left.get("significant_channels", ())))
 
 
 def _p_words(left: dict[str, Any]) -> str:
-    """The test that makes ``left`` significant, in words: the pooled p, or the per-channel p
-    with the pooled one beside it."""
-    if left["significant"] or not left.get("channel_significant"):
+    """The test that makes ``left`` (or a :func:`remainder`) significant, in words: the pooled
+    p, or the per-channel p with the pooled one beside it."""
+    if left.get("significant", True) or not left.get("channel_significant"):
         return f"p = {left['p_value']:.2g}"
     return f"per channel p = {left['channel_p_value']:.2g}; pooled p = {left['p_value']:.2g}"
+
 
 #: the share of the excess over the reference (pooled ratio minus 1) that findings must remove
 #: to be read as part of the change rather than a stand-in for it (decision 045)
@@ -447,10 +457,14 @@ def remainder(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
     reference they removed, and the reading (decision 045): ``"partial"`` where they removed
     at least :data:`STAND_IN_SHARE` of it (the change is theirs in part: a size, or a second
     effect), ``"stand-in"`` where they removed less (the best of the library for a change it
-    does not hold). ``channels``: where the rest lives."""
+    does not hold). ``channels``: where the rest lives; ``p_value``, ``significant``,
+    ``channel_p_value``, ``channel_significant``: ``after``'s tests."""
     r0, r1 = float(before["pooled_ratio"]), float(after["pooled_ratio"])
     share = (r0 - r1) / (r0 - 1.0) if r0 > 1.0 else None
     return {"ratio_before": r0, "ratio_after": r1, "p_value": float(after["p_value"]),
+            "significant": bool(after["significant"]),
+            "channel_p_value": float(after.get("channel_p_value", 1.0)),
+            "channel_significant": bool(after.get("channel_significant", False)),
             "share_of_excess_removed": share,
             "reading": "partial" if share is not None and share >= STAND_IN_SHARE else "stand-in",
             "channels": [c["channel"] for c in after["channels"][:4]]}
@@ -464,7 +478,9 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
     (one-sided Mann-Whitney U at ``alpha``), material if the pooled ratio is at least
     :data:`UNEXPLAINED_RATIO`. ``channel_p_value``: the same test per channel, the smallest p
     times the number of channels (``channel_significant`` below ``alpha``), for a difference
-    that lives in a few channels. ``channels``: the channels with the largest ratios."""
+    that lives in a few channels; ``significant_channels``: each channel significant so
+    (``{channel, ratio, p_value}``, its p times the number of channels), most significant first.
+    ``channels``: the channels with the largest ratios."""
     from scipy.stats import mannwhitneyu
     from .channels import CHANNELS
     SV, SR = ctx.sse(None, V), ctx.sse(None, R)
@@ -477,13 +493,20 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
     ratio[ok] = np.nanmean(SV[:, ok], axis=0) / ref[ok]
     order = [int(j) for j in np.argsort(-np.nan_to_num(ratio, nan=-np.inf))[:8]]
     pooled = float(np.mean(per_v))
-    p_ch = [float(mannwhitneyu(SV[:, j], SR[:, j], alternative="greater",
-                               nan_policy="omit").pvalue) for j in np.flatnonzero(ok)]
-    p_ch = [x for x in p_ch if np.isfinite(x)]
-    p_channel = min(1.0, min(p_ch, default=1.0) * max(len(p_ch), 1))
+    tested = [(int(j), float(mannwhitneyu(SV[:, j], SR[:, j], alternative="greater",
+                                          nan_policy="omit").pvalue))
+              for j in np.flatnonzero(ok)]
+    tested = [(j, x) for j, x in tested if np.isfinite(x)]
+    n_tested = max(len(tested), 1)
+    p_channel = min(1.0, min((x for _, x in tested), default=1.0) * n_tested)
+    sig_channels = sorted(({"channel": CHANNELS[j], "ratio": float(ratio[j]),
+                            "p_value": min(1.0, x * n_tested)}
+                           for j, x in tested if x * n_tested < alpha),
+                          key=lambda c: c["p_value"])
     scope, scope_ratios, conc = _locate(ratio)
     return {"pooled_ratio": pooled, "p_value": p, "significant": bool(p < alpha),
             "channel_p_value": p_channel, "channel_significant": bool(p_channel < alpha),
+            "significant_channels": sig_channels,
             "material": bool(pooled >= UNEXPLAINED_RATIO),
             "channels": [{"channel": CHANNELS[j], "ratio": float(ratio[j])} for j in order],
             "n_data_moves": len(V), "n_reference_moves": len(R),
@@ -519,10 +542,11 @@ def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
 
 def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     """``left`` (:func:`unexplained`) with its reading (decision 047): where the data's error
-    significantly (pooled or in a few channels, decision 062: :func:`exceeds`) and materially
-    exceeds the reference's with every finding in the twin, the excess is named in the vocabulary as ``other`` at the scope where it lives (``named``,
-    ``vocabulary``, ``statement``): something changed that the library does not hold, or not
-    all of it. Otherwise ``named`` is false.
+    significantly and materially exceeds the reference's (:func:`exceeds`, decision 062:
+    pooled or in a few channels) with every finding in the twin, the excess is named in the
+    vocabulary as ``other`` at the scope where it lives (``named``, ``vocabulary``,
+    ``statement``): something changed that the library does not hold, or not all of it.
+    Otherwise ``named`` is false.
 
     ``conditions`` (:class:`..conditions.Conditions`, None: the same recording): where the
     reference was recorded under another command excitation than the data, the twin's own
