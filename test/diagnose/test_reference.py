@@ -423,7 +423,7 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     test that makes it significant."""
     import numpy as np
     from littledog_mlsim.diagnose.physical.channels import channels_of
-    from littledog_mlsim.diagnose.physical.driver import (_p_words, exceeds, left_suspicion,
+    from littledog_mlsim.diagnose.physical.driver import (exceeds, left_suspicion, p_words,
                                                           name_left, remainder, unexplained)
     from littledog_mlsim.diagnose.report import remainder_words
     V, R = list(range(12)), list(range(12, 24))
@@ -453,7 +453,7 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     (sus,) = left_suspicion(untold, capped=False)
     assert "cannot tell it from chance" in sus["why"] and "per channel p = " in sus["why"]
     both = {**left, "significant": True}
-    assert _p_words(both) == f"p = {left['p_value']:.2g}"
+    assert p_words(both) == f"p = {left['p_value']:.2g}"
     # a finding's remainder, significant per channel only, quotes that test
     rem = remainder({**left, "pooled_ratio": 2.0}, left)
     assert rem["channel_significant"] and not rem["significant"]

@@ -27,7 +27,7 @@ from .resim import DaskRunner, Memo, Move, Runner
 from .screen import screen, shortlist
 from .validate import push_twin, validate
 
-__all__ = ["PhysicalOptions", "identify", "pick_moves", "remainder"]
+__all__ = ["PhysicalOptions", "exceeds", "identify", "p_words", "pick_moves", "remainder"]
 
 
 @dataclass(frozen=True)
@@ -215,7 +215,7 @@ def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Sp
         rem = remainder(unexplained(without, sp.V, sp.R, o.alpha), left)
         findings = [replace(f, remainder=rem) for f in findings]
         say(f"physics: the findings leave the data's error {rem['ratio_after']:.2f}x the "
-            f"reference's ({_p_words(rem)}; {rem['ratio_before']:.2f}x without "
+            f"reference's ({p_words(rem)}; {rem['ratio_before']:.2f}x without "
             f"them): {rem['reading']}")
     return findings, left
 
@@ -367,8 +367,8 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     (:func:`exceeds`); one that is material and not significant by either test (the data
     cannot tell it from chance); one that is significant in a few channels but not material
     there; none otherwise (neither significant nor material, or significant pooled only and
-    not material). ``capped``: the search stopped at the most
-    corrections the reference may cancel."""
+    not material). ``capped``: the search stopped at the most corrections the reference may
+    cancel."""
     from ..excess import RECORDINGS
     exceeding = exceeds(left)
     untold = left["material"] and not _significant(left)
@@ -379,13 +379,13 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     apart = cond.get("comparable") is False and not left.get("concentrated")
     if exceeding and apart:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
-               f"reference's ({_p_words(left)}), most on {where}, but "
+               f"reference's ({p_words(left)}), most on {where}, but "
                f"{cond['statement']}: the twin's own error under the data's excitation is not "
                "in the reference, so the excess is not named")
     elif exceeding:
         why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
                f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
-               f"({_p_words(left)}), most on {where}")
+               f"({p_words(left)}), most on {where}")
     elif untold:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's, "
                f"material, but the data cannot tell it from chance (p = {left['p_value']:.2g}, "
@@ -437,7 +437,7 @@ def exceeds(left: dict[str, Any]) -> bool:
         c["ratio"] >= UNEXPLAINED_RATIO for c in left.get("significant_channels", ())))
 
 
-def _p_words(left: dict[str, Any]) -> str:
+def p_words(left: dict[str, Any]) -> str:
     """The test that makes ``left`` (or a :func:`remainder`) significant, in words: the pooled
     p, or the per-channel p with the pooled one beside it."""
     if left.get("significant", True) or not left.get("channel_significant"):
@@ -580,7 +580,7 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
 def _left_statement(left: dict[str, Any]) -> str:
     from ..excess import where_words
     return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times the "
-            f"reference's ({_p_words(left)}) with every finding in the twin, most on "
+            f"reference's ({p_words(left)}) with every finding in the twin, most on "
             f"{where_words(left)}")
 
 
