@@ -418,9 +418,11 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     """Decision 062: one knee's angles twice the reference's on every held-out move, and one
     move's error four times over every channel (material pooled), leave the pooled rank test
     not significant and the per-channel one significant: the excess is named ``other`` at that
-    knee, and its words give the per-channel p. Not material pooled, or material only through
-    channels that are not significant, it is only suspected; a finding's remainder quotes the
-    test that makes it significant."""
+    knee, and its words give the per-channel p. Decision 063: the pooled ratio near 1 (the
+    other channels below the reference's) does not keep it from being named where its
+    significant channels are material; material only through channels that are not
+    significant, it is only suspected. A finding's remainder quotes the test that makes it
+    significant."""
     import numpy as np
     from littledog_mlsim.diagnose.physical.channels import channels_of
     from littledog_mlsim.diagnose.physical.driver import (exceeds, left_suspicion, p_words,
@@ -439,16 +441,22 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     assert exceeds(left) and left["named"] and left["scope"] == "joint:back_left_knee", left
     assert left["vocabulary"]["family"] == "other"
     assert "per channel p = " in left["statement"] and "pooled p = " in left["statement"]
+    assert "q_back_left_knee" in left["statement"] and "back-left knee" in left["statement"]
     (sus,) = left_suspicion(left, capped=False)
     assert "named other at joint:back_left_knee" in sus["why"] and "per channel p" in sus["why"]
     # material pooled, but the significant channels' own excess is not
     weak = {**left, "significant_channels": [{**c, "ratio": 1.1}
                                              for c in left["significant_channels"]]}
     assert not exceeds(weak) and not name_left(weak)["named"]
-    small = {**left, "material": False}
-    assert not exceeds(small) and not name_left(small)["named"]
-    (sus,) = left_suspicion(small, capped=False)
-    assert "exceeds the reference's" in sus["why"]
+    # decision 063: the other channels below the reference's, the pooled ratio near 1
+    quiet = S.copy()
+    quiet[np.ix_(V, [j for j in range(36) if j not in channels_of("joint:back_left_knee")])] *= 0.6
+    quiet[V[0], :] /= 4.0
+    low = name_left(unexplained(_Sse(quiet), V, R, 0.01))
+    assert not low["material"] and low["pooled_ratio"] < 1.1 and low["channel_significant"], low
+    assert exceeds(low) and low["named"] and low["scope"] == "joint:back_left_knee", low
+    (sus,) = left_suspicion({**weak, "material": False}, capped=False)
+    assert "exceeds the reference's" in sus["why"] and not exceeds({**weak, "material": False})
     untold = {**left, "channel_significant": False, "significant_channels": []}
     (sus,) = left_suspicion(untold, capped=False)
     assert "cannot tell it from chance" in sus["why"] and "per channel p = " in sus["why"]

@@ -10,7 +10,7 @@ decision 052's reading included where it was in that code); whether it would be 
 062 (:func:`named_062`); the clean runs that would then raise a false alarm; the effects
 outside the vocabulary that would then be found at their scope.
 
-    .venv/bin/python benchmarks/blind_zoo/left_by_channel/tally.py --skip zoo63 > OUT
+    .venv/bin/python benchmarks/blind_zoo/left_by_channel/tally.py --skip none > OUT
 """
 from __future__ import annotations
 
@@ -30,14 +30,17 @@ from run import score, significant  # noqa: E402
 RATIO = 1.25
 
 
-def named_062(left: dict[str, Any]) -> tuple[bool, bool]:
-    """(named under decision 062, whether that is exact). Reports written before it do not
-    keep which channels were significant: there the largest channel ratio stands in for the
-    significant channels' (an upper bound, so the count can only be too high)."""
+def named_062(left: dict[str, Any], pooled_material: bool = True) -> tuple[bool, bool]:
+    """(named under decision 062, whether that is exact); with ``pooled_material`` false,
+    under decision 063 (a significant channel material, the pooled ratio whatever it is).
+    Reports written before decision 062 do not keep which channels were significant: there the
+    largest channel ratio stands in for the significant channels' (an upper bound, so the
+    count can only be too high)."""
     if left.get("named"):
         return True, True
     comparable = left.get("comparable", True) or left.get("concentrated", False)
-    if not (left["material"] and comparable and left["channel_significant"]):
+    if not ((left["material"] or not pooled_material) and comparable
+            and left["channel_significant"]):
         return False, True
     if "significant_channels" in left:
         return any(c["ratio"] >= RATIO for c in left["significant_channels"]), True
@@ -72,20 +75,25 @@ def main() -> None:
     out = []
     for zoo, where, case, truth, r, left in rows(skip):
         named_new, exact = named_062(left)
+        named_063, exact_063 = named_062(left, pooled_material=False)
         row = {"zoo": zoo, "run": where, "case": case, "pooled_ratio": left["pooled_ratio"],
                "p": left["p_value"], "p_channel": left["channel_p_value"],
                "material": left["material"], "scope": left.get("scope"),
-               "named_now": bool(left.get("named")), "named_new": named_new, "exact": exact}
+               "named_now": bool(left.get("named")), "named_new": named_new, "exact": exact,
+               "named_063": named_063, "exact_063": exact_063}
         if case.startswith("clean"):
             row["kind"] = "clean"
             row["alarm_now"] = significant(r)
             row["alarm_new"] = significant(r) or named_new
+            row["alarm_063"] = significant(r) or named_063
         elif truth is not None:
             s = score(truth, r)
             row["kind"] = "other" if truth["family"] == "other" else "vocabulary"
             row["truth"] = f"{truth['family']} @ {truth['scope']}"
             row["found_now"] = s["found"]
             row["found_new"] = s["found"] or (named_new and left.get("scope") == truth["scope"]
+                                              and truth["family"] == "other")
+            row["found_063"] = s["found"] or (named_063 and left.get("scope") == truth["scope"]
                                               and truth["family"] == "other")
         else:
             continue
@@ -97,39 +105,44 @@ def main() -> None:
           f"(clean {len(clean)}, outside the vocabulary {len(oth)}, inside {len(voc)}); "
           f"skipped: {', '.join(sorted(skip)) or 'none'}")
     print(f"clean runs: false alarms as written {sum(x['alarm_now'] for x in clean)}, "
-          f"under decision 062 {sum(x['alarm_new'] for x in clean)}")
+          f"under decision 062 {sum(x['alarm_new'] for x in clean)}, "
+          f"under 062 and 063 {sum(x['alarm_063'] for x in clean)}")
     print(f"outside the vocabulary: found as written {sum(x['found_now'] for x in oth)}, "
-          f"under decision 062 {sum(x['found_new'] for x in oth)}")
+          f"under decision 062 {sum(x['found_new'] for x in oth)}, "
+          f"under 062 and 063 {sum(x['found_063'] for x in oth)}")
     print(f"inside the vocabulary: excess named as written {sum(x['named_now'] for x in voc)}, "
-          f"under decision 062 {sum(x['named_new'] for x in voc)}")
-    print(f"reports whose reading under decision 062 is an upper bound (no "
-          f"significant_channels kept, the largest channel ratio standing in): "
-          f"{sum(not x['exact'] for x in out)}")
+          f"under decision 062 {sum(x['named_new'] for x in voc)}, "
+          f"under 062 and 063 {sum(x['named_063'] for x in voc)}")
+    print(f"reports whose reading is an upper bound (no significant_channels kept, the "
+          f"largest channel ratio standing in): under 062 {sum(not x['exact'] for x in out)}, "
+          f"under 062 and 063 {sum(not x['exact_063'] for x in out)}")
     print()
     print("Clean reports with a pooled or per-channel p below 0.05:")
     print()
-    print("| zoo | run | case | ratio | material | p | p per channel | named as written | 062 |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| zoo | run | case | ratio | material | p | p per channel | named as written | 062 | "
+          "062+063 |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for x in clean:
         if x["p"] < 0.05 or x["p_channel"] < 0.05:
             print(f"| {x['zoo']} | {x['run']} | {x['case']} | {x['pooled_ratio']:.2f} | "
                   f"{x['material']} | {x['p']:.2g} | {x['p_channel']:.2g} | {x['named_now']} | "
-                  f"{x['named_new']} |")
+                  f"{x['named_new']} | {x['named_063']} |")
     print()
     print("Every report of an effect outside the vocabulary, and every report whose naming "
           "changes:")
     print()
     print("| zoo | run | case | truth | ratio | p | p per channel | scope | named as written | "
-          "062 | exact | found/alarm as written | 062 |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "062 | 062+063 | exact | found/alarm as written | 062 | 062+063 |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for x in out:
-        if not (x["named_new"] != x["named_now"] or x["kind"] == "other"):
+        if not (x["named_063"] != x["named_now"] or x["kind"] == "other"):
             continue
-        was, new = (("alarm_now", "alarm_new") if x["kind"] == "clean"
-                    else ("found_now", "found_new"))
+        was, new, n63 = (("alarm_now", "alarm_new", "alarm_063") if x["kind"] == "clean"
+                         else ("found_now", "found_new", "found_063"))
         print(f"| {x['zoo']} | {x['run']} | {x['case']} | {x.get('truth', 'clean')} | "
               f"{x['pooled_ratio']:.2f} | {x['p']:.2g} | {x['p_channel']:.2g} | {x['scope']} | "
-              f"{x['named_now']} | {x['named_new']} | {x['exact']} | {x[was]} | {x[new]} |")
+              f"{x['named_now']} | {x['named_new']} | {x['named_063']} | "
+              f"{x['exact'] and x['exact_063']} | {x[was]} | {x[new]} | {x[n63]} |")
 
 
 if __name__ == "__main__":

@@ -363,11 +363,11 @@ def _changed_alternative(before: SearchContext, after: SearchContext, held: Held
 
 def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     """The ``suspected`` entry (kind ``unexplained``) for what :func:`unexplained` leaves: an
-    excess over the reference that is material and significant, pooled or in a few channels
-    (:func:`exceeds`); one that is material and not significant by either test (the data
-    cannot tell it from chance); one that is significant in a few channels but not material
-    there; none otherwise (neither significant nor material, or significant pooled only and
-    not material). ``capped``: the search stopped at the most corrections the reference may
+    excess over the reference that is significant and material, pooled or in a few channels
+    (:func:`exceeds`); one that is material pooled and not significant by either test (the
+    data cannot tell it from chance); one that is significant in a few channels but not
+    material there; none otherwise (neither significant nor material, or significant pooled
+    only and not material). ``capped``: the search stopped at the most corrections the reference may
     cancel."""
     from ..excess import RECORDINGS
     exceeding = exceeds(left)
@@ -423,15 +423,14 @@ def _significant(left: dict[str, Any]) -> bool:
 
 def exceeds(left: dict[str, Any]) -> bool:
     """Whether the data's held-out error exceeds the reference's (:func:`unexplained`)
-    significantly and materially (decision 062): the pooled test significant and the pooled
-    ratio at least :data:`UNEXPLAINED_RATIO`, or, where only the per-channel test is, the
-    pooled ratio and a significant channel's ratio both at least that (material where it is
-    significant, not only through other moves or channels). An excess that lives on one
-    joint's angles or the body's path is significant in those channels while the pooled rank
-    test over all 36, each move's mean ratio, is not."""
-    if not left["material"]:
-        return False
-    if left["significant"]:
+    significantly and materially: the pooled test significant and the pooled ratio at least
+    :data:`UNEXPLAINED_RATIO`, or the per-channel test significant with a significant
+    channel's own ratio at least that (decisions 062 and 063: material where it is
+    significant). An excess that lives on one joint's angles or the body's path is significant
+    in those channels while the pooled rank test over all 36, each move's mean ratio, is not;
+    and where findings have brought the other channels below the reference's, the pooled
+    ratio can stay near 1 with one joint's angle many times the reference's."""
+    if left["significant"] and left["material"]:
         return True
     return bool(left.get("channel_significant") and any(
         c["ratio"] >= UNEXPLAINED_RATIO for c in left.get("significant_channels", ())))
@@ -542,8 +541,8 @@ def _locate(ratio: np.ndarray) -> tuple[str, dict[str, float], float]:
 
 def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     """``left`` (:func:`unexplained`) with its reading (decision 047): where the data's error
-    significantly and materially exceeds the reference's (:func:`exceeds`, decision 062:
-    pooled or in a few channels) with every finding in the twin, the excess is named in the
+    significantly and materially exceeds the reference's (:func:`exceeds`, decisions 062 and
+    063: pooled or in a few channels) with every finding in the twin, the excess is named in the
     vocabulary as ``other`` at the scope where it lives (``named``, ``vocabulary``,
     ``statement``): something changed that the library does not hold, or not all of it.
     Otherwise ``named`` is false.
@@ -579,9 +578,15 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
 
 def _left_statement(left: dict[str, Any]) -> str:
     from ..excess import where_words
-    return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times the "
-            f"reference's ({p_words(left)}) with every finding in the twin, most on "
-            f"{where_words(left)}")
+    lead = (left.get("significant_channels") or [None])[0]
+    if left["significant"] or lead is None:
+        return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times "
+                f"the reference's ({p_words(left)}) with every finding in the twin, most on "
+                f"{where_words(left)}")
+    return (f"the data's held-out re-simulation error on {lead['channel']} is "
+            f"{lead['ratio']:.2f} times the reference's (per channel p = {lead['p_value']:.2g}) "
+            f"with every finding in the twin, {left['pooled_ratio']:.2f} times over every "
+            f"channel (pooled p = {left['p_value']:.2g}); it lives on {where_words(left)}")
 
 
 def replace_observer(o: PhysicalOptions, into: list) -> PhysicalOptions:
