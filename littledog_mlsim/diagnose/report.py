@@ -665,18 +665,20 @@ def _physical_effect(k: int, f: Any, aug: Any, before: dict, after: dict) -> dic
 
 def remainder_words(rem: dict[str, Any]) -> str:
     """The clause a physical finding's statement gets where, with a reference, it leaves a
-    significant and material excess (``physical.driver.remainder``, decision 045; significant
-    pooled or in a few channels, decision 062)."""
+    significant and material excess (``physical.driver.remainder``, decision 045; decisions
+    062 and 063: pooled, or in its lead channel, ``rem["channel"]``)."""
     from .physical.driver import p_words
     share = rem["share_of_excess_removed"]
     took = ("" if share is None else
-            f"; it removed {100 * max(share, 0.0):.0f} % of the excess over the reference")
+            f"; it removed {100 * min(max(share, 0.0), 1.0):.0f} % of the excess over the "
+            "reference")
     where = ", ".join(rem["channels"][:3])
+    on = f" in the channel {rem['channel']}" if rem.get("channel") else ""
     if rem["reading"] == "stand-in":
-        return (f"a stand-in: the data's error stays {rem['ratio_after']:.2f}x the reference's "
-                f"({p_words(rem)}, most on {where}){took}, so the change is mostly "
+        return (f"a stand-in: the data's error{on} stays {rem['ratio_after']:.2f}x the "
+                f"reference's ({p_words(rem)}, most on {where}){took}, so the change is mostly "
                 "something the library does not hold")
-    return (f"only part of the change: the data's error stays {rem['ratio_after']:.2f}x the "
+    return (f"only part of the change: the data's error{on} stays {rem['ratio_after']:.2f}x the "
             f"reference's ({p_words(rem)}, most on {where}){took}; its size, or a "
             "second effect, is not settled")
 

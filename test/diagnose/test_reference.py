@@ -353,8 +353,10 @@ def test_what_is_left_in_a_few_channels_is_reported_as_unexplained():
     assert "stopped at the most twin errors" in s[0]["why"]
     assert left_suspicion({**base, "channel_significant": False}, capped=False) == []
     pooled = left_suspicion({**base, "significant": True, "material": True,
-                             "pooled_ratio": 1.8, "channel_significant": False}, False)
-    assert "1.80x the reference's" in pooled[0]["why"] and "no family" in pooled[0]["why"]
+                             "pooled_ratio": 1.8, "channel_significant": False, "scope": "body",
+                             "concentration": 1.0, "scope_ratios": {"body": 1.8, "all": 1.0}},
+                            False)
+    assert "1.80 times the reference's" in pooled[0]["why"] and "no family" in pooled[0]["why"]
 
 
 def test_the_excess_left_is_located_and_named_other_where_it_lives():
@@ -418,15 +420,16 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     """Decision 062: one knee's angles twice the reference's on every held-out move, and one
     move's error four times over every channel (material pooled), leave the pooled rank test
     not significant and the per-channel one significant: the excess is named ``other`` at that
-    knee, and its words give the per-channel p. Decision 063: the pooled ratio near 1 (the
-    other channels below the reference's) does not keep it from being named where its
-    significant channels are material; material only through channels that are not
-    significant, it is only suspected. A finding's remainder quotes the test that makes it
-    significant."""
+    knee, and its words give the per-channel p. Decision 063: a pooled ratio below 1.25 (the
+    other channels below the reference's) does not keep it from being named where a
+    significant channel is material, and its words lead with that channel; material only
+    through channels that are not significant, it is only suspected. A finding's remainder is
+    read on the channel that makes it exceed."""
     import numpy as np
     from littledog_mlsim.diagnose.physical.channels import channels_of
-    from littledog_mlsim.diagnose.physical.driver import (exceeds, left_suspicion, p_words,
-                                                          name_left, remainder, unexplained)
+    from littledog_mlsim.diagnose.physical.driver import (exceeds, lead_channel, left_suspicion,
+                                                          name_left, p_words, remainder,
+                                                          unexplained)
     from littledog_mlsim.diagnose.report import remainder_words
     V, R = list(range(12)), list(range(12, 24))
     rng = np.random.default_rng(4)
@@ -455,6 +458,26 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
     low = name_left(unexplained(_Sse(quiet), V, R, 0.01))
     assert not low["material"] and low["pooled_ratio"] < 1.1 and low["channel_significant"], low
     assert exceeds(low) and low["named"] and low["scope"] == "joint:back_left_knee", low
+    lead = lead_channel(low)
+    assert lead["channel"].endswith("q_back_left_knee") and lead["ratio"] >= 1.25
+    assert f"channel {lead['channel']} is {lead['ratio']:.2f} times" in low["statement"]
+    assert low["vocabulary"]["params"]["channel"] == lead["channel"]
+    (sus,) = left_suspicion(low, capped=False)
+    assert sus["why"].startswith("named other at joint:back_left_knee") and lead["channel"] in sus["why"]
+    # the pooled test significant but not material: the words still lead with the channel
+    pooled_small = name_left({**low, "significant": True, "p_value": 0.004})
+    assert pooled_small["named"] and lead["channel"] in pooled_small["statement"]
+    # the lead is the most significant channel that is material, not the most significant
+    first = {"channel": "short:yaw", "ratio": 1.1, "p_value": 1e-6}
+    picked = {**low, "significant_channels": [first] + low["significant_channels"]}
+    assert lead_channel(picked)["channel"] == lead["channel"]
+    # a finding's remainder, named through the channel, is read on it
+    before = {**low, "pooled_ratio": 1.5,
+              "channel_ratios": {**low["channel_ratios"], lead["channel"]: 4.0}}
+    rem = remainder(before, low)
+    assert rem["channel"] == lead["channel"] and rem["ratio_before"] == 4.0
+    assert rem["ratio_after"] == lead["ratio"] and 0.0 < rem["share_of_excess_removed"] < 1.0
+    assert f"in the channel {lead['channel']} stays" in remainder_words(rem)
     (sus,) = left_suspicion({**weak, "material": False}, capped=False)
     assert "exceeds the reference's" in sus["why"] and not exceeds({**weak, "material": False})
     untold = {**left, "channel_significant": False, "significant_channels": []}

@@ -1,13 +1,13 @@
 """What the physical route's excess over the reference would name if the per-channel test
 counted as the pooled one does (decision 062; decision 047 named it only where the pooled test
-was significant).
+was significant), and without the pooled ratio's condition (decision 063).
 
 Reads every committed report of the blind zoos whose ``physics.reference.unexplained`` is read
 (``named``: decision 047 onwards; the arms with a twin and a reference), except the zoos given
 in ``--skip`` (``none`` to read every zoo), and each zoo's ``truth.yaml``. For each report:
 whether the excess is named in it as written (``named``: the rule of the code that wrote it,
 decision 052's reading included where it was in that code); whether it would be under decision
-062 (:func:`named_062`); the clean runs that would then raise a false alarm; the effects
+062 and under decisions 062 and 063 (:func:`named_by_channel`); the clean runs that would then raise a false alarm; the effects
 outside the vocabulary that would then be found at their scope.
 
     .venv/bin/python benchmarks/blind_zoo/left_by_channel/tally.py --skip none > OUT
@@ -30,7 +30,7 @@ from run import score, significant  # noqa: E402
 RATIO = 1.25
 
 
-def named_062(left: dict[str, Any], pooled_material: bool = True) -> tuple[bool, bool]:
+def named_by_channel(left: dict[str, Any], pooled_material: bool = True) -> tuple[bool, bool]:
     """(named under decision 062, whether that is exact); with ``pooled_material`` false,
     under decision 063 (a significant channel material, the pooled ratio whatever it is).
     Reports written before decision 062 do not keep which channels were significant: there the
@@ -74,8 +74,8 @@ def main() -> None:
     skip = {s for s in a.skip.split(",") if s and s != "none"}
     out = []
     for zoo, where, case, truth, r, left in rows(skip):
-        named_new, exact = named_062(left)
-        named_063, exact_063 = named_062(left, pooled_material=False)
+        named_new, exact = named_by_channel(left)
+        named_063, exact_063 = named_by_channel(left, pooled_material=False)
         row = {"zoo": zoo, "run": where, "case": case, "pooled_ratio": left["pooled_ratio"],
                "p": left["p_value"], "p_channel": left["channel_p_value"],
                "material": left["material"], "scope": left.get("scope"),

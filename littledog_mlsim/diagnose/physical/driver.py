@@ -27,7 +27,8 @@ from .resim import DaskRunner, Memo, Move, Runner
 from .screen import screen, shortlist
 from .validate import push_twin, validate
 
-__all__ = ["PhysicalOptions", "exceeds", "identify", "p_words", "pick_moves", "remainder"]
+__all__ = ["PhysicalOptions", "exceeds", "identify", "lead_channel", "p_words", "pick_moves",
+           "remainder"]
 
 
 @dataclass(frozen=True)
@@ -204,8 +205,8 @@ def _left_against_reference(ctx: SearchContext, findings: list[Finding], sp: _Sp
                             ) -> tuple[list[Finding], dict[str, Any]]:
     """(the findings, what is left): :func:`unexplained` with every finding in the twin; where
     that is significant and material, the same without the findings (the twin errors kept)
-    reads them (:func:`remainder`, decision 045) and each finding carries it. Significant:
-    pooled or in a few channels (:func:`exceeds`, decision 062)."""
+    reads them (:func:`remainder`, decision 045) and each finding carries it. "Significant
+    and material" is :func:`exceeds` (decisions 062 and 063)."""
     if findings and findings[-1].hyp not in ctx.base:
         ctx = _rebase(ctx, ctx.base + (findings[-1].hyp,))
     left = unexplained(ctx, sp.V, sp.R, o.alpha)
@@ -378,14 +379,11 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     cond = left.get("conditions") or {}
     apart = cond.get("comparable") is False and not left.get("concentrated")
     if exceeding and apart:
-        why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the "
-               f"reference's ({p_words(left)}), most on {where}, but "
-               f"{cond['statement']}: the twin's own error under the data's excitation is not "
-               "in the reference, so the excess is not named")
+        why = (f"{_left_statement(left)}; but {cond['statement']}: the twin's own error under "
+               "the data's excitation is not in the reference, so the excess is not named")
     elif exceeding:
-        why = (f"named other at {left.get('scope', 'body')}, not what it is: the data's "
-               f"re-simulation error is {left['pooled_ratio']:.2f}x the reference's "
-               f"({p_words(left)}), most on {where}")
+        why = (f"named other at {left.get('scope', 'body')}, not what it is: "
+               f"{_left_statement(left)}")
     elif untold:
         why = (f"the data's re-simulation error is {left['pooled_ratio']:.2f}x the reference's, "
                f"material, but the data cannot tell it from chance (p = {left['p_value']:.2g}, "
@@ -430,16 +428,28 @@ def exceeds(left: dict[str, Any]) -> bool:
     in those channels while the pooled rank test over all 36, each move's mean ratio, is not;
     and where findings have brought the other channels below the reference's, the pooled
     ratio can stay near 1 with one joint's angle many times the reference's."""
-    if left["significant"] and left["material"]:
-        return True
-    return bool(left.get("channel_significant") and any(
-        c["ratio"] >= UNEXPLAINED_RATIO for c in left.get("significant_channels", ())))
+    return _by_pooled(left) or lead_channel(left) is not None
+
+
+def _by_pooled(left: dict[str, Any]) -> bool:
+    """Whether the pooled test alone makes ``left`` exceed: significant and material pooled."""
+    return bool(left.get("significant", True) and left.get("material", True))
+
+
+def lead_channel(left: dict[str, Any]) -> dict[str, Any] | None:
+    """The most significant channel of ``left``'s per-channel test whose own ratio is material
+    (``{channel, ratio, p_value}``), or None (decision 063)."""
+    if not left.get("channel_significant"):
+        return None
+    return next((c for c in left.get("significant_channels", ())
+                 if c["ratio"] >= UNEXPLAINED_RATIO), None)
 
 
 def p_words(left: dict[str, Any]) -> str:
-    """The test that makes ``left`` (or a :func:`remainder`) significant, in words: the pooled
-    p, or the per-channel p with the pooled one beside it."""
-    if left.get("significant", True) or not left.get("channel_significant"):
+    """The test that makes ``left`` (or a :func:`remainder`) exceed, in words: the pooled p
+    where the pooled test does (significant and material), else the per-channel p with the
+    pooled one beside it."""
+    if _by_pooled(left) or not left.get("channel_significant"):
         return f"p = {left['p_value']:.2g}"
     return f"per channel p = {left['channel_p_value']:.2g}; pooled p = {left['p_value']:.2g}"
 
@@ -456,12 +466,22 @@ def remainder(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
     reference they removed, and the reading (decision 045): ``"partial"`` where they removed
     at least :data:`STAND_IN_SHARE` of it (the change is theirs in part: a size, or a second
     effect), ``"stand-in"`` where they removed less (the best of the library for a change it
-    does not hold). ``channels``: where the rest lives; ``p_value``, ``significant``,
-    ``channel_p_value``, ``channel_significant``: ``after``'s tests."""
-    r0, r1 = float(before["pooled_ratio"]), float(after["pooled_ratio"])
+    does not hold). Where only the per-channel test makes ``after`` exceed (decision 063), the
+    ratios and the share are its lead channel's (:func:`lead_channel`, ``channel``), else the
+    pooled ratios (``channel`` None). ``channels``: where the rest lives; ``p_value``,
+    ``significant``, ``material``, ``channel_p_value``, ``channel_significant``: ``after``'s
+    tests."""
+    lead = None if _by_pooled(after) else lead_channel(after)
+    if lead is not None and lead["channel"] in before.get("channel_ratios", {}):
+        r0, r1 = float(before["channel_ratios"][lead["channel"]]), float(lead["ratio"])
+    else:
+        lead = None
+        r0, r1 = float(before["pooled_ratio"]), float(after["pooled_ratio"])
     share = (r0 - r1) / (r0 - 1.0) if r0 > 1.0 else None
     return {"ratio_before": r0, "ratio_after": r1, "p_value": float(after["p_value"]),
+            "channel": None if lead is None else lead["channel"],
             "significant": bool(after["significant"]),
+            "material": bool(after["material"]),
             "channel_p_value": float(after.get("channel_p_value", 1.0)),
             "channel_significant": bool(after.get("channel_significant", False)),
             "share_of_excess_removed": share,
@@ -478,8 +498,9 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
     :data:`UNEXPLAINED_RATIO`. ``channel_p_value``: the same test per channel, the smallest p
     times the number of channels (``channel_significant`` below ``alpha``), for a difference
     that lives in a few channels; ``significant_channels``: each channel significant so
-    (``{channel, ratio, p_value}``, its p times the number of channels), most significant first.
-    ``channels``: the channels with the largest ratios."""
+    (``{channel, ratio, p_value}``, its p times the number of channels), most significant first
+    (the larger ratio first among equal p); ``channel_ratios``: every channel's ratio that has
+    a reference. ``channels``: the channels with the largest ratios."""
     from scipy.stats import mannwhitneyu
     from .channels import CHANNELS
     SV, SR = ctx.sse(None, V), ctx.sse(None, R)
@@ -501,11 +522,12 @@ def unexplained(ctx: SearchContext, V: Sequence[int], R: Sequence[int], alpha: f
     sig_channels = sorted(({"channel": CHANNELS[j], "ratio": float(ratio[j]),
                             "p_value": min(1.0, x * n_tested)}
                            for j, x in tested if x * n_tested < alpha),
-                          key=lambda c: c["p_value"])
+                          key=lambda c: (c["p_value"], -c["ratio"]))
     scope, scope_ratios, conc = _locate(ratio)
     return {"pooled_ratio": pooled, "p_value": p, "significant": bool(p < alpha),
             "channel_p_value": p_channel, "channel_significant": bool(p_channel < alpha),
             "significant_channels": sig_channels,
+            "channel_ratios": {CHANNELS[j]: float(ratio[j]) for j in np.flatnonzero(ok)},
             "material": bool(pooled >= UNEXPLAINED_RATIO),
             "channels": [{"channel": CHANNELS[j], "ratio": float(ratio[j])} for j in order],
             "n_data_moves": len(V), "n_reference_moves": len(R),
@@ -570,23 +592,27 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
             out["named"] = named = False
             out["statement"] = f"not compared: {conditions.statement} ({out['statement']})"
     if named:
-        out["vocabulary"] = {"family": "other", "scope": left["scope"],
-                             "params": {"error_ratio": round(float(left["pooled_ratio"]), 3)},
+        params: dict[str, Any] = {"error_ratio": round(float(left["pooled_ratio"]), 3)}
+        lead = None if _by_pooled(left) else lead_channel(left)
+        if lead is not None:
+            params.update(channel=lead["channel"], channel_ratio=round(float(lead["ratio"]), 3))
+        out["vocabulary"] = {"family": "other", "scope": left["scope"], "params": params,
                              "statement": out["statement"]}
     return out
 
 
 def _left_statement(left: dict[str, Any]) -> str:
     from ..excess import where_words
-    lead = (left.get("significant_channels") or [None])[0]
-    if left["significant"] or lead is None:
+    lead = None if _by_pooled(left) else lead_channel(left)
+    if lead is None:
         return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times "
                 f"the reference's ({p_words(left)}) with every finding in the twin, most on "
                 f"{where_words(left)}")
-    return (f"the data's held-out re-simulation error on {lead['channel']} is "
-            f"{lead['ratio']:.2f} times the reference's (per channel p = {lead['p_value']:.2g}) "
-            f"with every finding in the twin, {left['pooled_ratio']:.2f} times over every "
-            f"channel (pooled p = {left['p_value']:.2g}); it lives on {where_words(left)}")
+    return (f"with every finding in the twin, the data's held-out re-simulation error in the "
+            f"channel {lead['channel']} is {lead['ratio']:.2f} times the reference's (per "
+            f"channel p = {lead['p_value']:.2g}), and over every channel "
+            f"{left['pooled_ratio']:.2f} times (pooled p = {left['p_value']:.2g}); it lives in "
+            f"{where_words(left)}")
 
 
 def replace_observer(o: PhysicalOptions, into: list) -> PhysicalOptions:
