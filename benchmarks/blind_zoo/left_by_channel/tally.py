@@ -7,8 +7,9 @@ Reads every committed report of the blind zoos whose ``physics.reference.unexpla
 in ``--skip`` (``none`` to read every zoo), and each zoo's ``truth.yaml``. For each report:
 whether the excess is named in it as written (``named``: the rule of the code that wrote it,
 decision 052's reading included where it was in that code); whether it would be under decision
-062 and under decisions 062 and 063 (:func:`named_by_channel`); the clean runs that would then raise a false alarm; the effects
-outside the vocabulary that would then be found at their scope.
+062 and under decisions 062 and 063 (:func:`named_by_channel`); the clean runs that would then
+raise a false alarm; the effects outside the vocabulary that would then be found at their
+scope.
 
     .venv/bin/python benchmarks/blind_zoo/left_by_channel/tally.py --skip none > OUT
 """

@@ -368,8 +368,8 @@ def left_suspicion(left: dict[str, Any], capped: bool) -> list[dict[str, Any]]:
     (:func:`exceeds`); one that is material pooled and not significant by either test (the
     data cannot tell it from chance); one that is significant in a few channels but not
     material there; none otherwise (neither significant nor material, or significant pooled
-    only and not material). ``capped``: the search stopped at the most corrections the reference may
-    cancel."""
+    only and not material). ``capped``: the search stopped at the most corrections the
+    reference may cancel."""
     from ..excess import RECORDINGS
     exceeding = exceeds(left)
     untold = left["material"] and not _significant(left)
