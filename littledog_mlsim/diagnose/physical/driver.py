@@ -445,6 +445,12 @@ def lead_channel(left: dict[str, Any]) -> dict[str, Any] | None:
                  if c["ratio"] >= UNEXPLAINED_RATIO), None)
 
 
+def _naming_channel(left: dict[str, Any]) -> dict[str, Any] | None:
+    """The lead channel (:func:`lead_channel`) where only the per-channel test makes ``left``
+    exceed; None where the pooled test does (or nothing does)."""
+    return None if _by_pooled(left) else lead_channel(left)
+
+
 def p_words(left: dict[str, Any]) -> str:
     """The test that makes ``left`` (or a :func:`remainder`) exceed, in words: the pooled p
     where the pooled test does (significant and material), else the per-channel p with the
@@ -471,7 +477,7 @@ def remainder(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
     pooled ratios (``channel`` None). ``channels``: where the rest lives; ``p_value``,
     ``significant``, ``material``, ``channel_p_value``, ``channel_significant``: ``after``'s
     tests."""
-    lead = None if _by_pooled(after) else lead_channel(after)
+    lead = _naming_channel(after)
     if lead is not None and lead["channel"] in before.get("channel_ratios", {}):
         r0, r1 = float(before["channel_ratios"][lead["channel"]]), float(lead["ratio"])
     else:
@@ -593,7 +599,7 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
             out["statement"] = f"not compared: {conditions.statement} ({out['statement']})"
     if named:
         params: dict[str, Any] = {"error_ratio": round(float(left["pooled_ratio"]), 3)}
-        lead = None if _by_pooled(left) else lead_channel(left)
+        lead = _naming_channel(left)
         if lead is not None:
             params.update(channel=lead["channel"], channel_ratio=round(float(lead["ratio"]), 3))
         out["vocabulary"] = {"family": "other", "scope": left["scope"], "params": params,
@@ -603,7 +609,7 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
 
 def _left_statement(left: dict[str, Any]) -> str:
     from ..excess import where_words
-    lead = None if _by_pooled(left) else lead_channel(left)
+    lead = _naming_channel(left)
     if lead is None:
         return (f"the data's held-out re-simulation error is {left['pooled_ratio']:.2f} times "
                 f"the reference's ({p_words(left)}) with every finding in the twin, most on "
