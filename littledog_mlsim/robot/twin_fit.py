@@ -16,7 +16,8 @@ Method
    and twist from a local quadratic fit of the poses around t, the joints as measured). As
    measured, the twist is a 10 ms difference of noisy poses, and the fit explains part of that
    starting error with the parameters (errors in the variables); on noise-free poses the fit's
-   curvature error is the larger one (benchmarks/calibrate). ``"auto"`` (default) smooths
+   curvature error is the larger one (benchmarks/calibrate/README.md, "Converged, the fit is
+   biased by its starting states"). ``"auto"`` (default) smooths
    where the recordings' body-position noise (:func:`pose_noise`) exceeds
    :data:`POSE_NOISE_FLOOR`.
 2. **Weights.** Each (horizon, element) residual is divided by its RMS: first at the starting
@@ -29,16 +30,15 @@ Method
    there: the noise left at the fit, where the fit's own second stage is weighted at the end
    of its first); a bootstrap refit (11) is weighted at its own start, the twin, which is its
    truth (a second stage would reweight at a point a bias away). Their evaluations
-   then go to one stage's iterations, not two (benchmarks/calibrate, ``fit_progress``: 0-3 of
-   the 2-7 Jacobians of those fits went to their second stage on zoo55-zoo59).
+   then go to one stage's iterations, not two (a second stage took a share of those fits'
+   Jacobians: benchmarks/calibrate/fit_progress/README.md, "What it shows").
 3. **Fit.** ``scipy.optimize.least_squares`` (trust region, bounds) over the parameters'
    coordinates: the logarithm of scale-like parameters (gains, masses, limits), the value of the
    others (friction coefficients, armature). The Jacobian is central differences of step
    ``diff_step`` coordinates (5 %), two full re-simulations per column: the residual of a
    contact-rich re-simulation is rough at small steps and curved at large ones, and forward
-   differences then overstate the slope, so that Gauss-Newton creeps (seen on the CI case:
-   forward differences left the gains a third of the way from the truth after 24
-   re-simulations, central ones reached it).
+   differences then overstate the slope, so that Gauss-Newton creeps (benchmarks/calibrate/
+   README.md, "Central differences, not forward ones").
 4. **Uncertainty.** At the optimum, cov = s^2 (J^T J)^-1 with s^2 = SSE / (n - p), the residual
    variance, and its sandwich forms clustered by sampled state (the residuals of one state, all
    elements and horizons, may be correlated) and by move (every state of a move may be: a
@@ -48,10 +48,10 @@ Method
    default; ``--no-jackknife``) the leave-one-move-out jackknife (CR3, :func:`_jackknife`;
    report ``sd_coordinate_jackknife``) is a fourth among them: the per-move sandwich is too
    narrow when the moves are few against the parameters and a parameter is pinned by a few of
-   them (22 moves and 15-16 parameters here), and the jackknife less so
-   (benchmarks/calibrate, ``interval_honesty/jackknife.py``: over ten split-start runs it
-   was 1.02-1.17 times the per-move sandwich's sd, median per parameter, and brought 3 of 16
-   misses inside). Where leaving some move out leaves a direction without information (a
+   them (as on the blind benchmark's references), and the jackknife less so: it is a little
+   wider and brings some misses inside (benchmarks/calibrate/interval_honesty/README.md, "Too
+   few moves for the per-move sandwich?"). Where leaving some move out leaves a direction
+   without information (a
    parameter only that move informs), the jackknife cannot say how far it moves and is left
    out (``jackknife_skipped`` says so). It is not among the forms of the weak directions (5).
    The intervals
@@ -87,15 +87,16 @@ Method
    (``TwinParameter.threshold``: a torque limit) is read by a secant, not a derivative: lowered
    by twice the consider spread (item 10; 0.3 e-folds by default). A limit above every torque
    the twin's motion asks for has a derivative of zero, however much lower the robot's own
-   limit is (``benchmarks/blind_zoo``, zoo36: the hip pitch's limit 24 % below its assumed
-   value was never asked for, and the gains, dampings and masses took up its effect); the
-   secant sees a limit the motion would reach within the plausible range. With
+   limit is: such a limit is never asked for, and the gains, dampings and masses take up its
+   effect (benchmarks/blind_zoo/LOG.md, "A threshold's bias held, and a torque limit left
+   unfitted: zoo36 run1 (blind)"); the secant sees a limit the motion would reach within the
+   plausible range. With
    ``threshold_up`` (on by default; ``--no-threshold-up``) a limit is also raised by as much
    (:func:`raised_columns`, one more re-simulation each): a twin whose limit cuts torques
    the robot's does not shows it only there, since the secant down is dominated by the
-   torques between its two points, which neither cuts (benchmarks/calibrate,
-   ``interval_honesty/hip_limits_probe``: zoo56's hip limits 1.81 and 1.77 N m against the
-   twin's 1.7 biased the hip roll's rotor inertia by -18 %). The raised column only reads a
+   torques between its two points, which neither cuts; such a limit, left as assumed, biases
+   the other parameters (benchmarks/calibrate/interval_honesty/hip_limits_probe/README.md).
+   The raised column only reads a
    higher limit and the secant down then only a lower one (a side whose step leaves its side
    has no statistic); the limit's entry is the side that asks, else the one with the larger
    cost share (``side``, present only where both sides were read), and every column counts in
@@ -161,8 +162,9 @@ Method
    direction the data pins weakly, its error moves the optimum further than the data's noise
    does: if every mass and every servo torque scale together, the motion stays the same but
    for what does not scale (the rotor inertia, the contact's stiffness), so an armature a few
-   per cent off shifts the masses and gains together by as much (benchmarks/blind_zoo,
-   zoo31). Each parameter not fitted (the score test's columns of 7: no extra re-simulation)
+   per cent off shifts the masses and gains together by as much
+   (benchmarks/blind_zoo/zoos/zoo31/runs/run1/README.md). Each parameter not fitted (the score
+   test's columns of 7: no extra re-simulation)
    gets an a-priori standard deviation, :func:`consider_sd`: ``consider_spread`` (default
    0.15) e-folds of a scale-like parameter, that fraction of the larger of its value and
    ``typical`` for the others; the optimum's shift per unit of it is S = (J^T J)^-1 J^T J_c,
@@ -183,14 +185,16 @@ Method
 11. **The fit's own bias** (``bootstrap``, ``--bootstrap N``; :mod:`.twin_bias`). Starting states
    that are estimates (a smoothed pose, late filtered rates, quantised angles) bias the optimum
    by a few per cent even where the twin's structure is the robot's, more than the intervals of
-   4 allow (benchmarks/blind_zoo, zoo32). With N > 0 the fitted twin records the fitted moves
+   4 allow (benchmarks/blind_zoo/zoos/zoo32/runs/bootstrap_check/README.md). With N > 0 the
+   fitted twin records the fitted moves
    again with their commands and the recording's sensing and is fitted again from its own
    values (in one weighted stage, 2); the shift is subtracted, and with N > 1 measured again
    at the corrected twin (a
    fixed-point iteration); the intervals gain the shift's uncertainty. With
    ``bootstrap_replicates`` R > 1 each iteration refits R recordings with their own noise
    seeds: the bias is their mean, and their spread, where larger than the data's sd, is the
-   estimator's (benchmarks/blind_zoo, zoo32: twice the data's sd for the servo parameters).
+   estimator's: it can be well above the data's sd
+   (benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/README.md, 3).
    A correction stops at the parameter's bound (the estimate then says so); a refit that fails
    keeps the last good correction, or the fit, and the report says why. The report's
    ``bootstrap`` gives, per parameter, the fitted value, the biases, the refits' spread and
@@ -199,10 +203,10 @@ Method
    **Only an optimum is corrected.** The refits start at the twin, which is their truth, and
    converge; their shift is the bias of a converged fit. A fit the evaluation budget stopped
    (``converged`` false) is not at its optimum, and its distance from it is not in that shift
-   (benchmarks/calibrate, ``split_probe``: zoo51's fit, stopped on its budget, was corrected by
-   the refits' shift, and the gap robot's own cost was 8 % below the corrected twin's; fitted on
-   to convergence from there, 13 of 15 true values were inside their intervals, against 7 of
-   15). Such a fit is **continued** instead (:func:`_continued`): fitted again from where it
+   (a fit stopped on its budget and corrected by the refits' shift still costs more than the
+   robot itself, and fitted on to convergence it covers more true values: benchmarks/calibrate/
+   README.md, "A fit its budget stopped (zoo51's reference)"; decision 058). Such a fit is
+   **continued** instead (:func:`_continued`): fitted again from where it
    stopped, with the evaluations the bootstrap would have spent (N x R refits of a round's
    budget, 9); the report's ``continued`` says from where, the cost before and after and
    whether it converged, and ``bootstrap.skipped`` why no bias was taken out. With
@@ -213,11 +217,12 @@ Method
 
 12. **The common scale** (``scale_symmetry``). A robot whose every mass, rotor inertia and
    servo torque (gains, dampings, limits) scale by one factor moves the same way under gravity
-   and on an LCP contact: the re-simulation's residuals do not change (benchmarks/blind_zoo,
-   zoo34 after run1: to 1e-11). The finite-difference Jacobian does not show it: one parameter
-   moved alone changes the contacts' course, and those responses do not add up, so J^T J is
-   full rank along a direction the data do not constrain (there: |J v| 1,006 against 0.56 for
-   the difference along v). Where a mass and at least one other such parameter are fitted, the
+   and on an LCP contact: the re-simulation's residuals do not change, to rounding
+   (benchmarks/blind_zoo/zoos/zoo34/runs/after_run1/README.md, 3). The finite-difference
+   Jacobian does not show it: one parameter moved alone changes the contacts' course, and
+   those responses do not add up, so J^T J is full rank along a direction the data do not
+   constrain (|J v| far above the difference along v: the same README, 4). Where a mass and at
+   least one other such parameter are fitted, the
    residuals are re-simulated along that common scale (two evaluations), and where its 95 %
    half-width (from that difference) exceeds ``weak_halfwidth``, it is reported first among
    the weak directions, and the parameters in it get no interval: only a weighed mass (a mass
@@ -234,11 +239,13 @@ Method
    and the weighing is one more residual of the least squares, (log M(x) - log M_w) /
    (sd_w / M_w), so that the parameters off the scale (the contact's friction, a delay, a
    filter) are fitted where the scale is, not where the unweighed fit wandered along it
-   (benchmarks/blind_zoo, zoo37 after run1: moved only afterwards by -8 % along the scale, the
-   twin's cost rose 2 % and the friction, delay and filter stayed 13-17 % off). Measured, it
-   does not pay: zoo37 9 of 15 inside either way, rollout 0.0071 -> 0.0082 m; zoo38 3 against 0
-   of 14 inside, but rollout 0.017 -> 0.071 m (the k-step optimum away from the weighed scale
-   predicts better). The row is
+   (moved only afterwards along the scale, the twin's cost rises and the friction, delay and
+   filter stay where the unweighed fit put them: benchmarks/blind_zoo/zoos/zoo37/runs/
+   after_run1/README.md, 3). It is off by default because it does not pay: on the gap robots
+   where it was tried it covered as many or a few more true values and left the TestPool
+   rollout worse, since the k-step optimum away from the weighed scale predicts better
+   (benchmarks/blind_zoo/zoos/zoo37/runs/run3_weigh_in_fit/README.md,
+   benchmarks/blind_zoo/zoos/zoo38/runs/run2_weigh_after_fit/README.md). The row is
    not in J, the intervals or the score test; the report's ``weighing_in_fit`` gives the
    total mass at the start and the end and the row's last value. **After the fit**, its
    fitted parameters move together along x + t v (v: d x / d t when each scales
@@ -262,10 +269,10 @@ Method
    default). The k-step objective can have more than one minimum along the split of the mass
    between the body and the legs (the total is fixed by the weighing of 13, the split is not):
    the servo gains, dampings and rotor inertias take up a wrong split, and a fit from the
-   nominal robot can end in the wrong basin (benchmarks/calibrate, "Two basins along the
-   masses' split": on three gap robots the fit from the nominal robot ended with the legs 12 to
-   33 % off, and a fit started across the split ended at a lower cost with the smaller mass
-   error). With F > 0 the fit (after its rounds, 9) is fitted again, with the same parameters,
+   nominal robot can end in the wrong basin, with the legs' mass well off, where a fit started
+   across the split ends at a lower cost with the smaller mass error (benchmarks/calibrate/
+   README.md, "Two basins along the masses' split"; decision 059). With F > 0 the fit (after
+   its rounds, 9) is fitted again, with the same parameters,
    a round's budget and the fit's weights at its optimum (one stage, 2), from two more starts:
    its optimum with the legs x(1 - F) and x(1 + F),
    the body taking the difference so that the total stays (:func:`split_start`). The lowest
@@ -1097,13 +1104,13 @@ def _rollout_summary(ev: dict[str, Any]) -> dict[str, Any]:
 
 
 #: the body-position noise [m] above which ``initial_state="auto"`` smooths the starting states
-#: and the bootstrap's synthetic recordings carry motion-capture noise: 2.5 times what a
-#: noise-free trot reads (0.032 mm, its curvature), under half the least a gap robot's
-#: recording has read (0.20 mm; zoo35-zoo42's calibration logs, 0.20-0.39 mm). Smoothing costs little without noise and gains much with
-#: it (``benchmarks/calibrate``: the joint rates' 10-step residual 0.022 against 0.019 rad/s
-#: without noise, 0.038 against 0.273 with 0.3 mm); a floor of 0.2 mm left a gap robot with
-#: 0.195 mm of noise calibrated from measured starts and bootstrapped without noise
-#: (``benchmarks/blind_zoo``, zoo40 run1)
+#: and the bootstrap's synthetic recordings carry motion-capture noise: above what a
+#: noise-free trot reads (its curvature), under half the least a gap robot's recording has
+#: read (benchmarks/blind_zoo/zoos/zoo40/runs/run2_noise_floor/README.md). Smoothing costs
+#: little without noise and gains much with it (benchmarks/calibrate/README.md, "Converged,
+#: the fit is biased by its starting states"); a floor just above a gap robot's noise left
+#: it calibrated from measured starts and bootstrapped without noise
+#: (benchmarks/blind_zoo/zoos/zoo40/runs/run1/README.md)
 POSE_NOISE_FLOOR = 8e-5
 
 
