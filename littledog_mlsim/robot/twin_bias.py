@@ -3,9 +3,9 @@
 A twin fitted to k-step residuals is biased even when its structure is the robot's: its
 starting states are estimates (a smoothed pose, encoder rates a filter's time constant late,
 quantised angles), and these errors in the variables pull the optimum by a few per cent,
-several times the width of intervals from J^T J (``benchmarks/blind_zoo``, zoo32: with every
-parameter fitted, the masses and servo parameters ended 1-4 % off, outside intervals of
-+-2 %). The bias depends on the robot smoothly, so the fitted twin shows it too:
+more than the width of intervals from J^T J
+(``benchmarks/blind_zoo/zoos/zoo32/runs/bootstrap_check/README.md``). The bias depends on the
+robot smoothly, so the fitted twin shows it too:
 
 1. **Synthetic recordings.** The fitted twin records every fitted move again with the move's
    recorded commands, from the move's start (the settled home stance where the recording
@@ -34,16 +34,15 @@ parameter fitted, the masses and servo parameters ended 1-4 % off, outside inter
    **A threshold's bias from one point** (``TwinParameter.threshold``: the torque limits) is
    not applied either. A limit acts only on the steps where the joint reaches it, and how often
    the twin's own recordings reach it changes with the twin, so its bias changes with the point
-   far more than the other parameters' (``benchmarks/blind_zoo``, zoo35 after run1: the hip
-   pitch's limit -1.7 % at the gap robot, -8.0 % at the twin, while the others agreed within
-   about 1 %; applied, it took the limit from 0.8 % low to 7.5 % high). With one iteration the
+   far more than the other parameters', and applied it can take the limit further from the
+   truth (``benchmarks/blind_zoo/zoos/zoo35/runs/after_run1/README.md``). With one iteration the
    fit's value stands and the measured bias's square joins the interval's variance (with the
-   bias's own noise): how far the one point says the fit may be off. With N > 1 the bias was
+   bias's own noise): how far the one point says the fit may be off. With N > 1 the bias is
    measured at two points and is applied as any other's, with its change between them.
-4. **Replicates** (``bootstrap_replicates`` R > 1). One refit's bias is one draw: on zoo32's
-   gap robot, refits of recordings that differ only in their noise seed scatter by 1.1-1.8 %
-   for the masses and servo parameters, about twice the data's sd the intervals of
-   :mod:`.twin_fit` report (``benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/``). Each
+4. **Replicates** (``bootstrap_replicates`` R > 1). One refit's bias is one draw: refits of
+   recordings that differ only in their noise seed scatter by more than the data's sd the
+   intervals of :mod:`.twin_fit` report (``benchmarks/blind_zoo/zoos/zoo32/runs/secant_check/``,
+   3). Each
    iteration then refits R recordings with their own noise seeds; the bias is their mean (its
    noise the estimator's variance over R), and where the R refits scatter more than the data's
    sd, their sample sd is taken as the estimator's: the fit's own error then is as large, and
@@ -58,8 +57,9 @@ parameter fitted, the masses and servo parameters ended 1-4 % off, outside inter
    :data:`CHECK_SLACK` times their mean, plus half the 99 % chi-squared quantile of the number
    of parameters corrected, the recording refutes the correction: no bias is taken out, and
    every one widens its parameter's interval as a threshold's measured at one point does
-   (``benchmarks/blind_zoo``, zoo38 after run1: a hip roll rotor inertia corrected by -11 %
-   more than doubled the cost). A check that fails holds the biases too. The report's
+   (a correction of a few per cent next to a steep wall of the cost can make the twin much
+   worse: ``benchmarks/blind_zoo/zoos/zoo38/runs/after_run1/README.md``). A check that fails
+   holds the biases too. The report's
    ``bootstrap.check`` has both costs, the rise, the refits' mean worth, the rise allowed and
    ``accepted`` (or ``error`` and ``accepted`` false; the whole entry null where nothing was
    to be taken out).
@@ -105,8 +105,8 @@ def orientation_noise(recs: Sequence[MoveRecording], half_window: int = 3, degre
     of ``degree`` fitted per axis to the rotation vectors relative to the window's middle
     orientation, scaled by sqrt(n / (n - degree - 1)). The body's attitude swings with the gait
     faster than its position moves, so a quadratic (as ``twin_fit.pose_noise`` fits the
-    position) leaves its curvature: on a twin's recording with 0.76 mrad of noise it read 1.02
-    mrad, a quartic 0.78 (``benchmarks/blind_zoo/zoos/zoo32/runs/run3_bootstrap``)."""
+    position) leaves its curvature, and a quartic far less of it
+    (``benchmarks/blind_zoo/zoos/zoo32/runs/run3_bootstrap/README.md``)."""
     from ..rotations import quat_conjugate, quat_multiply, rotvec_from_quat
 
     n = 2 * half_window + 1
@@ -184,8 +184,9 @@ def matched_sensing(recs: Sequence[MoveRecording], twin: RobotConfig, sensing: d
 
     The readings (:func:`~.twin_fit.pose_noise`, :func:`orientation_noise`) take what a local
     polynomial cannot follow for noise: on a robot whose attitude moves fast between samples
-    the motion alone reads as noise (``benchmarks/blind_zoo``, zoo37: its noise-free recording
-    read 1.31 mrad, its recording 1.47 for 0.92 of noise). Each iteration records the twin with
+    the motion alone reads as noise, and the reading is well above the noise put in
+    (``benchmarks/blind_zoo/zoos/zoo37/runs/after_run1/README.md``). Each iteration records
+    the twin with
     the noise so far (its own seeds, not the bootstrap's) and reads it; the motion it shows
     (reading^2 - noise^2) is taken out of the recording's reading: noise^2 <- noise^2 +
     reading(recording)^2 - reading(twin)^2, kept at least ``SENSING_MATCH_FLOOR`` of the
