@@ -5,11 +5,12 @@ Why not the one-step screen alone
 The one-step screen (:mod:`.selection`) judges a candidate by the held-out one-step nMSE it cuts.
 An effect whose cause is not among the model's inputs (a push fixed in the world, a drifting
 servo) is small at one step against the measurement noise of the per-step body displacements,
-yet it acts on every step in the same direction, so a rollout accumulates it: for a 1.5 N
-push in odom (``benchmarks/learned_route``) the heading columns cut the held-out one-step nMSE
-of dx_b, dy_b by 1.4 % (a dt^2 = 0.05 mm per step against 0.45 mm of one-step residual), under
-the 5 % materiality minimum, while they cut the held-out odom error of the rollouts (0.1 to 4 s)
-by 31 %. This route therefore judges candidates by held-out *k-step rollouts* of the learned
+yet it acts on every step in the same direction, so a rollout accumulates it: for a push in
+odom the heading columns cut the held-out one-step nMSE of dx_b, dy_b by less than the
+materiality minimum (the push's a dt^2 per step is small against the one-step residual),
+while they cut the held-out odom error of the rollouts (0.1 to 4 s) by far more
+(``benchmarks/learned_route/README.md``, "Why the one-step screen finds nothing"). This
+route therefore judges candidates by held-out *k-step rollouts* of the learned
 model from measured states.
 
 Method
@@ -32,13 +33,15 @@ Method
    the per-move SSE cut; Bonferroni over the elements, the two tests and the family probes;
    a probe of a family with a joint scope adds a rank test of its joints' q and dq cut,
    :func:`.stats.focus_p`, as a third, ``scope_test``; a probe of all joints does too, over
-   every joint's q and dq, with ``focus_all`` (off: zoo11 run11), or wherever a reference is
-   given with ``focus_all_with_reference`` (on: zoo11 run13);
+   every joint's q and dq, with ``focus_all`` (off by default:
+   ``benchmarks/blind_zoo/zoos/zoo11/runs/run11_focus_all/README.md``), or wherever a reference
+   is given with ``focus_all_with_reference`` (on by default:
+   ``benchmarks/blind_zoo/zoos/zoo11/runs/run13_both_with_reference/README.md``);
    material = an element's held-out rollout SSE cut by ``min_gain``), and the path channels
    (odom x, y at every horizon) by a per-move rank test (:func:`.stats.path_test`). The moves of a
    fold share one fit, so moves are not fully independent units and these tests are liberal:
-   at ``alpha`` = 0.01 two of the first clean datasets raised alarms (smallest p 0.0038), so
-   the route's default ``alpha`` is 1e-4 (``benchmarks/learned_route/README.md``).
+   at ``alpha`` = 0.01 clean datasets raise alarms, so the route's default ``alpha`` is 1e-4
+   (``benchmarks/learned_route/README.md``, "Level: why alpha is 1e-4").
 4. **Families whose cause is not among the model's inputs**, probed at full scope first
    (:func:`family_probes`): command history (delay, low-pass, play), heading (a world-fixed
    force or slope acts in the body frame through sin/cos of yaw), position (terrain over the
@@ -841,7 +844,8 @@ def _widen(chosen: _Probe, tried: Sequence[_Probe], alpha: float, added: bool = 
     cannot tell the two apart. With ``tolerance`` (``LearnedOptions.widen_within_tolerance``),
     a wider scope's total need only be within ``tolerance`` of the best tried, as parsimony's:
     where the totals cannot tell two scopes apart, the move-by-move test decides (a drift on
-    every joint whose right side alone gains 1.5 % more in total: zoo12 run1, z08)."""
+    every joint whose right side alone gains a little more in total:
+    ``benchmarks/blind_zoo/zoos/zoo12/runs/run2_delay_scope_widen/README.md``, z08)."""
     cur = chosen
     best = max(p.total_gain for p in tried)
     while True:
@@ -1001,7 +1005,7 @@ def _heading_statement(coef: np.ndarray, mass_kg: float) -> tuple[str, dict[str,
     acceleration a world-fixed force would give a free body (the part that turns with the body
     is reported as ``inconsistency``). A robot on its feet is no free body: they hold most of
     the push, so the mass times this acceleration is no force (``one_step_free_body_N``; on
-    the gap zoos it was 9 to 23 times the push, ``benchmarks/learned_route/push_reading``).
+    the gap zoos it was many times the push, ``benchmarks/learned_route/push_reading``).
     The force in newtons comes from the drift against a reference (:func:`_push_in_newtons`);
     without one ``force_N`` is None."""
     (sx, sy), (cx, cy) = coef[0, 1:3], coef[1, 1:3]
@@ -1154,9 +1158,9 @@ def _drift_statement(aug: ElapsedTracking, model: CrossFitModel, sl: slice, X: n
 
     With a push G(t) c (u - q), G(t) = G0 (1 + r t), the model's u column carries G0 c and
     the t*(u-q) column G0 r c, so their ratio is r, the rate relative to the start value
-    (``t_bar``, the data's mean time, is reported for reference). On the gap zoos it read
-    -0.039 for -0.08, -0.029 for -0.05 and -0.044 for -0.10 per second (zoo9, zoo11, zoo12);
-    with a reference, :func:`_drift_against_reference` measures the rate instead."""
+    (``t_bar``, the data's mean time, is reported for reference). On the gap zoos it reads
+    about half the true rate (``benchmarks/learned_route/drift_reading/README.md``; decision
+    025); with a reference, :func:`_drift_against_reference` measures the rate instead."""
     joints = [JOINT_NAMES.index(c.split("_", 1)[1]) for c in aug.columns()]
     beta = model.linear_coef(sl)
     rng = np.random.default_rng(0)

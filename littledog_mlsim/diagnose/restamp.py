@@ -6,8 +6,8 @@ The timing check (:mod:`.timing`) reads by how much the joint states lag the pos
 the joint states, from the robot's own kinematics. Neither is a change in the robot: a message
 published late says where the robot was, not where it is. A one-step model given both streams
 as of one stamp reads a late pose as a lagged state and a late joint-state stream as a command
-delay, and an augmentation that models either leaves the rollout far from clean (zoo28's pose
-30 ms late: a lagged state kept the rollout at 1.40x clean). The measurement is what is wrong,
+delay, and an augmentation that models either leaves the rollout far from clean (a lagged
+state for a late pose: decision 043, "Problem"). The measurement is what is wrong,
 so the measurement is corrected: the late stream's samples are moved back to the stamps they
 belong to, and the loop then runs on data whose streams agree.
 

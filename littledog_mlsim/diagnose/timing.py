@@ -48,14 +48,14 @@ Method
    latency moves every leg alike and is never one leg's. Such a finding comes before the whole
    robot's (whose shift is then that leg's): scope ``leg:X``, or ``side:X`` for a side's two
    legs (any other set reads as ``all``). A single foot's height is noisier than a stance
-   pair's, and its minimum reads short: zoo19's back-left latency of 20 ms reads +9.4 ms
-   (``benchmarks/diagnose/leg_timing``), so the size is stated as "at least".
+   pair's, and its minimum reads short, about half a leg's latency
+   (``benchmarks/diagnose/leg_timing/README.md``), so the size is stated as "at least".
 
-On zoo12 (``benchmarks/blind_zoo/zoos/zoo12/runs/run3_timing``, the whole robot only, with the
-standing feet taken as the lowest in the world), the clean seeds' and the
-reference's median leads are -1.6 to -1.8 ms (the simulator's own, the same on every clean
-recording), the joint-state latency of 20 ms reads +18.2 ms (a shift of +19.8 ms from the
-reference), and a 30 ms command delay on one side -2.9 ms.
+Every clean recording's median lead is the simulator's own, a little below zero and the same
+on every clean recording; a late joint-state stream reads close to its latency, the more so as
+a shift from the reference; and a command delay on one side stays below
+:data:`MIN_SHIFT_MS` (``benchmarks/diagnose_timing/README.md``;
+``benchmarks/blind_zoo/zoos/zoo12/runs/run3_timing/README.md``).
 
 Report (:func:`sensor_timing`'s dict, report.json's ``timing``)
 ----------------------------------------------------------------

@@ -108,8 +108,8 @@ def delay_scope(lags: Sequence["CandidateScore"], alpha: float = DELAY_SCOPE_ALP
     the lags improve can. Of the best all-joint member's per-element gains, each narrower scope
     screened (``candidates.DELAY_SCOPES`` by default): its q and dq elements against every
     other joint's, one-sided Mann-Whitney, times the number of those scopes; the scope with
-    the smallest p below ``alpha``, else all joints (measured on a 30 ms left-side delay,
-    ``benchmarks/blind_zoo``, zoo12 run2)."""
+    the smallest p below ``alpha``, else all joints (a one-side delay:
+    ``benchmarks/blind_zoo/zoos/zoo12/runs/run2_delay_scope_widen/README.md``, z04)."""
     from scipy.stats import mannwhitneyu
 
     from ...models.feature_library import JOINT_GROUPS, JOINT_NAMES
