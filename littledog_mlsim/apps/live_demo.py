@@ -261,7 +261,8 @@ def run_live_demo(out: str | os.PathLike, *, steps: int = 300, method: str = "lr
             # the trainer records what reaches its subscriptions (volatile): before the first
             # session the robot steps until the trainer has heard each of its topics, the proof
             # that pybullet_node's publishers have matched its readers (graph counts are not:
-            # fresh-clone runs lost the first 23 and 34 of 100 steps with them)
+            # fresh-clone runs lost their first steps with them; CHANGELOG.md, 2026-11-26 and
+            # 2026-11-27)
             r.warmup_steps, settled = _until_heard(robot, cond, calls, children)
             counts = [settled]                  # what the trainer has heard, once settled
             r.seconds["start"] = time.perf_counter() - t0
