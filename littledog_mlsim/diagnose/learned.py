@@ -137,7 +137,8 @@ command excitation, ``comparable``, and where they differ a ``statement`` and th
 shows while they differ (carried by the model; ``significant`` does not count it), and
 ``unexplained_change`` and ``reference_change`` are then kept as measured with
 ``comparable: false``, neither ``significant`` nor ``named``, except an ``unexplained_change``
-that concentrates at a joint scope (:func:`concentrated_at_joints`, decision 033): it is read as
+that concentrates at one joint, leg or side (:func:`concentrated_at_joints`, decisions 033 and
+064): it is read as
 measured, with ``comparable: false`` and ``concentrated: true``. ``drift_change``
 (:func:`drift_change`, decision 037): where the search suspected a heading effect it did not
 accept, the drift against the reference as a second test; where it holds, ``named``, the
@@ -1526,21 +1527,25 @@ def _not_compared(reading: dict[str, Any], conditions: "Conditions") -> dict[str
 
 
 def concentrated_at_joints(reading: Mapping[str, Any]) -> bool:
-    """Whether decision 026's ``reading`` concentrates at a joint scope narrower than all
-    joints (:data:`.excess.CONCENTRATION`, its own rule): a change a difference of command
+    """Whether decision 026's ``reading`` concentrates at one joint, one leg or one side
+    (:data:`.excess.CONCENTRATION`, its own rule): a change a difference of command
     excitation alone does not give, since the excitation drives every joint's set-points
-    alike (decision 033)."""
+    alike (decision 033) and the legs and sides are copies of one another. A joint type
+    (``type:``) does not count: the types answer an excitation differently, and a twin's
+    parameters are per type, so its own error under excitation gathers at one (decision
+    064)."""
     from .excess import CONCENTRATION
-    return (reading.get("scope") not in (None, "all", "body")
+    scope = reading.get("scope")
+    return (scope not in (None, "all", "body") and not str(scope).startswith("type:")
             and float(reading.get("concentration", 0.0)) >= CONCENTRATION)
 
 
 def _compared_where_concentrated(reading: dict[str, Any], conditions: "Conditions"
                                  ) -> dict[str, Any]:
     """Decision 026's ``reading`` against a reference recorded under other ``conditions``
-    where it concentrates at a joint scope (decision 033): read as measured, significant where
-    it is, with ``comparable`` false and ``concentrated`` true; the statement says why it was
-    compared all the same."""
+    where it concentrates at one joint, leg or side (decisions 033 and 064): read as measured,
+    significant where it is, with ``comparable`` false and ``concentrated`` true; the statement
+    says why it was compared all the same."""
     from .families.scopes import scope_words
     return {**reading, "comparable": False, "concentrated": True,
             "statement": (f"{conditions.recorded}, but the change concentrates at "

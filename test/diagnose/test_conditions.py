@@ -98,8 +98,9 @@ def test_a_reading_against_another_excitation_is_kept_but_neither_significant_no
 
 
 def test_a_reading_concentrated_at_a_joint_scope_is_compared_across_excitations():
-    """Decision 033: decision 026's reading across excitations counts where it concentrates at
-    a joint scope narrower than all joints; spread over the joints or the body it does not."""
+    """Decisions 033 and 064: decision 026's reading across excitations counts where it
+    concentrates at one joint, leg or side; spread over the joints, on the body, or at a joint
+    type however concentrated, it does not."""
     from littledog_mlsim.diagnose.excess import CONCENTRATION
     from littledog_mlsim.diagnose.learned import (_compared_where_concentrated,
                                                   concentrated_at_joints)
@@ -107,7 +108,10 @@ def test_a_reading_concentrated_at_a_joint_scope_is_compared_across_excitations(
     knee = {"significant": True, "ratio": 1.87, "scope": "joint:front_left_knee",
             "concentration": 3.51, "statement": "a change", "recording": "r"}
     assert concentrated_at_joints(knee)
-    for scope, conc in (("all", 1.0), ("body", 2.5), ("type:knees", CONCENTRATION - 0.01)):
+    for scope in ("leg:front_left", "side:right"):
+        assert concentrated_at_joints({**knee, "scope": scope})
+    for scope, conc in (("all", 1.0), ("body", 2.5), ("type:knees", CONCENTRATION - 0.01),
+                        ("type:knees", 2.04), ("type:hip_rolls", 10.0)):
         assert not concentrated_at_joints({**knee, "scope": scope, "concentration": conc})
     out = _compared_where_concentrated(knee, cond)
     assert (out["significant"], out["comparable"], out["concentrated"], out["ratio"],

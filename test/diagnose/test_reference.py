@@ -493,8 +493,8 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
 
 
 def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_concentrated():
-    """Decision 052: against a reference recorded under another command excitation, an excess
-    on the body or spread over the joints is not named (the twin's own error under the data's
+    """Decisions 052 and 064: against a reference recorded under another command excitation,
+    an excess on the body, spread over the joints or at a joint type is not named (the twin's own error under the data's
     excitation is not in the reference; a suspected entry asks for the reference recorded the
     data's way); one concentrated at a joint is named as measured, marked not comparable. The
     same excitation, or none given, changes nothing."""
@@ -535,6 +535,12 @@ def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_co
     assert knee["named"] and knee["concentrated"] and knee["comparable"] is False
     assert knee["vocabulary"]["scope"] == "joint:back_left_knee"
     assert "does not give" in knee["statement"]
+    # decision 064: concentrated at a joint type, it is not named (a twin's per-type error
+    # under the data's excitation gathers there)
+    knees = left_with(channels_of("type:knees"), 12.0, other)
+    assert knees["significant"] and knees["scope"] == "type:knees", knees
+    assert not knees["named"] and knees["concentrated"] is False
+    assert knees["statement"].startswith("not compared: ") and not _compared(knees, other)
     # material but not significant, or in a few channels only: suspected as before, with the
     # reference recorded the data's way asked for
     body = left_with(channels_of("body"), 4.0, other)

@@ -193,7 +193,8 @@ def _conditions(o: PhysicalOptions) -> Any:
 
 def _compared(left: dict[str, Any], conditions: Any) -> bool:
     """Whether ``left`` (:func:`unexplained`) is compared against the reference: recorded
-    alike, or concentrated at a joint scope where not (decision 052, :func:`name_left`)."""
+    alike, or concentrated at one joint, leg or side where not (decisions 052 and 064,
+    :func:`name_left`)."""
     if conditions is None or conditions.comparable:
         return True
     from ..learned import concentrated_at_joints
@@ -578,9 +579,9 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     ``conditions`` (:class:`..conditions.Conditions`, None: the same recording): where the
     reference was recorded under another command excitation than the data, the twin's own
     error under the data's excitation is not in the reference, so the excess is named only
-    where it concentrates at a joint scope narrower than all joints, which a difference of
-    excitation over every joint does not give (decision 052, the physical route's reading of
-    decisions 031 and 033); ``conditions`` is then kept in ``left``, with ``comparable``
+    where it concentrates at one joint, leg or side, which a difference of excitation over
+    every joint does not give (decision 052, the physical route's reading of decisions 031 and
+    033; a joint type does not count, decision 064); ``conditions`` is then kept in ``left``, with ``comparable``
     false, and ``concentrated`` says which reading was taken."""
     named = exceeds(left)
     out = {**left, "named": named, "statement": _left_statement(left)}
