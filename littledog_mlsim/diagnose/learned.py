@@ -157,7 +157,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from ..data.recording import MoveRecording
 from ..data.states import initial_pose
-from ..layout import (CONTROL_DT, JOINT_NAMES, N_FEATURE, N_STATE, STATE_NAMES,
+from ..layout import (CONTROL_DT, JOINT_NAMES, LEGS, N_FEATURE, N_STATE, STATE_NAMES,
                       UNKNOWN_MOVE_TYPE, S)
 from ..models.features import (Augmentation, CommandFilter, CommandLag, ElapsedTime, FeatureSet,
                                GaitPhase, Heading, PlanarPosition, Play, integrate_pose)
@@ -1532,12 +1532,33 @@ def concentrated_at_joints(reading: Mapping[str, Any]) -> bool:
     excitation alone does not give, since the excitation drives every joint's set-points
     alike (decision 033) and the legs and sides are copies of one another. A joint type
     (``type:``) does not count: the types answer an excitation differently, and a twin's
-    parameters are per type, so its own error under excitation gathers at one (decision
-    064)."""
+    parameters are per type, so its own error under excitation gathers at one; for the same
+    reason one joint counts only where it also stands out of the other joints of its type by
+    that factor (``scope_ratios``; decision 064)."""
     from .excess import CONCENTRATION
-    scope = reading.get("scope")
-    return (scope not in (None, "all", "body") and not str(scope).startswith("type:")
-            and float(reading.get("concentration", 0.0)) >= CONCENTRATION)
+    kind, _, what = str(reading.get("scope")).partition(":")
+    if kind not in ("joint", "leg", "side"):
+        return False
+    if not float(reading.get("concentration") or 0.0) >= CONCENTRATION:
+        return False
+    return kind != "joint" or over_type_mates(reading, what) >= CONCENTRATION
+
+
+def over_type_mates(reading: Mapping[str, Any], joint: str) -> float:
+    """The ratio of ``joint`` in ``reading``'s ``scope_ratios`` over the mean of the other
+    joints of its type (the same joint in the other legs; decision 064); nan where the
+    reading does not give them."""
+    ratios = reading.get("scope_ratios") or {}
+    leg = next((g for g in LEGS if joint.startswith(g + "_")), None)
+    if leg is None:
+        return float("nan")
+    kind = joint[len(leg) + 1:]
+    mates = [ratios.get(f"joint:{g}_{kind}") for g in LEGS if g != leg]
+    own = ratios.get(f"joint:{joint}")
+    if own is None or any(m is None for m in mates):
+        return float("nan")
+    mean = float(np.mean([float(m) for m in mates]))
+    return float(own) / mean if mean > 0 else float("nan")
 
 
 def _compared_where_concentrated(reading: dict[str, Any], conditions: "Conditions"

@@ -244,3 +244,26 @@ def test_misses_reads_where_each_miss_stood_in_its_diagnosis(tmp_path):
     assert "best held-out cut: mass_com @ body, J 0.854, cut 3.680" in text
     assert "located pass: round 1: the fit moves' excess over the reference lives at all" in text
     assert "recommended" not in text
+
+
+def test_a_clean_excitation_no_effect_uses_is_recorded_when_asked(tmp_path, fakes):
+    """``--clean-excitation``: the excited clean seeds are recorded under it even where no
+    effect of the zoo is recorded with excitation; without it they are not."""
+    recorded, _ = fakes
+    zoo = tmp_path / "zoo"
+    zoo.mkdir()
+    (zoo / "truth.yaml").write_text("effects:\n  - {id: z01, family: other, scope: body}\n")
+    base = ["--zoo", str(zoo), "--seed", "7", "--clean-seeds", "7,8",
+            "--clean-seeds-excited", "7", "--record-only"]
+    assert harness.main(base + ["--work", str(tmp_path / "w1"),
+                                "--out", str(tmp_path / "o1")]) == 0
+    assert sorted(Path(p).name for p in recorded) == ["s7_e0", "s8_e0", "z01"]
+    recorded.clear()
+    assert harness.main(base + ["--work", str(tmp_path / "w2"), "--out", str(tmp_path / "o2"),
+                                "--clean-excitation", "0.05"]) == 0
+    assert {Path(p).name: e for p, (e, _) in recorded.items()} == {
+        "s7_e0": 0.0, "s8_e0": 0.0, "s7_e0.05": 0.05, "z01": 0.0}
+    for bad in ("nan", "-0.05", "0"):
+        with pytest.raises(SystemExit, match="--clean-excitation RAD"):
+            harness.main(base + ["--work", str(tmp_path / "w3"), "--out", str(tmp_path / "o3"),
+                                 "--clean-excitation", bad])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from littledog_mlsim.diagnose.conditions import Conditions, cannot_contrast, conditions_of
@@ -99,15 +100,28 @@ def test_a_reading_against_another_excitation_is_kept_but_neither_significant_no
 
 def test_a_reading_concentrated_at_a_joint_scope_is_compared_across_excitations():
     """Decisions 033 and 064: decision 026's reading across excitations counts where it
-    concentrates at one joint, leg or side; spread over the joints, on the body, or at a joint
-    type however concentrated, it does not."""
+    concentrates at one joint that also stands out of its type's other joints, one leg or one
+    side; spread over the joints, on the body, at a joint type however concentrated, or at a
+    joint its type's others share, it does not."""
     from littledog_mlsim.diagnose.excess import CONCENTRATION
     from littledog_mlsim.diagnose.learned import (_compared_where_concentrated,
-                                                  concentrated_at_joints)
+                                                  concentrated_at_joints, over_type_mates)
     cond = Conditions(0.05, 0.0)
+    mates = {"joint:front_left_knee": 6.0, "joint:front_right_knee": 1.0,
+             "joint:back_left_knee": 2.0, "joint:back_right_knee": 3.0}
     knee = {"significant": True, "ratio": 1.87, "scope": "joint:front_left_knee",
-            "concentration": 3.51, "statement": "a change", "recording": "r"}
-    assert concentrated_at_joints(knee)
+            "concentration": 3.51, "statement": "a change", "recording": "r",
+            "scope_ratios": mates}
+    assert concentrated_at_joints(knee) and over_type_mates(knee, "front_left_knee") == 3.0
+    # the other knees share it (the twin's per-type error under excitation), or the reading
+    # does not give them: not counted
+    shared = {**mates, "joint:front_right_knee": 4.0, "joint:back_left_knee": 4.0,
+              "joint:back_right_knee": 4.0}
+    assert over_type_mates({**knee, "scope_ratios": shared}, "front_left_knee") == 1.5
+    assert not concentrated_at_joints({**knee, "scope_ratios": shared})
+    assert not concentrated_at_joints({k: v for k, v in knee.items() if k != "scope_ratios"})
+    assert np.isnan(over_type_mates(knee, "front_knee"))
+    assert not concentrated_at_joints({**knee, "concentration": None})
     for scope in ("leg:front_left", "side:right"):
         assert concentrated_at_joints({**knee, "scope": scope})
     for scope, conc in (("all", 1.0), ("body", 2.5), ("type:knees", CONCENTRATION - 0.01),

@@ -494,10 +494,10 @@ def test_an_excess_significant_only_in_a_few_channels_is_named_where_material():
 
 def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_concentrated():
     """Decisions 052 and 064: against a reference recorded under another command excitation,
-    an excess on the body, spread over the joints or at a joint type is not named (the twin's own error under the data's
-    excitation is not in the reference; a suspected entry asks for the reference recorded the
-    data's way); one concentrated at a joint is named as measured, marked not comparable. The
-    same excitation, or none given, changes nothing."""
+    an excess on the body, spread over the joints or at a joint type is not named (the twin's
+    own error under the data's excitation is not in the reference; a suspected entry asks for
+    the reference recorded the data's way); one concentrated at a joint is named as measured,
+    marked not comparable. The same excitation, or none given, changes nothing."""
     import numpy as np
     from types import SimpleNamespace
     from littledog_mlsim.diagnose.conditions import Conditions
@@ -536,11 +536,24 @@ def test_an_excess_over_a_reference_of_another_excitation_is_named_only_where_co
     assert knee["vocabulary"]["scope"] == "joint:back_left_knee"
     assert "does not give" in knee["statement"]
     # decision 064: concentrated at a joint type, it is not named (a twin's per-type error
-    # under the data's excitation gathers there)
+    # under the data's excitation gathers there) and is suspected, asking for the reference
+    # recorded the data's way; with the same excitation it is named as before
     knees = left_with(channels_of("type:knees"), 12.0, other)
     assert knees["significant"] and knees["scope"] == "type:knees", knees
     assert not knees["named"] and knees["concentrated"] is False
     assert knees["statement"].startswith("not compared: ") and not _compared(knees, other)
+    (sus,) = left_suspicion(knees, capped=False)
+    assert sus["kind"] == "unexplained" and "not named" in sus["why"]
+    assert sus["recording"] == other.recording
+    for same in (Conditions(0.05, 0.05), None):
+        again = left_with(channels_of("type:knees"), 12.0, same)
+        assert again["named"] and again["vocabulary"]["scope"] == "type:knees"
+    # one knee over a type-wide excess: located at the type, so not named across excitations
+    T = S.copy()
+    T[np.ix_(V, channels_of("type:knees"))] *= 6.0
+    T[np.ix_(V, channels_of("joint:back_left_knee"))] *= 3.0
+    mixed = name_left(unexplained(_Sse(T), V, R, 0.01), other)
+    assert mixed["scope"] == "type:knees" and not mixed["named"], mixed["scope"]
     # material but not significant, or in a few channels only: suspected as before, with the
     # reference recorded the data's way asked for
     body = left_with(channels_of("body"), 4.0, other)

@@ -582,6 +582,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--clean-seeds-excited", default="1",
                     help="clean seeds under each excitation the zoo uses (the effect seed "
                          "is needed for the clean reference)")
+    ap.add_argument("--clean-excitation", type=float, action="append", default=[],
+                    metavar="RAD",
+                    help="also record and diagnose --clean-seeds-excited under this command "
+                         "excitation where no effect uses it (repeatable): a clean run the "
+                         "rule asks for whatever the zoo's effects are")
     ap.add_argument("--jobs", type=int, default=2, help="diagnoses run side by side")
     ap.add_argument("--only", default="", help="comma-separated effect ids (default: all)")
     ap.add_argument("--record-only", action="store_true",
@@ -634,7 +639,9 @@ def main(argv: list[str] | None = None) -> int:
                            float((t.get("recording") or {}).get("excitation", 0.0)),
                            (files / t.get("file", f"{t['id']}.yaml")).resolve(), robot)
                    for t in truth]
-    excitations = sorted({0.0} | {d.excitation for d in effect_sets})
+    if any(not (0 < e < float("inf")) for e in a.clean_excitation):
+        raise SystemExit("--clean-excitation RAD must be a positive number")
+    excitations = sorted({0.0} | {d.excitation for d in effect_sets} | set(a.clean_excitation))
     clean_sets = [Dataset(f"clean_s{s}_e{e:g}", work / "clean" / f"s{s}_e{e:g}", s, e,
                           robot=robot)
                   for e in excitations

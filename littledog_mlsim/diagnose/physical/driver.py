@@ -579,10 +579,11 @@ def name_left(left: dict[str, Any], conditions: Any = None) -> dict[str, Any]:
     ``conditions`` (:class:`..conditions.Conditions`, None: the same recording): where the
     reference was recorded under another command excitation than the data, the twin's own
     error under the data's excitation is not in the reference, so the excess is named only
-    where it concentrates at one joint, leg or side, which a difference of excitation over
-    every joint does not give (decision 052, the physical route's reading of decisions 031 and
-    033; a joint type does not count, decision 064); ``conditions`` is then kept in ``left``, with ``comparable``
-    false, and ``concentrated`` says which reading was taken."""
+    where it concentrates at one joint (standing out of its type's other joints), one leg or
+    one side, which a difference of excitation over every joint does not give (decision 052,
+    the physical route's reading of decisions 031 and 033; a joint type does not count,
+    decision 064: :func:`..learned.concentrated_at_joints`); ``conditions`` is then kept in
+    ``left``, with ``comparable`` false, and ``concentrated`` says which reading was taken."""
     named = exceeds(left)
     out = {**left, "named": named, "statement": _left_statement(left)}
     out.pop("vocabulary", None)
