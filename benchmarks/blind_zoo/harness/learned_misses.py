@@ -38,8 +38,7 @@ the log's picks), its picks' contrast with the reference from the log.
 ``unexplained_change`` and ``reference_change`` come from report.md's statements (the log
 states them only where significant); the change screen's hypotheses are not in either. A
 diagnosis that stopped with an error says so. Families are compared in the vocabulary: a
-learned label reads
-as the family and scope the route reports it under
+learned label reads as the family and scope the route reports it under
 (:func:`~littledog_mlsim.diagnose.families.learned.physical_reading`), a searched form as its
 vocabulary family (:func:`~littledog_mlsim.diagnose.families.vocabulary_family`). Nothing is
 re-run; it reads files only.
