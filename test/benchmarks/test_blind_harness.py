@@ -4,6 +4,7 @@ which recording a report asks for, and what the harness records and diagnoses fo
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import pytest
@@ -267,3 +268,33 @@ def test_a_clean_excitation_no_effect_uses_is_recorded_when_asked(tmp_path, fake
         with pytest.raises(SystemExit, match="--clean-excitation RAD"):
             harness.main(base + ["--work", str(tmp_path / "w3"), "--out", str(tmp_path / "o3"),
                                  "--clean-excitation", bad])
+
+
+def test_an_excited_clean_seed_is_scored_as_a_clean_run(tmp_path, fakes, monkeypatch):
+    """``--clean-excitation``: the excited clean seed is diagnosed and counted among the clean
+    runs (its alarm a false alarm); an effect recorded without excitation is still compared
+    with the clean run of its own seed and excitation."""
+    _, diagnosed = fakes
+    # each dataset's one-step error tells which clean run an effect was compared with
+    nmse = {"clean_s7_e0": 0.1, "clean_s8_e0": 0.2, "clean_s7_e0.05": 0.3, "z01": 0.4}
+
+    def diagnose(ds, work, extra, logs, arm=""):
+        diagnosed[ds.name] = list(extra)
+        ds.diag_seconds = 1.0
+        ds.report = {"significant": ds.name == "clean_s7_e0.05", "effects": [],
+                     "before": {"nmse_mean": nmse[ds.name]}}
+
+    monkeypatch.setattr(harness, "diagnose", diagnose)
+    zoo = tmp_path / "zoo"
+    zoo.mkdir()
+    (zoo / "truth.yaml").write_text("effects:\n  - {id: z01, family: other, scope: body}\n")
+    out = tmp_path / "out"
+    assert harness.main(["--zoo", str(zoo), "--seed", "7", "--clean-seeds", "7,8",
+                         "--clean-seeds-excited", "7", "--clean-excitation", "0.05",
+                         "--work", str(tmp_path / "w"), "--out", str(out),
+                         "--no-follow-up", "--jobs", "1"]) == 0
+    assert sorted(diagnosed) == ["clean_s7_e0", "clean_s7_e0.05", "clean_s8_e0", "z01"]
+    res = json.loads((out / "results.json").read_text())
+    assert res["summary"]["clean runs"] == 3 and res["summary"]["false alarms"] == 1
+    (row,) = res["rows"]
+    assert row["clean"]["onestep_before"] == nmse["clean_s7_e0"]
