@@ -124,3 +124,38 @@ def test_a_log_is_read_in_the_reports_shape():
     assert f["standing"] == "kept by the change screen, not named"
     assert lm.label_reading("play(width=0.03, source=u)") == {"family": "backlash",
                                                                "scope": "all"}
+
+
+def test_a_log_probe_is_not_material_only_where_it_gained_and_the_suspects_are_there():
+    """Missing from the round's reference line reads as not material only where the total
+    gain is > 0 and, for the position probe, the run's suspects are in results.json; a slope
+    whose position probe ran is not "never probed" where the floor is unknown."""
+    log = ("diagnose: reference: 77 TrainPool moves from REF\n"
+           "diagnose: round 0: heading() gain -0.50 p 1e-06, planar_position() gain +0.90 "
+           "p 1e-05, elapsed_time() gain +0.40 p 1e-05\n")
+    for suspects, position in ((True, False), (False, None)):
+        probes = lm.report_from_text(log, None, alpha=1e-4, narrow_p=1.0, suspects=suspects
+                                     )["rollout_route"]["rounds"][0]["probes"]
+        assert [p["material"] for p in probes] == [None, position, False]
+    f = lm.standing_facts(lm.report_from_text(log, None, alpha=1e-4),
+                          {"id": "z02", "family": "ground_slope", "scope": "all"}, {})
+    assert f["standing"] == "the position probe ran, its reading as a slope unknown"
+    assert "the position probe ran (p 1e-05)" in "\n".join(lm.fact_lines(f))
+
+
+def test_a_report_md_that_does_not_parse_reads_nothing():
+    f = lm.standing_facts(lm.report_from_text(None, "# a report\n\nno rounds here\n"), TRUTH, {})
+    assert f["standing"] == "nothing readable"
+    assert f["standing"] in lm.STANDINGS
+
+
+def test_a_committed_run_ties_the_text_to_its_formats():
+    """zoo26's first run (report.md and the diagnose log, no report.json): z08, a delay at
+    the left side, was picked by the one-step loop but not compared with the reference
+    (recorded under another excitation)."""
+    run = lm.ROOT / "benchmarks/blind_zoo/zoos/zoo26/runs/run1/learned+reference"
+    f = {row["id"]: f for _, row, f in lm.misses(run, run.parents[2] / "truth.yaml")}["z08"]
+    assert f["source"] == "report.md and the diagnose log" and f["alpha"] == 1e-4
+    assert len(f["one_step"]) == 4 and len(f["rollout"]) == 3
+    assert f["standing"] == ("accepted by the search, not compared (reference under another "
+                             "excitation)")

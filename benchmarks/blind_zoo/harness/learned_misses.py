@@ -30,10 +30,21 @@ Most committed runs keep ``report.md`` and the diagnose log but not ``report.jso
 report is then rebuilt in part from those two (:func:`report_from_text`) and says so. The log
 lists every full-scope probe with its total gain and p, but only the narrower screen's four
 smallest p (where the truth's scope is not among them, the screen's rule says whether it was
-probed: :func:`_unlisted`); whether a probe is material is read from the reference
-contrast's line (it lists exactly the round's significant and material probes; without a
-reference: unknown); alpha and ``narrow_p`` are those of the code the run froze
-(:func:`frozen_options`). The one-step loop's candidates come from report.md's tables (else
+probed: :func:`_unlisted`); a probe is significant where p < alpha (the route's test);
+whether it is material is read from the round's "against the reference" line (it lists the
+probes the round may accept: significant, material and with a total gain > 0). A probe
+missing from that line counts as not material only where its total gain is > 0 and, for the
+position probe (which the route holds back, unlisted, where the moves' starts are confounded
+with it), where the run's suspects are in ``results.json``; otherwise, and without a
+reference, unknown. zoo9-zoo11 froze code older than 44362a20: their ``results.json`` holds
+none of the rollout route's suspects, so "suspected of its family" is always empty there and
+their position probe's materiality unknown. alpha and ``narrow_p`` are those of the code the
+run froze (:func:`frozen_options`; where git lacks that commit, this build's defaults, and
+the evidence line says so). The floor is in neither file: a ``ground_slope`` truth whose
+position probe ran reads "the position probe ran, its reading as a slope unknown", not
+"never probed". Where no round of either search parses, the miss stands at "nothing
+readable". A missing ``results.json`` or ``truth.yaml`` is a one-line message naming it
+(``--zoos``: that run is skipped with a note). The one-step loop's candidates come from report.md's tables (else
 the log's picks), its picks' contrast with the reference from the log.
 ``unexplained_change`` and ``reference_change`` come from report.md's statements (the log
 states them only where significant); the change screen's hypotheses are not in either. A
@@ -63,7 +74,8 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.blind_zoo.harness.misses import _fmt_params, _truth_value  # noqa: E402
-from benchmarks.blind_zoo.learned_by_family.tally import ZOOS  # noqa: E402
+from benchmarks.blind_zoo.harness.misses import _num as _fmt_num  # noqa: E402
+from benchmarks.blind_zoo.learned_by_family.tally import first_runs  # noqa: E402
 from littledog_mlsim.diagnose.change import Hypothesis  # noqa: E402
 from littledog_mlsim.diagnose.excess import MIN_RATIO  # noqa: E402
 from littledog_mlsim.diagnose.families import vocabulary_family  # noqa: E402
@@ -86,12 +98,14 @@ STANDINGS = (
     "accepted by the search, not compared (reference under another excitation)",
     "kept by the change screen, not named",
     "seen in unexplained_change (material), not named",
+    "nothing readable",
     "significant and material at its scope, held back as suspected",
     "significant and material at its scope, not taken",
     "significant at its scope, not material",
     "significant at its scope (materiality not in the log)",
     "probed at its scope, p above alpha",
     "probed at its scope (by the screen's rule), p not in the log",
+    "the position probe ran, its reading as a slope unknown",
     "never probed at its scope; its family significant elsewhere",
     "never probed at its scope; its family probed elsewhere",
     "its family never probed",
@@ -106,6 +120,16 @@ _NUM = r"[-+]?(?:\d+\.?\d*(?:e[-+]?\d+)?|nan|inf)"
 _LABEL = r"[a-z_]+\([^()]*\)"
 #: the narrower screen's probes the diagnose log lists, smallest p first (``learned._search``)
 LOG_NARROWER = 4
+#: the commit from which results.json holds the rollout route's suspects (a position probe
+#: held back as confounded with the moves' start among them); zoo9-zoo11 froze older code
+SUSPECTS_SINCE = "44362a20"
+#: the position probe (``feature_library.PlanarPosition``), which reads as a slope only where
+#: the report gives the floor
+POSITION = "planar_position("
+
+
+class MissingFile(Exception):
+    """A file a run's reading needs (``results.json``, ``truth.yaml``) is not there."""
 
 
 def _float(x: str | None) -> float | None:
@@ -179,10 +203,15 @@ def change_family(label: str | None) -> str | None:
 def frozen_options(code: str) -> dict[str, float]:
     """The rollout route's ``alpha`` and ``narrow_p`` defaults in the code a run froze
     (``results.json``'s ``code``, its first word a commit), read from that commit's
-    ``diagnose/learned.py``; this build's defaults where git does not have it. ``narrow_p``
-    is 1 where that code had none (a narrower screen, if any, of every family that
-    gained)."""
-    out = {"alpha": LearnedOptions().alpha, "narrow_p": LearnedOptions().narrow_p}
+    ``diagnose/learned.py``; this build's defaults where git does not have it, and then
+    ``note`` says so (the evidence line prints it). ``narrow_p`` is 1 where that code had
+    none (a narrower screen, if any, of every family that gained). ``suspects``: whether
+    that code put the rollout route's suspects in results.json (it descends from
+    :data:`SUSPECTS_SINCE`); None where git cannot tell."""
+    out: dict[str, Any] = {"alpha": LearnedOptions().alpha,
+                           "narrow_p": LearnedOptions().narrow_p, "suspects": None,
+                           "note": "alpha/narrow_p: this build's defaults, the run's commit "
+                                   "not found"}
     commit = (code or "").split(" ")[0]
     if not re.fullmatch(r"[0-9a-f]{7,40}", commit):
         return out
@@ -191,8 +220,11 @@ def frozen_options(code: str) -> dict[str, float]:
     if r.returncode != 0:
         return out
     found = dict(re.findall(rf"^\s+(alpha|narrow_p): float = ({_NUM})", r.stdout, re.M))
+    anc = subprocess.run(["git", "merge-base", "--is-ancestor", SUSPECTS_SINCE, commit],
+                         cwd=ROOT, capture_output=True, text=True).returncode
     return {"alpha": float(found.get("alpha", out["alpha"])),
-            "narrow_p": float(found.get("narrow_p", 1.0))}
+            "narrow_p": float(found.get("narrow_p", 1.0)),
+            "suspects": True if anc == 0 else False if anc == 1 else None, "note": None}
 
 
 def _items(text: str, pattern: str) -> list[re.Match]:
@@ -300,7 +332,8 @@ def reference_change_from_statement(text: str | None) -> dict[str, Any] | None:
 
 
 def report_from_text(log: str | None, md: str | None, alpha: float | None = None,
-                     narrow_p: float | None = None) -> dict[str, Any]:
+                     narrow_p: float | None = None, suspects: bool | None = True,
+                     note: str | None = None) -> dict[str, Any]:
     """A report dict in report.json's shape, rebuilt in part from the diagnose log and
     report.md (either may be None): the one-step loop's rounds (report.md's tables, else
     the log's picks), the
@@ -308,15 +341,25 @@ def report_from_text(log: str | None, md: str | None, alpha: float | None = None
     what each round accepted and the reference contrast's p(change) (the one-step loop's
     picks, as ``effects`` or ``shared`` by the log's contrast line), ``unexplained_change``
     and ``reference_change`` (report.md's statements; the log's where significant).
-    ``source`` says what it was read from. A probe is significant where p <= ``alpha``
-    (default: the route's); material where the round's reference line lists it, not where
-    a reference was given and it does not, else unknown (None). ``narrow_p``: the narrower
-    screen's, kept in ``options`` (:func:`_unlisted`)."""
+    ``source`` says what it was read from. A probe is significant where p < ``alpha``
+    (default: the route's, ``learned.py``'s ``p_value < alpha``). It is material where the
+    round's reference line lists it (the line lists the probes the round may accept:
+    significant, material and with a total gain > 0). It is not material only where a
+    reference was given, it is significant, its total gain is > 0, the line does not list it
+    and the round could have printed one (not a last round that may have stopped at the
+    reference contrast's share limit), and, for the position probe (which the route holds
+    back, unlisted, where the moves' starts are confounded with its reading), where
+    ``suspects`` says the run's suspects are in results.json (:func:`standing_facts` marks
+    the held-back probe material from them); else unknown (None). ``narrow_p``: the narrower
+    screen's, kept in ``options`` (:func:`_unlisted`). ``note``: that alpha and ``narrow_p``
+    are this build's defaults (:func:`frozen_options`). The floor is not in either file:
+    ``floor_known`` is False."""
     alpha = LearnedOptions().alpha if alpha is None else alpha
     narrow_p = LearnedOptions().narrow_p if narrow_p is None else narrow_p
     lines = [ln.split("diagnose: ", 1)[1] for ln in (log or "").splitlines()
              if ln.startswith("diagnose: ")]
-    with_reference = any(ln.startswith("reference: ") for ln in lines)
+    with_reference = (any(ln.startswith("reference: ") for ln in lines)
+                      or _md_line(md or "", "Against the reference:") is not None)
     rounds: dict[int, dict[str, Any]] = {}
     ok: dict[int, set[str]] = collections.defaultdict(set)
     effects, shared, not_comparable = [], [], []
@@ -346,11 +389,17 @@ def report_from_text(log: str | None, md: str | None, alpha: float | None = None
             if key == "scoped":
                 r["scoped_complete"] = len(found) < LOG_NARROWER
     accepted = {e["label"] for e in effects + shared + not_comparable}
+    last = max(rounds, default=None)
     for k, r in rounds.items():
+        # a last round without its reference line may have stopped before printing it (the
+        # share limit) once something was set aside; its unlisted probes are then unknown
+        lined = k in ok or not (k == last and (shared or not_comparable))
         for p in r["probes"] + r.get("scoped", []):
-            p["significant"] = p["p_value"] <= alpha
+            p["significant"] = p["p_value"] < alpha
             p["material"] = (True if p["label"] in ok[k] or p["label"] in accepted else
-                             False if with_reference and p["significant"] else None)
+                             False if with_reference and p["significant"] and lined
+                             and p["total_gain"] > 0
+                             and (suspects or not p["label"].startswith(POSITION)) else None)
     one_step = _md_rounds(md) if md else _log_rounds(lines)
     verdicts = {m.group(1): m.group(2) for ln in lines if (m := re.match(
         rf"one-step ({_LABEL}) against the reference: .*: (a change|the robot's own)", ln))}
@@ -362,8 +411,9 @@ def report_from_text(log: str | None, md: str | None, alpha: float | None = None
     source = " and ".join(n for n, t in (("report.md", md), ("the diagnose log", log)) if t)
     error = next((ln.split("error: ", 1)[1] for ln in (log or "").splitlines()
                   if ln.startswith("littledog-mlsim diagnose: error: ")), None)
-    return {"source": source or "nothing", "floor_plane": None, "rounds": one_step,
-            **({"error": error} if error else {}),
+    return {"source": source or "nothing", "floor_plane": None, "floor_known": False,
+            "rounds": one_step, **({"error": error} if error else {}),
+            **({"options_note": note} if note else {}),
             "effects": [e for e in picked if verdicts.get(e["label"]) != "the robot's own"],
             "shared": [e for e in picked if verdicts.get(e["label"]) == "the robot's own"],
             "rollout_route": {
@@ -393,6 +443,7 @@ def load_report(run: Path, eid: str, code: str = "") -> dict[str, Any] | None:
         return None
     return report_from_text(logs[0].read_text() if logs else None,
                             md.read_text() if md.is_file() else None, **frozen_options(code))
+
 
 
 # ---------------------------------------------------------------------------------------------
@@ -442,7 +493,7 @@ def _unlisted(r: Mapping[str, Any], fam: str, scope: str, floor: Mapping[str, An
     (``learned.screen_narrower``: every leg, type and side of a family whose full-scope probe
     gained with p at most ``narrow_p``; below it, at zoo11's code) probed it, an entry
     ``inferred`` with ``p_at_least`` the largest p listed, and significant false where that is
-    above ``alpha``."""
+    not below ``alpha``."""
     listed = r.get("scoped") or []
     if scope_group(scope) not in SCOPES or any(
             (label_reading(str(p["label"]), floor) or {}) == {"family": fam, "scope": scope}
@@ -458,7 +509,7 @@ def _unlisted(r: Mapping[str, Any], fam: str, scope: str, floor: Mapping[str, An
     floor_p = max(p["p_value"] for p in listed)
     return [{"label": f"{gained[0]['label']} at {scope}", "scope": scope, "p_value": None,
              "p_at_least": floor_p, "total_gain": None, "inferred": True,
-             "significant": False if alpha is not None and floor_p > alpha else None,
+             "significant": False if alpha is not None and floor_p >= alpha else None,
              "material": None,
              "where": f"rollout round {r.get('round')}, narrower (not listed in the log: "
                       f"inferred from the screen's rule, p >= {floor_p:.2g})"}]
@@ -482,7 +533,7 @@ def standing_facts(report: dict[str, Any] | None, truth: Mapping[str, Any],
                            "change": None, "change_best": None, "suspected": [],
                            "alpha": None, "family_probed": False,
                            "family_significant_elsewhere": False, "blocked_by": [],
-                           "error": None}
+                           "error": None, "note": None, "position_probe": None}
     suspected = (report or {}).get("suspected", score.get("suspected")) or []
     out["suspected"] = [s for s in suspected if vocabulary_family(str(s.get("family"))) == fam]
     if report is None:
@@ -490,7 +541,9 @@ def standing_facts(report: dict[str, Any] | None, truth: Mapping[str, Any],
         return out
     out["source"] = report.get("source", "report.json")
     out["error"] = report.get("error")
+    out["note"] = report.get("options_note")
     floor = report.get("floor_plane")
+    unknown_floor = report.get("floor_known") is False and fam == "ground_slope"
     # a probe the route held back although significant and material (a position effect where
     # the moves' starts are confounded) is suspected as such; the log's reading misses it
     held = {s.get("label") for s in suspected
@@ -514,6 +567,12 @@ def standing_facts(report: dict[str, Any] | None, truth: Mapping[str, Any],
             if probes is None:
                 continue
             hits = mark(probes_of_family(probes, fam, floor))
+            if unknown_floor:      # the position probe would read as a slope at the floor
+                pos = [p for p in probes if str(p.get("label")).startswith(POSITION)
+                       and p.get("p_value") is not None]
+                prev = out["position_probe"]
+                out["position_probe"] = min(pos + ([prev] if prev else []),
+                                            key=lambda p: p["p_value"], default=None)
             out["rollout"].append({"round": r.get("round"), "screen": screen, "n": len(probes),
                                    "best": hits[:1],
                                    "at_scope": [h for h in hits if h["scope"] == scope][:1]})
@@ -561,7 +620,7 @@ def standing_facts(report: dict[str, Any] | None, truth: Mapping[str, Any],
                 r = label_reading(str(s.get("label")), floor) or {}
                 if r.get("family") == fam and r.get("scope") == scope:
                     sig = (None if s.get("p_value") is None or out["alpha"] is None
-                           else s["p_value"] <= out["alpha"])
+                           else s["p_value"] < out["alpha"])
                     out["own_scope"].append({**s, "scope": scope, "significant": sig,
                                              "where": f"scope scan of {e.get('label')}"})
     out["unexplained"] = rr.get("unexplained_change")
@@ -580,46 +639,53 @@ def standing(f: Mapping[str, Any], score: Mapping[str, Any]) -> str:
     family named at another scope; no report; the diagnosis stopped; accepted by the search
     (not named, set aside by the reference contrast, or not compared with it); kept by the
     change screen, not named; for an effect outside the vocabulary (``other``, which the
-    route names only from ``unexplained_change``), a material unexplained change; then the
-    best probe of its own family x scope (significant and material: held back as suspected or
-    not taken; significant; p above alpha; p not in the log); else never probed at its scope
-    (its family significant or probed elsewhere, or never probed)."""
+    route names only from ``unexplained_change``), a material unexplained change; nothing
+    readable where no round of either search parses from the files; then the best probe of
+    its own family x scope (significant and material: held back as suspected or not taken;
+    significant; p above alpha; p not in the log); for a slope read from text (the floor
+    unknown), that the position probe ran; else never probed at its scope (its family
+    significant or probed elsewhere, or never probed)."""
     fam = f["family"]
     if score.get("family_right"):
-        return STANDINGS[0]
+        return "named its family at another scope"
     if f["source"] is None:
-        return STANDINGS[1]
+        return "no report or log committed"
     if f.get("error"):
-        return STANDINGS[2]
+        return "the diagnosis stopped with an error"
     mine = [c for c in f["contrast"] if c["family"] == fam]
     if any(c["kind"] in ("accepted", "one-step accepted") for c in mine):
-        return STANDINGS[3]
+        return "accepted by the search, not named"
     if any("in the reference as well" in c["kind"] for c in mine):
-        return STANDINGS[4]
+        return "accepted by the search, set aside by the reference contrast"
     if mine:
-        return STANDINGS[5]
+        return "accepted by the search, not compared (reference under another excitation)"
     rc = f.get("change") or {}
     if rc.get("family") == fam and not rc.get("named"):
-        return STANDINGS[6]
+        return "kept by the change screen, not named"
     if fam == "other" and (f.get("unexplained") or {}).get("material"):
-        return STANDINGS[7]
+        return "seen in unexplained_change (material), not named"
+    if f["source"] != "report.json" and not f["one_step"] and not f["rollout"]:
+        return "nothing readable"
     own = [p for p in f["own_scope"] if p.get("significant") is not None]
     held = {s_.get("label") for s_ in f["suspected"]}
     if any(p["significant"] and p.get("material") and p["label"] in held for p in own):
-        return STANDINGS[8]
+        return "significant and material at its scope, held back as suspected"
     if any(p["significant"] and p.get("material") for p in own):
-        return STANDINGS[9]
+        return "significant and material at its scope, not taken"
     if any(p["significant"] and p.get("material") is False for p in own):
-        return STANDINGS[10]
+        return "significant at its scope, not material"
     if any(p["significant"] for p in own):
-        return STANDINGS[11]
+        return "significant at its scope (materiality not in the log)"
     if any(p.get("significant") is False for p in f["own_scope"]):
-        return STANDINGS[12]
+        return "probed at its scope, p above alpha"
     if f["own_scope"]:
-        return STANDINGS[13]
+        return "probed at its scope (by the screen's rule), p not in the log"
+    if f.get("position_probe"):
+        return "the position probe ran, its reading as a slope unknown"
     if f["family_significant_elsewhere"]:
-        return STANDINGS[14]
-    return STANDINGS[15] if f["family_probed"] else STANDINGS[16]
+        return "never probed at its scope; its family significant elsewhere"
+    return ("never probed at its scope; its family probed elsewhere" if f["family_probed"]
+            else "its family never probed")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -627,7 +693,8 @@ def standing(f: Mapping[str, Any], score: Mapping[str, Any]) -> str:
 
 
 def _num(x: Any, f: str = ".2g") -> str:
-    return "-" if x is None else format(x, f) if isinstance(x, (int, float)) else str(x)
+    """``misses._num``, and a string as it is (the files give some numbers as text)."""
+    return _fmt_num(x, f) if x is None or isinstance(x, (int, float)) else str(x)
 
 
 def _yes(x: Any) -> str:
@@ -644,7 +711,8 @@ def _probe(p: Mapping[str, Any]) -> str:
 def fact_lines(f: Mapping[str, Any]) -> list[str]:
     """Markdown lines of :func:`standing_facts`'s dict."""
     out = [f"- evidence: {f['source'] or 'none committed'}"
-           + ("" if f["alpha"] is None else f"; rollout alpha {_num(f['alpha'])}")]
+           + ("" if f["alpha"] is None else f"; rollout alpha {_num(f['alpha'])}")
+           + (f"; {f['note']}" if f.get("note") else "")]
     if f.get("error"):
         out.append(f"- the diagnosis stopped with an error: {f['error'][:200]}")
     if f["source"] is None:
@@ -670,6 +738,12 @@ def fact_lines(f: Mapping[str, Any]) -> list[str]:
                                                  else absent)))
     if f["blocked_by"]:
         out.append("- the rollout route could not probe: " + "; ".join(f["blocked_by"]))
+    if f.get("position_probe"):
+        out.append(f"- the position probe ran (p {_num(f['position_probe']['p_value'])}), its "
+                   "reading as a slope unknown (the floor is in neither report.md nor the log)")
+    if f["source"] and f["source"] != "report.json" and not f["one_step"] and not f["rollout"]:
+        out.append("- nothing readable: no round of either search parses from "
+                   + f["source"])
     out.append("- its own family x scope probed: " + ("; ".join(
         f"{p['where']}: `{p['label']}` p "
         + (_num(p.get("p_value")) if p.get("p_value") is not None
@@ -717,6 +791,9 @@ def misses(run: Path, truth_file: Path, every: bool = False
            ) -> Iterator[tuple[dict[str, Any], dict[str, Any], dict[str, Any]]]:
     """(truth, results row, :func:`standing_facts`) of each first-pass effect of ``run`` not
     found (every one with ``every``)."""
+    for path in (truth_file, run / "results.json"):
+        if not path.is_file():
+            raise MissingFile(f"{path}: not found")
     truth = {t["id"]: t for t in yaml.safe_load(truth_file.read_text())["effects"]}
     results = json.loads((run / "results.json").read_text())
     for row in results.get("rows", []):
@@ -742,26 +819,19 @@ def rows(run: Path, truth_file: Path, every: bool = False, zoo: str = "") -> lis
     return out
 
 
-def first_runs(skip: set[str]) -> Iterator[tuple[str, Path, Path]]:
-    """(zoo, run directory, truth.yaml) of each zoo's first no-twin run, as ``tally.py`` picks
-    them; zoos in ``skip`` are not opened."""
-    for zoo in sorted(ZOOS.iterdir(), key=lambda p: int(p.name[3:]) if p.name[3:].isdigit()
-                      else 0):
-        if zoo.name in skip:
-            continue
-        found = sorted((zoo / "runs" / "run1").glob("learned*/results.json"))
-        if found:
-            yield zoo.name, found[0].parent, zoo / "truth.yaml"
-
-
 def summary(skip: set[str]) -> list[str]:
     """Per true family, where the misses outside the model's inputs stood (markdown: a row
     per standing that occurs, a column per family), and a second table of facts beside it."""
     by: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
-    zoos = []
+    zoos, skipped = [], []
     for zoo, run, truth in first_runs(skip):
+        try:
+            found = list(misses(run, truth))
+        except MissingFile as e:
+            skipped.append(f"{zoo} ({e})")
+            continue
         zoos.append(zoo)
-        for t, _, f in misses(run, truth):
+        for t, _, f in found:
             if t.get("learned_inputs", False):
                 continue
             u, rc = f["unexplained"] or {}, f["change"] or {}
@@ -793,7 +863,9 @@ def summary(skip: set[str]) -> list[str]:
              "suspected of its family", "unexplained_change material (ratio >= 1.5)",
              "unexplained_change significant", "reference_change significant",
              "reference_change significant at its scope", "the change screen kept its family")
-    return ([f"Zoos: {', '.join(zoos)}", ""] + head + [row("misses")]
+    return ([f"Zoos: {', '.join(zoos)}", ""]
+            + ([f"Skipped: {'; '.join(skipped)}", ""] if skipped else []) + head
+            + [row("misses")]
             + [row(st) for st in STANDINGS if any(by[k][st] for k in fams)]
             + ["", "Beside it (not exclusive):", ""] + head + [row(x) for x in facts])
 
@@ -814,7 +886,11 @@ def main(argv: list[str] | None = None) -> int:
     if not a.zoos:
         if a.run is None or a.truth is None or a.summary:
             ap.error("give RUN and TRUTH, or --zoos --skip ZOOS [--summary]")
-        print("\n".join(rows(a.run, a.truth, a.all)))
+        try:
+            print("\n".join(rows(a.run, a.truth, a.all)))
+        except MissingFile as e:
+            print(f"learned_misses: {e}", file=sys.stderr)
+            return 1
         return 0
     if a.skip is None:
         ap.error("--zoos needs --skip (every sealed zoo, e.g. zoo64,zoo65)")
@@ -823,7 +899,10 @@ def main(argv: list[str] | None = None) -> int:
         print("\n".join(summary(skip)))
         return 0
     for zoo, run, truth in first_runs(skip):
-        print("\n".join(rows(run, truth, a.all, zoo)))
+        try:
+            print("\n".join(rows(run, truth, a.all, zoo)))
+        except MissingFile as e:
+            print(f"### {zoo}: skipped ({e})\n")
     return 0
 
 

@@ -15,25 +15,33 @@ import argparse
 import collections
 import json
 from pathlib import Path
+from typing import Iterator
 
 import yaml
 
 ZOOS = Path(__file__).resolve().parents[1] / "zoos"
 
 
-def rows(skip: set[str]):
-    """(zoo, row, learned_inputs) of every first-pass effect row of a no-twin first run."""
+def first_runs(skip: set[str]) -> Iterator[tuple[str, Path, Path]]:
+    """(zoo, run directory, truth.yaml) of each zoo's first no-twin run (the first of
+    ``runs/run1/learned*`` with a ``results.json``), zoos in numeric order; zoos in ``skip``
+    are not opened."""
     for zoo in sorted(ZOOS.iterdir(), key=lambda p: int(p.name[3:]) if p.name[3:].isdigit() else 0):
         if zoo.name in skip:
             continue
         found = sorted((zoo / "runs" / "run1").glob("learned*/results.json"))
-        if not found:
-            continue
-        truth = {e["id"]: e for e in yaml.safe_load((zoo / "truth.yaml").read_text())["effects"]}
-        for row in json.loads(found[0].read_text())["rows"]:
+        if found:
+            yield zoo.name, found[0].parent, zoo / "truth.yaml"
+
+
+def rows(skip: set[str]):
+    """(zoo, row, learned_inputs) of every first-pass effect row of a no-twin first run."""
+    for zoo, run, truth_file in first_runs(skip):
+        truth = {e["id"]: e for e in yaml.safe_load(truth_file.read_text())["effects"]}
+        for row in json.loads((run / "results.json").read_text())["rows"]:
             if row["id"] not in truth:      # a recommended recording's row
                 continue
-            yield zoo.name, row, bool(truth[row["id"]].get("learned_inputs", False))
+            yield zoo, row, bool(truth[row["id"]].get("learned_inputs", False))
 
 
 def harm_of(row: dict, key: str = "rollout_before") -> float | None:

@@ -9,9 +9,9 @@ the zoo's open page. Prints one line per dataset and writes ``check_excited_clea
 """
 from __future__ import annotations
 
+import argparse
 import json
 import os
-import sys
 
 import numpy as np
 
@@ -42,4 +42,6 @@ def main(paths: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("paths", nargs="+", metavar="DATASET", help="a dataset directory")
+    raise SystemExit(main(ap.parse_args().paths))
