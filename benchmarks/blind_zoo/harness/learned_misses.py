@@ -755,17 +755,11 @@ def fact_lines(f: Mapping[str, Any]) -> list[str]:
                    f"{_num(c['reference_total_gain'], '+.2f')}")
     u = f["unexplained"]
     if u is not None:
-        out.append(f"- unexplained_change: ratio {_num(u.get('ratio'), '.2f')}, p "
-                   f"{_num(u.get('p_value'))}, scope {u.get('scope') or '-'}, concentration "
-                   f"{_num(u.get('concentration'), '.2f')}, significant "
-                   f"{_yes(u.get('significant'))}, material {_yes(u.get('material'))}"
+        out.append(f"- unexplained_change: {_reading(u)}, material {_yes(u.get('material'))}"
                    + (", not comparable" if u.get("comparable") is False else ""))
     c = f["change"]
     if c is not None:
-        out.append(f"- reference_change: ratio {_num(c.get('ratio'), '.2f')}, p "
-                   f"{_num(c.get('p_value'))}, scope {c.get('scope') or '-'}, concentration "
-                   f"{_num(c.get('concentration'), '.2f')}, significant "
-                   f"{_yes(c.get('significant'))}, named {_yes(c.get('named'))}; kept "
+        out.append(f"- reference_change: {_reading(c)}, named {_yes(c.get('named'))}; kept "
                    f"{c.get('family') or '-'} @ {c.get('kept_scope') or '-'}"
                    + (f" (best: {c['label']}; " if c.get("label") else " (")
                    + f"explains {_num(c.get('explained'), '.0%')})")
@@ -778,6 +772,13 @@ def fact_lines(f: Mapping[str, Any]) -> list[str]:
     out.append(f"- suspected of its family: {_suspected(f)}")
     out.append(f"- stood: {f['standing']}")
     return out
+
+
+def _reading(r: Mapping[str, Any]) -> str:
+    """A reading against the reference in words: ratio, p, scope, concentration, significant."""
+    return (f"ratio {_num(r.get('ratio'), '.2f')}, p {_num(r.get('p_value'))}, scope "
+            f"{r.get('scope') or '-'}, concentration {_num(r.get('concentration'), '.2f')}, "
+            f"significant {_yes(r.get('significant'))}")
 
 
 def _suspected(f: Mapping[str, Any]) -> str:
