@@ -138,11 +138,11 @@ shows while they differ (carried by the model; ``significant`` does not count it
 ``unexplained_change`` and ``reference_change`` are then kept as measured with
 ``comparable: false``, neither ``significant`` nor ``named``, except an ``unexplained_change``
 that concentrates at one joint, leg or side (:func:`concentrated_at_joints`, decisions 033 and
-064): it is read as
-measured, with ``comparable: false`` and ``concentrated: true``. ``drift_change``
-(:func:`drift_change`, decision 037): where the search suspected a heading effect it did not
-accept, the drift against the reference as a second test; where it holds, ``named``, the
-route's ``significant`` and a ``vocabulary`` naming ``odom_force @ body`` in newtons.
+064): it is read as measured, with ``comparable: false`` and ``concentrated: true``.
+``drift_change`` (:func:`drift_change`, decision 037): where the search suspected a heading
+effect it did not accept, the drift against the reference as a second test; where it holds,
+``named``, the route's ``significant`` and a ``vocabulary`` naming ``odom_force @ body`` in
+newtons.
 """
 from __future__ import annotations
 
