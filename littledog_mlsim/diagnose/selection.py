@@ -40,7 +40,9 @@ Method (and why)
    d on the grid and taking the d after which the fit falls off
    (:func:`delay_scan`, :func:`delay_from_scan`; as an added column every lag up to the delay
    helps about equally, so the augmentation profile cannot tell d apart), other families by
-   parsimony among the near-best members (:func:`estimate_member`). The scan is also a
+   parsimony among the near-best members (:func:`estimate_member`); a family whose columns are
+   per joint (the play band) is screened at all joints only and then scoped by the subsets of
+   the detected member's columns (:func:`scope_by_columns`, decision 065). The scan is also a
    cross-check: command columns that help while the scan puts the fall-off at d = 0 are not a
    delay, and the family is not accepted (the next detected family is considered instead).
    The accepted member joins the model and the next round screens the rest against the new
@@ -59,7 +61,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -360,8 +362,11 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
                    library: Sequence[Augmentation] | None = None, *,
                    search: SearchModel | None = None, alpha: float = DEFAULT_ALPHA,
                    min_gain: float = DEFAULT_MIN_GAIN, max_rounds: int = 4,
-                   progress: Callable[[str], None] | None = None) -> SelectionResult:
-    """Forward selection of effects on the TrainPool recordings ``train`` (see module doc)."""
+                   progress: Callable[[str], None] | None = None,
+                   scope_by_columns: bool = True) -> SelectionResult:
+    """Forward selection of effects on the TrainPool recordings ``train`` (see module doc;
+    ``scope_by_columns`` False leaves a detected member of a family whose columns are per
+    joint at the library's scope: decision 065's comparison)."""
     from .candidates import default_library
     start = FeatureSet() if start is None else start
     library = list(default_library() if library is None else library)
@@ -389,7 +394,8 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
                         n_library=len(library))
         ok = [s for s in scores if s.significant and s.material]
         picked, delay_profile, ccf, notes = (
-            _pick(m, X, D, move_index, move_types, columns, scores, ok, say)
+            _pick(m, X, D, move_index, move_types, columns, scores, ok, say,
+                  (len(library), alpha, min_gain) if scope_by_columns else None)
             if k < max_rounds else (None, None, None, []))
         corr = m.candidate_fit(columns[picked.label])[1] if picked is not None else None
         rounds.append(Round(k, fs, scores, picked, m.residual_, corr, search_nmse,
@@ -412,11 +418,14 @@ def select_effects(train: Sequence[MoveRecording], start: FeatureSet | None = No
 def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
           move_types: Sequence[str], columns: dict[str, np.ndarray],
           scores: Sequence[CandidateScore], ok: Sequence[CandidateScore],
-          say: Callable[[str], None]
+          say: Callable[[str], None],
+          scoping: tuple[int, float, float] | None = None
           ) -> tuple[CandidateScore | None, list[dict[str, Any]] | None, dict[str, Any] | None,
                      list[str]]:
     """The member picked among the significant and material candidates ``ok`` (module doc,
-    step 5): (picked or None, delay profile, residual-input ccf, notes)."""
+    step 5): (picked or None, delay profile, residual-input ccf, notes). ``scoping`` (the
+    library's size, alpha, min_gain): a family whose columns are per joint is scoped by
+    :func:`scope_by_columns`."""
     picked = None
     delay_profile = None
     ccf = None
@@ -428,6 +437,11 @@ def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
         members = [s for s in scores if s.augmentation.family == family]
         picked = estimate_member(family, members)
         if not learned_family(family).scans_delay:
+            if scoping is not None and learned_family(family).scoped_by_columns:
+                picked, note = scope_by_columns(m, columns, picked, *scoping)
+                if note:
+                    notes.append(note)
+                    say(note)
             break
         # the scan replaces the commands of the joints the picked lag is scoped to; a scope
         # whose own lag at the scan's delay does not pass is tried again at all joints
@@ -462,6 +476,52 @@ def _pick(m: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,
             break
         picked, delay_profile = None, None
     return picked, delay_profile, ccf, notes
+
+
+def narrower_members(aug: Augmentation) -> list[Augmentation]:
+    """``aug`` at every joint group strictly inside its own (joint types, legs, sides, single
+    joints; ``JOINT_GROUPS``), none for a family without a joint scope."""
+    if "joints" not in aug.params():
+        return []
+    inside = set(JOINT_GROUPS[aug.joints])
+    return [replace(aug, joints=g) for g, js in JOINT_GROUPS.items()
+            if set(js) < inside]
+
+
+def scope_by_columns(model: SearchModel, columns: dict[str, np.ndarray],
+                     picked: CandidateScore, n_library: int, alpha: float, min_gain: float,
+                     tolerance: float = DELAY_TOLERANCE) -> tuple[CandidateScore, str]:
+    """Decision 065: the scope of a detected member whose columns are per joint (a play band's
+    position: ``LearnedFamily.scoped_by_columns``). The library screens such a family at all
+    joints only; each narrower joint group's member has a subset of the detected member's
+    columns (taken from them, not computed again), is scored against the same model, at the
+    library's Bonferroni factor, and counts where it is significant and material. Of the
+    detected member and those, parsimony as within a family (the fewest columns among the
+    members within ``tolerance`` of the best total gain): a play band at one knee is named
+    there, not at all joints. Returns (the member, a note for the log; empty where no
+    narrower member was scored)."""
+    aug = picked.augmentation
+    names = list(aug.columns())
+    full = columns[picked.label]
+    narrower = narrower_members(aug)
+    if not narrower:
+        return picked, ""
+    for a in narrower:
+        if a.label() not in columns:
+            columns[a.label()] = full[:, [names.index(c) for c in a.columns()]]
+    scored = screen(model, columns, narrower, alpha=alpha, min_gain=min_gain,
+                    n_library=n_library)
+    ok = [picked] + [s for s in scored if s.significant and s.material]
+    best = max(s.total_gain for s in ok)
+    near = [s for s in ok if s.total_gain >= (1.0 - tolerance) * best]
+    chosen = min(near, key=lambda s: (len(s.augmentation.columns()), -s.total_gain))
+    top = sorted(scored, key=lambda s: -s.total_gain)[:3]
+    note = (f"{aug.family} scoped by its columns: {chosen.label} (total gain "
+            f"{chosen.total_gain:+.3f}; detected {picked.label} {picked.total_gain:+.3f}; "
+            f"{len(ok) - 1} of {len(narrower)} narrower significant and material; best "
+            + ", ".join(f"{s.augmentation.params()['joints']} {s.total_gain:+.3f}"
+                        for s in top) + ")")
+    return chosen, note
 
 
 def delay_scan(model: SearchModel, X: np.ndarray, D: np.ndarray, move_index: np.ndarray,

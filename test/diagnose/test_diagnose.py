@@ -238,6 +238,56 @@ def test_search_model_closed_form_candidate_equals_refit():
     assert all(len({folds[i] for i in range(12) if types[i] == t}) == 4 for t in "FBL")
 
 
+def _play_search(where: tuple[int, ...], seed: int = 5):
+    """A search model fitted on random features, and per-joint columns Z (n, 12) of which the
+    joints ``where`` drive their own dq elements (a play band's columns at those joints)."""
+    from littledog_mlsim.layout import JOINT_NAMES
+    rng = np.random.default_rng(seed)
+    n_moves, T = 20, 60
+    move_index = np.repeat(np.arange(n_moves), T)
+    X = rng.standard_normal((n_moves * T, N_FEATURE))
+    Z = np.sign(rng.standard_normal((n_moves * T, len(JOINT_NAMES))))
+    D = np.sin(X[:, :N_STATE]) + 0.3 * rng.standard_normal((n_moves * T, N_STATE))
+    for j in where:
+        D[:, STATE_NAMES.index(f"dq_{JOINT_NAMES[j]}")] += 0.8 * Z[:, j]
+    types = ["F", "B", "L", "R"] * 5
+    sm = SearchModel(n_random_features=40, ridge=0.1, n_folds=4, seed=1).fit(
+        X, D, move_index, types, length_scales=np.full(N_FEATURE, 3.0))
+    return sm, Z
+
+
+@pytest.mark.parametrize("where, scope", [((2,), "front_left_knee"),
+                                          ((2, 5, 8, 11), "knees"),
+                                          (tuple(range(12)), "all")])
+def test_a_detected_play_band_is_scoped_by_its_columns(where, scope):
+    """Decision 065: the library screens play at all joints only; the detected member is then
+    scored at every narrower joint group from a subset of its own columns, and parsimony names
+    the fewest joints that carry the gain (one knee, the knees, or all joints)."""
+    from littledog_mlsim.diagnose.selection import narrower_members, scope_by_columns, screen
+    sm, Z = _play_search(where)
+    full = Play(width=0.05, source="u")
+    columns = {full.label(): Z}
+    (picked,) = screen(sm, columns, [full], n_library=90)
+    assert picked.significant and picked.material
+    chosen, note = scope_by_columns(sm, columns, picked, 90, 0.01, 0.05)
+    assert chosen.augmentation.joints == scope, note
+    assert "scoped by its columns" in note
+    # a narrower member's columns are the detected member's at its joints, as computed
+    knees = Play(width=0.05, source="u", joints="knees")
+    assert knees in narrower_members(full) and full not in narrower_members(full)
+    np.testing.assert_array_equal(columns[knees.label()], Z[:, [2, 5, 8, 11]])
+    assert narrower_members(Play(width=0.05, source="u", joints="front_left_knee")) == []
+
+
+def test_play_columns_at_a_narrower_scope_are_a_subset_of_all_joints(synthetic_moves):
+    """What decision 065's slicing rests on: each play column is its joint's alone."""
+    from littledog_mlsim.models.feature_library import JOINT_GROUPS
+    full, right = Play(width=0.05, source="u"), Play(width=0.05, source="u", joints="right")
+    a = FeatureSet((full,)).features_responses(synthetic_moves)[0][:, N_FEATURE:]
+    b = FeatureSet((right,)).features_responses(synthetic_moves)[0][:, N_FEATURE:]
+    np.testing.assert_array_equal(b, a[:, list(JOINT_GROUPS["right"])])
+
+
 # ----------------------------------------------------------------------------- pybullet data
 
 

@@ -49,7 +49,10 @@ class LearnedFamily:
     response to their commands and states (their history, or a nonlinear function of them),
     which command excitation probes and a gait alone hardly does, so a recording with excitation
     gains from them more than one without for any robot (decision 031: a reference recorded
-    under another excitation cannot contrast them).
+    under another excitation cannot contrast them); ``scoped_by_columns``: each of its columns
+    belongs to one joint and does not depend on the others (a member at a narrower joint group
+    has a subset of the full member's columns), so the one-step loop scopes a detected member
+    by scoring those subsets (``selection.py``, step 5; decision 065).
     """
 
     features: ClassVar[tuple[type[Augmentation], ...]] = ()
@@ -58,6 +61,7 @@ class LearnedFamily:
     scans_delay: ClassVar[bool] = False
     single_joints: ClassVar[bool] = True
     excitation_shows: ClassVar[bool] = False
+    scoped_by_columns: ClassVar[bool] = False
 
     @property
     def name(self) -> str:
@@ -216,6 +220,7 @@ class PlayFeatures(LearnedFamily):
     features = (fl.Play,)
     reads_as = Backlash
     excitation_shows = True
+    scoped_by_columns = True
 
     def magnitude(self, aug: Augmentation) -> float | None:
         return aug.params()["width"]
