@@ -110,6 +110,29 @@ def test_no_reading_from_a_robot_that_does_not_drift():
     assert push_reading(d, [[0.02, 0.0], [0.0, 1e-9]]) is None
 
 
+def test_a_heading_near_alpha_in_an_earlier_round_is_tested_by_the_drift():
+    """Decision 066: where no heading is in the last round's ``suspected`` list but a round
+    probed one with p within 10 times alpha (a later, shared finding took it up), the drift
+    against the reference is the second test all the same; a heading probe further from
+    alpha, or another family near it, tests nothing."""
+    from littledog_mlsim.diagnose.learned import LearnedOptions, drift_change
+    opts = LearnedOptions(push_robot=None)
+    ref = _set(6, 1, yaws=(0.0, 1.2, -2.5))
+    drifting = _set(6, 2, yaws=(0.0, 1.2, -2.5), drift_odom=(-0.008, -0.008))
+    quiet = lambda s: None  # noqa: E731
+
+    def report(p, family="pose (heading)"):
+        probe = {"label": "heading()", "family": family, "p_value": p, "significant": False}
+        return {"effects": [], "reference": {"shared": []}, "suspected": [],
+                "rounds": [{"round": 0, "probes": [probe]}, {"round": 1, "probes": []}]}
+    got = drift_change(report(6.7e-4), drifting, ref, opts, 2.5, quiet)
+    assert got["tested"] and got["named"] and got["suspected"] == "heading()", got
+    assert "in round 0 within 10 times alpha" in got["statement"]
+    for far in (report(2e-3), report(1e-6, family="elapsed time")):
+        r = drift_change(far, drifting, ref, opts, 2.5, quiet)
+        assert not r["tested"] and r["why"] == "no heading effect suspected"
+
+
 def test_a_suspected_heading_is_named_a_push_where_the_drift_confirms_it():
     """Decision 037: where the search suspects a heading effect (significant and material,
     raising the total rollout error) and accepted none, the drift against the reference is
