@@ -108,6 +108,7 @@ def contrast_one_step(aug: Augmentation, d: np.ndarray, on_ref: Any, n_contrasts
     """The contrast of one effect from the data's per-move contributions (M, 33) ``d`` (from
     the round that accepted it) and the reference's screen ``on_ref`` (:func:`screen_one`,
     its ``d`` and ``gain``); see the module doc."""
+    from .families.learned import learned_family
     from .learned import SCOPES, scope_elements
     from .stats import welch_greater
     d, d_ref = np.asarray(d, float), np.asarray(on_ref.d, float)
@@ -117,6 +118,11 @@ def contrast_one_step(aug: Augmentation, d: np.ndarray, on_ref: Any, n_contrasts
     p = p_state
     if focus:
         choices = len(SCOPES)
+        if learned_family(aug.family).scoped_by_columns:   # chosen among 21 (decision 065)
+            from dataclasses import replace
+
+            from .selection import narrower_members
+            choices = len(narrower_members(replace(aug, joints="all")))
         p_focus = welch_greater(d[:, focus].sum(axis=1), d_ref[:, focus].sum(axis=1))
         p = min(1.0, 2.0 * min(p_state, min(1.0, choices * p_focus)))
     n = max(1, int(n_contrasts))

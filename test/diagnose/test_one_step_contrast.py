@@ -11,7 +11,7 @@ import pytest
 
 from littledog_mlsim.diagnose.learned import SCOPES, scope_elements
 from littledog_mlsim.diagnose.one_step_contrast import contrast_findings, contrast_one_step
-from littledog_mlsim.models.feature_library import CommandLag, JointRateMagnitude
+from littledog_mlsim.models.feature_library import CommandLag, JointRateMagnitude, Play
 
 
 class _OnRef:
@@ -82,6 +82,11 @@ def test_a_one_leg_change_is_read_on_its_joints_and_pays_for_the_scopes():
     assert {"p_focus", "focus_choices"} <= set(c.to_dict())
     # the Bonferroni over the effects contrasted decides a borderline case
     assert c.changed == (min(1.0, 2 * c.p_change) < 0.01)
+    # a play band scoped by its columns was chosen among 21 joint groups (decision 065)
+    play = contrast_one_step(Play(width=0.05, source="u", joints="back_left"), d,
+                             _OnRef(d_ref), 2)
+    assert play.focus_choices == 21
+    assert play.p_change == pytest.approx(min(1.0, 2 * min(play.p_state, 21 * play.p_focus)))
 
 
 def test_the_report_moves_what_the_reference_shows_as_much_to_shared():

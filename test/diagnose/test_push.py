@@ -115,7 +115,7 @@ def test_a_heading_near_alpha_in_an_earlier_round_is_tested_by_the_drift():
     probed one with p within 10 times alpha (a later, shared finding took it up), the drift
     against the reference is the second test all the same; a heading probe further from
     alpha, or another family near it, tests nothing."""
-    from littledog_mlsim.diagnose.learned import LearnedOptions, drift_change
+    from littledog_mlsim.diagnose.learned import NO_TOTAL_GAIN, LearnedOptions, drift_change
     opts = LearnedOptions(push_robot=None)
     ref = _set(6, 1, yaws=(0.0, 1.2, -2.5))
     drifting = _set(6, 2, yaws=(0.0, 1.2, -2.5), drift_odom=(-0.008, -0.008))
@@ -131,6 +131,20 @@ def test_a_heading_near_alpha_in_an_earlier_round_is_tested_by_the_drift():
     for far in (report(2e-3), report(1e-6, family="elapsed time")):
         r = drift_change(far, drifting, ref, opts, 2.5, quiet)
         assert not r["tested"] and r["why"] == "no heading effect suspected"
+    # the model already holds position columns (a slope the one-step loop accepted): no test
+    held = {**report(6.7e-4), "feature_set": {"augmentations": [
+        {"name": "planar_position", "family": "pose (position)", "params": {}}]}}
+    r = drift_change(held, drifting, ref, opts, 2.5, quiet)
+    assert not r["tested"] and not r["named"] and "planar_position()" in r["statement"]
+    # scoped probes are not read; decision 037's suspect comes first
+    scoped = report(0.5)
+    scoped["rounds"][0]["scoped"] = [{"label": "heading()", "family": "pose (heading)",
+                                      "p_value": 1e-6}]
+    assert not drift_change(scoped, drifting, ref, opts, 2.5, quiet)["tested"]
+    both = {**report(6.7e-4), "suspected": [{"label": "heading()", "why": NO_TOTAL_GAIN,
+                                             "vocabulary": {"family": "odom_force"}}]}
+    got = drift_change(both, drifting, ref, opts, 2.5, quiet)
+    assert got["named"] and "raising the total held-out rollout error" in got["statement"]
 
 
 def test_a_suspected_heading_is_named_a_push_where_the_drift_confirms_it():
