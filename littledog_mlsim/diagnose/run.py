@@ -256,10 +256,15 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     report = write_report(run.out, sel, stages, **keywords)
     change = (rollout or {}).get("unexplained_change") or {}
     carried = (rollout or {}).get("reference_change") or {}
+    pushed = (rollout or {}).get("drift_change") or {}
     found = ", ".join([e["label"] for e in report["effects"]]
-                      + [e["label"] for e in (rollout or {}).get("effects", [])]
+                      + [e["label"] + (" (a stand-in, not named)" if e.get("stand_in") else "")
+                         for e in (rollout or {}).get("effects", [])]
                       + ([f"an unexplained change at {change['scope']}"]
                          if change.get("significant") else [])
+                      + ([f"a push since the reference, about {_fmt_n(pushed['push'])} "
+                          f"toward {pushed['push']['direction_deg']:.0f} deg (drift test)"]
+                         if pushed.get("named") else [])
                       + ([f"a change since the reference: {carried['family']} at "
                           f"{carried['kept_scope']}"] if carried.get("named") else [])
                       + ([f"a late {run.correction['stream']} stream (re-stamped)"]
@@ -270,6 +275,12 @@ def _diagnose_learned(run: _Run, route: LearnedRoute, why: str) -> dict[str, Any
     run.say(f"{'found ' + found if found else 'nothing significant'}; wrote "
             f"{run.out / 'report.md'} in {time.perf_counter() - run.t_start:.1f} s")
     return report
+
+
+def _fmt_n(push: dict[str, Any]) -> str:
+    """A named push's size for the closing line: "0.66 N", or "an unmeasured force"."""
+    f = push.get("force_N")
+    return "an unmeasured force" if f is None else f"{f:.2f} N"
 
 
 def _rollout_route(run: _Run, route: LearnedRoute, start: FeatureSet,
