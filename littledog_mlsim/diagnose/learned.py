@@ -1093,12 +1093,10 @@ def _pose_effects_held(report: Mapping[str, Any]) -> list[str]:
     """The labels of the heading and position effects in the route's final feature set
     (``report["feature_set"]``), the one-step loop's included: a floor slope the one-step
     loop accepted as position columns drifts the robot as a push would."""
-    out = []
-    for a in (report.get("feature_set") or {}).get("augmentations", []):
-        if a.get("family") in (Heading.family, PlanarPosition.family):
-            params = ", ".join(f"{k}={v}" for k, v in (a.get("params") or {}).items())
-            out.append(f"{a.get('name')}({params})")
-    return out
+    from ..models.features import augmentation_from_dict
+    augs = [augmentation_from_dict(a)
+            for a in (report.get("feature_set") or {}).get("augmentations", [])]
+    return [a.label() for a in augs if a.family in (Heading.family, PlanarPosition.family)]
 
 
 def drift_change(report: dict[str, Any], train: Sequence[MoveRecording],
