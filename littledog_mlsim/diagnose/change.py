@@ -149,6 +149,13 @@ SWING_CONCENTRATION = 1.4
 #: a leg's swing-phase one-step ratio at least this is material there (decision 034; decision
 #: 029 took decision 026's 1.5)
 SWING_MIN_RATIO = 1.25
+#: the concentration compares the leg's swing with the other legs' swing *apart from its own*
+#: (decision 067): each other leg's ratio on the rows where it swings and the located leg
+#: stands; a leg that swings with it (a trot's diagonal partner: the same rows) is left out
+SWING_APART = True
+#: another leg swings apart from the located one where at least this share of its swing rows
+#: (in the data and in the reference) has the located leg standing
+SWING_APART_SHARE = 0.25
 #: a change spread over all joints (scope ``all``) is screened as a concentrated one is
 #: (decision 035)
 SCREEN_SPREAD = True
@@ -615,7 +622,10 @@ def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref:
     elements; a cell's ratio is the data's mean score over the reference's. The leg with the
     largest swing ratio is ``located`` where that ratio is material (:data:`SWING_MIN_RATIO`),
     significant (one-sided Mann-Whitney U over moves, p below ``alpha`` over the four legs) and
-    at least :data:`SWING_CONCENTRATION` times the mean of the other legs' swing ratios."""
+    at least :data:`SWING_CONCENTRATION` times the mean of the other legs' swing ratios: each
+    on the rows where it swings apart from that leg (:func:`_swing_apart`, decision 067, where
+    :data:`SWING_APART`; ``apart``), the legs that swing with it left out (``against`` names
+    the legs compared), or on all its swing rows where every other leg swings with it."""
     from scipy import stats as st
     from ..layout import LEGS
     w, w_ref = swing_weight(X), swing_weight(X_ref)
@@ -643,7 +653,13 @@ def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref:
     if len(swing) < 2:
         return out
     leg = max(swing, key=swing.get)
-    rest = float(np.mean([v for k, v in swing.items() if k != leg]))
+    others = {k: v for k, v in swing.items() if k != leg}
+    if SWING_APART:
+        apart = _swing_apart(R, w, mi, n, R_ref, w_ref, mir, n_ref, LEGS.index(leg))
+        out["apart"] = apart
+        others = {k: v for k, v in apart.items() if np.isfinite(v)} or others
+    out["against"] = sorted(others)
+    rest = float(np.mean(list(others.values())))
     a, b = scores[leg]
     p = float(st.mannwhitneyu(a, b, alternative="greater").pvalue)
     conc = swing[leg] / rest if rest > 0 else float("inf")
@@ -651,6 +667,46 @@ def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref:
                located=bool(swing[leg] >= SWING_MIN_RATIO and p < alpha / len(swing)
                             and conc >= SWING_CONCENTRATION))
     return out
+
+
+def _swing_apart(R: np.ndarray, w: np.ndarray, mi: np.ndarray, n: int, R_ref: np.ndarray,
+                 w_ref: np.ndarray, mir: np.ndarray, n_ref: int, located: int
+                 ) -> dict[str, float]:
+    """Each other leg's swing ratio on the rows where it swings and leg ``located`` stands
+    (decision 067), in the data and the reference, as :func:`_where_in_swing` reads a cell;
+    nan for a leg that swings with the located one (fewer than :data:`SWING_APART_SHARE` of
+    its swing rows, on either side, have the located leg standing): in a trot the diagonal
+    partner's swing rows are the located leg's own, and a force on one swinging foot moves
+    the body, and so the partner, on exactly those rows."""
+    from ..layout import LEGS
+    out: dict[str, float] = {}
+    for leg, name in enumerate(LEGS):
+        if leg == located:
+            continue
+        cols = JOINT_ELEMENTS[_columns_of(range(3 * leg, 3 * leg + 3))]
+        s, s_ref = w[:, leg] > SWING_ROW, w_ref[:, leg] > SWING_ROW
+        m, m_ref = s & (w[:, located] == 0), s_ref & (w_ref[:, located] == 0)
+        if (m.sum() < SWING_APART_SHARE * max(s.sum(), 1) or not m.any()
+                or m_ref.sum() < SWING_APART_SHARE * max(s_ref.sum(), 1) or not m_ref.any()):
+            out[name] = float("nan")
+            continue
+        A = _phase_mse(R, mi, n, m, cols)
+        B = _phase_mse(R_ref, mir, n_ref, m_ref, cols)
+        scale = B.mean(axis=0)
+        scale = np.where(scale > 0, scale, 1.0)
+        out[name] = float((A / scale).mean(axis=1).mean() / (B / scale).mean(axis=1).mean())
+    return out
+
+
+def _apart_words(swing: dict[str, Any]) -> str:
+    """" (apart from its own; ...)" where decision 067 left a leg that swings with the located
+    one out of the concentration's comparison, else ""."""
+    apart = swing.get("apart") or {}
+    left = sorted(k for k, v in apart.items() if not np.isfinite(v))
+    if not left or not swing.get("against") or set(swing["against"]) & set(left):
+        return ""
+    return (" apart from its own (" + ", ".join(k.replace("_", "-") for k in left)
+            + " swinging with it left out)")
 
 
 def _scope_for(family: str, scope: str) -> str:
@@ -1159,7 +1215,7 @@ def _statement(u: dict[str, Any]) -> str:
     if by_swing:
         head += (f"; the leg's angles and rates while its foot swings {swing['ratio']:.2f} "
                  f"times (p = {swing['p_value']:.2g}), {swing['concentration']:.2f} times the "
-                 "other legs' in their swing")
+                 "other legs' in their swing" + _apart_words(swing))
     where = swing["scope"] if by_swing else u["scope"]
     if not u["significant"] and not by_swing:
         return head + ": no material and significant change since the reference"

@@ -481,6 +481,7 @@ def test_a_change_in_one_legs_swing_is_located_there(case):
         R[rows, S.dq.start + j] *= scale
     out = _where_in_swing(R, X, mi, 40, Rr, Xr, mir, 40, 1e-3)
     cells = out["cells"]
+    assert out["against"] == ["back_right", "front_left"] or case in ("clean", "everywhere")
     if case == "drag":
         assert out["located"] and out["scope"] == "leg:back_left", out
         assert cells["back_left"]["swing"] > 2.0 and cells["back_left"]["stance"] < 1.2
@@ -492,6 +493,60 @@ def test_a_change_in_one_legs_swing_is_located_there(case):
         assert not out["located"], out
         assert (out["concentration"] < SWING_CONCENTRATION if case == "everywhere"
                 else out["ratio"] < SWING_MIN_RATIO), out
+
+
+def test_a_swing_change_is_compared_with_the_legs_that_swing_apart_from_it(monkeypatch):
+    """Decision 067: in a trot the diagonal partner swings on the located leg's own rows, and
+    a force on one swinging foot moves the body and so the partner there. The concentration
+    compares the leg with the legs that swing apart from it; with the partner in the
+    comparison (the rule before) the same change is not located."""
+    import littledog_mlsim.diagnose.change as change
+    rng = np.random.default_rng(5)
+    X, mi = _swing_rows(40, 60, rng)
+    Xr, mir = _swing_rows(40, 60, rng)
+    R, Rr = rng.normal(size=(len(X), N_STATE)), rng.normal(size=(len(Xr), N_STATE))
+    w = change.swing_weight(X)
+    for j, scale in [(6, 1.225), (7, 1.225), (8, 1.225), (3, 1.18), (4, 1.18), (5, 1.18)]:
+        rows = w[:, j // 3] > 0.5                     # back-left's drag, front-right moved
+        R[rows, S.q.start + j] *= scale
+        R[rows, S.dq.start + j] *= scale
+    out = change._where_in_swing(R, X, mi, 40, Rr, Xr, mir, 40, 1e-3)
+    assert out["located"] and out["leg"] == "back_left", out
+    assert np.isnan(out["apart"]["front_right"]), out["apart"]
+    assert out["against"] == ["back_right", "front_left"]
+    assert out["concentration"] >= change.SWING_CONCENTRATION
+    words = change._apart_words(out)
+    assert "apart from its own (front-right swinging with it left out)" in words
+    monkeypatch.setattr(change, "SWING_APART", False)
+    before = change._where_in_swing(R, X, mi, 40, Rr, Xr, mir, 40, 1e-3)
+    assert not before["located"] and before["leg"] == "back_left", before
+    assert before["against"] == ["back_right", "front_left", "front_right"]
+    assert change._apart_words(before) == ""
+
+
+def test_a_leg_that_swings_on_its_own_is_compared_with_every_other_leg():
+    """Decision 067 in a gait where no two legs swing together: every other leg swings apart
+    from the located one, so the comparison is decision 029's."""
+    from littledog_mlsim.diagnose.change import _swing_apart, swing_weight
+    from littledog_mlsim.layout import HOME_POSE
+    n = 40 * 60
+    X = np.zeros((n, N_FEATURE))
+    X[:, S.q] = HOME_POSE
+    u = np.tile(HOME_POSE, (n, 1))
+    for i in range(n):
+        leg = (i // 10) % 5                    # one leg at a time, then all stand
+        if leg < 4:
+            sign = 1.0 if leg < 2 else -1.0
+            u[i, 3 * leg + 1] += 0.3 * sign
+            u[i, 3 * leg + 2] -= 0.4 * sign
+    X[:, N_STATE:] = u
+    mi = np.repeat(np.arange(40), 60)
+    rng = np.random.default_rng(1)
+    R, Rr = rng.normal(size=(n, N_STATE)), rng.normal(size=(n, N_STATE))
+    w = swing_weight(X)
+    apart = _swing_apart(R, w, mi, 40, Rr, w, mi, 40, 2)
+    assert sorted(apart) == ["back_right", "front_left", "front_right"]
+    assert all(0.8 < v < 1.25 for v in apart.values()), apart
 
 
 def test_the_statement_of_a_change_in_one_legs_swing_says_why_it_is_named_or_not():

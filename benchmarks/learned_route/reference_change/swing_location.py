@@ -44,8 +44,13 @@ def main() -> None:
                    help="also screen a change spread over all joints (change.CONCENTRATION "
                         "set to 1 for this run; the way decision 035 was tried before it "
                         "became the package's rule)")
+    p.add_argument("--no-swing-apart", action="store_true",
+                   help="compare the leg with every other leg's swing (change.SWING_APART "
+                        "False: the rule before decision 067)")
     a = p.parse_args()
     import littledog_mlsim.diagnose.change as change
+    if a.no_swing_apart:
+        change.SWING_APART = False
     if a.screen_spread:
         change.CONCENTRATION = 1.0
     if a.swing_min_ratio is not None:
@@ -81,6 +86,9 @@ def main() -> None:
                "swing_leg": sw.get("leg"), "swing_ratio": round(sw.get("ratio", 0.0), 2),
                "swing_concentration": round(sw.get("concentration", 0.0), 2),
                "swing_p": sw.get("p_value"), "swing_located": sw["located"],
+               "swing_apart": change.SWING_APART, "against": sw.get("against"),
+               "apart": {k: round(v, 2) for k, v in (sw.get("apart") or {}).items()},
+               **_all_legs(sw, change, opts.alpha),
                "stance_ratio": (round(sc["stance_ratio"], 2) if sc else None),
                "force_p": None if force is None else force["p_value"],
                "force_ok": None if force is None else bool(force["significant"]
@@ -93,17 +101,38 @@ def main() -> None:
     lines = ["# Decision 029 on read zoos: a change located in one leg's swing", ""]
     lines += study_commands(doc)
     lines += ["", "| zoo | data | truth | all rows | located by | swing leg: ratio, x others, "
-              "located | its stance | force p (ok) | named | params |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "located | x every other leg, located | its stance | force p (ok) | named | "
+              "params |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
         force = ("" if r["force_p"] is None else f"{r['force_p']:.2g} ({r['force_ok']})")
         stance = "" if r["stance_ratio"] is None else f"{r['stance_ratio']:.2f}"
         lines.append(
             f"| {r['zoo']} | {r['data']} | {r['truth']} | {r['all_rows_ratio']:.2f} | "
             f"{r['located_by'] or ''} | {r['swing_leg']}: {r['swing_ratio']:.2f}, "
-            f"x{r['swing_concentration']:.2f}, {r['swing_located']} | {stance} | {force} | "
+            f"x{r['swing_concentration']:.2f}, {r['swing_located']} | "
+            f"{_all_legs_cell(r)} | {stance} | {force} | "
             f"{r['named'] or ''} | {r['params'] or ''} |")
     a.out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+
+
+def _all_legs(sw: dict, change, alpha: float) -> dict:
+    """The location by decision 029's comparison with every other leg's swing (the rule
+    before decision 067), read off the same cells: its concentration and whether it locates."""
+    cells = {k: v["swing"] for k, v in sw["cells"].items() if v["swing"] == v["swing"]}
+    if sw.get("leg") is None or len(cells) < 2:
+        return {"concentration_all_legs": None, "located_all_legs": False}
+    rest = sum(v for k, v in cells.items() if k != sw["leg"]) / (len(cells) - 1)
+    conc = cells[sw["leg"]] / rest
+    return {"concentration_all_legs": round(conc, 2),
+            "located_all_legs": bool(sw["ratio"] >= change.SWING_MIN_RATIO
+                                     and sw["p_value"] < alpha / len(cells)
+                                     and conc >= change.SWING_CONCENTRATION)}
+
+
+def _all_legs_cell(r: dict) -> str:
+    if r.get("concentration_all_legs") is None:
+        return ""
+    return f"x{r['concentration_all_legs']:.2f}, {r['located_all_legs']}"
 
 
 if __name__ == "__main__":
