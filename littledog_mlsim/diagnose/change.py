@@ -23,7 +23,8 @@ reference recording of the same robot it is measured directly (decision 027):
    :func:`_where_in_swing`):
    the same ratio per leg on the rows where the leg swings and where it stands; the leg whose
    swing ratio is the largest, material (:data:`SWING_MIN_RATIO`), significant and at least
-   :data:`SWING_CONCENTRATION` times the other legs' is screened on its swing rows
+   :data:`SWING_CONCENTRATION` times the other legs' (each on the rows where it swings apart
+   from that leg; a trot's diagonal partner left out: decision 067) is screened on its swing rows
    (:func:`_screen_in_swing`) where the change over all rows is not material, or where the
    joint scope located over all rows lies in that leg and was not named. There a force on the
    swinging foot (``contact_phase``, ``phase: swing``) is named where the leg's stance ratio
