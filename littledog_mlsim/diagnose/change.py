@@ -687,8 +687,8 @@ def _swing_apart(R: np.ndarray, w: np.ndarray, mi: np.ndarray, n: int, R_ref: np
         cols = JOINT_ELEMENTS[_columns_of(range(3 * leg, 3 * leg + 3))]
         s, s_ref = w[:, leg] > SWING_ROW, w_ref[:, leg] > SWING_ROW
         m, m_ref = s & (w[:, located] == 0), s_ref & (w_ref[:, located] == 0)
-        if (m.sum() < SWING_APART_SHARE * max(s.sum(), 1) or not m.any()
-                or m_ref.sum() < SWING_APART_SHARE * max(s_ref.sum(), 1) or not m_ref.any()):
+        if (m.sum() < SWING_APART_SHARE * max(s.sum(), 1)
+                or m_ref.sum() < SWING_APART_SHARE * max(s_ref.sum(), 1)):
             out[name] = float("nan")
             continue
         A = _phase_mse(R, mi, n, m, cols)
@@ -699,11 +699,18 @@ def _swing_apart(R: np.ndarray, w: np.ndarray, mi: np.ndarray, n: int, R_ref: np
     return out
 
 
+def _finite(v: Any) -> bool:
+    return v is not None and bool(np.isfinite(v))
+
+
 def _apart_words(swing: dict[str, Any]) -> str:
-    """" (apart from its own; ...)" where decision 067 left a leg that swings with the located
-    one out of the concentration's comparison, else ""."""
-    apart = swing.get("apart") or {}
-    left = sorted(k for k, v in apart.items() if not np.isfinite(v))
+    """The statement's words for the legs decision 067 left out of the concentration's
+    comparison, " apart from its own (back-left swinging with it left out)", or "" where none
+    was: a leg with swing rows of its own (a finite swing cell) and no ratio apart (nan, or
+    null in a report read back)."""
+    apart, cells = swing.get("apart") or {}, swing.get("cells") or {}
+    left = sorted(k for k, v in apart.items()
+                  if not _finite(v) and _finite((cells.get(k) or {}).get("swing")))
     if not left or not swing.get("against") or set(swing["against"]) & set(left):
         return ""
     return (" apart from its own (" + ", ".join(k.replace("_", "-") for k in left)

@@ -547,6 +547,41 @@ def test_a_leg_that_swings_on_its_own_is_compared_with_every_other_leg():
     apart = _swing_apart(R, w, mi, 40, Rr, w, mi, 40, 2)
     assert sorted(apart) == ["back_right", "front_left", "front_right"]
     assert all(0.8 < v < 1.25 for v in apart.values()), apart
+    from littledog_mlsim.diagnose.change import _where_in_swing
+    out = _where_in_swing(R, X, mi, 40, Rr, X, mi, 40, 1e-3)
+    legs = ["back_left", "back_right", "front_left", "front_right"]
+    assert out["against"] == [k for k in legs if k != out["leg"]], out
+
+
+def test_legs_that_all_swing_together_are_compared_on_their_own_swing_rows():
+    """Decision 067's fallback: where every other leg swings with the located one (all four
+    lift together), none swings apart, so the comparison is decision 029's over every other
+    leg's own swing rows, and the statement names no leg left out. In a report read back,
+    a leg with no ratio apart is null."""
+    import json
+    from littledog_mlsim.diagnose.change import _apart_words, _where_in_swing
+    from littledog_mlsim.diagnose.report import _clean
+    from littledog_mlsim.layout import HOME_POSE
+    n = 40 * 60
+    X = np.zeros((n, N_FEATURE))
+    X[:, S.q] = HOME_POSE
+    u = np.tile(HOME_POSE, (n, 1))
+    lift = (np.arange(n) // 10) % 2 == 0
+    for leg in range(4):
+        sign = 1.0 if leg < 2 else -1.0
+        u[lift, 3 * leg + 1] += 0.3 * sign
+        u[lift, 3 * leg + 2] -= 0.4 * sign
+    X[:, N_STATE:] = u
+    mi = np.repeat(np.arange(40), 60)
+    rng = np.random.default_rng(2)
+    R, Rr = rng.normal(size=(n, N_STATE)), rng.normal(size=(n, N_STATE))
+    out = _where_in_swing(R, X, mi, 40, Rr, X, mi, 40, 1e-3)
+    assert len(out["against"]) == 3 and out["leg"] not in out["against"]
+    assert all(np.isnan(v) for v in out["apart"].values()), out["apart"]
+    assert _apart_words(out) == ""
+    back = json.loads(json.dumps(_clean(out)))
+    assert all(v is None for v in back["apart"].values())
+    assert _apart_words(back) == ""
 
 
 def test_the_statement_of_a_change_in_one_legs_swing_says_why_it_is_named_or_not():

@@ -87,7 +87,8 @@ def main() -> None:
                "swing_concentration": round(sw.get("concentration", 0.0), 2),
                "swing_p": sw.get("p_value"), "swing_located": sw["located"],
                "swing_apart": change.SWING_APART, "against": sw.get("against"),
-               "apart": {k: round(v, 2) for k, v in (sw.get("apart") or {}).items()},
+               "apart": {k: None if v != v else round(v, 2)
+                         for k, v in (sw.get("apart") or {}).items()},
                **_all_legs(sw, change, opts.alpha),
                "stance_ratio": (round(sc["stance_ratio"], 2) if sc else None),
                "force_p": None if force is None else force["p_value"],
@@ -122,7 +123,7 @@ def _all_legs(sw: dict, change, alpha: float) -> dict:
     if sw.get("leg") is None or len(cells) < 2:
         return {"concentration_all_legs": None, "located_all_legs": False}
     rest = sum(v for k, v in cells.items() if k != sw["leg"]) / (len(cells) - 1)
-    conc = cells[sw["leg"]] / rest
+    conc = cells[sw["leg"]] / rest if rest > 0 else float("inf")
     return {"concentration_all_legs": round(conc, 2),
             "located_all_legs": bool(sw["ratio"] >= change.SWING_MIN_RATIO
                                      and sw["p_value"] < alpha / len(cells)
@@ -130,6 +131,7 @@ def _all_legs(sw: dict, change, alpha: float) -> dict:
 
 
 def _all_legs_cell(r: dict) -> str:
+    """The table's cell of decision 034's location (empty where no leg was read)."""
     if r.get("concentration_all_legs") is None:
         return ""
     return f"x{r['concentration_all_legs']:.2f}, {r['located_all_legs']}"
