@@ -441,22 +441,26 @@ def test_a_drift_the_reference_does_not_confirm_is_kept_as_an_unnamed_stand_in(r
     assert "elapsed_tracking" in str(r["feature_set"])   # the model keeps the column
 
 
-def _swing_rows(n_moves: int, rows_per_move: int, rng: np.random.Generator):
-    """Rows of moves in which diagonal leg pairs swing in turn (commands that lift the feet),
-    with move indices."""
+def _gait_rows(n_moves: int, rows_per_move: int, gait: tuple[tuple[int, ...], ...]):
+    """Rows of moves whose commands lift the feet of ``gait``'s leg groups in turn, 10 rows
+    each (an empty group: all stand), with move indices."""
     from littledog_mlsim.layout import HOME_POSE
     n = n_moves * rows_per_move
     X = np.zeros((n, N_FEATURE))
     X[:, S.q] = HOME_POSE
     u = np.tile(HOME_POSE, (n, 1))
     for i in range(n):
-        phase = (i // 10) % 3                  # a pair swings, the other pair, all stand
-        for leg in ((0, 3), (1, 2), ())[phase]:
+        for leg in gait[(i // 10) % len(gait)]:
             sign = 1.0 if leg < 2 else -1.0
             u[i, 3 * leg + 1] += 0.3 * sign
             u[i, 3 * leg + 2] -= 0.4 * sign
     X[:, N_STATE:] = u
     return X, np.repeat(np.arange(n_moves), rows_per_move)
+
+
+def _swing_rows(n_moves: int, rows_per_move: int, rng: np.random.Generator):
+    """Rows of moves in which diagonal leg pairs swing in turn (a trot), with move indices."""
+    return _gait_rows(n_moves, rows_per_move, ((0, 3), (1, 2), ()))
 
 
 @pytest.mark.parametrize("case", ["drag", "small_drag", "clean", "everywhere"])
@@ -528,19 +532,8 @@ def test_a_leg_that_swings_on_its_own_is_compared_with_every_other_leg():
     """Decision 067 in a gait where no two legs swing together: every other leg swings apart
     from the located one, so the comparison is decision 029's."""
     from littledog_mlsim.diagnose.change import _swing_apart, swing_weight
-    from littledog_mlsim.layout import HOME_POSE
-    n = 40 * 60
-    X = np.zeros((n, N_FEATURE))
-    X[:, S.q] = HOME_POSE
-    u = np.tile(HOME_POSE, (n, 1))
-    for i in range(n):
-        leg = (i // 10) % 5                    # one leg at a time, then all stand
-        if leg < 4:
-            sign = 1.0 if leg < 2 else -1.0
-            u[i, 3 * leg + 1] += 0.3 * sign
-            u[i, 3 * leg + 2] -= 0.4 * sign
-    X[:, N_STATE:] = u
-    mi = np.repeat(np.arange(40), 60)
+    X, mi = _gait_rows(40, 60, ((0,), (1,), (2,), (3,), ()))   # one leg at a time
+    n = len(X)
     rng = np.random.default_rng(1)
     R, Rr = rng.normal(size=(n, N_STATE)), rng.normal(size=(n, N_STATE))
     w = swing_weight(X)
@@ -561,18 +554,8 @@ def test_legs_that_all_swing_together_are_compared_on_their_own_swing_rows():
     import json
     from littledog_mlsim.diagnose.change import _apart_words, _where_in_swing
     from littledog_mlsim.diagnose.report import _clean
-    from littledog_mlsim.layout import HOME_POSE
-    n = 40 * 60
-    X = np.zeros((n, N_FEATURE))
-    X[:, S.q] = HOME_POSE
-    u = np.tile(HOME_POSE, (n, 1))
-    lift = (np.arange(n) // 10) % 2 == 0
-    for leg in range(4):
-        sign = 1.0 if leg < 2 else -1.0
-        u[lift, 3 * leg + 1] += 0.3 * sign
-        u[lift, 3 * leg + 2] -= 0.4 * sign
-    X[:, N_STATE:] = u
-    mi = np.repeat(np.arange(40), 60)
+    X, mi = _gait_rows(40, 60, ((0, 1, 2, 3), ()))            # all four lift together
+    n = len(X)
     rng = np.random.default_rng(2)
     R, Rr = rng.normal(size=(n, N_STATE)), rng.normal(size=(n, N_STATE))
     out = _where_in_swing(R, X, mi, 40, Rr, X, mi, 40, 1e-3)
