@@ -641,11 +641,7 @@ def _where_in_swing(R: np.ndarray, X: np.ndarray, mi: np.ndarray, n: int, R_ref:
             if not m.any() or not m_ref.any():
                 cells[name][phase] = float("nan")
                 continue
-            A = _phase_mse(R, mi, n, m, elements)
-            B = _phase_mse(R_ref, mir, n_ref, m_ref, elements)
-            scale = B.mean(axis=0)
-            scale = np.where(scale > 0, scale, 1.0)
-            a, b = (A / scale).mean(axis=1), (B / scale).mean(axis=1)
+            a, b = _cell_scores(R, mi, n, m, R_ref, mir, n_ref, m_ref, elements)
             cells[name][phase] = float(a.mean() / b.mean())
             if phase == "swing":
                 scores[name] = (a, b)
@@ -691,15 +687,26 @@ def _swing_apart(R: np.ndarray, w: np.ndarray, mi: np.ndarray, n: int, R_ref: np
                 or m_ref.sum() < SWING_APART_SHARE * max(s_ref.sum(), 1)):
             out[name] = float("nan")
             continue
-        A = _phase_mse(R, mi, n, m, cols)
-        B = _phase_mse(R_ref, mir, n_ref, m_ref, cols)
-        scale = B.mean(axis=0)
-        scale = np.where(scale > 0, scale, 1.0)
-        out[name] = float((A / scale).mean(axis=1).mean() / (B / scale).mean(axis=1).mean())
+        a, b = _cell_scores(R, mi, n, m, R_ref, mir, n_ref, m_ref, cols)
+        out[name] = float(a.mean() / b.mean())
     return out
 
 
+def _cell_scores(R: np.ndarray, mi: np.ndarray, n: int, m: np.ndarray, R_ref: np.ndarray,
+                 mir: np.ndarray, n_ref: int, m_ref: np.ndarray, elements: Sequence[int]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Each move's score on the rows ``m`` (the data) and ``m_ref`` (the reference): its mean
+    squared residual per element, divided by the reference's mean there, averaged over the
+    elements; a cell's ratio is the data's mean score over the reference's."""
+    A = _phase_mse(R, mi, n, m, elements)
+    B = _phase_mse(R_ref, mir, n_ref, m_ref, elements)
+    scale = B.mean(axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    return (A / scale).mean(axis=1), (B / scale).mean(axis=1)
+
+
 def _finite(v: Any) -> bool:
+    """Whether a report's number is a finite one (not nan, not null)."""
     return v is not None and bool(np.isfinite(v))
 
 
