@@ -112,8 +112,8 @@ import numpy as np
 from ..layout import CONTROL_DT, N_FEATURE, N_STATE, S
 from ..models.feature_base import Augmentation
 from ..models.feature_library import (JOINT_GROUPS, SWING_LIFT_M, CommandFilter, CommandLag,
-                                      ElapsedTracking, Play, SwingRate, _commanded_lift,
-                                      _forward_kinematics)
+                                      ElapsedTime, ElapsedTracking, Play, SwingRate,
+                                      _commanded_lift, _forward_kinematics)
 from ..models.features import FeatureSet
 from .excess import CONCENTRATION, MIN_RATIO, unexplained_change
 from .families.scopes import (TYPE_SCOPES, group_scope, joint_scopes, leg_scopes, scope_group,
@@ -168,6 +168,10 @@ SCREEN_OFFSET = True
 #: material, and named at the one where the same family explains the most, if it explains
 #: enough there (decision 040, :func:`_screen_narrower`)
 SCREEN_NARROWER = True
+#: a drift with time is the servo's whole output scaled with time (decision 068): beside
+#: ``t (u - q)`` its hypothesis carries ``t dq`` at each scope joint, as a supply that sags
+#: scales the servo's damping with its stiffness (a gain that drifts leaves ``t dq`` near zero)
+DRIFT_WHOLE_OUTPUT = False
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
@@ -234,6 +238,13 @@ def _family_aug(family: str, scope: str, lag: int = 1, tau_ms: float = 20.0,
     raise ValueError(f"change: no column for family {family!r}")
 
 
+def _whole_output(hyp: Hypothesis) -> bool:
+    """Whether ``hyp`` is a drift with time carrying the servo's whole output (decision 068,
+    :data:`DRIFT_WHOLE_OUTPUT`)."""
+    return bool(DRIFT_WHOLE_OUTPUT and hyp.family == "time_drift"
+                and isinstance(hyp.aug, ElapsedTracking))
+
+
 class ChangeModel:
     """The reference's model (its fit on every move, ``fold=-1``) plus a per-joint linear
     correction of each scope joint's one-step change in angle and rate, fitted per fold on the
@@ -247,9 +258,12 @@ class ChangeModel:
         self.n_ref = fs.n_features
         self.joints = [int(j) for j in scope_joints(hyp.scope)]
         self.extra: dict[int, int] = {}
+        self.elapsed: int | None = None       # the seconds' column of a whole-output drift
         if hyp.aug is not None:        # its columns follow fs's (:meth:`_Residuals.of`)
             cols = JOINT_GROUPS[hyp.aug.joints]
             self.extra = {int(j): self.n_ref + i for i, j in enumerate(cols)}
+            if _whole_output(hyp):
+                self.elapsed = self.n_ref + len(cols)
 
     def _drag(self, X: np.ndarray) -> np.ndarray | None:
         """:func:`swing_drag_torque` of X's rows for a swing hypothesis, else None."""
@@ -262,8 +276,9 @@ class ChangeModel:
 
     def _z(self, X: np.ndarray, j: int, drag: np.ndarray | None = None) -> np.ndarray:
         """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column(s)
-        (a swing hypothesis: the rate in swing and ``drag``'s column j); a hypothesis
-        ``alone``: 1 and the family's column(s), without the servo's."""
+        (a swing hypothesis: the rate in swing and ``drag``'s column j; a whole-output drift,
+        decision 068: ``t (u - q)`` and ``t dq``); a hypothesis ``alone``: 1 and the family's
+        column(s), without the servo's."""
         u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
         cols = [np.ones_like(u)] if self.hyp.alone else [u - q, dq, np.ones_like(u)]
         if j in self.extra:
@@ -271,6 +286,8 @@ class ChangeModel:
             cols.append(e - u if isinstance(self.hyp.aug, (CommandLag, CommandFilter)) else e)
             if drag is not None:
                 cols.append(drag[:, j])
+            if self.elapsed is not None:
+                cols.append(X[:, self.elapsed] * dq)
         return np.stack(cols, axis=1)
 
     @staticmethod
@@ -513,12 +530,13 @@ class _Residuals:
         X, R, mi, fold = self.base
         if hyp.aug is None:
             return self.base
-        if hyp.aug not in self.cache:
-            Xa, _, mia = FeatureSet((hyp.aug,)).features_responses(self.route.train)
+        augs = (hyp.aug, ElapsedTime()) if _whole_output(hyp) else (hyp.aug,)
+        if augs not in self.cache:
+            Xa, _, mia = FeatureSet(augs).features_responses(self.route.train)
             if not np.array_equal(mia, mi):          # the same rows, in the same order
                 raise ValueError("change: a hypothesis's rows differ from the route's")
-            self.cache[hyp.aug] = np.hstack([X, Xa[:, N_FEATURE:]])
-        return self.cache[hyp.aug], R, mi, fold
+            self.cache[augs] = np.hstack([X, Xa[:, N_FEATURE:]])
+        return self.cache[augs], R, mi, fold
 
 
 def _held_out(model: ChangeModel, X: np.ndarray, R: np.ndarray, fold: np.ndarray,

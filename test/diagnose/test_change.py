@@ -133,6 +133,74 @@ def test_the_correction_fits_each_joints_own_columns_by_fold():
     assert np.allclose(m.predict(X, -1), m.correction(X, -1))
 
 
+def _sag_rows(rate: float, seed: int, n_moves: int = 10, steps: int = 300):
+    """Rows of ``front_left``'s whole-output drift hypothesis (fs empty: the state and set-point,
+    then ``t (u - q)`` of the leg's joints, then the seconds) and a residual in which every
+    joint's servo push ``2 e - 0.3 dq`` is scaled by ``rate t`` (a sagging supply)."""
+    from littledog_mlsim.diagnose.change import elapsed_s
+    rng = np.random.default_rng(seed)
+    n = n_moves * steps
+    mi = np.repeat(np.arange(n_moves), steps)
+    t = elapsed_s(mi)
+    X = np.zeros((n, N_FEATURE + 4))
+    X[:, S.q] = rng.normal(0.0, 0.3, (n, 12))
+    X[:, S.dq] = rng.normal(0.0, 1.0, (n, 12))
+    X[:, N_STATE:N_STATE + 12] = X[:, S.q] + rng.normal(0.0, 0.1, (n, 12))
+    e = X[:, N_STATE:N_STATE + 12] - X[:, S.q]
+    X[:, N_FEATURE:N_FEATURE + 3] = t[:, None] * e[:, :3]
+    X[:, N_FEATURE + 3] = t
+    R = rng.normal(0.0, 0.002, (n, N_STATE))
+    R[:, S.dq] += rate * t[:, None] * (2.0 * e - 0.3 * X[:, S.dq])
+    return X, R, mi % 5
+
+
+@pytest.mark.parametrize("whole", [False, True])
+def test_a_whole_output_drift_carries_the_servos_damping_with_time(monkeypatch, whole):
+    """Decision 068: a sagging supply scales the servo's damping with its stiffness; the drift
+    hypothesis carries ``t dq`` beside ``t (u - q)`` and then leaves only the noise, with the
+    stiffness's drift in column 3 and the damping's in column 4; without it, the damping's
+    drift is left over."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    from littledog_mlsim.models.features import FeatureSet
+    monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", whole)
+    X, R, fold = _sag_rows(-0.08, 3)
+    hyp = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"))
+    m = ChangeModel(_Zero(), FeatureSet(), hyp).fit(X, R, fold, 5)
+    assert (m.elapsed == N_FEATURE + 3) is whole and (m.elapsed is None) is not whole
+    left = R - m.correction(X, -1)
+    rms = np.sqrt(np.mean(left[:, S.dq.start:S.dq.start + 3] ** 2))
+    assert abs(m.raw_coef(1, 3) - 2.0 * -0.08) < 0.01
+    if whole:
+        assert rms < 0.0025, rms
+        assert abs(m.raw_coef(1, 4) - 0.3 * 0.08) < 0.005
+    else:
+        assert rms > 0.01, rms
+
+
+def test_a_whole_output_drift_appends_the_seconds_after_its_own_columns(routes, monkeypatch):
+    """Decision 068's rows: the hypothesis's own columns, then the seconds since the move
+    started (``t (u - q)`` is the seconds times the tracking error, row by row); other
+    families' rows are unchanged."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", True)
+    fs = measured_robot_features()
+    route = routes["sag"]
+    side = change._Residuals(route, None, fs, held_out=np.zeros((1, N_STATE)))
+    n_ref = fs.n_features
+    drift = Hypothesis("time_drift", "all", ElapsedTracking(joints="all"))
+    X = side.of(drift)[0]
+    assert X.shape[1] == n_ref + 13
+    t = X[:, -1]
+    e = X[:, N_STATE:N_STATE + 12] - X[:, S.q]
+    assert np.allclose(X[:, n_ref:n_ref + 12], t[:, None] * e)
+    mi = side.base[2]
+    assert np.all(np.diff(t)[np.diff(mi) == 0] > 0)
+    delay = Hypothesis("command_delay", "all", change._family_aug("command_delay", "all"))
+    assert side.of(delay)[0].shape[1] == n_ref + 12
+
+
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):
     """``diagnose_learned`` with a reference: a library without delays accepts nothing, the data's
     own model carries the delay (no excess, decision 026), and the route names it through the

@@ -1,0 +1,122 @@
+"""Decision 068 on read zoos: a drift with time read as the servo's whole output scaled with
+time (``t (u - q)`` and ``t dq``) against the stiffness alone (``t (u - q)``).
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python \
+        benchmarks/learned_route/reference_change/whole_drift/whole_drift.py --zoo-dir WORK67 \
+        --truth benchmarks/blind_zoo/zoos/zoo67/truth.yaml --label zoo67 --out OUT [--only IDS]
+
+WORK67 holds a zoo's recordings as the blind-zoo harness writes them (``reference``,
+``effects/zNN``, ``clean/sNNN_eX``). For every effect and clean recording (or those of
+``--only``), the search model fitted on the whole reference at the route's start feature set is
+read through :func:`littledog_mlsim.diagnose.change.reference_change`, as a diagnosis whose
+search accepted nothing would read it, once under each rule (``change.DRIFT_WHOLE_OUTPUT``
+False, then True; the data's own held-out one-step residual is fitted once and shared). Each
+rule also reads :func:`littledog_mlsim.diagnose.change.drift_through_reference` (decision 028,
+which confirms a drift the search accepted) at the truth's scope for a time drift, else over all
+joints. Each row gives, per rule, what is named, the kept family and scope, the share of the
+excess it explains and the drift's rate, beside the truth (these zoos' truth has been read).
+Writes OUT.md and OUT.json (appending rows where OUT.json exists).
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
+
+from _common import (appended_study, study_commands, zoo_effects,  # noqa: E402
+                     zoo_study_parser)
+
+from littledog_mlsim.data.dataset import load_moves   # noqa: E402
+from littledog_mlsim.diagnose import change   # noqa: E402
+from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
+from littledog_mlsim.diagnose.families.scopes import scope_group   # noqa: E402
+from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E402
+from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E402
+
+RULES = {"stiffness": False, "whole": True}
+
+
+def _reading(c: dict, confirm: dict) -> dict:
+    voc = c.get("vocabulary") or {}
+    size = c.get("size") or {}
+    nr = c.get("narrower") or {}
+    return {"named": f"{voc['family']} @ {voc['scope']}" if c["named"] else None,
+            "params": voc.get("params"), "family": c.get("family"),
+            "kept_scope": c.get("kept_scope"),
+            "explained": None if c.get("explained") is None else round(c["explained"], 3),
+            "all_explained": (nr.get("all") or {}).get("explained"),
+            "rate_per_s": size.get("rate_per_s") if c.get("family") == "time_drift" else None,
+            "confirmed": bool(confirm["confirmed"]), "confirm_p": confirm["p_value"],
+            "confirm_gain": round(confirm["total_gain"], 3)}
+
+
+def main() -> None:
+    p = zoo_study_parser(__doc__.splitlines()[0])
+    p.add_argument("--only", default=None,
+                   help="comma-separated recordings (zNN, sNNN_eX) to read; default all")
+    a = p.parse_args()
+    opts, start = LearnedOptions(), measured_robot_features()
+    quiet = lambda s: None  # noqa: E731
+    truth = {e["id"]: e for e in zoo_effects(a.truth)}
+    ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
+    ref_fit = ref.fit(start, one_step=True)
+    out_json = a.out.with_suffix(".json")
+    doc = appended_study(out_json)
+    data = (sorted(d for d in (a.zoo_dir / "effects").iterdir() if d.is_dir())
+            + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
+    if a.only:
+        data = [d for d in data if d.name in a.only.split(",")]
+    for d in data:
+        t0 = time.perf_counter()
+        e = truth.get(d.name)
+        r = _Route(load_moves(d, "train"), start, opts, quiet)
+        _, ev_own = r.fit(start, one_step=True)
+        drift = e is not None and e["family"] == "time_drift"
+        scope = e["scope"] if drift else "all"
+        row = {"zoo": a.label, "data": d.name,
+               "truth": "clean" if e is None else f"{e['family']} @ {e['scope']}",
+               "truth_params": None if e is None else e.get("params"),
+               "excitation": (None if e is None else (e.get("recording") or {}).get(
+                   "excitation")), "confirm_scope": scope}
+        for name, whole in RULES.items():
+            change.DRIFT_WHOLE_OUTPUT = whole
+            c = change.reference_change(r, ref, start, None, ev_own.one_step, ref_fit)
+            conf = change.drift_through_reference(
+                r, ref, start, ElapsedTracking(joints=scope_group(scope)), ref_fit)
+            row[name] = _reading(c, conf)
+        row["seconds"] = round(time.perf_counter() - t0, 1)
+        doc["rows"].append(row)
+        print(row, flush=True)
+    out_json.write_text(json.dumps(doc, indent=1))
+    write_md(doc, a.out.with_suffix(".md"))
+
+
+def _cell(x: dict) -> str:
+    named = x["named"] or "nothing"
+    kept = (f"kept {x['family']} @ {x['kept_scope']}, {100 * x['explained']:.0f} %"
+            if x["family"] and x["explained"] is not None else "")
+    rate = "" if x["rate_per_s"] is None else f", rate {x['rate_per_s']:+.3f}/s"
+    conf = f"; 028: {'yes' if x['confirmed'] else 'no'} (p {x['confirm_p']:.2g})"
+    return f"{named}{rate} ({kept}){conf}" if kept else f"{named}{rate}{conf}"
+
+
+def write_md(doc: dict, path: Path) -> None:
+    lines = ["# Decision 068 on read zoos: a drift with time as the servo's whole output", ""]
+    lines += study_commands(doc)
+    lines += ["", "| zoo | data | truth | the stiffness alone (before) | the whole output "
+              "(decision 068) | changed |", "|---|---|---|---|---|---|"]
+    for r in doc["rows"]:
+        s, w = r["stiffness"], r["whole"]
+        truth = r["truth"] + (f" {r['truth_params']}" if r["truth_params"] else "")
+        lines.append(f"| {r['zoo']} | {r['data']} | {truth} | {_cell(s)} | {_cell(w)} | "
+                     f"{'yes' if (s['named'], s['confirmed']) != (w['named'], w['confirmed']) else ''} |")
+    path.write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
