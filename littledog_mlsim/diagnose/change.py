@@ -44,7 +44,9 @@ reference recording of the same robot it is measured directly (decision 027):
    rate while the foot swings and the joint's torque per newton of a drag opposing the
    swinging foot's horizontal motion (``contact_phase``, :func:`swing_drag_torque`; named at
    the leg), the elapsed time times the tracking error (``time_drift``,
-   :class:`..models.feature_library.ElapsedTracking`). Decisions are the route's
+   :class:`..models.feature_library.ElapsedTracking`; under decision 068,
+   :data:`DRIFT_WHOLE_OUTPUT`, also times the rate: a supply's sag scales the servo's damping
+   with its stiffness). Decisions are the route's
    :func:`.stats.sse_decision` on per-move held-out one-step SSE of the scope's angles and
    rates:
    - the servo response against the same correction fitted on the reference's own held-out
@@ -332,8 +334,9 @@ class ChangeModel:
 
     def raw_coef(self, j: int, column: int, output: int = 1, fold: int = -1) -> float:
         """Raw-unit coefficient of correction column ``column`` (0: u - q, or the constant of a
-        hypothesis ``alone``; 3: the family's) on output ``output`` (0: the angle's one-step
-        change, 1: the rate's)."""
+        hypothesis ``alone``; 3: the family's; 4: a swing hypothesis's drag, a whole-output
+        drift's ``t dq``) on output ``output`` (0: the angle's one-step change, 1: the
+        rate's)."""
         return float(self.coef_[fold][j][column, output] / self.scale_[j][column])
 
 
@@ -1212,7 +1215,8 @@ def drift_through_reference(route: "_Route", ref_route: "_Route", fs: FeatureSet
                             aug: ElapsedTracking, ref_fit: tuple) -> dict[str, Any]:
     """Whether a drift of the servos with time that the route's search accepted (``aug``) is
     one through the reference's model (decision 028): at ``aug``'s joints, the time-drift
-    hypothesis's column ``t (u - q)`` on top of the servo response, both fitted on the data's
+    hypothesis's column ``t (u - q)`` (with ``t dq`` under decision 068,
+    :data:`DRIFT_WHOLE_OUTPUT`) on top of the servo response, both fitted on the data's
     one-step residual of the reference's model (``ref_fit``: ``ref_route.fit(fs)``, with its
     held-out one-step residuals), judged against the servo response by the route's
     ``sse_decision`` (one candidate; no test of the family alone). ``confirmed``: significant

@@ -197,8 +197,12 @@ def test_a_whole_output_drift_appends_the_seconds_after_its_own_columns(routes, 
     assert np.allclose(X[:, n_ref:n_ref + 12], t[:, None] * e)
     mi = side.base[2]
     assert np.all(np.diff(t)[np.diff(mi) == 0] > 0)
+    same = np.diff(mi) == 0                  # the seconds count from each move's start
+    assert np.allclose(np.diff(t - change.elapsed_s(mi))[same], 0.0)
     delay = Hypothesis("command_delay", "all", change._family_aug("command_delay", "all"))
     assert side.of(delay)[0].shape[1] == n_ref + 12
+    monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", False)
+    assert side.of(drift)[0].shape[1] == n_ref + 12
 
 
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):

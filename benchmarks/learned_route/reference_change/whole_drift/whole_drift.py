@@ -41,6 +41,14 @@ from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E40
 RULES = {"stiffness": False, "whole": True}
 
 
+def _excitation(name: str, e: dict | None) -> float:
+    """The recording's command excitation [rad]: a clean recording's from its name
+    (``sNNN_eX``), an effect's from its truth entry (0 where the entry names none)."""
+    if e is None:
+        return float(name.rsplit("_e", 1)[1])
+    return float((e.get("recording") or {}).get("excitation") or 0.0)
+
+
 def _reading(c: dict, confirm: dict) -> dict:
     voc = c.get("vocabulary") or {}
     size = c.get("size") or {}
@@ -71,6 +79,8 @@ def main() -> None:
             + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
     if a.only:
         data = [d for d in data if d.name in a.only.split(",")]
+    done = {(r["zoo"], r["data"]) for r in doc["rows"]}
+    data = [d for d in data if (a.label, d.name) not in done]     # a resumed run reads the rest
     for d in data:
         t0 = time.perf_counter()
         e = truth.get(d.name)
@@ -81,8 +91,7 @@ def main() -> None:
         row = {"zoo": a.label, "data": d.name,
                "truth": "clean" if e is None else f"{e['family']} @ {e['scope']}",
                "truth_params": None if e is None else e.get("params"),
-               "excitation": (None if e is None else (e.get("recording") or {}).get(
-                   "excitation")), "confirm_scope": scope}
+               "excitation": _excitation(d.name, e), "confirm_scope": scope}
         for name, whole in RULES.items():
             change.DRIFT_WHOLE_OUTPUT = whole
             c = change.reference_change(r, ref, start, None, ev_own.one_step, ref_fit)
@@ -108,13 +117,15 @@ def _cell(x: dict) -> str:
 def write_md(doc: dict, path: Path) -> None:
     lines = ["# Decision 068 on read zoos: a drift with time as the servo's whole output", ""]
     lines += study_commands(doc)
-    lines += ["", "| zoo | data | truth | the stiffness alone (before) | the whole output "
-              "(decision 068) | changed |", "|---|---|---|---|---|---|"]
+    lines += ["", "| zoo | data | truth | exc. | the stiffness alone (before) | the whole "
+              "output (decision 068) | named differently | 028 differently |",
+              "|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
         s, w = r["stiffness"], r["whole"]
         truth = r["truth"] + (f" {r['truth_params']}" if r["truth_params"] else "")
-        lines.append(f"| {r['zoo']} | {r['data']} | {truth} | {_cell(s)} | {_cell(w)} | "
-                     f"{'yes' if (s['named'], s['confirmed']) != (w['named'], w['confirmed']) else ''} |")
+        lines.append(f"| {r['zoo']} | {r['data']} | {truth} | {r['excitation']:g} | "
+                     f"{_cell(s)} | {_cell(w)} | {'yes' if s['named'] != w['named'] else ''} | "
+                     f"{'yes' if s['confirmed'] != w['confirmed'] else ''} |")
     path.write_text("\n".join(lines) + "\n")
 
 
