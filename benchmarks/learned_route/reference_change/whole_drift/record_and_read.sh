@@ -3,17 +3,17 @@
 # reads both drift rules on them with whole_drift.py. From the repository root:
 #   bash benchmarks/learned_route/reference_change/whole_drift/record_and_read.sh SCRATCH [PART]
 # SCRATCH: a scratch directory for the recordings (SCRATCH/zooNN); a zoo already recorded there
-# is not recorded again (the recorder is deterministic on one machine). PART: full (every
-# recording of zoo20, zoo22, zoo65-67), drifts (every other open zoo's time drift, beside its
-# effect seed's clean recording), or both (default). Rows are appended to result.json and
+# (SCRATCH/zooNN.recorded) is not recorded again: the recorder is deterministic on one machine.
+# PART: full (every recording of zoo20, zoo22, zoo65-67), drifts (every other time drift of a
+# zoo with a gap robot, beside its effect seed's clean recording), or both (default). Each
+# part records first, then reads in two processes. Rows are appended to result.json and
 # result.md here; a recording that already has a row there is not read again. Run it on a free
-# machine: it records up to 35 zoos (the harness records with 2 processes).
+# machine.
 set -u
 S=${1:?scratch directory}
 PART=${2:-both}
 mkdir -p "$S" || exit 1
 D=benchmarks/learned_route/reference_change/whole_drift
-OUT=$D/result
 export OPENBLAS_NUM_THREADS=1
 record() {   # zoo seed reference-seed clean-seeds [extra harness arguments]
   w=$S/$1
@@ -23,11 +23,7 @@ record() {   # zoo seed reference-seed clean-seeds [extra harness arguments]
     --reference-seed $3 ${5:-} --moves-per-type 10 --no-follow-up --jobs 1 --record-only \
     > $w.record.log 2>&1 && touch $w.recorded
 }
-read_drift() {   # zoo [whole_drift options]
-  z=$1; shift
-  .venv/bin/python $D/whole_drift.py --zoo-dir $S/$z \
-    --truth benchmarks/blind_zoo/zoos/$z/truth.yaml --label $z --out $OUT "$@"
-}
+reads=()     # one whole_drift.py argument line per zoo: zoo [options]
 if [ "$PART" != drifts ]; then
   # every recording of five zoos: their drifts (zoo65 z04, zoo66 z06, zoo67 z12: supply sags;
   # zoo20 z06, zoo22 z07: servo gains that drift) and every other effect and clean seed
@@ -37,7 +33,7 @@ if [ "$PART" != drifts ]; then
     extra="--clean-seeds-excited $s"
     [ -n "$x" ] && extra="$extra --clean-excitation $x"
     record $z $s $r $s,$((s + 1)),$((s + 2)) "$extra" || { echo "record failed: $z" >&2; continue; }
-    read_drift $z || echo "read failed: $z" >&2
+    reads+=("$z")
   done
 fi
 if [ "$PART" != full ]; then
@@ -54,6 +50,11 @@ if [ "$PART" != full ]; then
            zoo50:z11:411:417 zoo62:z10:531:537 zoo63:z07:541:547 zoo64:z05:551:557; do
     IFS=: read z id s r <<< "$c"
     record $z $s $r $s "--only $id" || { echo "record failed: $z" >&2; continue; }
-    read_drift $z --only $id,s${s}_e0 || echo "read failed: $z" >&2
+    reads+=("$z --only $id,s${s}_e0")
   done
 fi
+# the reads, two processes at a time
+printf '%s\n' "${reads[@]}" | xargs -P 2 -I{} bash -c 'set -- {}; z=$1; shift; \
+  .venv/bin/python '"$D"'/whole_drift.py --zoo-dir '"$S"'/$z \
+    --truth benchmarks/blind_zoo/zoos/$z/truth.yaml --label $z --out '"$D"'/result "$@" \
+    > '"$S"'/$z.read.log 2>&1 || echo "read failed: $z" >&2'

@@ -15,14 +15,17 @@ rule also reads :func:`littledog_mlsim.diagnose.change.drift_through_reference` 
 which confirms a drift the search accepted) at the truth's scope for a time drift, else over all
 joints. Each row gives, per rule, what is named, the kept family and scope, the share of the
 excess it explains and the drift's rate, beside the truth (these zoos' truth has been read).
-Writes OUT.md and OUT.json (appending rows where OUT.json exists).
+Writes OUT.md and OUT.json, appending each row as it is read (under a lock on OUT.lock, so
+that two runs may share a study); a recording that already has a row is not read again.
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -74,7 +77,9 @@ def main() -> None:
     ref = _Route(load_moves(a.zoo_dir / "reference", "train"), start, opts, quiet)
     ref_fit = ref.fit(start, one_step=True)
     out_json = a.out.with_suffix(".json")
-    doc = appended_study(out_json)
+    with _locked(out_json):                  # two runs may append to one study at once
+        doc = appended_study(out_json)
+        out_json.write_text(json.dumps(doc, indent=1))
     data = (sorted(d for d in (a.zoo_dir / "effects").iterdir() if d.is_dir())
             + sorted(d for d in (a.zoo_dir / "clean").iterdir() if d.is_dir()))
     if a.only:
@@ -99,10 +104,23 @@ def main() -> None:
                 r, ref, start, ElapsedTracking(joints=scope_group(scope)), ref_fit)
             row[name] = _reading(c, conf)
         row["seconds"] = round(time.perf_counter() - t0, 1)
-        doc["rows"].append(row)
+        with _locked(out_json):
+            doc = json.loads(out_json.read_text())
+            doc["rows"].append(row)
+            out_json.write_text(json.dumps(doc, indent=1))
+            write_md(doc, a.out.with_suffix(".md"))
         print(row, flush=True)
-    out_json.write_text(json.dumps(doc, indent=1))
-    write_md(doc, a.out.with_suffix(".md"))
+
+
+@contextmanager
+def _locked(path: Path):
+    """An exclusive lock on ``path``.lock for the block (``fcntl.flock``)."""
+    with open(path.with_suffix(".lock"), "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def _cell(x: dict) -> str:
