@@ -28,6 +28,8 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
+
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4]), str(Path(__file__).resolve().parents[3])]
 
@@ -37,11 +39,36 @@ from _common import (appended_study, study_commands, zoo_effects,  # noqa: E402
 from littledog_mlsim.data.dataset import load_moves   # noqa: E402
 from littledog_mlsim.diagnose import change   # noqa: E402
 from littledog_mlsim.diagnose.candidates import measured_robot_features   # noqa: E402
-from littledog_mlsim.diagnose.families.scopes import scope_group   # noqa: E402
+from littledog_mlsim.diagnose.families.scopes import scope_group, scope_joints   # noqa: E402
 from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E402
+from littledog_mlsim.layout import N_STATE, S   # noqa: E402
 from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E402
 
 RULES = {"stiffness": False, "whole": True}
+
+
+def _rate_whole(X, D, mi, j: int) -> float:
+    """:func:`change.stiffness_rate` with ``t dq`` beside ``t (u - q)`` in the regression."""
+    u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
+    e, t = u - q, change.elapsed_s(mi)
+    Z = np.stack([np.ones_like(u), e, t * e, dq, t * dq, q], axis=1)
+    c, *_ = np.linalg.lstsq(Z, D[:, S.dq.start + j], rcond=None)
+    return float(c[2] / c[1]) if abs(c[1]) > 1e-12 else float("nan")
+
+
+def _rates(r, ref, fs, scope: str) -> dict:
+    """A drift's rate at the truth's scope, read beside the rule: decision 038's (each joint's
+    stiffness slope, data minus reference, the median) and the same with ``t dq`` in the
+    regression (a sizing decision 068 leaves unchanged)."""
+    X, Y, mi = fs.features_responses(r.train)
+    Xr, Yr, mir = fs.features_responses(ref.train)
+    D, Dr = Y - X[:, :N_STATE], Yr - Xr[:, :N_STATE]
+    joints = [int(j) for j in scope_joints(scope)]
+    old = [change.stiffness_rate(X, D, mi, j) - change.stiffness_rate(Xr, Dr, mir, j)
+           for j in joints]
+    new = [_rate_whole(X, D, mi, j) - _rate_whole(Xr, Dr, mir, j) for j in joints]
+    med = lambda v: round(float(np.nanmedian(v)), 4)  # noqa: E731
+    return {"stiffness_slope": med(old), "with_t_dq": med(new)}
 
 
 def _excitation(name: str, e: dict | None) -> float:
@@ -103,6 +130,8 @@ def main() -> None:
             conf = change.drift_through_reference(
                 r, ref, start, ElapsedTracking(joints=scope_group(scope)), ref_fit)
             row[name] = _reading(c, conf)
+        if drift:
+            row["rates_at_truth_scope"] = _rates(r, ref, start, e["scope"])
         row["seconds"] = round(time.perf_counter() - t0, 1)
         with _locked(out_json):
             doc = json.loads(out_json.read_text())
@@ -132,18 +161,23 @@ def _cell(x: dict) -> str:
     return f"{named}{rate} ({kept}){conf}" if kept else f"{named}{rate}{conf}"
 
 
+def _rates_cell(x: dict | None) -> str:
+    return "" if not x else f"{x['stiffness_slope']:+.3f} / {x['with_t_dq']:+.3f}"
+
+
 def write_md(doc: dict, path: Path) -> None:
     lines = ["# Decision 068 on read zoos: a drift with time as the servo's whole output", ""]
     lines += study_commands(doc)
     lines += ["", "| zoo | data | truth | exc. | the stiffness alone (before) | the whole "
-              "output (decision 068) | named differently | 028 differently |",
-              "|---|---|---|---|---|---|---|---|"]
+              "output (decision 068) | named differently | 028 differently | a drift's rate "
+              "at its scope: 038 / with t dq [1/s] |", "|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
         s, w = r["stiffness"], r["whole"]
         truth = r["truth"] + (f" {r['truth_params']}" if r["truth_params"] else "")
         lines.append(f"| {r['zoo']} | {r['data']} | {truth} | {r['excitation']:g} | "
                      f"{_cell(s)} | {_cell(w)} | {'yes' if s['named'] != w['named'] else ''} | "
-                     f"{'yes' if s['confirmed'] != w['confirmed'] else ''} |")
+                     f"{'yes' if s['confirmed'] != w['confirmed'] else ''} | "
+                     f"{_rates_cell(r.get('rates_at_truth_scope'))} |")
     path.write_text("\n".join(lines) + "\n")
 
 
