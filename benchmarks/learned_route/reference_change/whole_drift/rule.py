@@ -1,0 +1,85 @@
+"""Decision 068's rule (README.md) on the study's rows: each condition's counts and verdict.
+
+    .venv/bin/python benchmarks/learned_route/reference_change/whole_drift/rule.py \
+        [benchmarks/learned_route/reference_change/whole_drift/result.json] > rule.txt
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def right(reading: dict, truth: str) -> bool:
+    """Named at the truth's family and scope."""
+    return reading["named"] == truth
+
+
+def main() -> None:
+    rows = json.loads(Path(sys.argv[1] if len(sys.argv) > 1 else HERE / "result.json")
+                      .read_text())["rows"]
+    seen, unique = set(), []
+    for r in rows:                               # one row per recording
+        if (r["zoo"], r["data"]) not in seen:
+            seen.add((r["zoo"], r["data"]))
+            unique.append(r)
+    drifts = [r for r in unique if r["truth"].startswith("time_drift") and not r["excitation"]]
+    clean = [r for r in unique if r["truth"] == "clean" and not r["excitation"]]
+    other = [r for r in unique if r["truth"] not in ("clean",)
+             and not r["truth"].startswith("time_drift")]
+    out = [f"rows: {len(unique)} recordings ({len(rows)} rows); time drifts without excitation "
+           f"{len(drifts)}, clean without excitation {len(clean)}, other effects {len(other)}"]
+    before = [r for r in drifts if right(r["stiffness"], r["truth"])]
+    after = [r for r in drifts if right(r["whole"], r["truth"])]
+    lost = [f"{r['zoo']} {r['data']}" for r in before if not right(r["whole"], r["truth"])]
+    gain = len(after) - len(before)
+    ok1 = gain >= 2 and not lost
+    out.append(f"1. gain: drifts named right {len(before)} -> {len(after)} ({gain:+d}); lost: "
+               f"{', '.join(lost) or 'none'} -> {'holds' if ok1 else 'fails'}")
+    new_named = [f"{r['zoo']} {r['data']}" for r in clean
+                 if r["whole"]["named"] and not r["stiffness"]["named"]]
+    new_conf = [f"{r['zoo']} {r['data']}" for r in clean
+                if r["whole"]["confirmed"] and not r["stiffness"]["confirmed"]]
+    ok2 = not new_named and not new_conf
+    out.append(f"2. clean: named {sum(bool(r['stiffness']['named']) for r in clean)} -> "
+               f"{sum(bool(r['whole']['named']) for r in clean)} (newly: "
+               f"{', '.join(new_named) or 'none'}); 028 confirmed "
+               f"{sum(r['stiffness']['confirmed'] for r in clean)} -> "
+               f"{sum(r['whole']['confirmed'] for r in clean)} (newly: "
+               f"{', '.join(new_conf) or 'none'}) -> {'holds' if ok2 else 'fails'}")
+    broke = [f"{r['zoo']} {r['data']}" for r in other if right(r["stiffness"], r["truth"])
+             and r["whole"]["named"] != r["stiffness"]["named"]]
+    to_drift = [f"{r['zoo']} {r['data']}" for r in other
+                if (r["whole"]["named"] or "").startswith("time_drift")
+                and not (r["stiffness"]["named"] or "").startswith("time_drift")]
+    changed = [f"{r['zoo']} {r['data']}: {r['stiffness']['named']} -> {r['whole']['named']}"
+               for r in other if r["whole"]["named"] != r["stiffness"]["named"]
+               and f"{r['zoo']} {r['data']}" not in broke + to_drift]
+    ok3 = not broke and not to_drift and len(changed) <= 2
+    out.append(f"3. nothing else: named right and changed: {', '.join(broke) or 'none'}; newly "
+               f"a drift: {', '.join(to_drift) or 'none'}; other changes {len(changed)}"
+               + "".join(f"\n   - {c}" for c in changed)
+               + f" -> {'holds' if ok3 else 'fails'}")
+    out.append(f"decision 068 {'adopted' if ok1 and ok2 and ok3 else 'not adopted'}")
+    excited = [r for r in unique if r["truth"].startswith("time_drift") and r["excitation"]]
+    out.append("beside the rule:")
+    for r in drifts + excited:
+        rates = r.get("rates_at_truth_scope") or {}
+        out.append(f"   {r['zoo']} {r['data']} {r['truth']} {r['truth_params']} exc "
+                   f"{r['excitation']:g}: before {r['stiffness']['named'] or 'nothing'} "
+                   f"(kept {r['stiffness']['family']}, {r['stiffness']['explained']}; 028 "
+                   f"{r['stiffness']['confirmed']}), after {r['whole']['named'] or 'nothing'} "
+                   f"(kept {r['whole']['family']}, {r['whole']['explained']}; 028 "
+                   f"{r['whole']['confirmed']}); rate 038 {rates.get('stiffness_slope')}, "
+                   f"with t dq {rates.get('with_t_dq')}")
+    other_conf = [f"{r['zoo']} {r['data']}" for r in other
+                  if r["whole"]["confirmed"] != r["stiffness"]["confirmed"]]
+    out.append(f"   other effects whose 028 reading at all joints changed: "
+               f"{', '.join(other_conf) or 'none'}")
+    print("\n".join(out))
+
+
+if __name__ == "__main__":
+    main()
