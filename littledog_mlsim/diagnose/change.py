@@ -403,14 +403,15 @@ def elapsed_s(mi: np.ndarray) -> np.ndarray:
     return (np.arange(len(mi)) - np.repeat(starts, lengths)) * CONTROL_DT
 
 
-def stiffness_rate(X: np.ndarray, D: np.ndarray, mi: np.ndarray, j: int) -> float:
+def stiffness_rate(X: np.ndarray, D: np.ndarray, mi: np.ndarray, j: int,
+                   t_dq: bool = False) -> float:
     """Joint j's relative stiffness change per second on one recording's rows: the
     least-squares coefficient of t (u - q) over that of u - q in the rate's one-step change,
-    beside a constant, the rate and the angle (t: :func:`elapsed_s`; a servo gain
-    k (1 + r t) gives r)."""
+    beside a constant, the rate and the angle, and ``t dq`` where ``t_dq`` (t:
+    :func:`elapsed_s`; a servo gain k (1 + r t) gives r)."""
     u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
     e, t = u - q, elapsed_s(mi)
-    Z = np.stack([np.ones_like(u), e, t * e, dq, q], axis=1)
+    Z = np.stack([np.ones_like(u), e, t * e, dq, q] + ([t * dq] if t_dq else []), axis=1)
     c, *_ = np.linalg.lstsq(Z, D[:, S.dq.start + j], rcond=None)
     return float(c[2] / c[1]) if abs(c[1]) > 1e-12 else float("nan")
 

@@ -47,15 +47,6 @@ from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E40
 RULES = {"stiffness": False, "whole": True}
 
 
-def _rate_whole(X, D, mi, j: int) -> float:
-    """:func:`change.stiffness_rate` with ``t dq`` beside ``t (u - q)`` in the regression."""
-    u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
-    e, t = u - q, change.elapsed_s(mi)
-    Z = np.stack([np.ones_like(u), e, t * e, dq, t * dq, q], axis=1)
-    c, *_ = np.linalg.lstsq(Z, D[:, S.dq.start + j], rcond=None)
-    return float(c[2] / c[1]) if abs(c[1]) > 1e-12 else float("nan")
-
-
 def _rates(r, ref, fs, scope: str) -> dict:
     """A drift's rate at the truth's scope, read beside the rule: decision 038's (each joint's
     stiffness slope, data minus reference, the median) and the same with ``t dq`` in the
@@ -66,7 +57,8 @@ def _rates(r, ref, fs, scope: str) -> dict:
     joints = [int(j) for j in scope_joints(scope)]
     old = [change.stiffness_rate(X, D, mi, j) - change.stiffness_rate(Xr, Dr, mir, j)
            for j in joints]
-    new = [_rate_whole(X, D, mi, j) - _rate_whole(Xr, Dr, mir, j) for j in joints]
+    new = [change.stiffness_rate(X, D, mi, j, t_dq=True)
+           - change.stiffness_rate(Xr, Dr, mir, j, t_dq=True) for j in joints]
     med = lambda v: round(float(np.nanmedian(v)), 4)  # noqa: E731
     return {"stiffness_slope": med(old), "with_t_dq": med(new)}
 
