@@ -37,9 +37,9 @@ if [ "$PART" != drifts ]; then
   done
 fi
 if [ "$PART" != full ]; then
-  # every other time drift of a zoo with a gap robot (zoo8 on); the whole output's: zoo30 z01,
-  # zoo31 z05, zoo45 z12 (excited), zoo46 z05, zoo47 z02, zoo64 z05; zoo11 z05 and zoo12 z08
-  # scale the P gain (and zoo12's the torque limit) only
+  # every other time drift of a zoo with a gap robot (zoo8 on); the whole output's: zoo11 z05,
+  # zoo30 z01, zoo31 z05, zoo45 z12 (excited), zoo46 z05, zoo47 z02, zoo64 z05; zoo12 z08
+  # scales the P gain and the torque limit
   for c in zoo8:g06:31:80 zoo9:g11:41:90 zoo10:z01:51:95 zoo11:z05:61:96 zoo12:z08:71:97 \
            zoo13:z06:81:98 zoo45:z12:361:367 zoo46:z05:371:377 zoo47:z02:381:387 \
            zoo48:z04:391:397 \
