@@ -46,7 +46,9 @@ reference recording of the same robot it is measured directly (decision 027):
    the leg), the elapsed time times the tracking error (``time_drift``,
    :class:`..models.feature_library.ElapsedTracking`; under decision 068,
    :data:`DRIFT_WHOLE_OUTPUT`, also times the rate: a supply's sag scales the servo's damping
-   with its stiffness). Decisions are the route's
+   with its stiffness; under decision 069, :data:`DRIFT_COUPLED`, the screen's drift carries
+   both columns of every scope joint at each: a sag at many joints moves each joint by the
+   others' torques through the body). Decisions are the route's
    :func:`.stats.sse_decision` on per-move held-out one-step SSE of the scope's angles and
    rates:
    - the servo response against the same correction fitted on the reference's own held-out
@@ -174,6 +176,14 @@ SCREEN_NARROWER = True
 #: ``t (u - q)`` its hypothesis carries ``t dq`` at each scope joint, as a supply that sags
 #: scales the servo's damping with its stiffness (a gain that drifts leaves ``t dq`` near zero)
 DRIFT_WHOLE_OUTPUT = False
+#: the screen's drift with time is coupled over its scope's joints (decision 069): each scope
+#: joint's correction carries ``t (u - q)`` and ``t dq`` of every scope joint (its own first),
+#: as a joint's acceleration answers every joint's torque through the body's mass matrix and
+#: the feet's contacts, so a sag of many servos moves each joint by the others' torques too.
+#: Decision 028's confirmation of a drift the search accepted keeps the joint's own columns:
+#: it is a guard against a search's stand-in, and the coupled columns would confirm a one-leg
+#: delay as a drift of that leg
+DRIFT_COUPLED = False
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
@@ -209,12 +219,15 @@ class Hypothesis:
     scope: str
     aug: Augmentation | None = None
     alone: bool = False   # the family's column(s) and a constant, without the servo response
+    coupled: bool = False  # a drift's columns of every scope joint at each (decision 069)
 
     def label(self) -> str:
         what = {"servo_gain": "servo response", "encoder_offset": "angle offset",
                 "command_delay": "set-point delay",
                 "command_filter": "set-point low-pass", "backlash": "set-point play",
                 "contact_phase": "rate in swing", "time_drift": "drift with time"}[self.family]
+        if self.coupled:
+            what += " (coupled)"
         if isinstance(self.aug, CommandLag):
             what += f" {self.aug.lag} step(s)"
         elif isinstance(self.aug, CommandFilter):
@@ -242,9 +255,15 @@ def _family_aug(family: str, scope: str, lag: int = 1, tau_ms: float = 20.0,
 
 def _whole_output(hyp: Hypothesis) -> bool:
     """Whether ``hyp`` is a drift with time carrying the servo's whole output (decision 068,
-    :data:`DRIFT_WHOLE_OUTPUT`)."""
-    return bool(DRIFT_WHOLE_OUTPUT and hyp.family == "time_drift"
+    :data:`DRIFT_WHOLE_OUTPUT`; a coupled drift, decision 069, carries it too)."""
+    return bool((DRIFT_WHOLE_OUTPUT or hyp.coupled) and hyp.family == "time_drift"
                 and isinstance(hyp.aug, ElapsedTracking))
+
+
+def _coupled(hyp: Hypothesis) -> bool:
+    """Whether ``hyp`` is a drift with time coupled over its scope's joints (decision 069: the
+    screen's drift under :data:`DRIFT_COUPLED`, :func:`_families`)."""
+    return bool(hyp.coupled and _whole_output(hyp))
 
 
 class ChangeModel:
@@ -261,6 +280,7 @@ class ChangeModel:
         self.joints = [int(j) for j in scope_joints(hyp.scope)]
         self.extra: dict[int, int] = {}
         self.elapsed: int | None = None       # the seconds' column of a whole-output drift
+        self.coupled = _coupled(hyp)          # every scope joint's drift columns (decision 069)
         if hyp.aug is not None:        # its columns follow fs's (:meth:`_Residuals.of`)
             cols = JOINT_GROUPS[hyp.aug.joints]
             self.extra = {int(j): self.n_ref + i for i, j in enumerate(cols)}
@@ -279,8 +299,9 @@ class ChangeModel:
     def _z(self, X: np.ndarray, j: int, drag: np.ndarray | None = None) -> np.ndarray:
         """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column(s)
         (a swing hypothesis: the rate in swing and ``drag``'s column j; a whole-output drift,
-        decision 068: ``t (u - q)`` and ``t dq``); a hypothesis ``alone``: 1 and the family's
-        column(s), without the servo's."""
+        decision 068: ``t (u - q)`` and ``t dq``; a coupled drift, decision 069: then the same
+        two of every other scope joint); a hypothesis ``alone``: 1 and the family's column(s),
+        without the servo's."""
         u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
         cols = [np.ones_like(u)] if self.hyp.alone else [u - q, dq, np.ones_like(u)]
         if j in self.extra:
@@ -290,6 +311,10 @@ class ChangeModel:
                 cols.append(drag[:, j])
             if self.elapsed is not None:
                 cols.append(X[:, self.elapsed] * dq)
+            if self.coupled:
+                for k, c in self.extra.items():
+                    if k != j:
+                        cols += [X[:, c], X[:, self.elapsed] * X[:, S.dq.start + k]]
         return np.stack(cols, axis=1)
 
     @staticmethod
@@ -1141,15 +1166,17 @@ def _drag_newtons(X: np.ndarray, R: np.ndarray, leg: int, Xr: np.ndarray, Dr: np
 
 def _families(scope: str) -> list[Hypothesis]:
     """Every family hypothesis decision 027 screens at ``scope``: the set-point delays, the
-    low-passes, the play widths, the rate in swing with the drag's column, the drift."""
+    low-passes, the play widths, the rate in swing with the drag's column, the drift (coupled
+    over the scope's joints under decision 069, :data:`DRIFT_COUPLED`)."""
     return ([Hypothesis("command_delay", scope, _family_aug("command_delay", scope, k))
              for k in range(1, MAX_LAG + 1)]
             + [Hypothesis("command_filter", scope, _family_aug("command_filter", scope,
                                                                tau_ms=t)) for t in FILTER_MS]
             + [Hypothesis("backlash", scope, _family_aug("backlash", scope, width=w))
                for w in PLAY_WIDTHS]
-            + [Hypothesis(f, scope, _family_aug(f, scope)) for f in ("contact_phase",
-                                                                     "time_drift")])
+            + [Hypothesis("contact_phase", scope, _family_aug("contact_phase", scope)),
+               Hypothesis("time_drift", scope, _family_aug("time_drift", scope),
+                          coupled=DRIFT_COUPLED)])
 
 
 def _sides(route: "_Route", ref_route: "_Route", ref_model: "CrossFitModel", ev_ref: Any,

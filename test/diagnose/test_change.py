@@ -164,6 +164,7 @@ def test_a_whole_output_drift_carries_the_servos_damping_with_time(monkeypatch, 
     from littledog_mlsim.models.feature_library import ElapsedTracking
     from littledog_mlsim.models.features import FeatureSet
     monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", whole)
+    monkeypatch.setattr(change, "DRIFT_COUPLED", False)
     X, R, fold = _sag_rows(-0.08, 3)
     hyp = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"))
     m = ChangeModel(_Zero(), FeatureSet(), hyp).fit(X, R, fold, 5)
@@ -202,7 +203,56 @@ def test_a_whole_output_drift_appends_the_seconds_after_its_own_columns(routes, 
     delay = Hypothesis("command_delay", "all", change._family_aug("command_delay", "all"))
     assert side.of(delay)[0].shape[1] == n_ref + 12
     monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", False)
+    monkeypatch.setattr(change, "DRIFT_COUPLED", False)
     assert side.of(drift)[0].shape[1] == n_ref + 12
+
+
+@pytest.mark.parametrize("coupled", [False, True])
+def test_a_coupled_drift_carries_the_other_scope_joints_sag(monkeypatch, coupled):
+    """Decision 069: where a sag at one joint moves another through the body, each scope joint's
+    correction carries every scope joint's ``t (u - q)`` and ``t dq`` (its own first, so column
+    3 stays its own stiffness drift) and leaves only the noise; the joint's own columns alone
+    leave the other's push over."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    from littledog_mlsim.models.features import FeatureSet
+    monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", True)
+    X, R, fold = _sag_rows(-0.08, 4)
+    t = X[:, N_FEATURE + 3]
+    e1 = X[:, N_STATE + 1] - X[:, S.q.start + 1]
+    R[:, S.dq.start] += -0.06 * t * (2.0 * e1 - 0.3 * X[:, S.dq.start + 1])   # joint 1 on 0
+    hyp = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"),
+                     coupled=coupled)
+    m = ChangeModel(_Zero(), FeatureSet(), hyp).fit(X, R, fold, 5)
+    assert m.coupled is coupled
+    assert m._z(X, 0).shape[1] == (9 if coupled else 5)
+    left = R - m.correction(X, -1)
+    rms = np.sqrt(np.mean(left[:, S.dq.start] ** 2))
+    assert abs(m.raw_coef(1, 3) - 2.0 * -0.08) < 0.01       # joint 1's own drift, either way
+    if coupled:
+        assert rms < 0.0025, rms
+        assert abs(m.raw_coef(0, 3) - 2.0 * -0.08) < 0.01
+    else:
+        assert rms > 0.01, rms
+
+
+def test_a_coupled_drift_is_the_screens_drift_only(monkeypatch):
+    """Decision 069 couples the screen's drift (:func:`change._families`) and reads the seconds'
+    column (decision 068's rows); decision 028's confirmation keeps the joint's own columns, and
+    no other family is coupled."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    from littledog_mlsim.models.features import FeatureSet
+    monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", False)
+    for flag in (False, True):
+        monkeypatch.setattr(change, "DRIFT_COUPLED", flag)
+        fams = change._families("leg:front_left")
+        assert [h.coupled for h in fams] == [flag and h.family == "time_drift" for h in fams]
+        drift = next(h for h in fams if h.family == "time_drift")
+        assert change._whole_output(drift) is flag and change._coupled(drift) is flag
+        assert ChangeModel(_Zero(), FeatureSet(), drift).coupled is flag
+    plain = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"))
+    assert not change._coupled(plain) and not change._whole_output(plain)
 
 
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):

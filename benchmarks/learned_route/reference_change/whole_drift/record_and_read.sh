@@ -1,19 +1,21 @@
 #!/bin/bash
 # Decision 068's evidence (README.md): records open zoos with each zoo's own harness seeds and
 # reads both drift rules on them with whole_drift.py. From the repository root:
-#   bash benchmarks/learned_route/reference_change/whole_drift/record_and_read.sh SCRATCH [PART]
+#   bash benchmarks/learned_route/reference_change/whole_drift/record_and_read.sh SCRATCH [PART [STUDY]]
 # SCRATCH: a scratch directory for the recordings (SCRATCH/zooNN); a zoo already recorded there
 # (SCRATCH/zooNN.recorded) is not recorded again: the recorder is deterministic on one machine.
 # PART: full (every recording of zoo20, zoo22, zoo65-67), drifts (every other time drift of a
 # zoo with a gap robot, beside its effect seed's clean recording), or both (default). Each
 # part records first, then reads in two processes. Rows are appended to result.json and
 # result.md here; a recording that already has a row there is not read again. Run it on a free
-# machine.
+# machine. STUDY: the study that reads the recordings (default this one): its folder's script
+# (STUDY/NAME.py, NAME the folder's name) reads, and its result.json and result.md get the rows.
 set -u
 S=${1:?scratch directory}
 PART=${2:-both}
 mkdir -p "$S" || exit 1
-D=benchmarks/learned_route/reference_change/whole_drift
+D=${3:-benchmarks/learned_route/reference_change/whole_drift}
+N=$(basename "$D")
 export OPENBLAS_NUM_THREADS=1
 record() {   # zoo seed reference-seed clean-seeds [extra harness arguments]
   w=$S/$1
@@ -55,6 +57,6 @@ if [ "$PART" != full ]; then
 fi
 # the reads, two processes at a time
 printf '%s\n' "${reads[@]}" | xargs -P 2 -I{} bash -c 'set -- {}; z=$1; shift; \
-  .venv/bin/python '"$D"'/whole_drift.py --zoo-dir '"$S"'/$z \
+  .venv/bin/python '"$D/$N"'.py --zoo-dir '"$S"'/$z \
     --truth benchmarks/blind_zoo/zoos/$z/truth.yaml --label $z --out '"$D"'/result "$@" \
-    > '"$S"'/$z.read.log 2>&1 || echo "read failed: $z" >&2'
+    > '"$S"'/$z.'"$N"'.log 2>&1 || echo "read failed: $z" >&2'

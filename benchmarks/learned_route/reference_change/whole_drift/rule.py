@@ -17,9 +17,13 @@ def right(reading: dict, truth: str) -> bool:
     return reading["named"] == truth
 
 
-def main() -> None:
-    rows = json.loads(Path(sys.argv[1] if len(sys.argv) > 1 else HERE / "result.json")
-                      .read_text())["rows"]
+def main(before: str = "stiffness", after: str = "whole", decision: str = "068",
+         default: Path = HERE / "result.json") -> None:
+    """The rule's counts over the rows of ``sys.argv[1]`` (else ``default``), ``before`` and
+    ``after`` the rows' two readings."""
+    rows = json.loads(Path(sys.argv[1] if len(sys.argv) > 1 else default).read_text())["rows"]
+    for r in rows:
+        r["stiffness"], r["whole"] = r[before], r[after]
     seen, unique = set(), []
     for r in rows:                               # one row per recording
         if (r["zoo"], r["data"]) not in seen:
@@ -62,7 +66,7 @@ def main() -> None:
                f"a drift: {', '.join(to_drift) or 'none'}; other changes {len(changed)}"
                + "".join(f"\n   - {c}" for c in changed)
                + f" -> {'holds' if ok3 else 'fails'}")
-    out.append(f"decision 068 {'adopted' if ok1 and ok2 and ok3 else 'not adopted'}")
+    out.append(f"decision {decision} {'adopted' if ok1 and ok2 and ok3 else 'not adopted'}")
     excited = [r for r in unique if r["truth"].startswith("time_drift") and r["excitation"]]
     out.append("beside the rule:")
     for r in drifts + excited:

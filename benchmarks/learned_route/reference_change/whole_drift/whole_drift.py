@@ -44,7 +44,10 @@ from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E4
 from littledog_mlsim.layout import N_STATE, S   # noqa: E402
 from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E402
 
-RULES = {"stiffness": False, "whole": True}
+#: each rule's name and the flags of :mod:`littledog_mlsim.diagnose.change` it sets (every
+#: flag a rule of the study names is reset to False before each rule)
+RULES = {"stiffness": {}, "whole": {"DRIFT_WHOLE_OUTPUT": True}}
+TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole output"
 
 
 def _rates(r, ref, fs, scope: str) -> dict:
@@ -85,8 +88,11 @@ def _reading(c: dict, confirm: dict) -> dict:
             "confirm_gain": round(confirm["total_gain"], 3)}
 
 
-def main() -> None:
-    p = zoo_study_parser(__doc__.splitlines()[0])
+def main(rules: dict[str, dict[str, bool]] = RULES, title: str = TITLE,
+         doc: str = __doc__) -> None:
+    """Read every recording under each of ``rules`` (the first is "before", the last
+    "after") and append the rows to ``--out`` (``title`` heads its table)."""
+    p = zoo_study_parser(doc.splitlines()[0])
     p.add_argument("--only", default=None,
                    help="comma-separated recordings (zNN, sNNN_eX) to read; default all")
     a = p.parse_args()
@@ -116,8 +122,10 @@ def main() -> None:
                "truth": "clean" if e is None else f"{e['family']} @ {e['scope']}",
                "truth_params": None if e is None else e.get("params"),
                "excitation": _excitation(d.name, e), "confirm_scope": scope}
-        for name, whole in RULES.items():
-            change.DRIFT_WHOLE_OUTPUT = whole
+        flags = {f for v in rules.values() for f in v}
+        for name, rule in rules.items():
+            for f in flags:
+                setattr(change, f, rule.get(f, False))
             c = change.reference_change(r, ref, start, None, ev_own.one_step, ref_fit)
             conf = change.drift_through_reference(
                 r, ref, start, ElapsedTracking(joints=scope_group(scope)), ref_fit)
@@ -129,7 +137,7 @@ def main() -> None:
             doc = json.loads(out_json.read_text())
             doc["rows"].append(row)
             out_json.write_text(json.dumps(doc, indent=1))
-            write_md(doc, a.out.with_suffix(".md"))
+            write_md(doc, a.out.with_suffix(".md"), rules, title)
         print(row, flush=True)
 
 
@@ -157,14 +165,15 @@ def _rates_cell(x: dict | None) -> str:
     return "" if not x else f"{x['stiffness_slope']:+.3f} / {x['with_t_dq']:+.3f}"
 
 
-def write_md(doc: dict, path: Path) -> None:
-    lines = ["# Decision 068 on read zoos: a drift with time as the servo's whole output", ""]
+def write_md(doc: dict, path: Path, rules: dict = RULES, title: str = TITLE) -> None:
+    first, last = list(rules)[0], list(rules)[-1]
+    lines = [f"# {title}", ""]
     lines += study_commands(doc)
-    lines += ["", "| zoo | data | truth | exc. | the stiffness alone (before) | the whole "
-              "output (decision 068) | named differently | 028 differently | a drift's rate "
-              "at its scope: 038 / with t dq [1/s] |", "|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", f"| zoo | data | truth | exc. | {first} (before) | {last} (after) | named "
+              "differently | 028 differently | a drift's rate at its scope: 038 / with t dq "
+              "[1/s] |", "|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
-        s, w = r["stiffness"], r["whole"]
+        s, w = r[first], r[last]
         truth = r["truth"] + (f" {r['truth_params']}" if r["truth_params"] else "")
         lines.append(f"| {r['zoo']} | {r['data']} | {truth} | {r['excitation']:g} | "
                      f"{_cell(s)} | {_cell(w)} | {'yes' if s['named'] != w['named'] else ''} | "
