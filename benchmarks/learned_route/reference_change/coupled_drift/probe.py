@@ -16,7 +16,9 @@ printed: ``servo`` u - q, dq, 1; ``stiff`` and t (u - q); ``whole`` and t dq (de
 ``leg`` the servo's and t (u - q), t dq of the joint's leg's three joints, and their u - q, dq;
 ``scope`` the servo's and t (u - q), t dq of every scope joint (decision 069); ``all12`` the
 same of all 12 joints; ``pred`` the servo's, t (u - q), t dq and t times the reference model's
-own prediction of the joint's angle and rate change. Nothing here is the screen's decision
+own prediction of the joint's angle and rate change; with ``--forms``, also ``cservo`` the
+servo's and u - q, dq of every scope joint (a coupled servo response), and ``cscope`` those and
+``scope``'s drift columns. Nothing here is the screen's decision
 (no reference side, no significance): it measures what each column set can explain.
 """
 import argparse
@@ -39,8 +41,10 @@ ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("zoo")
 ap.add_argument("ids")
 ap.add_argument("--work", type=Path, default=Path("/tmp/wd"))
+ap.add_argument("--forms", default="servo,stiff,whole,leg,scope,all12,pred",
+                help="the column sets, comma-separated (also cservo, cscope)")
 a = ap.parse_args()
-zoo, ids = a.zoo, a.ids.split(",")
+zoo, ids, FORMS = a.zoo, a.ids.split(","), a.forms.split(",")
 W = a.work / zoo
 opts, fs = LearnedOptions(), measured_robot_features()
 quiet = lambda s: None
@@ -83,10 +87,15 @@ for d in ids:
             return np.column_stack(base + [t[:, None] * E, t[:, None] * V])
         if form == "scope":
             return np.column_stack(base + [t[:, None] * E[:, js], t[:, None] * V[:, js]])
+        if form == "cservo":
+            return np.column_stack(base + [E[:, js], V[:, js]])
+        if form == "cscope":
+            return np.column_stack(base + [E[:, js], V[:, js], t[:, None] * E[:, js],
+                                           t[:, None] * V[:, js]])
         if form == "pred":
             return np.column_stack(base + [t * E[:, j], t * V[:, j], t * p0[:, S.dq.start + j], t * p0[:, S.q.start + j]])
     res = {}
-    for form in ("servo", "stiff", "whole", "leg", "scope", "all12", "pred"):
+    for form in FORMS:
         Rh = R.copy()
         for j in js:
             Z = Z_of(form, j)

@@ -1,6 +1,6 @@
 #!/bin/bash
 # Decision 068's evidence (README.md): records open zoos with each zoo's own harness seeds and
-# reads both drift rules on them with whole_drift.py. From the repository root:
+# reads both drift rules on them with whole_drift.py (or STUDY's script). From the repository root:
 #   bash benchmarks/learned_route/reference_change/whole_drift/record_and_read.sh SCRATCH [PART [STUDY]]
 # SCRATCH: a scratch directory for the recordings (SCRATCH/zooNN); a zoo already recorded there
 # (SCRATCH/zooNN.recorded) is not recorded again: the recorder is deterministic on one machine.

@@ -48,6 +48,9 @@ from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E40
 #: flag a rule of the study names is reset to False before each rule)
 RULES = {"stiffness": {}, "whole": {"DRIFT_WHOLE_OUTPUT": True}}
 TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole output"
+#: the table's heads of the two readings, by rule name (a rule not here is headed by its name)
+HEADS = {"stiffness": "the stiffness alone (before)", "whole": "the whole output (decision 068)",
+         "before": "before", "coupled": "coupled over the scope (decision 069)"}
 
 
 def _rates(r, ref, fs, scope: str) -> dict:
@@ -169,9 +172,9 @@ def write_md(doc: dict, path: Path, rules: dict = RULES, title: str = TITLE) -> 
     first, last = list(rules)[0], list(rules)[-1]
     lines = [f"# {title}", ""]
     lines += study_commands(doc)
-    lines += ["", f"| zoo | data | truth | exc. | {first} (before) | {last} (after) | named "
-              "differently | 028 differently | a drift's rate at its scope: 038 / with t dq "
-              "[1/s] |", "|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", f"| zoo | data | truth | exc. | {HEADS.get(first, first)} | "
+              f"{HEADS.get(last, last)} | named differently | 028 differently | a drift's rate "
+              "at its scope: 038 / with t dq [1/s] |", "|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
         s, w = r[first], r[last]
         truth = r["truth"] + (f" {r['truth_params']}" if r["truth_params"] else "")
