@@ -184,6 +184,16 @@ DRIFT_WHOLE_OUTPUT = False
 #: it is a guard against a search's stand-in, and the coupled columns would confirm a one-leg
 #: delay as a drift of that leg
 DRIFT_COUPLED = False
+#: a coupled drift (decision 069) is checked (decision 070): it is fitted on top of a servo
+#: response coupled over the scope's joints (each joint's correction also carries every other
+#: scope joint's ``u - q`` and ``dq``) and judged against that response, so that the other
+#: joints' drift columns cannot stand in for a constant change of some servos; and a coupled
+#: drift named at all joints is screened again at the narrower scopes (decision 040's), where
+#: the one that explains the most is named instead if it explains at least the share at all
+#: joints less :data:`NARROWER_CLOSE`
+COUPLED_CHECKED = False
+#: decision 070: a narrower scope is preferred to all joints where its share is this close
+NARROWER_CLOSE = 0.05
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
@@ -281,6 +291,11 @@ class ChangeModel:
         self.extra: dict[int, int] = {}
         self.elapsed: int | None = None       # the seconds' column of a whole-output drift
         self.coupled = _coupled(hyp)          # every scope joint's drift columns (decision 069)
+        # every scope joint's servo columns too (decision 070): a coupled servo response, or a
+        # checked coupled drift on top of it
+        self.coupled_servo = bool(hyp.coupled and not hyp.alone and (
+            (hyp.family == "servo_gain" and hyp.aug is None)
+            or (self.coupled and COUPLED_CHECKED)))
         if hyp.aug is not None:        # its columns follow fs's (:meth:`_Residuals.of`)
             cols = JOINT_GROUPS[hyp.aug.joints]
             self.extra = {int(j): self.n_ref + i for i, j in enumerate(cols)}
@@ -300,8 +315,9 @@ class ChangeModel:
         """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column(s)
         (a swing hypothesis: the rate in swing and ``drag``'s column j; a whole-output drift,
         decision 068: ``t (u - q)`` and ``t dq``; a coupled drift, decision 069: then the same
-        two of every other scope joint); a hypothesis ``alone``: 1 and the family's column(s),
-        without the servo's."""
+        two of every other scope joint); last, under decision 070, every other scope joint's
+        ``u - q`` and ``dq`` (a coupled servo response, or a checked coupled drift); a
+        hypothesis ``alone``: 1 and the family's column(s), without the servo's."""
         u, q, dq = X[:, N_STATE + j], X[:, S.q.start + j], X[:, S.dq.start + j]
         cols = [np.ones_like(u)] if self.hyp.alone else [u - q, dq, np.ones_like(u)]
         if j in self.extra:
@@ -315,6 +331,10 @@ class ChangeModel:
                 for k, c in self.extra.items():
                     if k != j:
                         cols += [X[:, c], X[:, self.elapsed] * X[:, S.dq.start + k]]
+        if self.coupled_servo:         # decision 070: last, every other scope joint's servo
+            for k in self.joints:
+                if k != j:
+                    cols += [X[:, N_STATE + k] - X[:, S.q.start + k], X[:, S.dq.start + k]]
         return np.stack(cols, axis=1)
 
     @staticmethod
@@ -845,7 +865,7 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
             kept = nr.pop("kept")
             out["narrower"] = {**nr, "all": {"label": out["label"],
                                              "explained": out["explained"]}}
-            if nr["named"]:
+            if _narrower_named(out, kept, nr["named"]):
                 out.update(kept)
     if not out["named"] and in_swing:
         sw["screen"] = sc = _screen_in_swing(data, ref, fs, sw["leg"],
@@ -889,8 +909,17 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
     # as much as the servo response alone (decision 030)
     fams = _families(scope)
     judged = []
+    coupled_servo = None
     for hyp in fams:
-        j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(fams), opts, cols)
+        base = servo.sse
+        if COUPLED_CHECKED and _coupled(hyp):     # decision 070: against a coupled response
+            if coupled_servo is None:
+                coupled_servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope,
+                                                               coupled=True))
+                rows.append(_row(_judge(coupled_servo, coupled_servo.base, 1, opts, cols),
+                                 "coupled servo"))
+            base = coupled_servo.sse
+        j = _judge(_fit(data, ref, fs, hyp), base, len(fams), opts, cols)
         rows.append(_row(j, "family"))
         judged.append(j)
     alone = _stands_alone(servo, fams, data, fs, cols, rows)
@@ -931,9 +960,22 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
 def _screens_narrower(one: dict[str, Any], out: dict[str, Any]) -> bool:
     """Whether decision 040 screens the change again at narrower scopes: located over all
     joints (``one``, the located reading), screened there and not named, the family kept one
-    of :data:`NARROWER_FAMILIES` (``out``, the screen's result)."""
-    return bool(SCREEN_NARROWER and one["scope"] == "all" and not out.get("named")
+    of :data:`NARROWER_FAMILIES` (``out``, the screen's result); under decision 070
+    (:data:`COUPLED_CHECKED`) also a coupled drift named there."""
+    checked = bool(COUPLED_CHECKED and DRIFT_COUPLED and out.get("family") == "time_drift")
+    return bool(SCREEN_NARROWER and one["scope"] == "all"
+                and (not out.get("named") or checked)
                 and out.get("family") in NARROWER_FAMILIES)
+
+
+def _narrower_named(out: dict[str, Any], kept: dict[str, Any] | None, named: bool) -> bool:
+    """Whether decision 040's narrower reading (``kept``, ``named``) replaces the screen's at
+    all joints (``out``): where all joints are not named; under decision 070, also where its
+    share is at least all joints' less :data:`NARROWER_CLOSE`."""
+    if not named or kept is None:
+        return False
+    return (not out.get("named")
+            or kept["explained"] >= out["explained"] - NARROWER_CLOSE)
 
 
 def _screen_narrower(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, family: str,

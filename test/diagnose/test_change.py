@@ -217,6 +217,7 @@ def test_a_coupled_drift_carries_the_other_scope_joints_sag(monkeypatch, coupled
     from littledog_mlsim.models.feature_library import ElapsedTracking
     from littledog_mlsim.models.features import FeatureSet
     monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", True)
+    monkeypatch.setattr(change, "COUPLED_CHECKED", False)
     X, R, fold = _sag_rows(-0.08, 4)
     t = X[:, N_FEATURE + 3]
     e1 = X[:, N_STATE + 1] - X[:, S.q.start + 1]
@@ -253,6 +254,59 @@ def test_a_coupled_drift_is_the_screens_drift_only(monkeypatch):
         assert ChangeModel(_Zero(), FeatureSet(), drift).coupled is flag
     plain = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"))
     assert not change._coupled(plain) and not change._whole_output(plain)
+
+
+def test_a_checked_coupled_drift_sits_on_a_coupled_servo_response(monkeypatch):
+    """Decision 070: a coupled servo response carries every scope joint's ``u - q`` and ``dq``
+    after the joint's own servo columns, and a checked coupled drift the same after its drift
+    columns (column 3 stays the joint's own ``t (u - q)``); a constant change of one joint's
+    servo that moves the others is then the response's, and the drift's columns add nothing."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    from littledog_mlsim.models.features import FeatureSet
+    monkeypatch.setattr(change, "DRIFT_WHOLE_OUTPUT", False)
+    monkeypatch.setattr(change, "DRIFT_COUPLED", True)
+    X, R, fold = _sag_rows(0.0, 5)
+    e1 = X[:, N_STATE + 1] - X[:, S.q.start + 1]
+    R[:, S.dq.start] += -0.4 * e1                   # joint 1's weaker servo moves joint 0
+    servo = Hypothesis("servo_gain", "leg:front_left", coupled=True)
+    drift = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"),
+                       coupled=True)
+    for checked in (False, True):
+        monkeypatch.setattr(change, "COUPLED_CHECKED", checked)
+        ms = ChangeModel(_Zero(), FeatureSet(), servo).fit(X, R, fold, 5)
+        md = ChangeModel(_Zero(), FeatureSet(), drift).fit(X, R, fold, 5)
+        assert ms.coupled_servo and ms._z(X, 0).shape[1] == 7
+        assert md.coupled_servo is checked
+        assert md._z(X, 0).shape[1] == (13 if checked else 9)
+        assert np.array_equal(md._z(X, 0)[:, 3], X[:, N_FEATURE])   # joint 0's t (u - q)
+        left = R - ms.correction(X, -1)
+        assert np.sqrt(np.mean(left[:, S.dq.start] ** 2)) < 0.0025
+        assert abs(md.raw_coef(0, 3)) < 0.01           # no drift where the servo explains it
+    alone = Hypothesis("time_drift", "leg:front_left", ElapsedTracking(joints="front_left"),
+                       alone=True, coupled=True)
+    assert not ChangeModel(_Zero(), FeatureSet(), alone).coupled_servo
+
+
+def test_a_narrower_scope_replaces_all_joints_only_where_close(monkeypatch):
+    """Decision 040 replaces an unnamed reading at all joints by a named narrower one; under
+    decision 070 a named coupled drift at all joints is screened again too, and replaced only
+    where the narrower scope's share is at least all joints' less ``NARROWER_CLOSE``."""
+    from littledog_mlsim.diagnose import change
+    one = {"scope": "all"}
+    unnamed = {"named": False, "family": "time_drift", "explained": 0.6}
+    named = {"named": True, "family": "time_drift", "explained": 0.86}
+    for checked in (False, True):
+        monkeypatch.setattr(change, "COUPLED_CHECKED", checked)
+        monkeypatch.setattr(change, "DRIFT_COUPLED", True)
+        assert change._screens_narrower(one, unnamed)
+        assert change._screens_narrower(one, named) is checked
+        assert change._narrower_named(unnamed, {"explained": 0.8}, True)
+        assert not change._narrower_named(unnamed, {"explained": 0.8}, False)
+    assert change._narrower_named(named, {"explained": 0.82}, True)
+    assert not change._narrower_named(named, {"explained": 0.80}, True)
+    monkeypatch.setattr(change, "DRIFT_COUPLED", False)
+    assert not change._screens_narrower(one, named)
 
 
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):
@@ -820,12 +874,15 @@ def test_the_statement_of_a_change_named_at_a_narrower_scope_says_so():
     ("all", False, "command_filter", False), ("all", False, None, False),
     ("type:knees", False, "time_drift", False)])
 def test_only_a_drift_kept_over_all_joints_and_not_named_is_screened_again(one_scope, named,
-                                                                          family, screens):
+                                                                          family, screens,
+                                                                          monkeypatch):
     """Decision 040 runs where the change is located over all joints and the screen there
     kept a time drift it does not name; not for another family (a slope's low-pass over all
     joints would be named at one leg), not where the drift is named, not at a narrower
     located scope."""
+    from littledog_mlsim.diagnose import change
     from littledog_mlsim.diagnose.change import _screens_narrower
+    monkeypatch.setattr(change, "COUPLED_CHECKED", False)
     assert _screens_narrower({"scope": one_scope}, {"named": named, "family": family}) is screens
 
 

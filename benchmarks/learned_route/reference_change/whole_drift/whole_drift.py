@@ -50,7 +50,8 @@ RULES = {"stiffness": {}, "whole": {"DRIFT_WHOLE_OUTPUT": True}}
 TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole output"
 #: the table's heads of the two readings, by rule name (a rule not here is headed by its name)
 HEADS = {"stiffness": "the stiffness alone (before)", "whole": "the whole output (decision 068)",
-         "before": "before", "coupled": "coupled over the scope (decision 069)"}
+         "before": "before", "coupled": "coupled over the scope (decision 069)",
+         "checked": "coupled and checked (decision 070)"}
 
 
 def _rates(r, ref, fs, scope: str) -> dict:
