@@ -1,12 +1,17 @@
 """Decision 068's rule (README.md) on the study's rows: each condition's counts and verdict.
 
     .venv/bin/python benchmarks/learned_route/reference_change/whole_drift/rule.py \
-        [benchmarks/learned_route/reference_change/whole_drift/result.json] > rule.txt
+        [RESULT] [--before NAME --after NAME --decision N] > rule.txt
+
+RESULT defaults to this study's ``result.json``. The studies that reuse the rule name their
+result and their two readings: decisions 069 (``../coupled_drift/result.json``, ``--before
+before --after coupled --decision 069``) and 070 (``../checked_drift/result.json``, ``--after
+checked --decision 070``).
 """
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -17,11 +22,15 @@ def right(reading: dict, truth: str) -> bool:
     return reading["named"] == truth
 
 
-def main(before: str = "stiffness", after: str = "whole", decision: str = "068",
-         default: Path = HERE / "result.json") -> None:
-    """The rule's counts over the rows of ``sys.argv[1]`` (else ``default``), ``before`` and
-    ``after`` the rows' two readings."""
-    rows = json.loads(Path(sys.argv[1] if len(sys.argv) > 1 else default).read_text())["rows"]
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("result", nargs="?", type=Path, default=HERE / "result.json")
+    p.add_argument("--before", default="stiffness", help="the rows' reading before")
+    p.add_argument("--after", default="whole", help="the rows' reading under the candidate")
+    p.add_argument("--decision", default="068")
+    a = p.parse_args()
+    before, after, decision = a.before, a.after, a.decision
+    rows = json.loads(a.result.read_text())["rows"]
     for r in rows:
         r["stiffness"], r["whole"] = r[before], r[after]
     seen, unique = set(), []
