@@ -48,7 +48,8 @@ reference recording of the same robot it is measured directly (decision 027):
    :data:`DRIFT_WHOLE_OUTPUT`, also times the rate: a supply's sag scales the servo's damping
    with its stiffness; under decision 069, :data:`DRIFT_COUPLED`, the screen's drift carries
    both columns of every scope joint at each: a sag at many joints moves each joint by the
-   others' torques through the body). Decisions are the route's
+   others' torques through the body; decision 070, :data:`COUPLED_CHECKED`, fits and judges
+   that drift on a servo response coupled the same way). Decisions are the route's
    :func:`.stats.sse_decision` on per-move held-out one-step SSE of the scope's angles and
    rates:
    - the servo response against the same correction fitted on the reference's own held-out
