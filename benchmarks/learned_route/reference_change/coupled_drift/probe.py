@@ -18,7 +18,9 @@ printed: ``servo`` u - q, dq, 1; ``stiff`` and t (u - q); ``whole`` and t dq (de
 same of all 12 joints; ``pred`` the servo's, t (u - q), t dq and t times the reference model's
 own prediction of the joint's angle and rate change; with ``--forms``, also ``cservo`` the
 servo's and u - q, dq of every scope joint (a coupled servo response), and ``cscope`` those and
-``scope``'s drift columns. Nothing here is the screen's decision
+``scope``'s drift columns. ``--of-all`` measures every share on all 12 joints' excess, the
+correction still at the scope's joints only. ``csource`` is ``cscope`` with the drift columns
+of ``--source``'s joints only (the joints whose drift moves the scope's). Nothing here is the screen's decision
 (no reference side, no significance): it measures what each column set can explain.
 """
 import argparse
@@ -41,6 +43,11 @@ ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("zoo")
 ap.add_argument("ids")
 ap.add_argument("--work", type=Path, default=Path("/tmp/wd"))
+ap.add_argument("--of-all", action="store_true",
+                help="measure every share on all 12 joints' excess (a narrower scope's "
+                     "correction leaves the other joints' residual as it is)")
+ap.add_argument("--source", default=None,
+                help="csource's drift columns come from this scope's joints (default the scope's)")
 ap.add_argument("--forms", default="servo,stiff,whole,leg,scope,all12,pred",
                 help="the column sets, comma-separated (also cservo, cscope)")
 a = ap.parse_args()
@@ -66,7 +73,7 @@ for d in ids:
     fold = r.fold_of_move[mi]
     t = change.elapsed_s(mi)
     js = [int(j) for j in scope_joints(scope)]
-    cols = change._columns_of(js)
+    cols = change._columns_of(range(12) if a.of_all else js)
     own = change._move_sse(ev_own.one_step, mi, n)[:, cols].sum()
     un = change._move_sse(R, mi, n)[:, cols].sum()
     E = X[:, N_STATE:N_STATE + 12] - X[:, S.q]
@@ -89,6 +96,10 @@ for d in ids:
             return np.column_stack(base + [t[:, None] * E[:, js], t[:, None] * V[:, js]])
         if form == "cservo":
             return np.column_stack(base + [E[:, js], V[:, js]])
+        if form == "csource":
+            src = [int(k) for k in scope_joints(a.source or scope)]
+            return np.column_stack(base + [E[:, js], V[:, js], t[:, None] * E[:, src],
+                                           t[:, None] * V[:, src]])
         if form == "cscope":
             return np.column_stack(base + [E[:, js], V[:, js], t[:, None] * E[:, js],
                                            t[:, None] * V[:, js]])
@@ -109,4 +120,4 @@ for d in ids:
                 Rh[np.ix_(te, outs)] = R[np.ix_(te, outs)] - Zs[te] @ c
         after = change._move_sse(Rh, mi, n)[:, cols].sum()
         res[form] = round((un - after) / (un - own), 3)
-    print(json.dumps({"zoo": zoo, "data": d, "at": scope, "excess": round(un / own, 3), **res, "s": round(time.time() - t0, 1)}), flush=True)
+    print(json.dumps({"zoo": zoo, "data": d, "at": scope, "source": a.source, "excess": round(un / own, 3), **res, "s": round(time.time() - t0, 1)}), flush=True)
