@@ -35,7 +35,7 @@ import numpy as np
 from littledog_mlsim.data.dataset import load_moves
 from littledog_mlsim.diagnose import change
 from littledog_mlsim.diagnose.candidates import measured_robot_features
-from littledog_mlsim.diagnose.families.scopes import scope_joints
+from littledog_mlsim.diagnose.families.scopes import leg_scopes, scope_joints
 from littledog_mlsim.diagnose.learned import LearnedOptions, _Route
 from littledog_mlsim.layout import N_STATE, S
 
@@ -49,7 +49,7 @@ ap.add_argument("--of-all", action="store_true",
 ap.add_argument("--source", default=None,
                 help="csource's drift columns come from this scope's joints (default the scope's)")
 ap.add_argument("--forms", default="servo,stiff,whole,leg,scope,all12,pred",
-                help="the column sets, comma-separated (also cservo, cscope)")
+                help="the column sets, comma-separated (also cservo, cscope, csource)")
 a = ap.parse_args()
 zoo, ids, FORMS = a.zoo, a.ids.split(","), a.forms.split(",")
 W = a.work / zoo
@@ -57,7 +57,7 @@ opts, fs = LearnedOptions(), measured_robot_features()
 quiet = lambda s: None
 ref = _Route(load_moves(W / "reference", "train"), fs, opts, quiet)
 ref_model, ev_ref = ref.fit(fs, one_step=True)
-LEG = {j: [3 * (j // 3) + k for k in range(3)] for j in range(12)}
+LEG = {int(j): [int(k) for k in scope_joints(g)] for g in leg_scopes() for j in scope_joints(g)}
 for d in ids:
     d, _, scope = d.partition(":")
     scope = scope or "all"
