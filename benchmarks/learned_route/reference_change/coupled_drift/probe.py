@@ -3,10 +3,10 @@ reference's model a held-out linear correction takes, by its columns.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python \
         benchmarks/learned_route/reference_change/coupled_drift/probe.py ZOO ID[:SCOPE],... \
-        [--work SCRATCH]
+        --work SCRATCH
 
-ZOO's recordings are read from SCRATCH/ZOO (default /tmp/wd; ``../whole_drift``'s
-``record_and_read.sh`` records them). For each recording (an effect ``zNN``/``gNN`` or a clean
+ZOO's recordings are read from SCRATCH/ZOO (``../whole_drift``'s ``record_and_read.sh``
+records them there). For each recording (an effect ``zNN``/``gNN`` or a clean
 ``sNNN_eX``) at SCOPE (default all): the reference's model (the learned route's start
 features, fitted on every reference move) predicts the data's next step; its residual's sum of
 squares over the scope's joint angles and rates, above the data's own model's held-out one
@@ -42,7 +42,7 @@ from littledog_mlsim.layout import N_STATE, S
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("zoo")
 ap.add_argument("ids")
-ap.add_argument("--work", type=Path, default=Path("/tmp/wd"))
+ap.add_argument("--work", type=Path, required=True, help="the recordings' scratch directory")
 ap.add_argument("--of-all", action="store_true",
                 help="measure every share on all 12 joints' excess (a narrower scope's "
                      "correction leaves the other joints' residual as it is)")

@@ -1,8 +1,8 @@
 #!/bin/bash
 # The probe's recordings (README.md, "What led here"), two processes; from the repository root:
-#   bash benchmarks/learned_route/reference_change/coupled_drift/probe.sh [SCRATCH] > probe.txt
-# SCRATCH (default /tmp/wd) holds the recordings ../whole_drift/record_and_read.sh makes.
-W=${1:-/tmp/wd}
+#   bash benchmarks/learned_route/reference_change/coupled_drift/probe.sh SCRATCH > probe.txt
+# SCRATCH holds the recordings ../whole_drift/record_and_read.sh makes.
+W=${1:?scratch directory}
 P=benchmarks/learned_route/reference_change/coupled_drift/probe.py
 export OPENBLAS_NUM_THREADS=1
 printf '%s\n' "zoo67 z12" "zoo65 z04" "zoo66 z06:type:knees,s571_e0" "zoo11 z05" "zoo46 z05" \
