@@ -84,7 +84,13 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family. A change spread over all
    joints where a time drift is kept and not named is screened again at each joint type, side
    and leg where it is material, and named at the scope where the drift explains the most,
-   where that is enough (decision 040, :func:`_screen_narrower`, ``narrower``).
+   where that is enough (decision 040, :func:`_screen_narrower`, ``narrower``). Under decision
+   071 (:data:`COUPLED_FALLBACK`), a change located over all rows that no screen names is
+   screened once more at its located scope with the drift coupled and checked (decisions 069
+   and 070), and named a drift with time where that screen names one
+   (:func:`_fall_back_coupled`, ``coupled_fallback``): each joint's own drift columns name a
+   drift of some joints at their scope, and a sag of many servos, which moves each joint by
+   the others' torques as well, only through the coupled columns.
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
    median over the scope's joints); an angle offset, none (the constant's size depends on
@@ -195,6 +201,12 @@ DRIFT_COUPLED = False
 COUPLED_CHECKED = False
 #: decision 070: a narrower scope is preferred to all joints where its share is this close
 NARROWER_CLOSE = 0.05
+#: a change located where the screen (with decisions 029 and 040) names nothing is screened
+#: again at the located scope with the drift coupled and checked (decisions 069 and 070), and
+#: named where that screen names a drift with time (decision 071): the screen's own drift,
+#: per joint, names a drift of some joints at their scope; a sag of many servos moves each
+#: joint by the others' torques too, and only the coupled drift carries that share
+COUPLED_FALLBACK = False
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
@@ -231,6 +243,7 @@ class Hypothesis:
     aug: Augmentation | None = None
     alone: bool = False   # the family's column(s) and a constant, without the servo response
     coupled: bool = False  # a drift's columns of every scope joint at each (decision 069)
+    checked: bool = False  # a coupled drift on a coupled servo response (decision 070)
 
     def label(self) -> str:
         what = {"servo_gain": "servo response", "encoder_offset": "angle offset",
@@ -296,7 +309,7 @@ class ChangeModel:
         # checked coupled drift on top of it
         self.coupled_servo = bool(hyp.coupled and not hyp.alone and (
             (hyp.family == "servo_gain" and hyp.aug is None)
-            or (self.coupled and COUPLED_CHECKED)))
+            or (self.coupled and (COUPLED_CHECKED or hyp.checked))))
         if hyp.aug is not None:        # its columns follow fs's (:meth:`_Residuals.of`)
             cols = JOINT_GROUPS[hyp.aug.joints]
             self.extra = {int(j): self.n_ref + i for i, j in enumerate(cols)}
@@ -876,6 +889,9 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
             out.update(located_by="swing", named=sc["named"], family=sc["family"],
                        kept_scope=None if sc["family"] is None else sc["scope"],
                        **{k: sc[k] for k in ("label", "explained", "size") if k in sc})
+    if _falls_back(located, out):
+        _fall_back_coupled(out, data, ref, fs, one["scope"], own_one_step, X, D, mi, Xr, Dr,
+                           opts, mir)
     if out["named"]:
         out["agrees"] = any(r["family"] == out["family"] and r["scope"] == out["kept_scope"]
                             for r in out["search"])
@@ -894,11 +910,13 @@ def reference_change(route: "_Route", ref_route: "_Route", fs: FeatureSet,
 def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
             own_one_step: np.ndarray, X: np.ndarray, D: np.ndarray, mi: np.ndarray,
             Xr: np.ndarray, Dr: np.ndarray, opts: Any, rows: list[dict[str, Any]],
-            mir: np.ndarray | None = None) -> dict[str, Any]:
+            mir: np.ndarray | None = None, checked: bool = False) -> dict[str, Any]:
     """Decision 027's screen at a scope located over all rows (module doc, 3-5): the servo
     response, then every family's column against it; the hypotheses' rows are appended to
-    ``rows``. Returns ``named`` and, where the servo response differs, ``family``,
-    ``kept_scope``, ``label``, ``explained`` and ``size``."""
+    ``rows``. ``checked``: the drift coupled and checked (decisions 069 and 070) whatever
+    the flags (decision 071, :data:`COUPLED_FALLBACK`). Returns ``named`` and, where the
+    servo response differs, ``family``, ``kept_scope``, ``label``, ``explained`` and
+    ``size``."""
     cols = _columns_of(scope_joints(scope))
     # the servo's response at the scope, against the reference's own correction
     servo = _servo_response(data, ref, fs, scope, opts, cols)
@@ -908,12 +926,13 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
     kept = servo
     # the family: a column that adds to the servo response at that scope, and alone explains
     # as much as the servo response alone (decision 030)
-    fams = _families(scope)
+    fams = _families(scope, checked)
     judged = []
     coupled_servo = None
     for hyp in fams:
         base = servo.sse
-        if COUPLED_CHECKED and _coupled(hyp):     # decision 070: against a coupled response
+        if (COUPLED_CHECKED or hyp.checked) and _coupled(hyp):
+            # decision 070: against a coupled servo response
             if coupled_servo is None:
                 coupled_servo = _fit(data, ref, fs, Hypothesis("servo_gain", scope,
                                                                coupled=True))
@@ -956,6 +975,37 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
             "label": label, "explained": share, "size": size, "replay": replay,
             "named": bool(share >= EXPLAINED_SHARE
                           and (family != "contact_phase" or _opposes(size)))}
+
+
+def _falls_back(located: bool, out: dict[str, Any]) -> bool:
+    """Whether decision 071 (:data:`COUPLED_FALLBACK`) screens the change again with a
+    coupled, checked drift: located over all rows (``located``; a swing reading is the
+    swing screen's), named by no screen (``out``), and the screen's drift not coupled
+    already (:data:`DRIFT_COUPLED`)."""
+    return bool(COUPLED_FALLBACK and located and not out.get("named")
+                and out.get("located_by") == "all_rows" and not DRIFT_COUPLED)
+
+
+def _fall_back_coupled(out: dict[str, Any], data: "_Residuals", ref: "_Residuals",
+                       fs: FeatureSet, scope: str, own_one_step: np.ndarray, X: np.ndarray,
+                       D: np.ndarray, mi: np.ndarray, Xr: np.ndarray, Dr: np.ndarray,
+                       opts: Any, mir: np.ndarray) -> None:
+    """Decision 071 (:data:`COUPLED_FALLBACK`): the change located at ``scope`` that every
+    screen left unnamed (``out``) is screened there again with the drift coupled and checked
+    (:func:`_screen`, ``checked``). Its reading goes to ``out["coupled_fallback"]`` (the
+    screen's result and its ``hypotheses``); where it names a drift with time, ``out`` takes
+    it (``located_by`` stays ``all_rows``; ``first`` keeps the first screen's label and
+    share). Any other family it keeps is not taken: the first screen's reading of those
+    stands."""
+    rows: list[dict[str, Any]] = []
+    s = _screen(data, ref, fs, scope, own_one_step, X, D, mi, Xr, Dr, opts, rows, mir,
+                checked=True)
+    out["coupled_fallback"] = {**{k: s[k] for k in ("named", "family", "kept_scope", "label",
+                                                    "explained") if k in s},
+                               "scope": scope, "hypotheses": rows,
+                               "first": {k: out.get(k) for k in ("label", "explained")}}
+    if s["named"] and s["family"] == "time_drift":
+        out.update(s, located_by="all_rows")
 
 
 def _screens_narrower(one: dict[str, Any], out: dict[str, Any]) -> bool:
@@ -1207,10 +1257,11 @@ def _drag_newtons(X: np.ndarray, R: np.ndarray, leg: int, Xr: np.ndarray, Dr: np
             "per_joint": {str(j): round(v, 3) for j, v in f.items()}}
 
 
-def _families(scope: str) -> list[Hypothesis]:
+def _families(scope: str, checked: bool = False) -> list[Hypothesis]:
     """Every family hypothesis decision 027 screens at ``scope``: the set-point delays, the
     low-passes, the play widths, the rate in swing with the drag's column, the drift (coupled
-    over the scope's joints under decision 069, :data:`DRIFT_COUPLED`)."""
+    over the scope's joints under decision 069, :data:`DRIFT_COUPLED`; ``checked``: coupled
+    and checked whatever the flags, decision 071's screen)."""
     return ([Hypothesis("command_delay", scope, _family_aug("command_delay", scope, k))
              for k in range(1, MAX_LAG + 1)]
             + [Hypothesis("command_filter", scope, _family_aug("command_filter", scope,
@@ -1219,7 +1270,7 @@ def _families(scope: str) -> list[Hypothesis]:
                for w in PLAY_WIDTHS]
             + [Hypothesis("contact_phase", scope, _family_aug("contact_phase", scope)),
                Hypothesis("time_drift", scope, _family_aug("time_drift", scope),
-                          coupled=DRIFT_COUPLED)])
+                          coupled=DRIFT_COUPLED or checked, checked=checked)])
 
 
 def _sides(route: "_Route", ref_route: "_Route", ref_model: "CrossFitModel", ev_ref: Any,
@@ -1383,8 +1434,14 @@ def _statement(u: dict[str, Any]) -> str:
     else:
         how = (f"; it removes {100 * u['explained']:.0f} % of the excess over the data's own "
                "model")
-        nr = u.get("narrower") or {}
-        if nr.get("named"):
+        nr, fb = u.get("narrower") or {}, u.get("coupled_fallback") or {}
+        if fb.get("named") and fb.get("family") == "time_drift" and fb["first"]["label"]:
+            how = (f"; the best hypothesis with each joint's own columns "
+                   f"({fb['first']['label']}) removes {100 * fb['first']['explained']:.0f} % "
+                   "of the excess over the data's own model, and a drift coupled over the "
+                   "scope's joints (each joint's correction also carries the others' drifting "
+                   f"torques) removes {100 * u['explained']:.0f} %")
+        elif nr.get("named"):
             how = (f"; over all joints the best hypothesis ({nr['all']['label']}) removes "
                    f"{100 * nr['all']['explained']:.0f} % of the excess over the data's own "
                    f"model, and at {scope_words(nr['scope'])}, the narrower scope where the "

@@ -6,6 +6,7 @@ that hold a scope, the servo slope, the correction's fit) on synthetic numbers.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -307,6 +308,99 @@ def test_a_narrower_scope_replaces_all_joints_only_where_close(monkeypatch):
     assert not change._narrower_named(named, {"explained": 0.80}, True)
     monkeypatch.setattr(change, "DRIFT_COUPLED", False)
     assert not change._screens_narrower(one, named)
+
+
+def test_the_fallback_screen_couples_and_checks_the_drift_whatever_the_flags(monkeypatch):
+    """Decision 071's screen (``checked``): its drift is coupled over the scope's joints and
+    sits on a coupled servo response with every flag off; no other family changes, and the
+    screen's own families stay as the flags say."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.features import FeatureSet
+    for flag in ("DRIFT_WHOLE_OUTPUT", "DRIFT_COUPLED", "COUPLED_CHECKED"):
+        monkeypatch.setattr(change, flag, False)
+    X, _, _ = _sag_rows(0.0, 5)
+    plain, checked = change._families("leg:front_left"), change._families("leg:front_left", True)
+    assert [h.family for h in plain] == [h.family for h in checked]
+    assert not any(h.coupled or h.checked for h in plain)
+    assert [(h.coupled, h.checked) for h in checked] == [
+        (h.family == "time_drift",) * 2 for h in checked]
+    drift = next(h for h in checked if h.family == "time_drift")
+    m = ChangeModel(_Zero(), FeatureSet(), drift)
+    assert change._coupled(drift) and m.coupled and m.coupled_servo
+    assert m._z(X, 0).shape[1] == 13
+    assert not ChangeModel(_Zero(), FeatureSet(), replace(drift, alone=True)).coupled_servo
+
+
+@pytest.mark.parametrize("flag, located, out, falls_back", [
+    (True, True, {"named": False, "located_by": "all_rows"}, True),
+    (False, True, {"named": False, "located_by": "all_rows"}, False),
+    (True, False, {"named": False, "located_by": None}, False),
+    (True, True, {"named": True, "located_by": "all_rows"}, False),
+    (True, False, {"named": False, "located_by": "swing"}, False)])
+def test_only_a_located_change_no_screen_names_falls_back(monkeypatch, flag, located, out,
+                                                           falls_back):
+    """Decision 071 runs where the change is located over all rows and no screen names it;
+    never where a screen named something (the first screens' readings stand), nor where the
+    screen's drift is coupled already."""
+    from littledog_mlsim.diagnose import change
+    monkeypatch.setattr(change, "COUPLED_FALLBACK", flag)
+    monkeypatch.setattr(change, "DRIFT_COUPLED", False)
+    assert change._falls_back(located, out) is falls_back
+    monkeypatch.setattr(change, "DRIFT_COUPLED", True)
+    assert not change._falls_back(located, out)
+
+
+@pytest.mark.parametrize("named, family, taken", [
+    (True, "time_drift", True), (False, "time_drift", False), (True, "command_filter", False),
+    (False, None, False)])
+def test_the_fallback_takes_only_a_drift_its_screen_names(monkeypatch, named, family, taken):
+    """Decision 071: the coupled, checked screen at the located scope is recorded in
+    ``coupled_fallback`` with the first screen's label and share; the reading takes it only
+    where it names a drift with time, and keeps the first screen's otherwise."""
+    from littledog_mlsim.diagnose import change
+    calls = []
+
+    def screen(data, ref, fs, scope, own, X, D, mi, Xr, Dr, opts, rows, mir, checked=False):
+        calls.append((scope, checked))
+        rows.append({"label": f"row @ {scope}"})
+        if family is None:
+            return {"named": False}
+        return {"family": family, "kept_scope": scope, "label": f"{family} @ {scope}",
+                "explained": 0.81, "size": {"rate_per_s": -0.05}, "replay": None,
+                "named": named}
+    monkeypatch.setattr(change, "_screen", screen)
+    first = {"named": False, "family": "servo_gain", "kept_scope": "all",
+             "label": "servo response @ all", "explained": 0.45, "located_by": "all_rows"}
+    out = dict(first)
+    change._fall_back_coupled(out, None, None, None, "all", None, None, None, None, None,
+                              None, None, None)
+    assert calls == [("all", True)]
+    fb = out.pop("coupled_fallback")
+    assert fb["scope"] == "all" and fb["hypotheses"] == [{"label": "row @ all"}]
+    assert fb["first"] == {"label": "servo response @ all", "explained": 0.45}
+    assert fb["named"] is named and fb.get("family") == family
+    if taken:
+        assert out["named"] and out["family"] == "time_drift" and out["explained"] == 0.81
+        assert out["located_by"] == "all_rows" and out["kept_scope"] == "all"
+    else:
+        assert out == first
+
+
+def test_the_statement_of_a_drift_the_fallback_names_gives_both_shares():
+    """Decision 071's statement: the best reading with each joint's own columns and its share,
+    then the coupled drift's."""
+    from littledog_mlsim.diagnose.change import _statement
+    u = {"ratio": 1.6, "scope": "all", "p_value": 1e-12, "rollout_ratio": 1.4,
+         "significant": True, "concentration": 1.0, "named": True, "family": "time_drift",
+         "kept_scope": "all", "label": "drift with time (coupled) @ all",
+         "size": {"rate_per_s": -0.05}, "explained": 0.81,
+         "coupled_fallback": {"named": True, "family": "time_drift", "scope": "all",
+                              "first": {"label": "servo response @ all", "explained": 0.45}}}
+    text = _statement(u)
+    assert "at all joints, time_drift (rate_per_s -0.05)" in text, text
+    assert ("the best hypothesis with each joint's own columns (servo response @ all) removes "
+            "45 %") in text
+    assert "a drift coupled over the scope's joints" in text and "removes 81 %" in text
 
 
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):

@@ -51,7 +51,8 @@ TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole outpu
 #: the table's heads of the two readings, by rule name (a rule not here is headed by its name)
 HEADS = {"stiffness": "the stiffness alone (before)", "whole": "the whole output (decision 068)",
          "before": "before", "coupled": "coupled over the scope (decision 069)",
-         "checked": "coupled and checked (decision 070)"}
+         "checked": "coupled and checked (decision 070)",
+         "fallback": "coupled where nothing is named (decision 071)"}
 
 
 def _rates(r, ref, fs, scope: str) -> dict:
@@ -82,6 +83,13 @@ def _reading(c: dict, confirm: dict) -> dict:
     voc = c.get("vocabulary") or {}
     size = c.get("size") or {}
     nr = c.get("narrower") or {}
+    fb = c.get("coupled_fallback")
+    # decision 071's screen, where it ran (a key only then: earlier studies' rows keep theirs)
+    extra = {} if fb is None else {"fallback": {
+        "named": fb["named"], "family": fb.get("family"),
+        "explained": None if fb.get("explained") is None else round(fb["explained"], 3),
+        "first_explained": (None if fb["first"]["explained"] is None
+                            else round(fb["first"]["explained"], 3))}}
     return {"named": f"{voc['family']} @ {voc['scope']}" if c["named"] else None,
             "params": voc.get("params"), "family": c.get("family"),
             "kept_scope": c.get("kept_scope"),
@@ -89,7 +97,7 @@ def _reading(c: dict, confirm: dict) -> dict:
             "all_explained": (nr.get("all") or {}).get("explained"),
             "rate_per_s": size.get("rate_per_s") if c.get("family") == "time_drift" else None,
             "confirmed": bool(confirm["confirmed"]), "confirm_p": confirm["p_value"],
-            "confirm_gain": round(confirm["total_gain"], 3)}
+            "confirm_gain": round(confirm["total_gain"], 3), **extra}
 
 
 def main(rules: dict[str, dict[str, bool]] = RULES, title: str = TITLE,
