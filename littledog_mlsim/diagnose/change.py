@@ -84,8 +84,8 @@ reference recording of the same robot it is measured directly (decision 027):
    otherwise the change is reported at its scope without a family. A change spread over all
    joints where a time drift is kept and not named is screened again at each joint type, side
    and leg where it is material, and named at the scope where the drift explains the most,
-   where that is enough (decision 040, :func:`_screen_narrower`, ``narrower``). Under decision
-   071 (:data:`COUPLED_FALLBACK`), a change located over all rows that no screen names is
+   where that is enough (decision 040, :func:`_screen_narrower`, ``narrower``). A change
+   located over all rows that no screen names (decision 071, :data:`COUPLED_FALLBACK`) is
    screened once more at its located scope with the drift coupled and checked (decisions 069
    and 070), and named a drift with time where that screen names one
    (:func:`_fall_back_coupled`, ``coupled_fallback``): each joint's own drift columns name a
@@ -206,7 +206,7 @@ NARROWER_CLOSE = 0.05
 #: named where that screen names a drift with time (decision 071): the screen's own drift,
 #: per joint, names a drift of some joints at their scope; a sag of many servos moves each
 #: joint by the others' torques too, and only the coupled drift carries that share
-COUPLED_FALLBACK = False
+COUPLED_FALLBACK = True
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
