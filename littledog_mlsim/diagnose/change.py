@@ -1000,8 +1000,8 @@ def _fall_back_coupled(out: dict[str, Any], data: "_Residuals", ref: "_Residuals
     rows: list[dict[str, Any]] = []
     s = _screen(data, ref, fs, scope, own_one_step, X, D, mi, Xr, Dr, opts, rows, mir,
                 checked=True)
-    out["coupled_fallback"] = {**{k: s[k] for k in ("named", "family", "kept_scope", "label",
-                                                    "explained") if k in s},
+    out["coupled_fallback"] = {**{k: s.get(k) for k in ("named", "family", "kept_scope",
+                                                        "label", "explained")},
                                "scope": scope, "hypotheses": rows,
                                "first": {k: out.get(k) for k in ("label", "explained")}}
     if s["named"] and s["family"] == "time_drift":
@@ -1411,9 +1411,13 @@ def _statement(u: dict[str, Any]) -> str:
                     f"; of the narrower scopes, the same family explains the most at "
                     f"{scope_words(same[0]['scope'])}, {100 * same[0]['explained']:.0f} % of "
                     "the excess there")
+        fb = u.get("coupled_fallback") or {}
+        coupled = ("" if fb.get("family") != "time_drift" or fb.get("explained") is None else
+                   f"; with a drift coupled over the scope's joints the best hypothesis "
+                   f"({fb['label']}) removes {100 * fb['explained']:.0f} %")
         return (f"a change since the reference at {scope_words(where)}: {head}; the best "
                 f"hypothesis ({u['label']}) removes {100 * u['explained']:.0f} % of the excess "
-                f"over the data's own model{narrower}, so it is not named" + carried)
+                f"over the data's own model{narrower}{coupled}, so it is not named" + carried)
     size = ", ".join(f"{k} {v}" for k, v in u["size"].items()
                      if k != "per_joint" and v is not None) or "no size without a twin"
     search = ", ".join(r["label"] for r in u.get("search") or [])

@@ -126,7 +126,9 @@ is too, and its ``vocabulary`` names the family (``servo_gain``, ``command_delay
 lists what the search accepted (stand-ins left out) and ``agrees`` whether the named change is
 one of them; ``narrower`` (decision 040): where a time drift kept over all joints is not named
 there, the same screen at each joint type, side and leg, and the drift named where it explains
-the most; ``swing`` and ``located_by`` (decision 029): the same ratio per leg in swing and
+the most; ``coupled_fallback`` (decision 071): where no screen names a located change, the
+screen again at the located scope with a drift coupled over its joints, named where it names a
+drift; ``swing`` and ``located_by`` (decision 029): the same ratio per leg in swing and
 stance, and where a change lives in one leg's swing alone, a force on that foot
 (``contact_phase``, ``phase: swing``) named at the leg; nothing is added to the model, and its
 statement says whether the data's own model carries the change. ``reference.conditions``

@@ -6,6 +6,7 @@ that hold a scope, the servo slope, the correction's fit) on synthetic numbers.
 """
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -379,11 +380,33 @@ def test_the_fallback_takes_only_a_drift_its_screen_names(monkeypatch, named, fa
     assert fb["scope"] == "all" and fb["hypotheses"] == [{"label": "row @ all"}]
     assert fb["first"] == {"label": "servo response @ all", "explained": 0.45}
     assert fb["named"] is named and fb.get("family") == family
+    json.dumps(fb)                                   # the report's key is plain JSON
     if taken:
         assert out["named"] and out["family"] == "time_drift" and out["explained"] == 0.81
         assert out["located_by"] == "all_rows" and out["kept_scope"] == "all"
+        assert out["size"] == {"rate_per_s": -0.05} and out["replay"] is None
     else:
         assert out == first
+    if family is None:
+        assert fb["label"] is None and fb["explained"] is None
+
+
+@pytest.mark.parametrize("share", [None, 1.01])
+def test_the_route_falls_back_only_where_no_screen_names_the_change(routes, monkeypatch,
+                                                                     share):
+    """Decision 071's place in ``reference_change``: a change the screen names (the one-leg
+    delay) is left as it is; the same change where no screen names it (naming made to need
+    more than all the excess) is screened once more at its located scope."""
+    from littledog_mlsim.diagnose import change
+    calls = []
+    monkeypatch.setattr(change, "_fall_back_coupled",
+                        lambda out, *a: calls.append((a[3], out["named"])))
+    if share is not None:
+        monkeypatch.setattr(change, "EXPLAINED_SHARE", share)
+    c = reference_change(routes["delay"], routes["reference"], measured_robot_features())
+    assert c["scope"] == "leg:front_left" and c["located_by"] == "all_rows", c["statement"]
+    assert c["named"] is (share is None)
+    assert calls == ([] if share is None else [("leg:front_left", False)])
 
 
 def test_the_statement_of_a_drift_the_fallback_names_gives_both_shares():
@@ -401,6 +424,16 @@ def test_the_statement_of_a_drift_the_fallback_names_gives_both_shares():
     assert ("the best hypothesis with each joint's own columns (servo response @ all) removes "
             "45 %") in text
     assert "a drift coupled over the scope's joints" in text and "removes 81 %" in text
+    kept = {**u, "named": False, "label": "servo response @ all", "explained": 0.45,
+            "coupled_fallback": {**u["coupled_fallback"], "named": False,
+                                 "label": "drift with time (coupled) @ all", "explained": 0.72}}
+    text = _statement(kept)
+    assert ("the best hypothesis (servo response @ all) removes 45 % of the excess over the "
+            "data's own model; with a drift coupled over the scope's joints the best hypothesis "
+            "(drift with time (coupled) @ all) removes 72 %, so it is not named") in text, text
+    other = {**kept, "coupled_fallback": {**kept["coupled_fallback"],
+                                          "family": "command_filter"}}
+    assert "coupled" not in _statement(other)
 
 
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):

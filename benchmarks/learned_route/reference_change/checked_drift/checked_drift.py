@@ -7,7 +7,7 @@ committed.
         --truth benchmarks/blind_zoo/zoos/zooNN/truth.yaml --label zooNN --out OUT [--only IDS]
 
 The rows are ``../whole_drift/whole_drift.py``'s (its module doc), read under two rules:
-``before`` (every flag of the change screen as committed: off) and ``checked``
+``before`` (every flag of ``whole_drift.FLAGS`` off) and ``checked``
 (``change.DRIFT_COUPLED`` and ``change.COUPLED_CHECKED`` True).
 """
 from __future__ import annotations

@@ -6,7 +6,7 @@ and ``t dq`` of every scope joint at each) against the stiffness alone (``t (u -
         --truth benchmarks/blind_zoo/zoos/zooNN/truth.yaml --label zooNN --out OUT [--only IDS]
 
 The rows are ``../whole_drift/whole_drift.py``'s (its module doc), read under two rules:
-``before`` (every flag of the change screen as committed: off) and ``coupled``
+``before`` (every flag of ``whole_drift.FLAGS`` off) and ``coupled``
 (``change.DRIFT_COUPLED`` True).
 """
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Decision 071 on read zoos: a coupled, checked drift screened only where no screen names the
-change, against the screen as committed.
+change, against the screen before it.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python \
         benchmarks/learned_route/reference_change/coupled_fallback/coupled_fallback.py \
@@ -7,7 +7,7 @@ change, against the screen as committed.
         --out OUT [--only IDS]
 
 The rows are ``../whole_drift/whole_drift.py``'s (its module doc), read under two rules:
-``before`` (every flag of the change screen as committed: off) and ``fallback``
+``before`` (every flag of ``whole_drift.FLAGS`` off) and ``fallback``
 (``change.COUPLED_FALLBACK`` True).
 """
 from __future__ import annotations

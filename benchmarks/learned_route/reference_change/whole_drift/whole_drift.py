@@ -44,8 +44,11 @@ from littledog_mlsim.diagnose.learned import LearnedOptions, _Route   # noqa: E4
 from littledog_mlsim.layout import N_STATE, S   # noqa: E402
 from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E402
 
-#: each rule's name and the flags of :mod:`littledog_mlsim.diagnose.change` it sets (every
-#: flag a rule of the study names is reset to False before each rule)
+#: the flags of :mod:`littledog_mlsim.diagnose.change` the drift studies set: each is False
+#: under a rule unless the rule sets it, so a study reads the same whatever the package's
+#: defaults (decision 071's ``COUPLED_FALLBACK`` is on in the package)
+FLAGS = ("DRIFT_WHOLE_OUTPUT", "DRIFT_COUPLED", "COUPLED_CHECKED", "COUPLED_FALLBACK")
+#: each rule's name and the flags of :data:`FLAGS` it sets
 RULES = {"stiffness": {}, "whole": {"DRIFT_WHOLE_OUTPUT": True}}
 TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole output"
 #: the table's heads of the two readings, by rule name (a rule not here is headed by its name)
@@ -134,9 +137,9 @@ def main(rules: dict[str, dict[str, bool]] = RULES, title: str = TITLE,
                "truth": "clean" if e is None else f"{e['family']} @ {e['scope']}",
                "truth_params": None if e is None else e.get("params"),
                "excitation": _excitation(d.name, e), "confirm_scope": scope}
-        flags = {f for v in rules.values() for f in v}
+        flags = set(FLAGS) | {f for v in rules.values() for f in v}
         for name, rule in rules.items():
-            for f in flags:
+            for f in sorted(flags):
                 setattr(change, f, rule.get(f, False))
             c = change.reference_change(r, ref, start, None, ev_own.one_step, ref_fit)
             conf = change.drift_through_reference(
