@@ -31,6 +31,7 @@ from littledog_mlsim.robot.sim import get_sim
 from littledog_mlsim.models.features import (
     CommandLag, FeatureSet, FeatureSetError, Heading, Play, StateLag, augmentation_from_dict,
 )
+from report_docs import documented_report_keys
 from synthetic import make_recording
 
 # ----------------------------------------------------------------------------- feature sets
@@ -481,23 +482,9 @@ def test_report_files_and_schema(delay_report):
     assert [a.label() for a in m.feature_set.augmentations][-1] == e["label"]
 
 
-def _documented_report_keys() -> dict[str, set[str]]:
-    """docs/report.md's key names, by section (the first column's backticked names)."""
-    import re
-    text = (Path(__file__).resolve().parents[2] / "docs" / "report.md").read_text()
-    sections: dict[str, set[str]] = {}
-    current = None
-    for line in text.splitlines():
-        if line.startswith("## "):
-            current = sections.setdefault(line[3:].strip(), set())
-        elif line.startswith("| `") and current is not None:
-            current |= set(re.findall(r"`([^`]+)`", line.split("|")[1]))
-    return sections
-
-
 def undocumented_report_keys(doc: dict) -> list[str]:
     """Keys of a report.json document that docs/report.md does not list where they occur."""
-    known = _documented_report_keys()
+    known = documented_report_keys()
     missing: list[str] = []
 
     def check(block: dict, section: str, where: str) -> None:

@@ -229,6 +229,23 @@ def test_diagnose_rollout_route_adds_what_it_accepts_to_the_report_model(data, p
     assert "Against the reference: an unexplained change since the reference" in md
 
 
+def test_every_rollout_route_key_is_documented(push_diagnosis):
+    """docs/report.md lists every key of the rollout route's report, of its effects and of its
+    change screen, each in its own section."""
+    from report_docs import documented_report_keys
+    known = documented_report_keys()
+    r = push_diagnosis[0]["rollout_route"]
+    blocks = [(r, "Rollout route", "rollout_route"),
+              (r["reference_change"], "The change screen (`reference_change`)",
+               "rollout_route.reference_change")]
+    blocks += [(e, "Rollout-route effects", f"rollout_route.effects[{i}]")
+               for i, e in enumerate(r["effects"])]
+    assert r["effects"]
+    missing = [f"{where}.{k}" for block, section, where in blocks for k in block
+               if k not in known[section]]
+    assert missing == []
+
+
 @pytest.mark.slow   # make test keeps decision 031's parts: test/diagnose/test_conditions.py
 def test_against_a_reference_of_another_excitation_a_command_response_is_no_change(
         data, tmp_path, monkeypatch):
