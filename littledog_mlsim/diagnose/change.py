@@ -90,7 +90,10 @@ reference recording of the same robot it is measured directly (decision 027):
    and 070), and named a drift with time where that screen names one
    (:func:`_fall_back_coupled`, ``coupled_fallback``): each joint's own drift columns name a
    drift of some joints at their scope, and a sag of many servos, which moves each joint by
-   the others' torques as well, only through the coupled columns.
+   the others' torques as well, only through the coupled columns. Decision 072's candidate
+   (:data:`NARROW_FALLBACK`, off) names such a drift found at all joints at the joint type,
+   side or leg whose joints' coupled drift, acting on every joint, explains the whole change
+   as well (:func:`_narrow_source`, ``coupled_fallback.narrower``).
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
    median over the scope's joints); an angle offset, none (the constant's size depends on
@@ -207,6 +210,11 @@ NARROWER_CLOSE = 0.05
 #: per joint, names a drift of some joints at their scope; a sag of many servos moves each
 #: joint by the others' torques too, and only the coupled drift carries that share
 COUPLED_FALLBACK = True
+#: decision 072's candidate (off): a drift decision 071 names at all joints is named at the
+#: narrower scope (:data:`NARROWER_SCOPES`) whose joints' coupled drift, acting on every joint,
+#: explains the whole change within :data:`NARROWER_CLOSE` of all joints' drift; a drift of
+#: some joints moves the others through the body, so all joints' columns barely add to theirs
+NARROW_FALLBACK = False
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
 NARROWER_FAMILIES = ("time_drift",)
@@ -244,6 +252,8 @@ class Hypothesis:
     alone: bool = False   # the family's column(s) and a constant, without the servo response
     coupled: bool = False  # a drift's columns of every scope joint at each (decision 069)
     checked: bool = False  # a coupled drift on a coupled servo response (decision 070)
+    source: str | None = None  # a coupled drift's own joints, narrower than ``scope``'s, on
+    #                            each of which it acts (decision 072); None: ``scope``'s
 
     def label(self) -> str:
         what = {"servo_gain": "servo response", "encoder_offset": "angle offset",
@@ -258,6 +268,8 @@ class Hypothesis:
             what += f" {self.aug.time_constant_ms:g} ms"
         elif isinstance(self.aug, Play):
             what += f" {self.aug.width:g} rad"
+        if self.source is not None:
+            return f"{what} @ {self.source}, acting at {self.scope}"
         return f"{what} @ {self.scope}"
 
 
@@ -325,6 +337,14 @@ class ChangeModel:
         """The constant's place among a joint's correction columns (:meth:`_z`)."""
         return 0 if self.hyp.alone else 2
 
+    @property
+    def own_joints(self) -> list[int]:
+        """The joints whose column 3 is their own family column: the scope's, or a drift's
+        ``source`` joints (decision 072)."""
+        if self.hyp.source is None:
+            return self.joints
+        return [j for j in self.joints if j in self.extra]
+
     def _z(self, X: np.ndarray, j: int, drag: np.ndarray | None = None) -> np.ndarray:
         """(n, k) correction columns of joint j: u - q, dq, 1 and the family's column(s)
         (a swing hypothesis: the rate in swing and ``drag``'s column j; a whole-output drift,
@@ -345,6 +365,10 @@ class ChangeModel:
                 for k, c in self.extra.items():
                     if k != j:
                         cols += [X[:, c], X[:, self.elapsed] * X[:, S.dq.start + k]]
+        elif self.coupled and self.hyp.source is not None:
+            # decision 072: a joint outside the drift's own, moved by the drifting joints
+            for k, c in self.extra.items():
+                cols += [X[:, c], X[:, self.elapsed] * X[:, S.dq.start + k]]
         if self.coupled_servo:         # decision 070: last, every other scope joint's servo
             for k in self.joints:
                 if k != j:
@@ -511,11 +535,12 @@ def _size(model: ChangeModel, X: np.ndarray, D: np.ndarray, Xr: np.ndarray, Dr: 
         return {"gain_ratio": round(float(np.median(list(r.values()))), 3) if r else None,
                 "per_joint": {str(j): round(float(v), 3) for j, v in r.items()}}
     if hyp.family == "time_drift":
-        r = [model.raw_coef(j, 3) / k[j] for j in model.joints if abs(k[j]) > 1e-12]
+        r = [model.raw_coef(j, 3) / k[j] for j in model.own_joints if abs(k[j]) > 1e-12]
         own = round(float(np.median(r)), 4) if r else None
         if mi is None or mir is None:
             return {"rate_per_s": own}
-        return {**_drift_rate(X, D, mi, Xr, Dr, mir, model.joints), "model_rate_per_s": own}
+        return {**_drift_rate(X, D, mi, Xr, Dr, mir, model.own_joints),
+                "model_rate_per_s": own}
     if hyp.family == "contact_phase":
         from ..robot.config import per_joint, robot_config
         kp = per_joint(robot_config(NOMINAL_ROBOT).kp)
@@ -996,16 +1021,61 @@ def _fall_back_coupled(out: dict[str, Any], data: "_Residuals", ref: "_Residuals
     screen's result and its ``hypotheses``); where it names a drift with time, ``out`` takes
     it (``located_by`` stays ``all_rows``; ``first`` keeps the first screen's label and
     share). Any other family it keeps is not taken: the first screen's reading of those
-    stands."""
+    stands. Under decision 072 (:data:`NARROW_FALLBACK`) a drift it names at all joints is
+    named at a narrower scope where :func:`_narrow_source` finds one (``narrower``)."""
     rows: list[dict[str, Any]] = []
     s = _screen(data, ref, fs, scope, own_one_step, X, D, mi, Xr, Dr, opts, rows, mir,
                 checked=True)
-    out["coupled_fallback"] = {**{k: s.get(k) for k in ("named", "family", "kept_scope",
-                                                        "label", "explained")},
-                               "scope": scope, "hypotheses": rows,
-                               "first": {k: out.get(k) for k in ("label", "explained")}}
+    out["coupled_fallback"] = fb = {
+        **{k: s.get(k) for k in ("named", "family", "kept_scope", "label", "explained")},
+        "scope": scope, "hypotheses": rows,
+        "first": {k: out.get(k) for k in ("label", "explained")}}
     if s["named"] and s["family"] == "time_drift":
+        if NARROW_FALLBACK and scope == "all":
+            nr = _narrow_source(s, data, ref, fs, own_one_step, X, D, mi, Xr, Dr, opts, mir)
+            kept = nr.pop("kept")
+            fb["narrower"] = nr
+            if kept is not None:
+                s = {**s, **kept}
         out.update(s, located_by="all_rows")
+
+
+def _narrow_source(s: dict[str, Any], data: "_Residuals", ref: "_Residuals", fs: FeatureSet,
+                   own_one_step: np.ndarray, X: np.ndarray, D: np.ndarray, mi: np.ndarray,
+                   Xr: np.ndarray, Dr: np.ndarray, opts: Any, mir: np.ndarray
+                   ) -> dict[str, Any]:
+    """Decision 072 (:data:`NARROW_FALLBACK`): for a drift the coupled screen named at all
+    joints (``s``), the coupled, checked drift of each of :data:`NARROWER_SCOPES`' joints
+    acting on every joint (each joint's correction carries the scope joints' ``t (u - q)``
+    and ``t dq``), judged against the coupled servo response at all joints and measured by
+    the share of the whole excess it removes, as ``s["explained"]`` is. A drift of those
+    joints alone needs no other joint's columns: the scope with the largest share among
+    those significant and material and within :data:`NARROWER_CLOSE` of all joints' is
+    ``kept`` (its reading, to replace ``s``'s; None where there is none). ``scopes``: each
+    scope's row (:func:`_row`'s, with its ``source`` and ``explained``), ``scope`` the kept
+    one, ``all`` the share at all joints."""
+    cols = _columns_of(scope_joints("all"))
+    own = _move_sse(own_one_step, mi, data.route.mv.n)[:, cols].sum()
+    servo = _fit(data, ref, fs, Hypothesis("servo_gain", "all", coupled=True))
+    scopes, best = [], None
+    for source in NARROWER_SCOPES:
+        hyp = Hypothesis("time_drift", "all", _family_aug("time_drift", source), coupled=True,
+                         checked=True, source=source)
+        j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(NARROWER_SCOPES), opts, cols)
+        before, after = j.base[:, cols].sum(), j.sse[:, cols].sum()
+        share = float((before - after) / (before - own)) if before > own else 0.0
+        scopes.append({**_row(j, "source"), "source": source, "explained": share})
+        if (j.ok and share >= s["explained"] - NARROWER_CLOSE
+                and (best is None or share > best[2])):
+            best = (source, j, share)
+    kept = None
+    if best is not None:
+        source, j, share = best
+        kept = {"family": "time_drift", "kept_scope": source, "label": j.hyp.label(),
+                "explained": share, "size": _size(j.model, X, D, Xr, Dr, mi, mir),
+                "replay": None, "named": True}
+    return {"scopes": scopes, "scope": None if best is None else best[0], "kept": kept,
+            "all": s["explained"]}
 
 
 def _screens_narrower(one: dict[str, Any], out: dict[str, Any]) -> bool:
@@ -1440,11 +1510,16 @@ def _statement(u: dict[str, Any]) -> str:
                "model")
         nr, fb = u.get("narrower") or {}, u.get("coupled_fallback") or {}
         if fb.get("named") and fb.get("family") == "time_drift" and fb["first"]["label"]:
+            nf = fb.get("narrower") or {}
+            coupled = (f"removes {100 * u['explained']:.0f} %" if not nf.get("scope") else
+                       f"removes {100 * nf['all']:.0f} %, and the drift of "
+                       f"{scope_words(nf['scope'])} alone, acting on every joint, "
+                       f"{100 * u['explained']:.0f} %")
             how = (f"; the best hypothesis with each joint's own columns "
                    f"({fb['first']['label']}) removes {100 * fb['first']['explained']:.0f} % "
                    "of the excess over the data's own model, and a drift coupled over the "
                    "scope's joints (each joint's correction also carries the others' drifting "
-                   f"torques) removes {100 * u['explained']:.0f} %")
+                   f"torques) " + coupled)
         elif nr.get("named"):
             how = (f"; over all joints the best hypothesis ({nr['all']['label']}) removes "
                    f"{100 * nr['all']['explained']:.0f} % of the excess over the data's own "

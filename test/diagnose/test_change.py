@@ -436,6 +436,134 @@ def test_the_statement_of_a_drift_the_fallback_names_gives_both_shares():
     assert "coupled" not in _statement(other)
 
 
+def test_a_narrow_source_drift_acts_on_every_joint():
+    """Decision 072's hypothesis: the drift's columns are its source joints' (the front-left
+    leg's), the outputs every joint's; a joint outside the leg that the leg's sag moves through
+    the body carries the leg's drift columns, so the correction leaves only the noise there,
+    and the size reads the leg's own joints."""
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.models.feature_library import ElapsedTracking
+    from littledog_mlsim.models.features import FeatureSet
+    X, R, fold = _sag_rows(0.0, 6)
+    t = X[:, N_FEATURE + 3]
+    e = X[:, N_STATE:N_STATE + 12] - X[:, S.q]
+    R[:, S.dq.start:S.dq.start + 3] += -0.08 * t[:, None] * (2.0 * e[:, :3]
+                                                            - 0.3 * X[:, S.dq.start:S.dq.start + 3])
+    R[:, S.dq.start + 5] += -0.06 * t * (2.0 * e[:, 1] - 0.3 * X[:, S.dq.start + 1])
+    hyp = Hypothesis("time_drift", "all", ElapsedTracking(joints="front_left"), coupled=True,
+                     checked=True, source="leg:front_left")
+    assert hyp.label() == "drift with time (coupled) @ leg:front_left, acting at all"
+    m = ChangeModel(_Zero(), FeatureSet(), hyp).fit(X, R, fold, 5)
+    assert m.joints == list(range(12)) and m.own_joints == [0, 1, 2]
+    assert m.coupled and m.coupled_servo
+    assert m._z(X, 5).shape[1] == m._z(X, 0).shape[1] == 3 + 6 + 22
+    assert np.array_equal(m._z(X, 0)[:, 3], X[:, N_FEATURE])        # joint 0's t (u - q)
+    left = R - m.correction(X, -1)
+    for j in (0, 1, 5):
+        assert np.sqrt(np.mean(left[:, S.dq.start + j] ** 2)) < 0.0025, j
+    assert abs(m.raw_coef(1, 3) - 2.0 * -0.08) < 0.01
+    plain = ChangeModel(_Zero(), FeatureSet(), replace(hyp, scope="leg:front_left",
+                                                       source=None))
+    assert plain.own_joints == plain.joints == [0, 1, 2]
+    assert change._size(m, X, R, X, R)["rate_per_s"] is not None
+
+
+@pytest.mark.parametrize("shares, ok, kept", [
+    ({"type:hip_pitches": 0.78, "side:left": 0.77, "leg:front_left": 0.79}, {"leg:front_left"},
+     "type:hip_pitches"),
+    ({"type:hip_pitches": 0.78, "leg:front_left": 0.79}, set(), "leg:front_left"),
+    ({"type:hip_pitches": 0.74, "side:left": 0.60}, set(), None),
+    ({"type:hip_pitches": 0.79}, {"type:hip_pitches"}, None)])
+def test_a_narrow_source_is_kept_where_it_explains_as_much(monkeypatch, shares, ok, kept):
+    """Decision 072's choice: of the nine scopes' drifts acting on every joint, those
+    significant and material (``ok`` lists the ones that are not) and within ``NARROWER_CLOSE``
+    of all joints' share (0.8 here) keep the largest share; none, and 071's reading stands."""
+    from types import SimpleNamespace
+
+    from littledog_mlsim.diagnose import change
+    from littledog_mlsim.diagnose.change import _Judged
+    fits = []
+
+    def fit(data, ref, fs, hyp, rows=None):
+        fits.append(hyp)
+        share = shares.get(hyp.source, 0.2)
+        return _Judged(hyp, SimpleNamespace(), np.full((1, 24), 1.0 - share),
+                       np.ones((1, 24)), np.ones((1, 24)))
+
+    def judge(j, base, n, opts, cols, alpha=None):
+        good = j.hyp.source not in ok
+        j.decision = SimpleNamespace(significant=good, material=good, p_value=1e-6,
+                                     gain=np.array([1.0]))
+        return j
+    monkeypatch.setattr(change, "_fit", fit)
+    monkeypatch.setattr(change, "_judge", judge)
+    monkeypatch.setattr(change, "_size", lambda model, *a: {"rate_per_s": -0.05})
+    data = SimpleNamespace(route=SimpleNamespace(mv=SimpleNamespace(n=1)))
+    s = {"explained": 0.8, "family": "time_drift", "kept_scope": "all"}
+    out = change._narrow_source(s, data, None, None, np.zeros((1, N_STATE)), None, None,
+                                np.zeros(1, dtype=int), None, None, None, None)
+    assert fits[0].family == "servo_gain" and fits[0].coupled and fits[0].scope == "all"
+    assert [h.source for h in fits[1:]] == list(change.NARROWER_SCOPES)
+    assert all(h.coupled and h.checked and h.scope == "all" for h in fits[1:])
+    assert out["scope"] == kept and out["all"] == 0.8
+    assert [r["source"] for r in out["scopes"]] == list(change.NARROWER_SCOPES)
+    json.dumps(out["scopes"])
+    if kept is None:
+        assert out["kept"] is None
+    else:
+        k = out["kept"]
+        assert k["kept_scope"] == kept and k["named"] and k["family"] == "time_drift"
+        assert k["explained"] == pytest.approx(shares[kept])
+        assert k["label"] == f"drift with time (coupled) @ {kept}, acting at all"
+
+
+@pytest.mark.parametrize("flag, scope, narrowed", [
+    (True, "all", True), (False, "all", False), (True, "leg:front_left", False)])
+def test_the_fallback_narrows_a_drift_named_at_all_joints_only_under_072(monkeypatch, flag,
+                                                                       scope, narrowed):
+    """Decision 072's place: only under ``NARROW_FALLBACK``, only for a drift decision 071
+    names at all joints; a kept narrower scope replaces the reading, and the sources' rows go
+    to ``coupled_fallback.narrower``."""
+    from littledog_mlsim.diagnose import change
+    monkeypatch.setattr(change, "NARROW_FALLBACK", flag)
+    monkeypatch.setattr(change, "_screen", lambda *a, **k: {
+        "family": "time_drift", "kept_scope": a[3], "label": f"drift with time (coupled) @ {a[3]}",
+        "explained": 0.8, "size": {"rate_per_s": -0.05}, "replay": None, "named": True})
+    kept = {"family": "time_drift", "kept_scope": "type:knees", "explained": 0.78,
+            "label": "drift with time (coupled) @ type:knees, acting at all",
+            "size": {"rate_per_s": -0.04}, "replay": None, "named": True}
+    monkeypatch.setattr(change, "_narrow_source", lambda s, *a: {
+        "scopes": [], "scope": "type:knees", "kept": dict(kept), "all": s["explained"]})
+    out = {"named": False, "label": "servo response @ all", "explained": 0.45,
+           "located_by": "all_rows"}
+    change._fall_back_coupled(out, None, None, None, scope, None, None, None, None, None,
+                              None, None, None)
+    fb = out["coupled_fallback"]
+    assert ("narrower" in fb) is narrowed
+    assert out["kept_scope"] == ("type:knees" if narrowed else scope)
+    assert out["named"] and out["located_by"] == "all_rows"
+    assert fb["kept_scope"] == scope and fb["explained"] == 0.8
+    if narrowed:
+        assert fb["narrower"] == {"scopes": [], "scope": "type:knees", "all": 0.8}
+        assert out["explained"] == 0.78 and out["size"] == {"rate_per_s": -0.04}
+
+
+def test_the_statement_of_a_drift_named_at_a_narrow_source_gives_all_three_shares():
+    """Decision 072's statement: each joint's own columns, the coupled drift at all joints,
+    then the narrower scope's drift acting on every joint."""
+    from littledog_mlsim.diagnose.change import _statement
+    u = {"ratio": 1.6, "scope": "all", "p_value": 1e-12, "rollout_ratio": 1.4,
+         "significant": True, "concentration": 1.0, "named": True, "family": "time_drift",
+         "kept_scope": "type:knees", "label": "drift with time (coupled) @ type:knees, acting at all",
+         "size": {"rate_per_s": -0.05}, "explained": 0.78,
+         "coupled_fallback": {"named": True, "family": "time_drift", "scope": "all",
+                              "first": {"label": "servo response @ all", "explained": 0.45},
+                              "narrower": {"scopes": [], "scope": "type:knees", "all": 0.8}}}
+    text = _statement(u)
+    assert "removes 45 %" in text and "removes 80 %, and the drift of" in text, text
+    assert "alone, acting on every joint, 78 %" in text, text
+
+
 def test_the_route_names_a_change_its_search_and_excess_test_miss(routes):
     """``diagnose_learned`` with a reference: a library without delays accepts nothing, the data's
     own model carries the delay (no excess, decision 026), and the route names it through the

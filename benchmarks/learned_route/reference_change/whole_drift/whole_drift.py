@@ -47,7 +47,8 @@ from littledog_mlsim.models.feature_library import ElapsedTracking   # noqa: E40
 #: the flags of :mod:`littledog_mlsim.diagnose.change` the drift studies set: each is False
 #: under a rule unless the rule sets it, so a study reads the same whatever the package's
 #: defaults (decision 071's ``COUPLED_FALLBACK`` is on in the package)
-FLAGS = ("DRIFT_WHOLE_OUTPUT", "DRIFT_COUPLED", "COUPLED_CHECKED", "COUPLED_FALLBACK")
+FLAGS = ("DRIFT_WHOLE_OUTPUT", "DRIFT_COUPLED", "COUPLED_CHECKED", "COUPLED_FALLBACK",
+         "NARROW_FALLBACK")
 #: each rule's name and the flags of :data:`FLAGS` it sets
 RULES = {"stiffness": {}, "whole": {"DRIFT_WHOLE_OUTPUT": True}}
 TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole output"
@@ -55,7 +56,8 @@ TITLE = "Decision 068 on read zoos: a drift with time as the servo's whole outpu
 HEADS = {"stiffness": "the stiffness alone (before)", "whole": "the whole output (decision 068)",
          "before": "before", "coupled": "coupled over the scope (decision 069)",
          "checked": "coupled and checked (decision 070)",
-         "fallback": "coupled where nothing is named (decision 071)"}
+         "fallback": "coupled where nothing is named (decision 071)",
+         "narrow": "at the narrower scope whose coupled drift explains it (decision 072)"}
 
 
 def _rates(r, ref, fs, scope: str) -> dict:
@@ -93,6 +95,12 @@ def _reading(c: dict, confirm: dict) -> dict:
         "explained": None if fb.get("explained") is None else round(fb["explained"], 3),
         "first_explained": (None if fb["first"]["explained"] is None
                             else round(fb["first"]["explained"], 3))}}
+    nf = (fb or {}).get("narrower")
+    if nf is not None:           # decision 072's sources, where they were read
+        extra["fallback"]["narrower"] = {
+            "scope": nf["scope"], "all": round(nf["all"], 3),
+            "shares": {r["source"]: round(r["explained"], 3) for r in nf["scopes"]},
+            "ok": [r["source"] for r in nf["scopes"] if r["significant"] and r["material"]]}
     return {"named": f"{voc['family']} @ {voc['scope']}" if c["named"] else None,
             "params": voc.get("params"), "family": c.get("family"),
             "kept_scope": c.get("kept_scope"),
