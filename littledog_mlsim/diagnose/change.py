@@ -417,9 +417,9 @@ class ChangeModel:
 
     def raw_coef(self, j: int, column: int, output: int = 1, fold: int = -1) -> float:
         """Raw-unit coefficient of correction column ``column`` (0: u - q, or the constant of a
-        hypothesis ``alone``; 3: the family's; 4: a swing hypothesis's drag, a whole-output
-        drift's ``t dq``) on output ``output`` (0: the angle's one-step change, 1: the
-        rate's)."""
+        hypothesis ``alone``; 3: the family's, at :attr:`own_joints` only; 4: a swing
+        hypothesis's drag, a whole-output drift's ``t dq``) on output ``output`` (0: the
+        angle's one-step change, 1: the rate's)."""
         return float(self.coef_[fold][j][column, output] / self.scale_[j][column])
 
 
@@ -1050,7 +1050,8 @@ def _narrow_source(s: dict[str, Any], data: "_Residuals", ref: "_Residuals", fs:
     and ``t dq``), judged against the coupled servo response at all joints and measured by
     the share of the whole excess it removes, as ``s["explained"]`` is. A drift of those
     joints alone needs no other joint's columns: the scope with the largest share among
-    those significant and material and within :data:`NARROWER_CLOSE` of all joints' is
+    those significant and material, within :data:`NARROWER_CLOSE` of all joints' and at
+    least :data:`EXPLAINED_SHARE` (what naming asks of any reading) is
     ``kept`` (its reading, to replace ``s``'s; None where there is none). ``scopes``: each
     scope's row (:func:`_row`'s, with its ``source`` and ``explained``), ``scope`` the kept
     one, ``all`` the share at all joints."""
@@ -1065,7 +1066,7 @@ def _narrow_source(s: dict[str, Any], data: "_Residuals", ref: "_Residuals", fs:
         before, after = j.base[:, cols].sum(), j.sse[:, cols].sum()
         share = float((before - after) / (before - own)) if before > own else 0.0
         scopes.append({**_row(j, "source"), "source": source, "explained": share})
-        if (j.ok and share >= s["explained"] - NARROWER_CLOSE
+        if (j.ok and share >= max(EXPLAINED_SHARE, s["explained"] - NARROWER_CLOSE)
                 and (best is None or share > best[2])):
             best = (source, j, share)
     kept = None

@@ -6,8 +6,9 @@
 RESULT defaults to this study's ``result.json``. The studies that reuse the rule name their
 result and their two readings: decisions 069 (``../coupled_drift/result.json``, ``--before
 before --after coupled --decision 069``), 070 (``../checked_drift/result.json``, ``--after
-checked --decision 070``) and 071 (``../coupled_fallback/result.json``, ``--after fallback
---decision 071``).
+checked --decision 070``), 071 (``../coupled_fallback/result.json``, ``--after fallback
+--decision 071``) and 072 (``../narrow_fallback/result.json``, ``--after narrow --decision
+072``).
 """
 from __future__ import annotations
 

@@ -100,7 +100,8 @@ def _reading(c: dict, confirm: dict) -> dict:
         extra["fallback"]["narrower"] = {
             "scope": nf["scope"], "all": round(nf["all"], 3),
             "shares": {r["source"]: round(r["explained"], 3) for r in nf["scopes"]},
-            "ok": [r["source"] for r in nf["scopes"] if r["significant"] and r["material"]]}
+            "ok": [r["source"] for r in nf["scopes"]
+                   if r["significant"] and r["material"] and r["total_gain"] > 0]}
     return {"named": f"{voc['family']} @ {voc['scope']}" if c["named"] else None,
             "params": voc.get("params"), "family": c.get("family"),
             "kept_scope": c.get("kept_scope"),
