@@ -10,6 +10,8 @@
 # result.md here; a recording that already has a row there is not read again. Run it on a free
 # machine. STUDY: the study that reads the recordings (default this one): its folder's script
 # (STUDY/NAME.py, NAME the folder's name) reads, and its result.json and result.md get the rows.
+# ONLY_ZOOS (environment, optional): space-separated zoos; only their recordings are recorded
+# and read (a run in parts: the rows already read are not read again).
 set -u
 S=${1:?scratch directory}
 PART=${2:-both}
@@ -17,6 +19,9 @@ mkdir -p "$S" || exit 1
 D=${3:-benchmarks/learned_route/reference_change/whole_drift}
 N=$(basename "$D")
 export OPENBLAS_NUM_THREADS=1
+skipped() {  # zoo: true where ONLY_ZOOS is set and does not name it
+  [ -n "${ONLY_ZOOS:-}" ] && [[ " $ONLY_ZOOS " != *" $1 "* ]]
+}
 record() {   # zoo seed reference-seed clean-seeds [extra harness arguments]
   w=$S/$1
   [ -f $w.recorded ] && return 0
@@ -32,6 +37,7 @@ if [ "$PART" != drifts ]; then
   for c in zoo67:581:587:0.05 zoo66:571:577:0.05 zoo65:561:567:0.05 zoo20:111:117: \
            zoo22:131:137:; do
     IFS=: read z s r x <<< "$c"
+    skipped $z && continue
     extra="--clean-seeds-excited $s"
     [ -n "$x" ] && extra="$extra --clean-excitation $x"
     record $z $s $r $s,$((s + 1)),$((s + 2)) "$extra" || { echo "record failed: $z" >&2; continue; }
@@ -51,6 +57,7 @@ if [ "$PART" != full ]; then
            zoo28:z02:191:197 zoo29:z08:201:207 zoo30:z01:211:217 zoo31:z05:221:227 \
            zoo50:z11:411:417 zoo62:z10:531:537 zoo63:z07:541:547 zoo64:z05:551:557; do
     IFS=: read z id s r <<< "$c"
+    skipped $z && continue
     record $z $s $r $s "--only $id" || { echo "record failed: $z" >&2; continue; }
     reads+=("$z --only $id,s${s}_e0")
   done
