@@ -91,7 +91,7 @@ reference recording of the same robot it is measured directly (decision 027):
    (:func:`_fall_back_coupled`, ``coupled_fallback``): each joint's own drift columns name a
    drift of some joints at their scope, and a sag of many servos, which moves each joint by
    the others' torques as well, only through the coupled columns. Decision 072's candidate
-   (:data:`NARROW_FALLBACK`, off) names such a drift found at all joints at the joint type,
+   (:data:`NARROW_FALLBACK`, off, not adopted) names such a drift found at all joints at the joint type,
    side or leg whose joints' coupled drift, acting on every joint, explains the whole change
    as well (:func:`_narrow_source`, ``coupled_fallback.narrower``).
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
@@ -210,10 +210,11 @@ NARROWER_CLOSE = 0.05
 #: per joint, names a drift of some joints at their scope; a sag of many servos moves each
 #: joint by the others' torques too, and only the coupled drift carries that share
 COUPLED_FALLBACK = True
-#: decision 072's candidate (off): a drift decision 071 names at all joints is named at the
-#: narrower scope (:data:`NARROWER_SCOPES`) whose joints' coupled drift, acting on every joint,
-#: explains the whole change within :data:`NARROWER_CLOSE` of all joints' drift; a drift of
-#: some joints moves the others through the body, so all joints' columns barely add to theirs
+#: decision 072's candidate, not adopted (off): a drift decision 071 names at all joints is
+#: named at the narrower scope (:data:`NARROWER_SCOPES`) whose joints' coupled drift, acting on
+#: every joint, explains the whole change within :data:`NARROWER_CLOSE` of all joints' drift.
+#: Its study (``benchmarks/learned_route/reference_change/narrow_fallback/``) named sags of
+#: every servo at a side: every scope's share comes close to all joints'
 NARROW_FALLBACK = False
 #: the families decision 040 screens again: a drift's excess grows from nothing along each move
 #: and spreads through the body, so a drift of some joints reads as spread
