@@ -91,9 +91,9 @@ reference recording of the same robot it is measured directly (decision 027):
    (:func:`_fall_back_coupled`, ``coupled_fallback``): each joint's own drift columns name a
    drift of some joints at their scope, and a sag of many servos, which moves each joint by
    the others' torques as well, only through the coupled columns. Decision 072's candidate
-   (:data:`NARROW_FALLBACK`, off, not adopted) names such a drift found at all joints at the joint type,
-   side or leg whose joints' coupled drift, acting on every joint, explains the whole change
-   as well (:func:`_narrow_source`, ``coupled_fallback.narrower``).
+   (:data:`NARROW_FALLBACK`, off, not adopted) names such a drift found at all joints at the
+   joint type, side or leg whose joints' coupled drift, acting on every joint, explains the
+   whole change as well (:func:`_narrow_source`, ``coupled_fallback.narrower``).
 5. **Its size**, where the family has one (:func:`_size`): a servo gain ratio, the data's over
    the reference's slope of the rate's one-step change on ``u - q`` (:func:`servo_slope`,
    median over the scope's joints); an angle offset, none (the constant's size depends on
@@ -580,6 +580,14 @@ class _Judged:
         return bool(d is not None and d.significant and d.material and self.total > 0)
 
 
+def _explained(j: _Judged, own: float, cols: Sequence[int]) -> float:
+    """The share of the excess over the data's own model (``own``, its held-out SSE at
+    ``cols``) that ``j``'s correction removes: its SSE against the same columns fitted on the
+    reference (``j.base``)."""
+    before, after = j.base[:, cols].sum(), j.sse[:, cols].sum()
+    return float((before - after) / (before - own)) if before > own else 0.0
+
+
 def _columns_of(joints: Sequence[int]) -> list[int]:
     """Columns of JOINT_ELEMENTS that are the joints' angles and rates."""
     js = set(int(j) for j in joints)
@@ -979,8 +987,7 @@ def _screen(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, scope: str,
         if offset is not None:
             kept = offset
     own = _move_sse(own_one_step, mi, data.route.mv.n)[:, cols].sum()
-    before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
-    share = float((before - after) / (before - own)) if before > own else 0.0
+    share = _explained(kept, own, cols)
     replay = None
     if REPLAY_SETPOINT and kept.hyp.family in SETPOINT_FAMILIES:
         rp = _replay(data, fs, scope, cols, rows)
@@ -1064,8 +1071,7 @@ def _narrow_source(s: dict[str, Any], data: "_Residuals", ref: "_Residuals", fs:
         hyp = Hypothesis("time_drift", "all", _family_aug("time_drift", source), coupled=True,
                          checked=True, source=source)
         j = _judge(_fit(data, ref, fs, hyp), servo.sse, len(NARROWER_SCOPES), opts, cols)
-        before, after = j.base[:, cols].sum(), j.sse[:, cols].sum()
-        share = float((before - after) / (before - own)) if before > own else 0.0
+        share = _explained(j, own, cols)
         scopes.append({**_row(j, "source"), "source": source, "explained": share})
         if (j.ok and share >= max(EXPLAINED_SHARE, s["explained"] - NARROWER_CLOSE)
                 and (best is None or share > best[2])):
@@ -1286,8 +1292,7 @@ def _screen_in_swing(data: "_Residuals", ref: "_Residuals", fs: FeatureSet, leg:
     if kept is None:
         return out
     own = _move_sse(own_one_step[m], mi[m], data.route.mv.n)[:, cols].sum()
-    before, after = kept.base[:, cols].sum(), kept.sse[:, cols].sum()
-    share = float((before - after) / (before - own)) if before > own else 0.0
+    share = _explained(kept, own, cols)
     size = (_drag_newtons(X[m], data.base[1][m], i, Xr[m_r], Dr[m_r])
             if kept.hyp.family == "contact_phase"
             else _size(kept.model, X[m], D[m], Xr[m_r], Dr[m_r]))
